@@ -1,0 +1,3 @@
+from jamlab.cli import main
+
+main()

@@ -1,0 +1,1 @@
+"""Analysis of traces: avalanches, power-law fits, moduli moments (pure functions on arrays)."""

@@ -1,0 +1,87 @@
+"""The ``jamlab`` command line: a thin face over the library.
+
+Each module in this package defines ``register(app)`` adding its commands; they are discovered
+automatically so that command groups can grow independently. Errors a user can cause (bad
+arguments, ``ValueError`` from the library, missing files) are printed as one line
+``jamlab: error: ...`` on stderr with exit code 2 and no traceback.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import sys
+
+import typer
+
+try:  # typer >= 0.20 vendors its own copy of click
+    from typer._click.exceptions import NoArgsIsHelpError, UsageError
+except ImportError:  # pragma: no cover - older typer on top of click
+    from click.exceptions import NoArgsIsHelpError, UsageError
+
+app = typer.Typer(
+    name="jamlab",
+    help="Static avalanches in jammed soft spheres and mean-field glasses.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+
+
+class UserError(Exception):
+    """An error caused by the user's input; reported as one line with exit code 2."""
+
+
+@app.callback(invoke_without_command=True)
+def _root(
+    ctx: typer.Context,
+    version: bool = typer.Option(False, "--version", help="Print the jamlab version and exit."),
+) -> None:
+    if version:
+        from jamlab import __version__
+
+        typer.echo(__version__)
+        raise typer.Exit(0)
+    if ctx.invoked_subcommand is None:
+        typer.echo(ctx.get_help())
+        raise typer.Exit(0)
+
+
+def _register_all() -> None:
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        if info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        register = getattr(module, "register", None)
+        if register is not None:
+            register(app)
+
+
+_register_all()
+
+
+def fail(message: str) -> None:
+    """Print ``jamlab: error: message`` and exit with code 2."""
+    print(f"jamlab: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point of the ``jamlab`` command."""
+    try:
+        rv = app(args=argv, prog_name="jamlab", standalone_mode=False)
+    except NoArgsIsHelpError as exc:
+        print(exc.format_message())
+        raise SystemExit(0) from None
+    except UsageError as exc:
+        # one line, no usage block and no traceback
+        fail(exc.format_message().replace("\n", " "))
+    except typer.Abort:
+        print("jamlab: aborted", file=sys.stderr)
+        raise SystemExit(130) from None
+    except typer.Exit as exc:
+        raise SystemExit(exc.exit_code) from None
+    except (UserError, ValueError, FileNotFoundError, FileExistsError, PermissionError) as exc:
+        fail(str(exc).replace("\n", " "))
+    raise SystemExit(rv if isinstance(rv, int) else 0)

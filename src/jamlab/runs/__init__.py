@@ -1,0 +1,1 @@
+"""Ensembles of samples: seeds, storage, resume, local and Dask execution."""

@@ -1,0 +1,1 @@
+"""Soft spheres: Lees–Edwards box, cell lists, harmonic potential, FIRE, packings, AQS shear."""
