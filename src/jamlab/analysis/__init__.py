@@ -1,1 +1,56 @@
-"""Analysis of traces: avalanches, power-law fits, moduli moments (pure functions on arrays)."""
+"""Analysis of traces: avalanches, power-law fits, moduli moments (pure functions on arrays).
+
+Imports neither :mod:`jamlab.theory` nor :mod:`jamlab.spheres`. Formulas and rules:
+``docs/analysis.md``.
+"""
+
+from jamlab.analysis.avalanches import (
+    NoiseFloor,
+    avalanche_sizes,
+    branch_residual,
+    classify_steps,
+    jumps_from_trace,
+    noise_floor,
+)
+from jamlab.analysis.histograms import LogHistogram, log_histogram
+from jamlab.analysis.moduli import (
+    ModulusMoments,
+    SlopeFit,
+    fit_log_slope,
+    moduli_from_stress_jumps,
+    moduli_from_trace,
+)
+from jamlab.analysis.powerlaw import (
+    PowerLawFit,
+    fit_power_law,
+    mle_tau,
+    power_law_cdf,
+    power_law_gof,
+    power_law_loglik,
+    power_law_pdf,
+    sample_power_law,
+)
+
+__all__ = [
+    "LogHistogram",
+    "ModulusMoments",
+    "NoiseFloor",
+    "PowerLawFit",
+    "SlopeFit",
+    "avalanche_sizes",
+    "branch_residual",
+    "classify_steps",
+    "fit_log_slope",
+    "fit_power_law",
+    "jumps_from_trace",
+    "log_histogram",
+    "mle_tau",
+    "moduli_from_stress_jumps",
+    "moduli_from_trace",
+    "noise_floor",
+    "power_law_cdf",
+    "power_law_gof",
+    "power_law_loglik",
+    "power_law_pdf",
+    "sample_power_law",
+]

@@ -1,0 +1,199 @@
+"""Avalanches (plastic events) from athermal quasi-static (AQS) shear traces.
+
+Conventions of ``SPEC.md`` §3: per step ``n`` (strain ``γ_n → γ_{n+1} = γ_n + δγ_n``),
+
+    ΔE_n = E(γ_{n+1}) − E(γ_n) − δγ_n Σ(γ_n),    ΔΣ_n = Σ(γ_{n+1}) − Σ(γ_n),
+
+with ``E`` and ``Σ = ∂E/∂γ`` extensive. The avalanche size of a plastic step is ``S_n = −ΔE_n``.
+
+On a continuous branch ``E(γ)`` is smooth, so by the trapezoidal rule
+
+    r_n ≡ ΔE_n − ½ δγ_n ΔΣ_n = −δγ³ Σ''/12 + O(δγ⁴) + minimiser noise,
+
+whatever the sign of the local modulus ``ΔΣ_n/δγ_n``; ``ΔE_n`` itself is ``≈ ½ G L^d δγ²``
+(``G L^d = ΔΣ/δγ``), which is negative on branches with a negative local modulus (the
+``ΔE_n ≈ −6e-9`` stretches of SPEC §3). A jump to another minimum breaks the trapezoidal rule:
+``r_n ≈ −S_n``. So ``−r_n`` (the *branch-corrected drop*) is what a threshold should test, and the
+threshold is tied to the noise of ``r_n`` on elastic steps (:func:`noise_floor`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "NoiseFloor",
+    "avalanche_sizes",
+    "branch_residual",
+    "classify_steps",
+    "jumps_from_trace",
+    "noise_floor",
+]
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+# Normal-consistency factor of the median absolute deviation: σ = 1.4826 MAD for Gaussian noise
+_MAD_TO_SIGMA = 1.482602218505602
+
+
+def jumps_from_trace(
+    strain: ArrayLike, energy: ArrayLike, shear_stress: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Per-step ``(ΔE_n, ΔΣ_n, δγ_n)`` from a trace of minima at strains ``γ_0 … γ_M``.
+
+    ``ΔE_n = E_{n+1} − E_n − δγ_n Σ_n``, ``ΔΣ_n = Σ_{n+1} − Σ_n``, ``δγ_n = γ_{n+1} − γ_n``
+    (SPEC §3; E and Σ extensive). Works along the last axis, so ``(samples, steps+1)`` arrays
+    give ``(samples, steps)`` results.
+    """
+    strain = np.asarray(strain, dtype=np.float64)
+    energy = np.asarray(energy, dtype=np.float64)
+    stress = np.asarray(shear_stress, dtype=np.float64)
+    if not (strain.shape == energy.shape == stress.shape) or strain.shape[-1] < 2:
+        raise ValueError(
+            f"strain, energy, shear_stress must share a shape with >= 2 points along the last "
+            f"axis; got {strain.shape}, {energy.shape}, {stress.shape}"
+        )
+    dgamma = np.diff(strain, axis=-1)
+    energy_jump = np.diff(energy, axis=-1) - dgamma * stress[..., :-1]
+    return energy_jump, np.diff(stress, axis=-1), dgamma
+
+
+def branch_residual(
+    energy_jump: ArrayLike, stress_jump: ArrayLike, strain_step: ArrayLike | float
+) -> FloatArray:
+    """Trapezoidal-rule residual ``r_n = ΔE_n − ½ δγ_n ΔΣ_n`` (≈ 0 on a continuous branch)."""
+    energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    return energy_jump - 0.5 * np.asarray(strain_step, dtype=np.float64) * np.asarray(
+        stress_jump, dtype=np.float64
+    )
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """Energy noise of converged minima, measured on elastic steps.
+
+    ``sigma``: robust standard deviation (1.4826 × median absolute deviation) of the residual
+    ``r_n`` over the elastic steps; ``median``: its median (≈ 0; a systematic offset would signal
+    a biased minimiser or a wrong ``δγ``); ``modulus``: the median extensive modulus
+    ``G L^d = ΔΣ_n/δγ_n`` over those steps; ``n_elastic``: steps used; ``local``: whether the
+    residual used each step's own ``ΔΣ_n`` (True) or the median modulus (False).
+    """
+
+    sigma: float
+    median: float
+    modulus: float
+    n_elastic: int
+    local: bool
+
+    def threshold(self, n_sigma: float = 10.0) -> float:
+        """A drop threshold ``|median| + n_sigma · sigma`` for :func:`avalanche_sizes`."""
+        return abs(self.median) + n_sigma * self.sigma
+
+
+def noise_floor(
+    energy_jump: ArrayLike,
+    stress_jump: ArrayLike,
+    strain_step: ArrayLike | float,
+    plastic: ArrayLike | None = None,
+    *,
+    local: bool = True,
+) -> NoiseFloor:
+    """Estimate the energy noise of the minima from the elastic steps of a trace.
+
+    Elastic steps: ``~plastic`` when flags are given, otherwise all steps (the median absolute
+    deviation ignores a minority of jumps). Residual per step:
+
+    - ``local=True``: ``r_n = ΔE_n − ½ δγ_n ΔΣ_n`` (each step's own modulus ``ΔΣ_n/δγ_n``; exact
+      to ``O(δγ³)`` on a smooth branch, so ``r_n`` is minimiser noise);
+    - ``local=False``: ``r_n = ΔE_n − ½ G L^d δγ_n²`` with one ``G L^d = median(ΔΣ_n/δγ_n)``; this
+      also contains the sample's modulus fluctuations along the trace, so it is an upper bound.
+
+    Returns a :class:`NoiseFloor` with ``sigma = 1.4826 · median|r_n − median r_n|``.
+    """
+    energy_jump = np.asarray(energy_jump, dtype=np.float64).ravel()
+    stress_jump = np.asarray(stress_jump, dtype=np.float64).ravel()
+    step = np.broadcast_to(np.asarray(strain_step, dtype=np.float64), energy_jump.shape).ravel()
+    if stress_jump.shape != energy_jump.shape:
+        raise ValueError(
+            f"energy_jump {energy_jump.shape} and stress_jump {stress_jump.shape} differ in shape"
+        )
+    if np.any(step == 0):
+        raise ValueError("strain_step contains zero; the modulus ΔΣ/δγ is undefined there")
+    elastic = np.ones(energy_jump.shape, dtype=bool)
+    if plastic is not None:
+        elastic = ~np.asarray(plastic, dtype=bool).ravel()
+    if np.count_nonzero(elastic) < 3:
+        raise ValueError(f"need >= 3 elastic steps, got {np.count_nonzero(elastic)}")
+    modulus = float(np.median(stress_jump[elastic] / step[elastic]))
+    if local:
+        resid = branch_residual(energy_jump, stress_jump, step)[elastic]
+    else:
+        resid = energy_jump[elastic] - 0.5 * modulus * step[elastic] ** 2
+    med = float(np.median(resid))
+    sigma = _MAD_TO_SIGMA * float(np.median(np.abs(resid - med)))
+    return NoiseFloor(
+        sigma=sigma, median=med, modulus=modulus, n_elastic=int(elastic.sum()), local=local
+    )
+
+
+def classify_steps(
+    energy_jump: ArrayLike,
+    plastic: ArrayLike | None = None,
+    threshold: float | None = None,
+    *,
+    stress_jump: ArrayLike | None = None,
+    strain_step: ArrayLike | float | None = None,
+) -> BoolArray:
+    """Boolean mask of the steps counted as avalanches.
+
+    Rule: start from the ``plastic`` flags (all steps if None); if ``threshold`` is given keep
+    only steps whose drop exceeds it, the drop being ``−r_n = −(ΔE_n − ½ δγ_n ΔΣ_n)`` when
+    ``stress_jump`` and ``strain_step`` are given (recommended: immune to continuous branches
+    with negative modulus) and ``−ΔE_n`` otherwise. At least one of ``plastic`` and
+    ``threshold`` is required. Steps with ``−ΔE_n ≤ 0`` are never avalanches.
+    """
+    energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    if plastic is None and threshold is None:
+        raise ValueError("give plastic flags, a threshold, or both (threshold=None uses flags)")
+    mask = np.ones(energy_jump.shape, dtype=bool)
+    if plastic is not None:
+        mask = np.asarray(plastic, dtype=bool)
+        if mask.shape != energy_jump.shape:
+            raise ValueError(f"plastic {mask.shape} and energy_jump {energy_jump.shape} differ")
+    if threshold is not None:
+        if not threshold >= 0:
+            raise ValueError(f"threshold={threshold!r} must be >= 0")
+        if (stress_jump is None) != (strain_step is None):
+            raise ValueError("give both stress_jump and strain_step, or neither")
+        if stress_jump is not None:
+            drop = -branch_residual(energy_jump, stress_jump, strain_step)
+        else:
+            drop = -energy_jump
+        mask = mask & (drop > threshold)
+    return mask & (-energy_jump > 0)
+
+
+def avalanche_sizes(
+    energy_jump: ArrayLike,
+    plastic: ArrayLike | None = None,
+    threshold: float | None = None,
+    *,
+    stress_jump: ArrayLike | None = None,
+    strain_step: ArrayLike | float | None = None,
+) -> FloatArray:
+    """Avalanche sizes ``S_n = −ΔE_n`` (total, extensive energy) of the steps selected by
+    :func:`classify_steps` (same arguments and rule), as a flat array of positive numbers.
+
+    ``threshold=None`` (default) means "use the plastic flags". To tie a threshold to the noise
+    floor: ``threshold=noise_floor(...).threshold(n_sigma)`` with ``stress_jump`` and
+    ``strain_step`` given. The raw ``ΔE_n`` stay available to histogram either way.
+    """
+    energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    mask = classify_steps(
+        energy_jump, plastic, threshold, stress_jump=stress_jump, strain_step=strain_step
+    )
+    return -energy_jump[mask]

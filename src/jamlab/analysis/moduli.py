@@ -1,0 +1,192 @@
+"""Moments of the shear modulus from finite stress differences (paper eqs. for ⟨μ_1⟩, ⟨μ_1²⟩).
+
+SPEC §3 and Franz & Spigler (2017), section "Consequences on the elastic moduli":
+
+    ⟨μ_1⟩ = ⟨ΔΣ⟩/δγ,    ⟨μ_1²⟩ = ⟨ΔΣ²⟩/δγ²,    ΔΣ = Σ(γ + δγ) − Σ(γ),
+
+at finite ``δγ`` (the paper plots them before the limit ``δγ → 0``); ``⟨μ_1²⟩ ~ δγ^(−1)`` at and
+above jamming. ``Σ`` is whatever stress the caller passes (extensive ``Σ`` or intensive
+``σ_xy = Σ/L^d``); the moments carry its units (per unit strain, squared for ``μ_1²``).
+
+Averages: first over the differences of one sample (stationarity in ``γ``, as the paper
+assumes), then over samples; the standard error is the sample-to-sample one,
+``std(per-sample means, ddof=1)/√n_samples``, which stays honest when the differences within a
+sample are correlated (overlapping differences, or a sample's own modulus).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "ModulusMoments",
+    "SlopeFit",
+    "fit_log_slope",
+    "moduli_from_stress_jumps",
+    "moduli_from_trace",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ModulusMoments:
+    """``⟨μ_1⟩`` and ``⟨μ_1²⟩`` with sample-to-sample standard errors, one entry per ``δγ``.
+
+    ``strain_step`` (δγ), ``mu1``, ``mu1_err``, ``mu1_sq``, ``mu1_sq_err`` are arrays of equal
+    length; ``n_samples`` is the number of samples, ``n_differences`` the number of differences
+    per sample at each ``δγ``; ``overlapping`` says how the differences were taken.
+    """
+
+    strain_step: FloatArray
+    mu1: FloatArray
+    mu1_err: FloatArray
+    mu1_sq: FloatArray
+    mu1_sq_err: FloatArray
+    n_samples: int
+    n_differences: NDArray[np.int64]
+    overlapping: bool
+
+
+def _mean_and_error(per_sample: FloatArray) -> tuple[float, float]:
+    n = per_sample.size
+    mean = float(per_sample.mean())
+    err = float(per_sample.std(ddof=1) / np.sqrt(n)) if n > 1 else float("nan")
+    return mean, err
+
+
+def _moments_of_jumps(jumps: FloatArray, dgamma: float) -> tuple[float, float, float, float]:
+    """Moments from ``jumps`` of shape (samples, differences) at one strain step."""
+    m1 = jumps.mean(axis=1) / dgamma
+    m2 = (jumps**2).mean(axis=1) / dgamma**2
+    return (*_mean_and_error(m1), *_mean_and_error(m2))
+
+
+def moduli_from_trace(
+    shear_stress: ArrayLike,
+    strain_step: float,
+    lags: ArrayLike,
+    *,
+    overlapping: bool = True,
+) -> ModulusMoments:
+    """Moments at ``δγ = m·δγ_0`` from fine traces ``Σ(γ_0 + n δγ_0)`` by subsampling.
+
+    ``shear_stress``: array ``(samples, steps+1)`` (a 1-D array is one sample) on a uniform grid
+    of step ``strain_step = δγ_0``. For each lag ``m`` in ``lags`` the differences are
+    ``ΔΣ = Σ_{n+m} − Σ_n`` for ``n = 0, 1, 2, …`` (``overlapping=True``: all of them, smaller
+    variance, correlated) or ``n = 0, m, 2m, …`` (``overlapping=False``: independent increments
+    of one path). Each sample's mean of ``ΔΣ/δγ`` and ``ΔΣ²/δγ²`` is averaged over samples
+    (module docstring for the error).
+    """
+    stress = np.atleast_2d(np.asarray(shear_stress, dtype=np.float64))
+    if stress.ndim != 2:
+        raise ValueError(f"shear_stress must be 1-D or (samples, steps+1), got {stress.shape}")
+    if not strain_step > 0:
+        raise ValueError(f"strain_step={strain_step!r} must be > 0")
+    lags = np.atleast_1d(np.asarray(lags))
+    n_points = stress.shape[1]
+    if lags.size == 0 or np.any(lags < 1) or np.any(lags >= n_points):
+        raise ValueError(f"lags must be integers in [1, {n_points - 1}], got {lags}")
+    out = []
+    counts = []
+    for m in lags.astype(int):
+        jumps = stress[:, m:] - stress[:, :-m]
+        if not overlapping:
+            jumps = jumps[:, ::m]
+        out.append(_moments_of_jumps(jumps, m * strain_step))
+        counts.append(jumps.shape[1])
+    arr = np.array(out)
+    return ModulusMoments(
+        strain_step=lags.astype(np.float64) * strain_step,
+        mu1=arr[:, 0],
+        mu1_err=arr[:, 1],
+        mu1_sq=arr[:, 2],
+        mu1_sq_err=arr[:, 3],
+        n_samples=stress.shape[0],
+        n_differences=np.array(counts, dtype=np.int64),
+        overlapping=overlapping,
+    )
+
+
+def moduli_from_stress_jumps(
+    stress_jumps: ArrayLike | list[ArrayLike], strain_steps: ArrayLike
+) -> ModulusMoments:
+    """Moments from separate runs, one per ``δγ``: ``stress_jumps[i]`` holds the ``ΔΣ_n`` of
+    the run at ``strain_steps[i]``, shape ``(samples, steps)`` (1-D: one sample).
+
+    Differences are those of the runs' own steps (non-overlapping by construction); the number
+    of samples must be the same for every ``δγ``.
+    """
+    steps = np.atleast_1d(np.asarray(strain_steps, dtype=np.float64))
+    jumps_list = [np.atleast_2d(np.asarray(j, dtype=np.float64)) for j in stress_jumps]
+    if len(jumps_list) != steps.size:
+        raise ValueError(f"{len(jumps_list)} jump arrays for {steps.size} strain steps")
+    if np.any(steps <= 0):
+        raise ValueError(f"strain_steps must be > 0, got {steps}")
+    n_samples = {j.shape[0] for j in jumps_list}
+    if len(n_samples) != 1:
+        raise ValueError(f"all runs must have the same number of samples, got {n_samples}")
+    arr = np.array([_moments_of_jumps(j, float(s)) for j, s in zip(jumps_list, steps, strict=True)])
+    return ModulusMoments(
+        strain_step=steps,
+        mu1=arr[:, 0],
+        mu1_err=arr[:, 1],
+        mu1_sq=arr[:, 2],
+        mu1_sq_err=arr[:, 3],
+        n_samples=n_samples.pop(),
+        n_differences=np.array([j.shape[1] for j in jumps_list], dtype=np.int64),
+        overlapping=False,
+    )
+
+
+@dataclass(frozen=True)
+class SlopeFit:
+    """``log y = intercept + slope · log x`` by weighted least squares (natural logs).
+
+    ``slope_err``/``intercept_err`` from the inverse normal matrix with the given errors taken
+    as absolute (not rescaled by χ²); ``chi2`` and ``dof`` let the caller judge the fit.
+    """
+
+    slope: float
+    slope_err: float
+    intercept: float
+    intercept_err: float
+    chi2: float
+    dof: int
+
+
+def fit_log_slope(x: ArrayLike, y: ArrayLike, y_err: ArrayLike) -> SlopeFit:
+    """Weighted least-squares fit of ``log y = a + b log x``, errors ``σ_log = y_err / y``.
+
+    Minimises ``χ² = Σ ((log y_i − a − b log x_i)/σ_i)²``; with ``w_i = σ_i^−2``,
+    ``S = Σw``, ``Sx = Σw X``, ``Sxx = Σw X²``, ``Δ = S Sxx − Sx²``:
+    ``var(b) = S/Δ``, ``var(a) = Sxx/Δ`` (e.g. Press et al., Numerical Recipes §15.2).
+    Errors assume independent points; moments from one subsampled trace at several lags are
+    correlated, so treat the error as indicative there (or bootstrap over samples).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    y_err = np.asarray(y_err, dtype=np.float64)
+    if not (x.shape == y.shape == y_err.shape) or x.size < 2:
+        raise ValueError(f"x, y, y_err need equal shapes with >= 2 points; got {x.shape}")
+    if np.any(x <= 0) or np.any(y <= 0) or np.any(~(y_err > 0)):
+        raise ValueError("x and y must be positive and y_err > 0 for a log-log fit")
+    big_x, big_y = np.log(x), np.log(y)
+    w = (y / y_err) ** 2
+    s, sx, sxx = w.sum(), (w * big_x).sum(), (w * big_x**2).sum()
+    sy, sxy = (w * big_y).sum(), (w * big_x * big_y).sum()
+    delta = s * sxx - sx**2
+    slope = (s * sxy - sx * sy) / delta
+    intercept = (sxx * sy - sx * sxy) / delta
+    chi2 = float((w * (big_y - intercept - slope * big_x) ** 2).sum())
+    return SlopeFit(
+        slope=float(slope),
+        slope_err=float(np.sqrt(s / delta)),
+        intercept=float(intercept),
+        intercept_err=float(np.sqrt(sxx / delta)),
+        chi2=chi2,
+        dof=x.size - 2,
+    )
