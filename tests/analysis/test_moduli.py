@@ -1,0 +1,92 @@
+"""Moduli moments on a compound Poisson stress process with known moments."""
+
+import numpy as np
+import pytest
+
+from jamlab.analysis import fit_log_slope, moduli_from_stress_jumps, moduli_from_trace
+
+# Σ(γ) = G γ + Σ_{jumps at γ_k ≤ γ} s_k, jumps at rate LAM per unit strain, s = −Exp(SCALE):
+# ⟨ΔΣ⟩ = (G + LAM E[s]) δγ,  ⟨ΔΣ²⟩ = ((G + LAM E[s]) δγ)² + LAM δγ E[s²]
+G, LAM, SCALE = 3.0, 100.0, 0.02
+MEAN_S, MEAN_S2 = -SCALE, 2 * SCALE**2
+
+
+def mu1_exact():
+    return G + LAM * MEAN_S
+
+
+def mu1_sq_exact(dgamma):
+    return mu1_exact() ** 2 + LAM * MEAN_S2 / np.asarray(dgamma)
+
+
+def _traces(rng, samples, steps, dgamma0):
+    strain = np.arange(steps + 1) * dgamma0
+    stress = np.empty((samples, steps + 1))
+    for i in range(samples):
+        n_jumps = rng.poisson(LAM * strain[-1])
+        where = rng.uniform(0, strain[-1], n_jumps)
+        sizes = -rng.exponential(SCALE, n_jumps)
+        order = np.argsort(where)
+        cum = np.concatenate([[0.0], np.cumsum(sizes[order])])
+        stress[i] = G * strain + cum[np.searchsorted(where[order], strain, side="right")]
+    return stress
+
+
+@pytest.mark.parametrize("overlapping", [True, False])
+def test_trace_subsampling_matches_compound_poisson(overlapping):
+    rng = np.random.default_rng(61)
+    dgamma0 = 1e-4
+    stress = _traces(rng, samples=400, steps=2000, dgamma0=dgamma0)
+    lags = np.array([1, 2, 5, 10, 30, 100, 300])
+    mom = moduli_from_trace(stress, dgamma0, lags, overlapping=overlapping)
+    np.testing.assert_allclose(mom.strain_step, lags * dgamma0)
+    assert np.all(np.abs(mom.mu1 - mu1_exact()) < 4 * mom.mu1_err)
+    assert np.all(np.abs(mom.mu1_sq - mu1_sq_exact(mom.strain_step)) < 4 * mom.mu1_sq_err)
+    expected_counts = 2001 - lags if overlapping else -(-(2001 - lags) // lags)
+    np.testing.assert_array_equal(mom.n_differences, expected_counts)
+    small = lags <= 10
+    fit = fit_log_slope(mom.strain_step[small], mom.mu1_sq[small], mom.mu1_sq_err[small])
+    exact = fit_log_slope(
+        mom.strain_step[small], mu1_sq_exact(mom.strain_step[small]), mom.mu1_sq_err[small]
+    )
+    assert abs(exact.slope + 1) < 0.02  # −1 below the crossover λE[s²]/(G + λE[s])² = 0.08
+    assert abs(fit.slope - exact.slope) < 4 * fit.slope_err
+
+
+def test_separate_runs_match_compound_poisson():
+    rng = np.random.default_rng(62)
+    steps = np.array([1e-4, 1e-3, 1e-2])
+    runs = []
+    for dg in steps:
+        counts = rng.poisson(LAM * dg, size=(300, 200))
+        # sum of k Exp(SCALE) is Gamma(k, SCALE) (zero when k = 0)
+        jump_sum = np.where(counts > 0, rng.gamma(np.maximum(counts, 1), SCALE), 0.0)
+        runs.append(G * dg - jump_sum)
+    mom = moduli_from_stress_jumps(runs, steps)
+    assert mom.n_samples == 300 and not mom.overlapping
+    assert np.all(np.abs(mom.mu1 - mu1_exact()) < 4 * mom.mu1_err)
+    assert np.all(np.abs(mom.mu1_sq - mu1_sq_exact(steps)) < 4 * mom.mu1_sq_err)
+
+
+def test_log_slope_against_numpy_polyfit(rng):
+    x = np.geomspace(1e-5, 1e-2, 8)
+    y = 3.0 * x**-1.0 * np.exp(rng.normal(0, 0.05, x.size))
+    y_err = 0.05 * y * rng.uniform(0.5, 1.5, x.size)
+    fit = fit_log_slope(x, y, y_err)
+    coef, cov = np.polyfit(np.log(x), np.log(y), 1, w=y / y_err, cov="unscaled")
+    assert fit.slope == pytest.approx(coef[0], rel=1e-10)
+    assert fit.intercept == pytest.approx(coef[1], rel=1e-10)
+    assert fit.slope_err == pytest.approx(np.sqrt(cov[0, 0]), rel=1e-10)
+    assert fit.intercept_err == pytest.approx(np.sqrt(cov[1, 1]), rel=1e-10)
+    assert fit.dof == 6
+
+
+def test_errors():
+    with pytest.raises(ValueError, match="lags"):
+        moduli_from_trace(np.zeros((2, 5)), 1e-3, [5])
+    with pytest.raises(ValueError, match="strain_step"):
+        moduli_from_trace(np.zeros((2, 5)), 0.0, [1])
+    with pytest.raises(ValueError, match="same number of samples"):
+        moduli_from_stress_jumps([np.zeros((2, 3)), np.zeros((3, 3))], [1e-3, 2e-3])
+    with pytest.raises(ValueError, match="positive"):
+        fit_log_slope([1.0, 2.0], [1.0, -1.0], [0.1, 0.1])
