@@ -1,0 +1,639 @@
+"""Numba kernels for harmonic soft spheres under Lees–Edwards shear, any dimension ``d >= 2``.
+
+Pair potential (``SPEC.md`` §3): ``V(r) = (1 − r)²`` for ``r < 1``, else 0, so
+``V'(r) = −2(1 − r)`` and ``V''(r) = 2`` inside the cut-off.
+
+Neighbour list
+--------------
+A half Verlet list in CSR form: the partners ``j > i`` of particle ``i`` are
+``nbr[start[i]:start[i+1]]``; ``shift[k]`` is the Cartesian periodic-image vector of pair ``k``,
+so that ``r_ij = r_i − r_j + shift[k]``, and ``img_y[k]`` is its number of ``y`` crossings. It
+contains every pair closer than ``rc = 1 + skin`` when built. Under an affine strain step
+``γ → γ + Δγ`` the shifts follow exactly (``shift_x −= img_y Δγ L``), so the list is kept across
+strain steps. With ``u_i = r_i − r_i^ref − Δγ y_i^ref e_x`` the non-affine displacement since the
+build, every pair that can have ``r < 1`` is still in the list as long as
+
+    2 max_i |u_i| + |Δγ| rc < skin,
+
+because for a pair not listed ``r ≥ rc − 2 max|u| − |Δγ| |Δy^ref|`` and ``|Δy^ref| < rc``.
+
+Candidates are found with cells in the sheared (reduced) frame ``s = h⁻¹ r`` with
+``h = [[L, γ'L], [0, L]] ⊕ L·1`` and ``γ' = γ − round(γ)``: the ``x`` planes of that lattice are
+``L/√(1+γ'²)`` apart, so ``n_x = ⌊L / (rc √(1+γ'²))⌋`` cells of that width (and ``⌊L/rc⌋`` along
+every other axis) guarantee that a pair closer than ``rc`` sits in neighbouring cells. With fewer
+than 3 cells along some axis the search falls back to all pairs. The box must satisfy
+``L > 2 rc`` so that a pair has at most one image within ``rc`` (the Python layer shrinks the
+skin for small boxes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# ------------------------------------------------------------------------------------------------
+# periodic geometry
+
+
+@njit(cache=True)
+def reduce_strain(gamma):
+    """``γ' = γ − round(γ)`` in ``[−1/2, 1/2]``: the same Lees–Edwards lattice."""
+    return gamma - np.floor(gamma + 0.5)
+
+
+@njit(cache=True)
+def wrap_positions(pos, L, gamma):
+    """In place: map every particle into ``[0, L)^d`` along Lees–Edwards images.
+
+    ``k_y = ⌊y/L⌋``: ``y −= k_y L``, ``x −= k_y γ' L``; then ``r_a −= ⌊r_a/L⌋ L`` for ``a ≠ y``.
+    """
+    n, d = pos.shape
+    g = reduce_strain(gamma)
+    for i in range(n):
+        ky = np.floor(pos[i, 1] / L)
+        pos[i, 1] -= ky * L
+        pos[i, 0] -= ky * g * L
+        for a in range(d):
+            if a != 1:
+                pos[i, a] -= np.floor(pos[i, a] / L) * L
+            if pos[i, a] >= L:
+                pos[i, a] -= L
+            if pos[i, a] < 0.0:
+                pos[i, a] = 0.0
+
+
+@njit(cache=True)
+def _min_image_into(pos, i, j, L, g, dr, shift):
+    """``dr = r_i − r_j + shift`` for the minimum image; returns ``(|dr|², n_y)``.
+
+    ``n_y = round(Δy/L)`` and the ``x`` shift ``n_y γ' L`` is applied before rounding ``x``.
+    """
+    d = pos.shape[1]
+    dy = pos[i, 1] - pos[j, 1]
+    ny = np.floor(dy / L + 0.5)
+    shift[1] = -ny * L
+    dx = pos[i, 0] - pos[j, 0] - ny * g * L
+    nx = np.floor(dx / L + 0.5)
+    shift[0] = -ny * g * L - nx * L
+    for a in range(2, d):
+        shift[a] = -np.floor((pos[i, a] - pos[j, a]) / L + 0.5) * L
+    r2 = 0.0
+    for a in range(d):
+        t = pos[i, a] - pos[j, a] + shift[a]
+        dr[a] = t
+        r2 += t * t
+    return r2, int(ny)
+
+
+# ------------------------------------------------------------------------------------------------
+# neighbour list
+
+
+@njit(cache=True)
+def _grow(nbr, shift, img_y, cap):
+    nbr2 = np.empty(cap, np.int64)
+    shift2 = np.empty((cap, shift.shape[1]), np.float64)
+    img2 = np.empty(cap, np.int64)
+    m = nbr.shape[0]
+    nbr2[:m] = nbr
+    shift2[:m] = shift
+    img2[:m] = img_y
+    return nbr2, shift2, img2
+
+
+@njit(cache=True)
+def build_neighbor_list(pos, L, gamma, rc):
+    """Half Verlet list of all pairs with ``|r_i − r_j + image| < rc`` (see module docstring).
+
+    Returns ``(start, nbr, shift, img_y)``; ``start`` has ``N + 1`` entries.
+    """
+    n, d = pos.shape
+    g = reduce_strain(gamma)
+    rc2 = rc * rc
+    ncell = np.empty(d, np.int64)
+    ncell[0] = int(np.floor(L / (rc * np.sqrt(1.0 + g * g))))
+    for a in range(1, d):
+        ncell[a] = int(np.floor(L / rc))
+    use_cells = True
+    for a in range(d):
+        if ncell[a] < 3:
+            use_cells = False
+
+    # density estimate of the list size, grown on demand
+    vol_rc = (2.0 * rc) ** d
+    cap = int(0.5 * n * (n / L**d) * vol_rc * 0.8) + 4 * n + 16
+    nbr = np.empty(cap, np.int64)
+    shift = np.empty((cap, d), np.float64)
+    img_y = np.empty(cap, np.int64)
+    start = np.zeros(n + 1, np.int64)
+    dr = np.empty(d, np.float64)
+    sh = np.empty(d, np.float64)
+    m = 0
+
+    if not use_cells:
+        for i in range(n):
+            start[i] = m
+            for j in range(i + 1, n):
+                r2, ny = _min_image_into(pos, i, j, L, g, dr, sh)
+                if r2 < rc2:
+                    if m == nbr.shape[0]:
+                        nbr, shift, img_y = _grow(nbr, shift, img_y, 2 * m)
+                    nbr[m] = j
+                    for a in range(d):
+                        shift[m, a] = sh[a]
+                    img_y[m] = ny
+                    m += 1
+        start[n] = m
+        return start, nbr[:m].copy(), shift[:m].copy(), img_y[:m].copy()
+
+    # cell coordinates in the sheared frame, s_x = (x − γ' y)/L, s_a = r_a/L, wrapped to [0, 1)
+    coords = np.empty((n, d), np.int64)
+    cell_of = np.empty(n, np.int64)
+    stride = np.empty(d, np.int64)
+    total = 1
+    for a in range(d):
+        stride[a] = total
+        total *= ncell[a]
+    for i in range(n):
+        c = 0
+        for a in range(d):
+            if a == 0:
+                s = (pos[i, 0] - g * pos[i, 1]) / L
+            else:
+                s = pos[i, a] / L
+            s -= np.floor(s)
+            k = int(s * ncell[a])
+            if k >= ncell[a]:
+                k = ncell[a] - 1
+            coords[i, a] = k
+            c += k * stride[a]
+        cell_of[i] = c
+    # counting sort of particles by cell
+    cell_start = np.zeros(total + 1, np.int64)
+    for i in range(n):
+        cell_start[cell_of[i] + 1] += 1
+    for c in range(total):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:-1].copy()
+    members = np.empty(n, np.int64)
+    for i in range(n):
+        members[fill[cell_of[i]]] = i
+        fill[cell_of[i]] += 1
+
+    nstencil = 3**d
+    for i in range(n):
+        start[i] = m
+        for o in range(nstencil):
+            c = 0
+            code = o
+            for a in range(d):
+                k = coords[i, a] + (code % 3) - 1
+                code //= 3
+                if k < 0:
+                    k += ncell[a]
+                elif k >= ncell[a]:
+                    k -= ncell[a]
+                c += k * stride[a]
+            for q in range(cell_start[c], cell_start[c + 1]):
+                j = members[q]
+                if j <= i:
+                    continue
+                r2, ny = _min_image_into(pos, i, j, L, g, dr, sh)
+                if r2 < rc2:
+                    if m == nbr.shape[0]:
+                        nbr, shift, img_y = _grow(nbr, shift, img_y, 2 * m)
+                    nbr[m] = j
+                    for a in range(d):
+                        shift[m, a] = sh[a]
+                    img_y[m] = ny
+                    m += 1
+    start[n] = m
+    return start, nbr[:m].copy(), shift[:m].copy(), img_y[:m].copy()
+
+
+@njit(cache=True)
+def shift_images(shift, img_y, dgamma, L):
+    """In place, after an affine strain step ``Δγ``: ``shift_x −= img_y Δγ L``."""
+    for k in range(shift.shape[0]):
+        shift[k, 0] -= img_y[k] * dgamma * L
+
+
+@njit(cache=True)
+def max_nonaffine_displacement(pos, ref, dgamma):
+    """``max_i |r_i − r_i^ref − Δγ y_i^ref e_x|``: the displacement the Verlet skin must absorb."""
+    n, d = pos.shape
+    best = 0.0
+    for i in range(n):
+        u2 = 0.0
+        for a in range(d):
+            u = pos[i, a] - ref[i, a]
+            if a == 0:
+                u -= dgamma * ref[i, 1]
+            u2 += u * u
+        if u2 > best:
+            best = u2
+    return np.sqrt(best)
+
+
+# ------------------------------------------------------------------------------------------------
+# energy, forces, stress
+
+
+@njit(cache=True)
+def energy(pos, start, nbr, shift):
+    """``E = Σ_{i<j} (1 − r_ij)² θ(1 − r_ij)``."""
+    n, d = pos.shape
+    e = 0.0
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                r2 += t * t
+            if r2 < 1.0:
+                h = 1.0 - np.sqrt(r2)
+                e += h * h
+    return e
+
+
+@njit(cache=True)
+def energy_forces(pos, start, nbr, shift, forces):
+    """Total energy; writes ``F_i = −∂E/∂r_i = Σ_j 2(1 − r_ij) r_ij/r_ij`` into ``forces``."""
+    n, d = pos.shape
+    forces[:, :] = 0.0
+    e = 0.0
+    dr = np.empty(d, np.float64)
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                dr[a] = t
+                r2 += t * t
+            if r2 < 1.0:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                c = 2.0 * h / r
+                for a in range(d):
+                    forces[i, a] += c * dr[a]
+                    forces[j, a] -= c * dr[a]
+    return e
+
+
+@njit(cache=True)
+def energy_forces_3d(pos, start, nbr, shift, forces):
+    """``energy_forces`` unrolled for ``d = 3`` (same formula)."""
+    n = pos.shape[0]
+    forces[:, :] = 0.0
+    e = 0.0
+    for i in range(n):
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        zi = pos[i, 2]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            dx = xi - pos[j, 0] + shift[k, 0]
+            dy = yi - pos[j, 1] + shift[k, 1]
+            dz = zi - pos[j, 2] + shift[k, 2]
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 < 1.0:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                c = 2.0 * h / r
+                fx += c * dx
+                fy += c * dy
+                fz += c * dz
+                forces[j, 0] -= c * dx
+                forces[j, 1] -= c * dy
+                forces[j, 2] -= c * dz
+        forces[i, 0] += fx
+        forces[i, 1] += fy
+        forces[i, 2] += fz
+    return e
+
+
+@njit(cache=True)
+def energy_forces_2d(pos, start, nbr, shift, forces):
+    """``energy_forces`` unrolled for ``d = 2`` (same formula)."""
+    n = pos.shape[0]
+    forces[:, :] = 0.0
+    e = 0.0
+    for i in range(n):
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        fx = 0.0
+        fy = 0.0
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            dx = xi - pos[j, 0] + shift[k, 0]
+            dy = yi - pos[j, 1] + shift[k, 1]
+            r2 = dx * dx + dy * dy
+            if r2 < 1.0:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                c = 2.0 * h / r
+                fx += c * dx
+                fy += c * dy
+                forces[j, 0] -= c * dx
+                forces[j, 1] -= c * dy
+        forces[i, 0] += fx
+        forces[i, 1] += fy
+    return e
+
+
+@njit(cache=True)
+def energy_forces_any(pos, start, nbr, shift, forces):
+    """Dispatch to the unrolled ``d = 2, 3`` kernels, the generic one otherwise."""
+    d = pos.shape[1]
+    if d == 3:
+        return energy_forces_3d(pos, start, nbr, shift, forces)
+    if d == 2:
+        return energy_forces_2d(pos, start, nbr, shift, forces)
+    return energy_forces(pos, start, nbr, shift, forces)
+
+
+@njit(cache=True)
+def virial_tensor(pos, start, nbr, shift):
+    """Extensive ``S_ab = Σ_{i<j} V'(r) r_a r_b / r`` with ``V'(r) = −2(1 − r)``.
+
+    ``Σ = S_xy = ∂E/∂γ`` and ``p = −tr S / (d L^d)``.
+    """
+    n, d = pos.shape
+    s = np.zeros((d, d), np.float64)
+    dr = np.empty(d, np.float64)
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                dr[a] = t
+                r2 += t * t
+            if r2 < 1.0:
+                r = np.sqrt(r2)
+                c = -2.0 * (1.0 - r) / r
+                for a in range(d):
+                    for b in range(d):
+                        s[a, b] += c * dr[a] * dr[b]
+    return s
+
+
+@njit(cache=True)
+def contact_pairs(pos, start, nbr, shift):
+    """Pairs in contact (``r_ij < 1``): arrays ``i``, ``j`` (``i < j``) and the separations."""
+    n, d = pos.shape
+    m = 0
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                r2 += t * t
+            if r2 < 1.0:
+                m += 1
+    ci = np.empty(m, np.int64)
+    cj = np.empty(m, np.int64)
+    cd = np.empty((m, d), np.float64)
+    m = 0
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                r2 += t * t
+            if r2 < 1.0:
+                ci[m] = i
+                cj[m] = j
+                for a in range(d):
+                    cd[m, a] = pos[i, a] - pos[j, a] + shift[k, a]
+                m += 1
+    return ci, cj, cd
+
+
+@njit(cache=True)
+def pair_stiffness(dr, out):
+    """``B = ∂²V/∂r∂r = V'' n nᵀ + (V'/r)(1 − n nᵀ)`` with ``V'' = 2``, ``V' = −2(1 − r)``."""
+    d = dr.shape[0]
+    r2 = 0.0
+    for a in range(d):
+        r2 += dr[a] * dr[a]
+    r = np.sqrt(r2)
+    t = -2.0 * (1.0 - r) / r
+    for a in range(d):
+        for b in range(d):
+            nn = dr[a] * dr[b] / r2
+            out[a, b] = 2.0 * nn + t * ((1.0 if a == b else 0.0) - nn)
+
+
+@njit(cache=True)
+def hessian_coo(ci, cj, cd):
+    """COO triplets of ``H = ∂²E/∂r∂r`` (dN×dN, index ``d·i + a``), from contact pairs.
+
+    ``H_ii += B_ij``, ``H_jj += B_ij``, ``H_ij = H_ji = −B_ij`` with ``B`` from ``pair_stiffness``;
+    duplicates are to be summed (as ``scipy.sparse`` does).
+    """
+    m, d = cd.shape
+    nnz = 4 * m * d * d
+    rows = np.empty(nnz, np.int64)
+    cols = np.empty(nnz, np.int64)
+    vals = np.empty(nnz, np.float64)
+    B = np.empty((d, d), np.float64)
+    q = 0
+    for p in range(m):
+        pair_stiffness(cd[p], B)
+        i = ci[p]
+        j = cj[p]
+        for a in range(d):
+            for b in range(d):
+                v = B[a, b]
+                rows[q] = d * i + a
+                cols[q] = d * i + b
+                vals[q] = v
+                rows[q + 1] = d * j + a
+                cols[q + 1] = d * j + b
+                vals[q + 1] = v
+                rows[q + 2] = d * i + a
+                cols[q + 2] = d * j + b
+                vals[q + 2] = -v
+                rows[q + 3] = d * j + a
+                cols[q + 3] = d * i + b
+                vals[q + 3] = -v
+                q += 4
+    return rows, cols, vals
+
+
+@njit(cache=True)
+def dforce_dstrain(n, ci, cj, cd):
+    """``Ξ_i = ∂F_i/∂γ`` at fixed reduced coordinates (affine ``∂r_ij/∂γ = y_ij e_x``).
+
+    ``F_i = −Σ_j V'(r_ij) n_ij`` so ``Ξ_i = −Σ_j B_ij e_x y_ij`` and ``Ξ_j`` the opposite.
+    """
+    m, d = cd.shape
+    xi = np.zeros((n, d), np.float64)
+    B = np.empty((d, d), np.float64)
+    for p in range(m):
+        pair_stiffness(cd[p], B)
+        y = cd[p, 1]
+        for a in range(d):
+            v = B[a, 0] * y
+            xi[ci[p], a] -= v
+            xi[cj[p], a] += v
+    return xi
+
+
+@njit(cache=True)
+def max_force(forces):
+    """``max_i |F_i|``."""
+    n, d = forces.shape
+    best = 0.0
+    for i in range(n):
+        f2 = 0.0
+        for a in range(d):
+            f2 += forces[i, a] * forces[i, a]
+        if f2 > best:
+            best = f2
+    return np.sqrt(best)
+
+
+# ------------------------------------------------------------------------------------------------
+# FIRE
+
+
+@njit(cache=True)
+def fire(
+    pos,
+    L,
+    gamma,
+    skin,
+    budget,
+    start,
+    nbr,
+    shift,
+    img_y,
+    ref,
+    ftol,
+    max_iter,
+    dt0,
+    dt_max,
+    dt_min,
+    n_delay,
+    f_inc,
+    f_dec,
+    alpha0,
+    f_alpha,
+    n_negative_max,
+    dmax,
+    fire2,
+):
+    """FIRE minimisation of ``E`` at fixed strain, entirely in compiled code; ``pos`` in place.
+
+    FIRE 2.0 (Guénolé et al., Comput. Mater. Sci. 175, 109584 (2020), Algorithm 2), unit masses,
+    semi-implicit Euler:
+
+        P = F·v
+        P > 0: N⁺ += 1; if N⁺ > N_delay: Δt = min(f_inc Δt, Δt_max), α = f_α α
+        P ≤ 0: N⁻ += 1 (stop if N⁻ > N⁻_max); unless i < N_delay: Δt = max-guarded f_dec Δt,
+               α = α₀; x −= Δt v / 2; v = 0
+        v += Δt F;  v = (1 − α) v + α |v| F/|F|;  x += Δt v        (Δt capped so |Δx_i| ≤ dmax)
+
+    ``fire2 = False`` gives Bitzek et al., PRL 97, 170201 (2006): no initial delay and no half
+    step back. Converged when ``max_i |F_i| < ftol``. The neighbour list (``start, nbr, shift,
+    img_y``, valid while ``2 max|r − ref| < budget``, ``budget = skin − |Δγ| rc`` after strain
+    steps since its build) is rebuilt, with ``budget = skin``, as soon as that fails.
+
+    Returns ``(iterations, max_force, converged, energy, n_rebuilds, start, nbr, shift, img_y,
+    ref)``.
+    """
+    n, d = pos.shape
+    f = np.empty((n, d), np.float64)
+    v = np.zeros((n, d), np.float64)
+    e = energy_forces_any(pos, start, nbr, shift, f)
+    fmax = max_force(f)
+    dt = dt0
+    alpha = alpha0
+    n_pos = 0
+    n_neg = 0
+    it = 0
+    n_rebuild = 0
+    rc = 1.0 + skin
+    half_budget2 = 0.25 * budget * budget
+    while fmax >= ftol and it < max_iter:
+        it += 1
+        p = 0.0
+        vv = 0.0
+        ff = 0.0
+        for i in range(n):
+            for a in range(d):
+                p += f[i, a] * v[i, a]
+        if p > 0.0:
+            n_pos += 1
+            n_neg = 0
+            if n_pos > n_delay:
+                dt = min(dt * f_inc, dt_max)
+                alpha *= f_alpha
+        else:
+            n_pos = 0
+            n_neg += 1
+            if n_neg > n_negative_max:
+                break
+            if not (fire2 and it < n_delay):
+                if dt * f_dec >= dt_min:
+                    dt *= f_dec
+                alpha = alpha0
+            if fire2:
+                for i in range(n):
+                    for a in range(d):
+                        pos[i, a] -= 0.5 * dt * v[i, a]
+            v[:, :] = 0.0
+        # semi-implicit Euler with velocity mixing
+        vmax2 = 0.0
+        for i in range(n):
+            for a in range(d):
+                v[i, a] += dt * f[i, a]
+                vv += v[i, a] * v[i, a]
+                ff += f[i, a] * f[i, a]
+        if ff > 0.0:
+            c1 = 1.0 - alpha
+            c2 = alpha * np.sqrt(vv / ff)
+        else:
+            c1 = 1.0
+            c2 = 0.0
+        for i in range(n):
+            s = 0.0
+            for a in range(d):
+                w = c1 * v[i, a] + c2 * f[i, a]
+                v[i, a] = w
+                s += w * w
+            if s > vmax2:
+                vmax2 = s
+        step = dt
+        if dmax > 0.0 and dt * dt * vmax2 > dmax * dmax:
+            step = dmax / np.sqrt(vmax2)
+        need = False
+        for i in range(n):
+            u2 = 0.0
+            for a in range(d):
+                pos[i, a] += step * v[i, a]
+                u = pos[i, a] - ref[i, a]
+                u2 += u * u
+            if u2 >= half_budget2:
+                need = True
+        if need:
+            wrap_positions(pos, L, gamma)
+            start, nbr, shift, img_y = build_neighbor_list(pos, L, gamma, rc)
+            ref[:, :] = pos
+            n_rebuild += 1
+            half_budget2 = 0.25 * skin * skin
+        e = energy_forces_any(pos, start, nbr, shift, f)
+        fmax = max_force(f)
+    return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref

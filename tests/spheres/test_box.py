@@ -1,0 +1,106 @@
+"""Lees–Edwards box: minimum image, wrapping, packing fraction, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from spheres_brute import image_shifts
+
+import jamlab.spheres as sp
+from jamlab.spheres.box import box_length_for, packing_fraction, sphere_volume
+
+
+@pytest.mark.parametrize("dim", [2, 3, 4])
+@pytest.mark.parametrize("strain", [0.0, 0.3, 0.5, 0.7, 1.3, -2.6, 41.7])
+def test_minimum_image_is_the_shortest_image(dim, strain):
+    L = 5.0
+    box = sp.Box(L, dim, strain)
+    rng = np.random.default_rng(dim)
+    a = rng.uniform(0, L, size=(200, dim))
+    b = rng.uniform(0, L, size=(200, dim))
+    mi = box.minimum_image(a - b)
+    g = box.reduced_strain
+    for k in range(len(a)):
+        cands = a[k] - (b[k] + image_shifts(L, dim, g))
+        r = np.sqrt((cands**2).sum(axis=1))
+        if r.min() < L / 2:  # then the shortest image is unique and must be found
+            assert np.linalg.norm(mi[k]) == pytest.approx(r.min(), rel=1e-12)
+        # it is always some lattice image: the difference is a lattice vector
+        diff = mi[k] - (a[k] - b[k])
+        ny = round(diff[1] / L)
+        diff[0] -= ny * strain * L
+        assert np.allclose(diff / L, np.round(diff / L), atol=1e-9)
+
+
+@pytest.mark.parametrize("strain", [0.0, 0.45, 1.3, -3.2])
+def test_wrap_keeps_lattice_images_and_lands_in_box(strain):
+    dim, L = 3, 4.0
+    box = sp.Box(L, dim, strain)
+    rng = np.random.default_rng(0)
+    pos = rng.uniform(-30, 30, size=(500, dim))
+    w = box.wrap(pos)
+    assert np.all((w >= 0) & (w < L))
+    diff = w - pos
+    ny = np.round(diff[:, 1] / L)
+    diff[:, 0] -= ny * strain * L
+    assert np.allclose(diff / L, np.round(diff / L), atol=1e-9)
+
+
+def test_packing_fraction_helpers():
+    assert sphere_volume(2) == pytest.approx(math.pi / 4)
+    assert sphere_volume(3) == pytest.approx(math.pi / 6)
+    assert sphere_volume(4) == pytest.approx(math.pi**2 / 32)
+    for dim in (2, 3, 4, 5):
+        L = box_length_for(1000, dim, 0.8)
+        assert packing_fraction(1000, dim, L) == pytest.approx(0.8, rel=1e-14)
+    meta_L = 8.682328464463406  # reference/lammps-aqs-n1000-phi0.80/meta.json
+    assert box_length_for(1000, 3, 0.8) == pytest.approx(meta_L, rel=1e-14)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "word"),
+    [
+        ({"length": -1.0, "dim": 3}, "length"),
+        ({"length": float("nan"), "dim": 3}, "length"),
+        ({"length": 5.0, "dim": 1}, "dim"),
+        ({"length": 5.0, "dim": 3, "strain": float("inf")}, "strain"),
+    ],
+)
+def test_bad_box(kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        sp.Box(**kwargs)
+
+
+def test_bad_packings():
+    box = sp.Box(5.0, 3)
+    with pytest.raises(ValueError, match="N=1"):
+        sp.Packing(np.zeros((1, 3)), box)
+    with pytest.raises(ValueError, match="shape"):
+        sp.Packing(np.zeros((10, 2)), box)
+    with pytest.raises(ValueError, match="shape"):
+        sp.Packing(np.zeros(30), box)
+    bad = np.zeros((10, 3))
+    bad[4, 1] = np.nan
+    with pytest.raises(ValueError, match=r"positions\[4, 1\]=nan"):
+        sp.Packing(bad, box)
+    with pytest.raises(ValueError, match="exceed 2"):
+        sp.Packing(np.zeros((10, 3)), sp.Box(1.9, 3))
+    with pytest.raises(ValueError, match="phi"):
+        sp.random_packing(100, 3, 0.0, seed=1)
+    with pytest.raises(ValueError, match="phi"):
+        sp.random_packing(100, 3, -0.5, seed=1)
+    with pytest.raises(ValueError, match="n="):
+        sp.random_packing(1, 3, 0.5, seed=1)
+    with pytest.raises(ValueError, match="dim"):
+        sp.random_packing(100, 1, 0.5, seed=1)
+
+
+def test_packing_is_immutable_copy():
+    pos = np.random.default_rng(0).uniform(0, 5, size=(20, 3))
+    p = sp.Packing(pos, sp.Box(5.0, 3))
+    pos[0, 0] = 99.0
+    assert p.positions[0, 0] != 99.0
+    with pytest.raises(ValueError):
+        p.positions[0, 0] = 1.0
