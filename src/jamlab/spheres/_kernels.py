@@ -181,7 +181,7 @@ def _fill_cells(pos, L, g, rc2, ncell, start, nbr, shift, img_y):
     for o in range(nfull):
         code = o
         last = 0
-        for a in range(d):
+        for _a in range(d):
             v = (code % 3) - 1
             code //= 3
             if v != 0:
