@@ -167,3 +167,14 @@ def test_validation(kwargs, match):
     args = dict(dgamma=0.1, n=10, seed=1) | kwargs
     with pytest.raises(ValueError, match=match):
         sample_cascade_jumps(**args)
+
+
+def test_poisson_cluster_ablation_is_the_unmixed_one_level_formula():
+    """``poisson_clusters=True`` at k = 1 is ``E_σ0[exp(-A(σ0))]`` (diagnostic option)."""
+    from jamlab.theory.exact import one_level_A
+
+    val, _ = integrate.quad(
+        lambda s0: stats.norm.pdf(s0) * np.exp(-one_level_A(0.0, s0, 1.0, 0.5)), -12, 12,
+        epsabs=1e-12)
+    got = exact_jump_R([0.0], [1.0], 0.5, 0.0, poisson_clusters=True)[0]
+    assert got == pytest.approx(val, abs=1e-6)

@@ -138,12 +138,18 @@ def exact_jump_R(
     *,
     points_per_sd: float = 8.0,
     decouple_path: bool = False,
+    poisson_clusters: bool = False,
 ) -> np.ndarray:
     """Exact ``R(x) = P(ΔE >= x)`` of the ``k``-level cascade (module docstring), ``x <= 0``.
 
     ``decouple_path=True`` replaces the ground state's correlated stress path by independent
     ``S_i ~ N(0, 1 - q_i)`` per level (``R ≈ Π_i E[exp(-(Δy_i/y_i) f_i(x - d S_i))]``): the
     diagonal approximation of the paper's Hubbard–Stratonovich step; for diagnosis only.
+
+    ``poisson_clusters=True`` replaces each cluster's Gamma mixing by its mean: the factor
+    ``(1 + A_i)^{-Δy_i/y_i} = exp(-(Δy_i/y_i) f_i)``, ``A_i = e^{f_i} - 1``, becomes
+    ``exp(-(Δy_i/y_i) A_i)`` (clusters seen from the ground state taken as plain Poisson
+    processes); for diagnosis only.
     """
     from jamlab.theory.cascade import validate_levels
 
@@ -159,7 +165,10 @@ def exact_jump_R(
     z = _grid(xa, d, v, points_per_sd)
     h = z[1] - z[0]
     f = level_functions(qa, ya, d, z)
-    F = np.exp(-(dy / ya)[:, None] * f)  # (k, nz)
+    if poisson_clusters:
+        F = np.exp(-(dy / ya)[:, None] * np.expm1(np.minimum(f, 700.0)))
+    else:
+        F = np.exp(-(dy / ya)[:, None] * f)  # (k, nz)
     k = qa.size
     if decouple_path:
         out = np.ones_like(xa)
