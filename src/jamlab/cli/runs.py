@@ -1,0 +1,265 @@
+"""``jamlab run`` and ``jamlab status``: a thin face over :mod:`jamlab.runs` (``docs/runs.md``)."""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from typer.core import TyperCommand
+
+_MULTI_VALUE_OPTIONS = ("--phi", "--n")
+_NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+
+
+def expand_multi_values(
+    args: list[str], options: tuple[str, ...] = _MULTI_VALUE_OPTIONS
+) -> list[str]:
+    """Rewrite ``--phi a b c`` as ``--phi a --phi b --phi c`` (click options take one value).
+
+    Values run until the next option (a token starting with ``-`` that is not a negative number),
+    ``--`` or a ``*.toml`` file name (the study file may follow the values)."""
+    out: list[str] = []
+    current: str | None = None
+    for token in args:
+        if token == "--":
+            current = None
+            out.append(token)
+        elif token in options:
+            current = token
+        elif current is not None and (not token.startswith("-") or _NUMBER.match(token)):
+            if token.endswith(".toml"):
+                current = None
+                out.append(token)
+            else:
+                out.extend([current, token])
+        else:
+            if current is not None and token.startswith("-"):
+                current = None
+            out.append(token)
+    return out
+
+
+class _MultiValueCommand(TyperCommand):
+    """A command whose ``--phi`` and ``--n`` accept several space-separated values."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, expand_multi_values(list(args)))
+
+
+def _progress(quiet: bool):  # -> factory for run_study(progress=...)
+    if quiet:
+        return None
+
+    def factory(total: int, skipped: int):
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        progress = Progress(
+            TextColumn("samples"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("failed {task.fields[failed]}"),
+            TextColumn("({task.fields[skipped]} already done)"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=False,
+        )
+        task_id = progress.add_task("run", total=total, failed=0, skipped=skipped)
+        progress.start()
+        failed = 0
+        finished = 0
+        if total == 0:
+            progress.stop()
+
+        def callback(key, outcome) -> None:
+            nonlocal failed, finished
+            from jamlab.runs import SampleFailure
+
+            finished += 1
+            if isinstance(outcome, SampleFailure):
+                failed += 1
+            progress.update(task_id, advance=1, failed=failed)
+            if finished == total:
+                progress.stop()
+
+        return callback
+
+    return factory
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``run`` and ``status``."""
+
+    @app.command(
+        "run",
+        cls=_MultiValueCommand,
+        help=(
+            "Run or resume an ensemble: every (phi, N, sample) is prepared and sheared (AQS). "
+            "Parameters come from options or a TOML study file (options override it). Running "
+            "the same command again skips finished samples and redoes partial or failed ones."
+        ),
+    )
+    def run_command(
+        study_file: Annotated[
+            Path | None, typer.Argument(help="TOML study file (see examples/study.toml).")
+        ] = None,
+        phi: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--phi", help="Packing fractions and/or 'jamming', e.g. --phi jamming 0.75 0.8."
+            ),
+        ] = None,
+        n: Annotated[
+            list[str] | None, typer.Option("--n", help="Particle numbers, e.g. --n 500 1000.")
+        ] = None,
+        samples: str | None = typer.Option(None, "--samples", help="Samples per (phi, N)."),
+        dgamma: str | None = typer.Option(None, "--dgamma", help="AQS strain step."),
+        gamma_max: str | None = typer.Option(None, "--gamma-max", help="Final strain."),
+        out: str | None = typer.Option(None, "--out", help="Run directory."),
+        seed: str | None = typer.Option(None, "--seed", help="Master seed (default 0)."),
+        dim: str | None = typer.Option(None, "--dim", help="Space dimension (default 3)."),
+        p_target: str | None = typer.Option(
+            None, "--p-target", help="Jamming protocol's target pressure (default 1e-7)."
+        ),
+        force_tol: str | None = typer.Option(
+            None, "--force-tol", help="FIRE tolerance, max |F_i| (default 1e-12)."
+        ),
+        task: str | None = typer.Option(None, "--task", hidden=True),
+        workers: int | None = typer.Option(
+            None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
+        ),
+        scheduler: str | None = typer.Option(
+            None, "--scheduler", help="Address of a running dask scheduler, tcp://HOST:8786."
+        ),
+        cluster: str | None = typer.Option(
+            None, "--cluster", help="Start a cluster for the run: 'slurm' (dask-jobqueue)."
+        ),
+        slurm_jobs: int | None = typer.Option(None, "--slurm-jobs", help="SLURM jobs (default 1)."),
+        slurm_cores: int | None = typer.Option(None, "--slurm-cores", help="Cores per job."),
+        slurm_processes: int | None = typer.Option(
+            None, "--slurm-processes", help="Dask worker processes per job."
+        ),
+        slurm_memory: str | None = typer.Option(None, "--slurm-memory", help="Memory per job."),
+        slurm_walltime: str | None = typer.Option(None, "--slurm-walltime", help="HH:MM:SS."),
+        slurm_queue: str | None = typer.Option(None, "--slurm-queue", help="Partition."),
+        slurm_account: str | None = typer.Option(None, "--slurm-account", help="Account."),
+        slurm_directive: Annotated[
+            list[str] | None,
+            typer.Option("--slurm-directive", help="Extra #SBATCH directive (repeatable)."),
+        ] = None,
+        retry_failed: bool = typer.Option(
+            True, "--retry-failed/--skip-failed", help="Redo samples recorded as failed."
+        ),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar or summary."),
+    ) -> None:
+        from jamlab.runs import Execution, Study, load_toml, run_study
+        from jamlab.runs.study import merge
+
+        params: dict[str, Any] = {}
+        execution: dict[str, Any] = {}
+        if study_file is not None:
+            params, toml_out, execution = load_toml(study_file)
+            out = out if out is not None else toml_out
+        params = merge(
+            params,
+            [
+                ("phi", phi or None),
+                ("n", n or None),
+                ("samples", samples),
+                ("dgamma", dgamma),
+                ("gamma_max", gamma_max),
+                ("seed", seed),
+                ("dim", dim),
+                ("p_target", p_target),
+                ("force_tol", force_tol),
+                ("task", task),
+            ],
+        )
+        study = Study.from_dict(params)
+        if out is None:
+            raise ValueError("no run directory: give --out DIR (or 'out' in the study file)")
+        slurm = dict(execution.pop("slurm", {}) or {})
+        slurm = merge(
+            slurm,
+            [
+                ("jobs", slurm_jobs),
+                ("cores", slurm_cores),
+                ("processes", slurm_processes),
+                ("memory", slurm_memory),
+                ("walltime", slurm_walltime),
+                ("queue", slurm_queue),
+                ("account", slurm_account),
+                ("job_extra_directives", slurm_directive or None),
+            ],
+        )
+        exec_params = merge(
+            execution, [("workers", workers), ("scheduler", scheduler), ("cluster", cluster)]
+        )
+        quiet = quiet or bool(exec_params.pop("quiet", False))
+        unknown = sorted(set(exec_params) - {"workers", "scheduler", "cluster"})
+        if unknown:
+            raise ValueError(f"unknown [execution] option(s): {', '.join(unknown)}")
+        ex = Execution(slurm=slurm, **exec_params)
+        log = None if quiet else (lambda msg: print(msg, file=sys.stderr))
+        summary = run_study(
+            study, out, ex, retry_failed=retry_failed, progress=_progress(quiet), log=log
+        )
+        if not quiet:
+            print(
+                f"{summary.done} samples written, {summary.failed} failed, "
+                f"{summary.skipped} already done, in {summary.seconds:.1f} s",
+                file=sys.stderr,
+            )
+            for key, message in summary.failures[:5]:
+                print(
+                    f"  failed phi={key.phi_label} N={key.n} sample={key.index}: {message}",
+                    file=sys.stderr,
+                )
+        if summary.failed:
+            raise typer.Exit(1)
+
+    @app.command("status", help="Done / failed / pending samples per (phi, N) of a run directory.")
+    def status_command(
+        run_dir: Annotated[Path, typer.Argument(help="Run directory.")],
+        failures: bool = typer.Option(False, "--failures", help="List the failed samples' errors."),
+    ) -> None:
+        from rich.console import Console
+        from rich.table import Table
+
+        from jamlab.runs import RunDir
+
+        run = RunDir(run_dir)
+        study = run.study()
+        counts = run.summary(study)
+        table = Table(title=f"{run_dir}  (seed {study.seed}, {study.samples} samples per cell)")
+        for column in ("phi", "N", "done", "failed", "corrupt", "pending"):
+            table.add_column(column, justify="left" if column == "phi" else "right")
+        totals = dict.fromkeys(("done", "failed", "corrupt", "pending"), 0)
+        for (label, n_value), c in counts.items():
+            table.add_row(label, str(n_value), *(str(c[s]) for s in totals))
+            for s in totals:
+                totals[s] += c[s]
+        table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
+        console = Console()
+        console.print(table)
+        if failures:
+            for key in study.keys():
+                if run.state(key) == "failed":
+                    info = run.read_failure(key)
+                    console.print(
+                        f"phi={key.phi_label} N={key.n} sample={key.index}: "
+                        f"{info['error_type']}: {info['message']}",
+                        markup=False,
+                    )

@@ -1,0 +1,266 @@
+"""Running a study: choose the samples still to do, send them to workers, write what comes back.
+
+Backends (:class:`Execution`):
+
+- local (default): a ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (default:
+  all cores, ``os.cpu_count()``), started with ``spawn`` and with ``OMP/MKL/OPENBLAS_NUM_THREADS=1``
+  (the environment Dask gives its workers, so local and Dask results agree bit for bit);
+  ``workers=0`` runs the samples in the driving process (debugging, injected tasks);
+- ``scheduler="tcp://HOST:8786"``: an existing ``dask.distributed`` cluster;
+- ``cluster="slurm"``: a ``dask_jobqueue.SLURMCluster`` started for the run (``slurm`` options:
+  ``jobs``, ``cores``, ``processes``, ``memory``, ``walltime``, ``queue``, ``account``,
+  ``job_extra_directives``, ``local_directory``), closed at the end.
+
+Whatever the backend, only the driving process writes files, one sample at a time, as results
+arrive; a worker's exception becomes a failure record, never an aborted run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from typing import Any
+
+from jamlab.runs.seeds import sample_seed
+from jamlab.runs.storage import RunDir
+from jamlab.runs.study import SampleKey, Study
+from jamlab.runs.tasks import SampleFailure, SampleResult, Task, run_sample
+
+__all__ = ["Execution", "RunSummary", "run_study", "slurm_cluster_kwargs"]
+
+_SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+_SLURM_KEYS = {
+    "jobs",
+    "cores",
+    "processes",
+    "memory",
+    "walltime",
+    "queue",
+    "account",
+    "job_extra_directives",
+    "local_directory",
+    "interface",
+}
+
+
+@dataclass(frozen=True)
+class Execution:
+    """How to run (never changes results): at most one of ``scheduler`` and ``cluster``;
+    ``workers`` = local processes (``None``: all cores) or, with ``cluster``, the jobs' total
+    worker count when ``slurm["jobs"]`` is not given."""
+
+    workers: int | None = None
+    scheduler: str | None = None
+    cluster: str | None = None
+    slurm: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.workers is not None and (isinstance(self.workers, bool) or self.workers < 0):
+            raise ValueError(f"workers must be an integer >= 0, got {self.workers!r}")
+        if self.scheduler is not None and self.cluster is not None:
+            raise ValueError("give either --scheduler or --cluster, not both")
+        if self.scheduler is not None and "://" not in self.scheduler:
+            raise ValueError(
+                f"scheduler must be an address like tcp://HOST:8786, got {self.scheduler!r}"
+            )
+        if self.cluster is not None and self.cluster != "slurm":
+            raise ValueError(f"unknown cluster {self.cluster!r}: valid clusters are slurm")
+        unknown = sorted(set(self.slurm) - _SLURM_KEYS)
+        if unknown:
+            raise ValueError(
+                f"unknown slurm option(s) {', '.join(unknown)}; "
+                f"valid: {', '.join(sorted(_SLURM_KEYS))}"
+            )
+
+    def describe(self) -> str:
+        if self.scheduler:
+            return f"dask scheduler {self.scheduler}"
+        if self.cluster:
+            return "SLURM cluster (dask-jobqueue)"
+        if self.workers == 0:
+            return "in-process"
+        return f"{self.workers or os.cpu_count() or 1} local processes"
+
+
+@dataclass
+class RunSummary:
+    """What a call to :func:`run_study` did."""
+
+    total: int
+    skipped: int
+    done: int = 0
+    failed: int = 0
+    removed_temporaries: int = 0
+    seconds: float = 0.0
+    failures: list[tuple[SampleKey, str]] = field(default_factory=list)
+
+
+Outcome = SampleResult | SampleFailure
+Progress = Callable[[SampleKey, Outcome], None]
+
+
+def slurm_cluster_kwargs(options: dict[str, Any]) -> tuple[dict[str, Any], int]:
+    """``(SLURMCluster keyword arguments, number of jobs)`` from the ``slurm`` options; defaults:
+    1 job of 1 core, 1 process, 2 GiB, 01:00:00."""
+    opts = dict(options)
+    jobs = int(opts.pop("jobs", 1))
+    if jobs < 1:
+        raise ValueError(f"slurm jobs must be >= 1, got {jobs}")
+    kwargs: dict[str, Any] = {
+        "cores": int(opts.pop("cores", 1)),
+        "processes": int(opts.pop("processes", 1)),
+        "memory": str(opts.pop("memory", "2GiB")),
+        "walltime": str(opts.pop("walltime", "01:00:00")),
+    }
+    for name in ("queue", "account", "local_directory", "interface"):
+        if opts.get(name) is not None:
+            kwargs[name] = opts.pop(name)
+    extra = opts.pop("job_extra_directives", None)
+    if extra:
+        kwargs["job_extra_directives"] = list(extra)
+    # the same single-threaded environment as local and Dask workers
+    kwargs["job_script_prologue"] = [f"export {k}={v}" for k, v in _SINGLE_THREAD_ENV.items()]
+    return kwargs, jobs
+
+
+def _local_outcomes(
+    items: list[tuple[SampleKey, int]], study: Study, workers: int, task: Task | None
+) -> Iterator[tuple[SampleKey, Outcome]]:
+    if workers == 0:
+        for key, seed in items:
+            yield key, run_sample(study, key, seed, task)
+        return
+    saved = {k: os.environ.get(k) for k in _SINGLE_THREAD_ENV}
+    os.environ.update(_SINGLE_THREAD_ENV)  # inherited by the spawned workers
+    try:
+        pool = ProcessPoolExecutor(
+            max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+        )
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    with pool:
+        futures = {pool.submit(run_sample, study, key, seed, task): key for key, seed in items}
+        try:
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+
+
+def _dask_outcomes(
+    items: list[tuple[SampleKey, int]], study: Study, client: Any, task: Task | None
+) -> Iterator[tuple[SampleKey, Outcome]]:
+    from distributed import as_completed as dask_as_completed
+
+    futures = {}
+    for key, seed in items:
+        name = f"jamlab-sample-{key.phi_label}-{key.n}-{key.index}-{seed}"
+        futures[client.submit(run_sample, study, key, seed, task, key=name, pure=False)] = key
+    try:
+        for future in dask_as_completed(futures):
+            key = futures[future]
+            try:
+                outcome = future.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded as a failure
+                outcome = SampleFailure(type(exc).__name__, str(exc), "")
+            future.release()
+            yield key, outcome
+    finally:
+        client.cancel(list(futures))
+
+
+@contextlib.contextmanager
+def _dask_client(execution: Execution) -> Iterator[Any]:
+    from distributed import Client
+
+    if execution.scheduler is not None:
+        try:
+            client = Client(execution.scheduler, timeout="20s")
+        except OSError as exc:
+            raise ValueError(f"cannot reach dask scheduler {execution.scheduler}: {exc}") from None
+        with client:
+            yield client
+        return
+    from dask_jobqueue import SLURMCluster
+
+    kwargs, jobs = slurm_cluster_kwargs(execution.slurm)
+    with SLURMCluster(**kwargs) as cluster:
+        cluster.scale(jobs=jobs)
+        with Client(cluster) as client:
+            yield client
+
+
+def _outcomes(
+    items: list[tuple[SampleKey, int]], study: Study, execution: Execution, task: Task | None
+) -> Iterator[tuple[SampleKey, Outcome]]:
+    if not items:
+        return
+    if execution.scheduler is None and execution.cluster is None:
+        workers = execution.workers if execution.workers is not None else os.cpu_count() or 1
+        yield from _local_outcomes(items, study, min(workers, len(items)), task)
+        return
+    with _dask_client(execution) as client:
+        yield from _dask_outcomes(items, study, client, task)
+
+
+def run_study(
+    study: Study,
+    out: str | os.PathLike,
+    execution: Execution | None = None,
+    *,
+    retry_failed: bool = True,
+    task: Task | None = None,
+    progress: Callable[[int, int], Progress] | None = None,
+    log: Callable[[str], None] | None = None,
+) -> RunSummary:
+    """Run (or resume) ``study`` in the run directory ``out``.
+
+    Samples already done are skipped; corrupt, pending and — with ``retry_failed`` (default) —
+    failed ones are (re)computed. ``task`` replaces the study's built-in task (it must be
+    picklable for process or Dask workers). ``progress(total_todo, skipped)`` returns a callback
+    called once per finished sample. Raises :class:`jamlab.runs.storage.RunError` (a
+    ``ValueError``) before writing anything if ``out`` cannot hold ``study``.
+    """
+    execution = execution or Execution()
+    start = time.perf_counter()
+    run = RunDir.open(out, study)
+    with run.lock():
+        removed = run.remove_temporaries()
+        states = run.scan(study)
+        redo = {"pending", "corrupt"} | ({"failed"} if retry_failed else set())
+        todo = [key for key, state in states.items() if state in redo]
+        summary = RunSummary(
+            total=len(states), skipped=len(states) - len(todo), removed_temporaries=len(removed)
+        )
+        if log is not None:
+            corrupt = sum(1 for s in states.values() if s == "corrupt")
+            log(
+                f"{run.path}: {summary.skipped} of {summary.total} samples done, "
+                f"{len(todo)} to run ({corrupt} corrupt, {len(removed)} temporary files removed) "
+                f"on {execution.describe()}"
+            )
+        items = [(key, sample_seed(study.seed, key)) for key in todo]
+        seeds = dict(items)
+        callback = progress(len(todo), summary.skipped) if progress is not None else None
+        for key, outcome in _outcomes(items, study, execution, task):
+            if isinstance(outcome, SampleResult):
+                run.write_sample(key, outcome, seeds[key], study)
+                summary.done += 1
+            else:
+                run.write_failure(key, outcome, seeds[key])
+                summary.failed += 1
+                summary.failures.append((key, f"{outcome.error_type}: {outcome.message}"))
+            if callback is not None:
+                callback(key, outcome)
+    summary.seconds = time.perf_counter() - start
+    return summary

@@ -1,0 +1,336 @@
+"""The run directory: manifest, one atomically written HDF5 file per sample, failure records.
+
+Layout (``docs/runs.md``)::
+
+    RUN/manifest.json                                    parameters, version, seed, creation time
+    RUN/run.lock                                         held (flock) by the driving process
+    RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.h5      a finished sample
+    RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.failed.json   a failed sample's error
+
+Sample file (root of the HDF5 file): group ``trace`` with the 1-D per-step datasets
+(:data:`jamlab.runs.tasks.TRACE_FIELDS`); group ``packing`` with the prepared configuration's
+``positions``; root attributes ``format = "jamlab-sample"``, ``format_version``, ``phi`` (label),
+``n``, ``index``, ``seed`` (the sample's 64-bit seed, as a decimal string), ``master_seed``,
+``task``, ``jamlab_version``, ``seconds`` (worker wall time), the task's own attributes, and
+``complete = True`` written last.
+
+Atomicity: a file is written under a temporary name (``.sample-…h5.XXXX.tmp``) in its final
+directory, flushed, fsync'ed, closed and renamed with ``os.replace`` (atomic on POSIX), then the
+directory is fsync'ed. A reader therefore sees either no file or a whole one; a temporary file is a
+leftover of an interrupted write and is deleted on resume. A sample file that cannot be opened, or
+lacks ``complete`` or its identity attributes, is *corrupt* and is redone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import errno
+import fcntl
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from jamlab.runs.study import SampleKey, Study, phi_label
+from jamlab.runs.tasks import SampleFailure, SampleResult
+
+__all__ = [
+    "MANIFEST",
+    "RUN_FORMAT",
+    "SAMPLE_FORMAT",
+    "RunDir",
+    "RunError",
+    "sample_state",
+]
+
+MANIFEST = "manifest.json"
+RUN_FORMAT = "jamlab-run"
+SAMPLE_FORMAT = "jamlab-sample"
+FORMAT_VERSION = 1
+SEED_RULE = (
+    "numpy.random.SeedSequence(entropy=master_seed, spawn_key=(kind, phi_bits, N, index)); "
+    "kind=0, phi_bits=0 for phi='jamming'; kind=1, phi_bits=IEEE-754 bits of float64 phi; "
+    "sample seed = generate_state(1, uint64)[0]"
+)
+STATES = ("done", "failed", "corrupt", "pending")
+
+
+class RunError(ValueError):
+    """A run directory that cannot be used as asked (reported as a one-line user error)."""
+
+
+def _fsync_dir(directory: Path) -> None:
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _atomic_write(path: Path, write: Any) -> None:
+    """Call ``write(tmp_path)``, fsync, rename over ``path``, fsync the directory."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(tmp)
+        raise
+    _fsync_dir(path.parent)
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    def write(tmp: str) -> None:
+        with open(tmp, "w") as fh:
+            json.dump(data, fh, indent=2, sort_keys=False)
+            fh.write("\n")
+            fh.flush()
+
+    _atomic_write(path, write)
+
+
+def _is_manifest_tmp(path: Path) -> bool:
+    return path.name.startswith(f".{MANIFEST}.") and path.name.endswith(".tmp")
+
+
+def sample_state(path: Path, key: SampleKey) -> str:
+    """``"done"`` if ``path`` is a whole sample file for ``key``; ``"corrupt"`` if it exists but is
+    unreadable, incomplete or another sample's; ``"pending"`` if it does not exist."""
+    if not path.exists():
+        return "pending"
+    try:
+        with h5py.File(path, "r") as h5:
+            a = h5.attrs
+            ok = (
+                a.get("format") == SAMPLE_FORMAT
+                and bool(a.get("complete", False))
+                and a.get("phi") == key.phi_label
+                and int(a.get("n", -1)) == key.n
+                and int(a.get("index", -1)) == key.index
+                and "trace" in h5
+            )
+    except Exception:  # noqa: BLE001 - any failure to read means the file must be redone
+        return "corrupt"
+    return "done" if ok else "corrupt"
+
+
+class RunDir:
+    """A run directory; :meth:`open` validates it against a study before anything is written."""
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = Path(path)
+
+    # -- paths --------------------------------------------------------------------------------
+
+    @property
+    def manifest_path(self) -> Path:
+        return self.path / MANIFEST
+
+    def sample_path(self, key: SampleKey) -> Path:
+        return self.path / key.relpath()
+
+    def failure_path(self, key: SampleKey) -> Path:
+        p = self.sample_path(key)
+        return p.with_name(p.stem + ".failed.json")
+
+    # -- manifest -----------------------------------------------------------------------------
+
+    def read_manifest(self) -> dict[str, Any]:
+        """The manifest as a dict; :class:`RunError` if missing or unreadable."""
+        if not self.manifest_path.is_file():
+            raise RunError(f"not a jamlab run directory (no {MANIFEST}): {self.path}")
+        try:
+            manifest = json.loads(self.manifest_path.read_text())
+        except (OSError, ValueError) as exc:
+            raise RunError(f"unreadable manifest {self.manifest_path}: {exc}") from None
+        if not isinstance(manifest, dict) or manifest.get("format") != RUN_FORMAT:
+            raise RunError(f"{self.manifest_path} is not a jamlab run manifest")
+        return manifest
+
+    def study(self) -> Study:
+        """The study recorded in the manifest."""
+        manifest = self.read_manifest()
+        try:
+            return Study.from_dict(manifest["study"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunError(f"invalid study in {self.manifest_path}: {exc}") from None
+
+    @classmethod
+    def open(cls, path: str | os.PathLike, study: Study) -> RunDir:
+        """Check that ``path`` can hold ``study``: a new or empty directory (the manifest is then
+        written), or an existing run of the same study. Raises :class:`RunError` — before
+        touching anything — for an unwritable location, a non-run directory or a mismatch."""
+        run = cls(path)
+        p = run.path
+        if p.exists() and not p.is_dir():
+            raise RunError(f"output path exists and is not a directory: {p}")
+        if run.manifest_path.exists():
+            recorded = run.study()
+            diffs = recorded.differences(study)
+            if diffs:
+                raise RunError(
+                    f"{p} holds a different study ({'; '.join(diffs)}; recorded != requested); "
+                    "use another --out or the recorded parameters"
+                )
+            run._check_writable(p)
+            return run
+        # a run killed while writing its manifest leaves only a temporary manifest behind
+        if p.exists() and any(not _is_manifest_tmp(e) for e in p.iterdir()):
+            raise RunError(f"output directory is not empty and has no {MANIFEST}: {p}")
+        existing = p
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir():
+            raise RunError(f"cannot create output directory {p}: {existing} is not a directory")
+        run._check_writable(existing)
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RunError(f"cannot create output directory {p}: {exc.strerror}") from None
+        from jamlab import __version__
+
+        manifest = {
+            "format": RUN_FORMAT,
+            "format_version": FORMAT_VERSION,
+            "study": study.to_dict(),
+            "master_seed": study.seed,
+            "jamlab_version": __version__,
+            "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "seed_derivation": SEED_RULE,
+            "layout": "samples/phi=<phi>/N=<N>/sample-<index:05d>.h5",
+        }
+        _write_json(run.manifest_path, manifest)
+        return run
+
+    @staticmethod
+    def _check_writable(directory: Path) -> None:
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".jamlab-write-test.", dir=directory)
+        except OSError as exc:
+            raise RunError(
+                f"output directory is not writable: {directory} ({exc.strerror})"
+            ) from None
+        os.close(fd)
+        os.remove(tmp)
+
+    # -- locking ------------------------------------------------------------------------------
+
+    @contextlib.contextmanager
+    def lock(self) -> Iterator[None]:
+        """Hold an exclusive ``flock`` on ``run.lock`` (released by the kernel even on SIGKILL),
+        so that two drivers never write the same run."""
+        fh = open(self.path / "run.lock", "a")  # noqa: SIM115 - held for the whole block
+        try:
+            try:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as exc:
+                if exc.errno in (errno.EAGAIN, errno.EACCES, errno.EWOULDBLOCK):
+                    raise RunError(f"another jamlab process is running in {self.path}") from None
+                raise
+            yield
+        finally:
+            fh.close()
+
+    def remove_temporaries(self) -> list[Path]:
+        """Delete leftovers of interrupted writes (call only while holding :meth:`lock`)."""
+        removed = []
+        samples = self.path / "samples"
+        if samples.is_dir():
+            for tmp in samples.rglob(".*.tmp"):
+                tmp.unlink(missing_ok=True)
+                removed.append(tmp)
+        for tmp in self.path.glob(f".{MANIFEST}.*.tmp"):
+            tmp.unlink(missing_ok=True)
+            removed.append(tmp)
+        return removed
+
+    # -- samples ------------------------------------------------------------------------------
+
+    def state(self, key: SampleKey) -> str:
+        """``done``, ``failed`` (no whole file but a failure record), ``corrupt`` or ``pending``."""
+        state = sample_state(self.sample_path(key), key)
+        if state == "pending" and self.failure_path(key).exists():
+            return "failed"
+        return state
+
+    def scan(self, study: Study) -> dict[SampleKey, str]:
+        """The state of every sample of ``study``."""
+        return {key: self.state(key) for key in study.keys()}
+
+    def write_sample(self, key: SampleKey, result: SampleResult, seed: int, study: Study) -> Path:
+        """Write ``result`` atomically as ``key``'s sample file; removes a failure record."""
+        from jamlab import __version__
+
+        def write(tmp: str) -> None:
+            with h5py.File(tmp, "w") as h5:
+                h5.attrs["format"] = SAMPLE_FORMAT
+                h5.attrs["format_version"] = FORMAT_VERSION
+                h5.attrs["phi"] = key.phi_label
+                h5.attrs["n"] = key.n
+                h5.attrs["index"] = key.index
+                h5.attrs["seed"] = str(seed)
+                h5.attrs["master_seed"] = study.seed
+                h5.attrs["task"] = study.task
+                h5.attrs["jamlab_version"] = __version__
+                h5.attrs["seconds"] = float(result.seconds)
+                for name, value in result.attrs.items():
+                    h5.attrs[name] = value
+                trace = h5.create_group("trace")
+                lengths = {np.asarray(v).shape for v in result.traces.values()}
+                if len(lengths) > 1:
+                    raise ValueError(f"trace arrays of unequal shapes {sorted(lengths)}")
+                for name, values in result.traces.items():
+                    trace.create_dataset(name, data=np.asarray(values))
+                packing = h5.create_group("packing")
+                for name, values in result.arrays.items():
+                    packing.create_dataset(name, data=np.asarray(values))
+                h5.flush()
+                h5.attrs["complete"] = True
+                h5.flush()
+
+        path = self.sample_path(key)
+        _atomic_write(path, write)
+        self.failure_path(key).unlink(missing_ok=True)
+        return path
+
+    def write_failure(self, key: SampleKey, failure: SampleFailure, seed: int) -> Path:
+        """Record ``key``'s failure (a sample file, if any, is left alone)."""
+        path = self.failure_path(key)
+        _write_json(
+            path,
+            {
+                "phi": key.phi_label,
+                "n": key.n,
+                "index": key.index,
+                "seed": str(seed),
+                "error_type": failure.error_type,
+                "message": failure.message,
+                "traceback": failure.traceback,
+                "seconds": failure.seconds,
+                "time": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            },
+        )
+        return path
+
+    def read_failure(self, key: SampleKey) -> dict[str, Any]:
+        return json.loads(self.failure_path(key).read_text())
+
+    def summary(self, study: Study) -> dict[tuple[str, int], dict[str, int]]:
+        """Counts of each state per ``(φ label, N)``."""
+        counts: dict[tuple[str, int], dict[str, int]] = {
+            (phi_label(phi), n): dict.fromkeys(STATES, 0) for phi in study.phi for n in study.n
+        }
+        for key, state in self.scan(study).items():
+            counts[(key.phi_label, key.n)][state] += 1
+        return counts

@@ -1,0 +1,249 @@
+"""A study: the physics parameters of an ensemble, validated once, from the CLI or a TOML file.
+
+A study is the product ``φ values × N values × samples``; each sample is prepared at its ``φ``
+(``"jamming"``: a jammed packing by compression/decompression; a number: an UNSAT packing
+minimised at that packing fraction) and sheared quasi-statically with strain step ``dgamma`` up to
+``gamma_max``. Execution-only options (workers, scheduler, cluster, quiet) are *not* part of a
+study: they may change between a run and its resumption without changing any result.
+
+TOML layout (``examples/study.toml``): physics keys at the top level (the names of the
+:class:`Study` fields; ``phi`` and ``n`` are lists), ``out`` for the run directory, and an
+optional ``[execution]`` table with ``workers``, ``scheduler`` or ``cluster`` and ``[slurm]``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "PHI_KEYWORDS",
+    "Study",
+    "SampleKey",
+    "phi_label",
+    "parse_phi",
+    "load_toml",
+    "TASKS",
+]
+
+PHI_KEYWORDS = ("jamming",)
+"""Non-numeric φ values: ``"jamming"`` = prepare at the jamming point (φ = the sample's φ_J)."""
+
+TASKS = ("aqs", "toy")
+"""Built-in sample tasks: ``aqs`` = prepare + AQS shear (the physics); ``toy`` = a cheap,
+deterministic stand-in used to test the run machinery (see :mod:`jamlab.runs.tasks`)."""
+
+
+def parse_phi(value: str | float | int) -> str | float:
+    """``"jamming"`` or a finite packing fraction ``φ > 0``; ``ValueError`` otherwise."""
+    if isinstance(value, bool):
+        raise ValueError(f"phi must be a number > 0 or one of {PHI_KEYWORDS}, got {value!r}")
+    if isinstance(value, int | float):
+        phi = float(value)
+    else:
+        text = str(value).strip()
+        if text.lower() in PHI_KEYWORDS:
+            return text.lower()
+        try:
+            phi = float(text)
+        except ValueError:
+            raise ValueError(
+                f"unknown phi {text!r}: give a packing fraction > 0 or one of "
+                f"{', '.join(PHI_KEYWORDS)}"
+            ) from None
+    if not math.isfinite(phi) or phi <= 0:
+        raise ValueError(f"phi must be a finite packing fraction > 0, got {phi!r}")
+    return phi
+
+
+def phi_label(phi: str | float) -> str:
+    """The label of a φ value in paths and in :func:`jamlab.runs.open_run`: the keyword itself,
+    or the shortest ``repr`` of the float (``0.75``, ``0.8``) so that it round-trips exactly."""
+    return phi if isinstance(phi, str) else repr(float(phi))
+
+
+def _phi_order(phi: str | float) -> tuple[int, float]:
+    return (0, 0.0) if isinstance(phi, str) else (1, float(phi))
+
+
+@dataclass(frozen=True)
+class SampleKey:
+    """One sample of a study: its φ (keyword or number), particle number and index."""
+
+    phi: str | float
+    n: int
+    index: int
+
+    @property
+    def phi_label(self) -> str:
+        return phi_label(self.phi)
+
+    def relpath(self) -> str:
+        """Path of the sample's file inside the run directory (POSIX separators)."""
+        return f"samples/phi={self.phi_label}/N={self.n}/sample-{self.index:05d}.h5"
+
+
+def _as_list(value: Any) -> list[Any]:
+    if isinstance(value, str | int | float):
+        return [value]
+    return list(value)
+
+
+@dataclass(frozen=True)
+class Study:
+    """The physics parameters of an ensemble (everything that changes results).
+
+    - ``phi``: tuple of packing fractions and/or ``"jamming"``; stored sorted (keyword first,
+      then ascending numbers), duplicates refused.
+    - ``n``: particle numbers, sorted ascending, each ``>= 2``.
+    - ``samples``: samples per ``(φ, N)``, indices ``0 .. samples−1``.
+    - ``dgamma``, ``gamma_max``: AQS strain step and final strain, ``0 < dgamma < gamma_max``.
+    - ``seed``: master seed (integer ``>= 0``); see :mod:`jamlab.runs.seeds`.
+    - ``dim``: space dimension (``>= 2``).
+    - ``p_target``: target pressure of the jamming protocol (``φ = "jamming"`` only).
+    - ``force_tol``: FIRE convergence, largest per-particle force ``|F_i|`` (SPEC §3).
+    - ``task``: ``"aqs"`` (prepare + shear) or ``"toy"`` (machinery tests only).
+    """
+
+    phi: tuple[str | float, ...]
+    n: tuple[int, ...]
+    samples: int
+    dgamma: float
+    gamma_max: float
+    seed: int = 0
+    dim: int = 3
+    p_target: float = 1e-7
+    force_tol: float = 1e-12
+    task: str = "aqs"
+
+    def __post_init__(self) -> None:
+        phis = [parse_phi(p) for p in _as_list(self.phi)]
+        if not phis:
+            raise ValueError("at least one phi value is needed")
+        labels = [phi_label(p) for p in phis]
+        dupes = sorted({lab for lab in labels if labels.count(lab) > 1})
+        if dupes:
+            raise ValueError(f"phi values given twice: {', '.join(dupes)}")
+        object.__setattr__(self, "phi", tuple(sorted(phis, key=_phi_order)))
+
+        ns = [_int("n", v, minimum=2) for v in _as_list(self.n)]
+        if not ns:
+            raise ValueError("at least one N value is needed")
+        if len(set(ns)) != len(ns):
+            raise ValueError(f"N values given twice: {sorted({v for v in ns if ns.count(v) > 1})}")
+        object.__setattr__(self, "n", tuple(sorted(ns)))
+
+        object.__setattr__(self, "samples", _int("samples", self.samples, minimum=1))
+        object.__setattr__(self, "seed", _int("seed", self.seed, minimum=0))
+        object.__setattr__(self, "dim", _int("dim", self.dim, minimum=2))
+        for name in ("dgamma", "gamma_max", "p_target", "force_tol"):
+            object.__setattr__(self, name, _positive_float(name, getattr(self, name)))
+        if self.dgamma >= self.gamma_max:
+            raise ValueError(
+                f"dgamma must be smaller than gamma_max, got dgamma={self.dgamma!r} >= "
+                f"gamma_max={self.gamma_max!r}"
+            )
+        if self.task not in TASKS:
+            raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
+
+    # -- the samples ------------------------------------------------------------------------
+
+    def keys(self) -> list[SampleKey]:
+        """All samples, φ-major then N then index (the order of submission, not of results)."""
+        return [
+            SampleKey(phi, n, i) for phi in self.phi for n in self.n for i in range(self.samples)
+        ]
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.phi) * len(self.n) * self.samples
+
+    # -- (de)serialisation ------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON/TOML-ready dict (lists for tuples); ``Study(**d)`` round-trips."""
+        d = asdict(self)
+        d["phi"] = list(self.phi)
+        d["n"] = list(self.n)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Study:
+        """Build from a mapping with the field names; unknown keys are an error."""
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(
+                f"unknown study parameter(s) {', '.join(unknown)}; "
+                f"valid: {', '.join(sorted(names))}"
+            )
+        missing = [k for k in ("phi", "n", "samples", "dgamma", "gamma_max") if k not in data]
+        if missing:
+            raise ValueError(f"missing study parameter(s): {', '.join(missing)}")
+        return cls(**dict(data))
+
+    def differences(self, other: Study) -> list[str]:
+        """Human-readable ``name: this != other`` for each differing parameter."""
+        a, b = self.to_dict(), other.to_dict()
+        return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
+
+
+def _int(name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    try:
+        as_float = float(value)
+        as_int = int(as_float) if math.isfinite(as_float) else None
+    except (TypeError, ValueError):
+        as_int = None
+    if as_int is None or as_int != as_float:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    if as_int < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {as_int}")
+    return as_int
+
+
+def _positive_float(name: str, value: Any) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number > 0, got {value!r}") from None
+    if not math.isfinite(x) or x <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return x
+
+
+def load_toml(path: str | os.PathLike) -> tuple[dict[str, Any], str | None, dict[str, Any]]:
+    """Read a study file: ``(study parameters, out, execution options)``.
+
+    The study parameters are returned unvalidated (so command-line flags can override them before
+    :class:`Study` validates the merged set); ``out`` is resolved relative to the file's folder.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such study file: {path}")
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot parse study file {path}: {exc}") from None
+    execution = data.pop("execution", {})
+    if not isinstance(execution, dict):
+        raise ValueError(f"[execution] in {path} must be a table")
+    out = data.pop("out", None)
+    if out is not None:
+        out = str(path.parent / str(out)) if not Path(str(out)).is_absolute() else str(out)
+    return data, out, execution
+
+
+def merge(base: Mapping[str, Any], overrides: Iterable[tuple[str, Any]]) -> dict[str, Any]:
+    """``base`` updated by the overrides whose value is not ``None``."""
+    merged = dict(base)
+    for key, value in overrides:
+        if value is not None:
+            merged[key] = value
+    return merged

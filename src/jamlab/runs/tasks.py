@@ -1,0 +1,153 @@
+"""What one sample computes, and how its outcome travels back to the driving process.
+
+A *task* is a function ``task(study, key, seed) -> SampleResult``; it runs on a worker (a local
+process or a Dask worker) and must be deterministic in ``seed``. It never writes files: the worker
+returns the arrays and only the driving process writes (:mod:`jamlab.runs.storage`).
+
+- ``aqs`` (the physics): prepare a packing — ``φ = "jamming"`` →
+  :func:`jamlab.spheres.packing.jam` ``(n, dim, seed, p_target)``; a number →
+  :func:`jamlab.spheres.packing.prepare` ``(n, dim, phi, seed)`` — then shear it with
+  :func:`jamlab.spheres.aqs.shear` ``(packing, dgamma, gamma_max)``.
+- ``toy``: a cheap stand-in with the same trace fields, deterministic in ``seed``; it exercises the
+  run machinery (storage, resume, Dask) without physics. ``JAMLAB_TOY_DELAY`` (seconds, default 0)
+  makes each toy sample sleep, for tests that must interrupt a run mid-way.
+
+A non-converged minimisation is a failure: the task raises :class:`SampleFailed` and the run
+records it (``*.failed.json``) and carries on.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from jamlab.runs.study import SampleKey, Study
+
+__all__ = [
+    "TRACE_FIELDS",
+    "SampleResult",
+    "SampleFailure",
+    "SampleFailed",
+    "Task",
+    "get_task",
+    "run_sample",
+    "toy_task",
+    "aqs_task",
+]
+
+TRACE_FIELDS = (
+    "gamma",
+    "energy",
+    "shear_stress",
+    "pressure",
+    "z",
+    "z_nr",
+    "max_force",
+    "iterations",
+    "energy_jump",
+    "stress_jump",
+    "plastic",
+)
+"""The per-step arrays of :class:`jamlab.spheres.trace.Trace` that every sample stores."""
+
+
+class SampleFailed(Exception):
+    """A sample that ran but whose result must not be used (e.g. a non-converged minimisation)."""
+
+
+@dataclass
+class SampleResult:
+    """A finished sample: equal-length 1-D ``traces``, scalar ``attrs`` (numbers/strings/bools)
+    and other ``arrays`` (e.g. the prepared packing's positions)."""
+
+    traces: dict[str, np.ndarray]
+    attrs: dict[str, Any] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    seconds: float = 0.0
+
+
+@dataclass
+class SampleFailure:
+    """A failed sample: the error's type and message, the traceback, the worker's wall time."""
+
+    error_type: str
+    message: str
+    traceback: str
+    seconds: float = 0.0
+
+
+Task = Callable[[Study, SampleKey, int], SampleResult]
+
+
+def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
+    """A deterministic stand-in for prepare + shear: random-walk "traces" of
+    ``round(gamma_max/dgamma)`` steps with the fields of :data:`TRACE_FIELDS`, drawn from
+    ``numpy.random.default_rng(seed)`` with work proportional to ``N × steps``."""
+    delay = float(os.environ.get("JAMLAB_TOY_DELAY", "0") or 0)
+    if delay > 0:
+        time.sleep(delay)
+    rng = np.random.default_rng(seed)
+    steps = int(round(study.gamma_max / study.dgamma))
+    gamma = study.dgamma * np.arange(steps + 1, dtype=np.float64)
+    # N-dependent work so that timing scales like a real sample, and results depend on every draw
+    kicks = rng.normal(size=(steps + 1, key.n)).sum(axis=1) / key.n
+    stress = np.cumsum(kicks)
+    energy = np.cumsum(stress * study.dgamma)
+    energy_jump = np.diff(energy, append=np.nan) - study.dgamma * stress
+    traces = {
+        "gamma": gamma,
+        "energy": energy,
+        "shear_stress": stress,
+        "pressure": np.abs(stress) + 1.0,
+        "z": np.full(steps + 1, 2.0 * study.dim),
+        "z_nr": np.full(steps + 1, 2.0 * study.dim),
+        "max_force": rng.uniform(0, study.force_tol, size=steps + 1),
+        "iterations": rng.integers(1, 100, size=steps + 1),
+        "energy_jump": energy_jump,
+        "stress_jump": np.diff(stress, append=np.nan),
+        "plastic": energy_jump < 0,
+    }
+    phi_value = 0.64 if isinstance(key.phi, str) else float(key.phi)
+    attrs = {"phi_actual": phi_value, "prep_converged": True}
+    return SampleResult(traces, attrs, {"positions": rng.random((key.n, study.dim))})
+
+
+def aqs_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
+    """Prepare (``jam`` at ``φ = "jamming"``, ``prepare`` at a number) and shear one sample."""
+    from jamlab.runs import _physics
+
+    return _physics.prepare_and_shear(study, key, seed)
+
+
+_TASKS: dict[str, Task] = {"toy": toy_task, "aqs": aqs_task}
+
+
+def get_task(name: str) -> Task:
+    """The built-in task called ``name``."""
+    try:
+        return _TASKS[name]
+    except KeyError:
+        raise ValueError(f"unknown task {name!r}: valid tasks are {', '.join(_TASKS)}") from None
+
+
+def run_sample(
+    study: Study, key: SampleKey, seed: int, task: Task | None = None
+) -> SampleResult | SampleFailure:
+    """Run one sample on a worker, turning any exception into a :class:`SampleFailure` so that
+    one bad sample never stops a run."""
+    fn = task if task is not None else get_task(study.task)
+    start = time.perf_counter()
+    try:
+        result = fn(study, key, seed)
+    except Exception as exc:  # noqa: BLE001 - every failure is recorded, none stops the run
+        return SampleFailure(
+            type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start
+        )
+    result.seconds = time.perf_counter() - start
+    return result

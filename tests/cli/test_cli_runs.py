@@ -1,0 +1,204 @@
+"""`jamlab run` and `jamlab status` end to end: SIGKILL + resume, real Dask cluster, bad input."""
+
+import os
+import random
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import pytest
+
+# the run tests' helpers
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "runs"))
+from runs_helpers import assert_same_runs, sample_files  # noqa: E402
+
+BIN = Path(sys.executable).parent
+TASK = "toy"
+STUDY_ARGS = ["--phi", "jamming", "0.8", "--n", "8", "12", "--dgamma", "1e-3", "--gamma-max",
+              "4e-3", "--seed", "3", "--task", TASK]  # fmt: skip
+
+
+def jamlab(*args, env=None, timeout=300):
+    return subprocess.run(
+        [sys.executable, "-m", "jamlab", *map(str, args)],
+        capture_output=True, text=True, timeout=timeout, env=env,
+    )  # fmt: skip
+
+
+def one_line_error(result):
+    assert result.returncode == 2, (result.returncode, result.stderr)
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("jamlab: error:") and "Traceback" not in result.stderr
+    return lines[0]
+
+
+def snapshot(root: Path):
+    return {
+        str(p.relative_to(root)): (p.stat().st_mtime_ns, p.read_bytes() if p.is_file() else None)
+        for p in sorted(root.rglob("*"))
+    }
+
+
+def test_run_status_and_toml(tmp_path):
+    r = jamlab("run", *STUDY_ARGS, "--samples", 2, "--out", tmp_path / "a", "--workers", 1)
+    assert r.returncode == 0, r.stderr
+    assert "8 samples written" in r.stderr
+    assert len(sample_files(tmp_path / "a")) == 8
+    r = jamlab("status", tmp_path / "a")
+    assert r.returncode == 0
+    rows = [line for line in r.stdout.splitlines() if "jamming" in line or "0.8" in line]
+    assert len(rows) == 4 and all(" 2 " in row for row in rows)
+    (tmp_path / "s.toml").write_text(
+        'phi = ["jamming", 0.8]\nn = [8, 12]\nsamples = 2\ndgamma = 1e-3\ngamma_max = 4e-3\n'
+        f'seed = 3\ntask = "{TASK}"\nout = "b"\n[execution]\nworkers = 1\n'
+    )
+    r = jamlab("run", tmp_path / "s.toml", "--quiet")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert_same_runs(tmp_path / "a", tmp_path / "b")
+    # same study again from the flags: nothing to do
+    r = jamlab("run", *STUDY_ARGS, "--samples", 2, "--out", tmp_path / "b", "--workers", 1)
+    assert r.returncode == 0 and "0 samples written" in r.stderr and "8 already done" in r.stderr
+
+
+def test_bad_input_is_one_line_and_touches_nothing(tmp_path):
+    run = tmp_path / "run"
+    r = jamlab("run", *STUDY_ARGS, "--samples", 2, "--out", run, "--workers", 1, "--quiet")
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "afile").write_text("x")
+    before = snapshot(tmp_path)
+    base = ["--samples", "2", "--out", run, "--workers", "1"]
+    cases = {
+        "phi": (["--phi", "jammed", "0.8"], "unknown phi 'jammed'"),
+        "n": (["--n", "8", "-12"], "n must be >= 2, got -12"),
+        "samples": (["--samples", "-3"], "samples must be >= 1, got -3"),
+        "dgamma": (["--dgamma", "4e-3"], "dgamma must be smaller than gamma_max"),
+        "mismatch": (["--seed", "4"], "different study (seed: 3 != 4"),
+        "unwritable": (["--out", tmp_path / "afile" / "run"], "not a directory"),
+        "scheduler": (["--scheduler", "nowhere"], "tcp://HOST:8786"),
+    }
+    for name, (extra, message) in cases.items():
+        line = one_line_error(jamlab("run", *STUDY_ARGS, *base, *extra))
+        assert message in line, (name, line)
+    if os.geteuid() != 0:  # root writes anywhere: permissions cannot make a directory unwritable
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o555)
+        try:
+            line = one_line_error(jamlab("run", *STUDY_ARGS, *base, "--out", locked / "run"))
+            assert "not writable" in line
+        finally:
+            locked.chmod(0o755)
+        locked.rmdir()
+    assert snapshot(tmp_path) == before
+    one_line_error(jamlab("status", tmp_path / "afile"))
+
+
+def _wait_for_a_sample(run: Path, proc, timeout=120.0):
+    start = time.monotonic()
+    while not sample_files(run):
+        assert proc.poll() is None, "the run ended before writing a sample"
+        assert time.monotonic() - start < timeout
+        time.sleep(0.02)
+
+
+@pytest.mark.slow
+def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
+    rng = random.Random(int(os.environ.get("JAMLAB_TEST_SEED", "20170214")))
+    args = [*STUDY_ARGS, "--samples", "6", "--workers", "2", "--quiet"]
+    ref, run = tmp_path / "ref", tmp_path / "run"
+    assert jamlab("run", *args, "--out", ref).returncode == 0
+    total = len(sample_files(ref))
+    env = {**os.environ, "JAMLAB_TOY_DELAY": "0.15"}  # slow samples: the kill lands mid-run
+    for attempt in range(2):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "jamlab", "run", *args, "--out", str(run)],
+            env=env, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        )  # fmt: skip
+        try:
+            _wait_for_a_sample(run, proc)
+            time.sleep(rng.uniform(0.0, 0.8))
+        finally:
+            os.killpg(proc.pid, signal.SIGKILL)  # the driver and its worker processes
+            proc.wait(timeout=30)
+        assert proc.returncode == -signal.SIGKILL
+        done = sample_files(run)
+        assert 0 < len(done) < total, f"kill {attempt} did not land mid-run"
+        for path in done.values():  # never an unreadable sample file
+            with h5py.File(path, "r") as h5:
+                assert h5.attrs["complete"]
+    r = jamlab("run", *args, "--out", run)
+    assert r.returncode == 0, r.stderr
+    assert not list(run.rglob("*.tmp"))
+    assert_same_runs(ref, run)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def dask_cluster(tmp_path):
+    """A real ``dask scheduler`` and two single-threaded ``dask worker`` processes on loopback."""
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs = []
+    logs = tmp_path / "dask-logs"
+    logs.mkdir()
+    try:
+        procs.append(subprocess.Popen(
+            [str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+             "--no-dashboard"],
+            stdout=subprocess.DEVNULL, stderr=open(logs / "scheduler.log", "w"),
+        ))  # fmt: skip
+        for i in range(2):
+            procs.append(subprocess.Popen(
+                [str(BIN / "dask"), "worker", address, "--nthreads", "1", "--nworkers", "1",
+                 "--host", "127.0.0.1", "--no-dashboard", "--local-directory",
+                 str(tmp_path / f"w{i}")],
+                stdout=subprocess.DEVNULL, stderr=open(logs / f"worker{i}.log", "w"),
+            ))  # fmt: skip
+        from distributed import Client
+
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                with Client(address, timeout="5s") as client:
+                    client.wait_for_workers(2, timeout=60)
+                    break
+            except OSError:
+                assert time.monotonic() < deadline, (logs / "scheduler.log").read_text()
+                time.sleep(0.5)
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+
+
+@pytest.mark.slow
+def test_dask_scheduler_gives_the_local_results(tmp_path, dask_cluster):
+    args = [*STUDY_ARGS, "--samples", "3", "--quiet"]
+    local, remote = tmp_path / "local", tmp_path / "dask"
+    r = jamlab("run", *args, "--out", local, "--workers", "2")
+    assert r.returncode == 0, r.stderr
+    r = jamlab("run", *args, "--out", remote, "--scheduler", dask_cluster)
+    assert r.returncode == 0, r.stderr
+    assert_same_runs(local, remote)
+    # the workers really ran them: each sample file records the sample's own seed, no sharing
+    shutil.rmtree(remote / "samples" / "phi=0.8")
+    r = jamlab("run", *args, "--out", remote, "--scheduler", dask_cluster)
+    assert r.returncode == 0, r.stderr
+    assert_same_runs(local, remote)

@@ -1,0 +1,116 @@
+"""Execution: results do not depend on worker count, order or backend; loading into xarray."""
+
+import random
+
+import numpy as np
+import pytest
+
+from jamlab.runs import Execution, RunDir, Study, open_run, read_sample, run_study, sample_seed
+from jamlab.runs.execute import slurm_cluster_kwargs
+from jamlab.runs.tasks import SampleFailure, SampleResult, run_sample, toy_task
+
+STUDY = Study(phi=["jamming", 0.75], n=[8, 16], samples=3, dgamma=1e-3, gamma_max=4e-3, task="toy")
+
+
+def test_worker_count_does_not_change_results(tmp_path, same_runs):
+    run_study(STUDY, tmp_path / "w0", Execution(workers=0))
+    run_study(STUDY, tmp_path / "w2", Execution(workers=2))
+    same_runs(tmp_path / "w0", tmp_path / "w2")
+
+
+def test_order_does_not_change_results(tmp_path):
+    run_study(STUDY, tmp_path / "run", Execution(workers=0))
+    rd = RunDir(tmp_path / "run")
+    keys = STUDY.keys()
+    random.Random(1).shuffle(keys)
+    for key in keys:
+        outcome = run_sample(STUDY, key, sample_seed(STUDY.seed, key))
+        stored = read_sample(rd.sample_path(key))
+        for name, values in outcome.traces.items():
+            assert stored["trace"][name].tobytes() == np.asarray(values).tobytes()
+
+
+def _ragged(study, key, seed):
+    """Traces whose length depends on the sample; index 2 at N=16 fails."""
+    if key.index == 2 and key.n == 16:
+        raise RuntimeError("no")
+    length = 2 + key.index
+    rng = np.random.default_rng(seed)
+    traces = {"gamma": np.arange(length) * study.dgamma, "energy": rng.random(length),
+              "plastic": rng.random(length) < 0.5}  # fmt: skip
+    return SampleResult(traces, {"phi_actual": 0.7 + key.index})
+
+
+def test_open_run_matches_the_files_and_pads_with_nan(tmp_path):
+    run = tmp_path / "run"
+    run_study(STUDY, run, Execution(workers=0), task=_ragged)
+    ds = open_run(run, fields=("gamma", "energy", "plastic"))
+    assert ds.sizes == {"phi": 2, "N": 2, "sample": 3, "step": 4}
+    assert list(ds.phi.values) == ["jamming", "0.75"]
+    rd = RunDir(run)
+    for key in STUDY.keys():
+        cell = ds.sel(phi=key.phi_label, N=key.n, sample=key.index)
+        assert int(cell.seed) == sample_seed(STUDY.seed, key)
+        if key.index == 2 and key.n == 16:
+            assert str(cell.status.values) == "failed"
+            assert np.isnan(cell.energy.values).all() and int(cell.n_steps) == 0
+            continue
+        stored = read_sample(rd.sample_path(key))
+        length = len(stored["trace"]["energy"])
+        assert int(cell.n_steps) == length == 2 + key.index
+        np.testing.assert_array_equal(cell.energy.values[:length], stored["trace"]["energy"])
+        np.testing.assert_array_equal(cell.plastic.values[:length], stored["trace"]["plastic"])
+        assert np.isnan(cell.energy.values[length:]).all()
+        assert float(cell.phi_actual) == stored["attrs"]["phi_actual"]
+    with pytest.raises(ValueError, match="unknown trace field"):
+        open_run(run, fields=("energi",))
+
+
+def test_run_sample_turns_exceptions_into_failures():
+    key = STUDY.keys()[0]
+    out = run_sample(STUDY, key, 1, task=_ragged)
+    assert isinstance(out, SampleResult)
+    bad = run_sample(STUDY, STUDY.keys()[-1], 1, task=_ragged)
+    assert isinstance(bad, SampleFailure) and bad.error_type == "RuntimeError"
+    assert "_ragged" in bad.traceback
+    assert toy_task(STUDY, key, 1).traces["energy"].tobytes() == (
+        toy_task(STUDY, key, 1).traces["energy"].tobytes()
+    )
+
+
+def test_execution_options_are_validated():
+    with pytest.raises(ValueError, match="either --scheduler or --cluster"):
+        Execution(scheduler="tcp://127.0.0.1:1", cluster="slurm")
+    with pytest.raises(ValueError, match="tcp://"):
+        Execution(scheduler="127.0.0.1:8786")
+    with pytest.raises(ValueError, match="unknown cluster"):
+        Execution(cluster="pbs")
+    with pytest.raises(ValueError, match="workers"):
+        Execution(workers=-1)
+    with pytest.raises(ValueError, match="unknown slurm option"):
+        Execution(cluster="slurm", slurm={"gpus": 1})
+
+
+def test_slurm_options_map_to_jobqueue():
+    kwargs, jobs = slurm_cluster_kwargs(
+        {
+            "jobs": 3,
+            "cores": 8,
+            "processes": 8,
+            "memory": "16GiB",
+            "queue": "short",
+            "account": "proj",
+            "job_extra_directives": ["--exclusive"],
+        }  # fmt: skip
+    )
+    assert jobs == 3
+    assert kwargs["cores"] == 8 and kwargs["processes"] == 8 and kwargs["memory"] == "16GiB"
+    assert kwargs["queue"] == "short" and kwargs["account"] == "proj"
+    from dask_jobqueue import SLURMCluster
+
+    # the job script is built without a SLURM installation; nothing is submitted
+    with SLURMCluster(**kwargs, scheduler_options={"host": "127.0.0.1"}) as cluster:
+        script = cluster.job_script()
+    for line in ("#SBATCH -p short", "#SBATCH -A proj", "#SBATCH --exclusive",
+                 "export OMP_NUM_THREADS=1"):  # fmt: skip
+        assert line in script
