@@ -95,3 +95,13 @@ def test_expand_multi_values():
     # a study file after the values is not a value
     assert expand_multi_values(["--n", "16", "s.toml"]) == ["--n", "16", "s.toml"]
     assert expand_multi_values(["--phi=0.8", "x"]) == ["--phi=0.8", "x"]
+
+
+def test_example_study_file_is_valid():
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "study.toml"
+    params, out, execution = load_toml(example)
+    study = Study.from_dict(params)
+    assert study.phi == ("jamming", 0.75, 0.8, 0.9) and study.n == (500, 1000)
+    assert out is not None and execution["workers"] >= 1
