@@ -60,9 +60,10 @@ class FireParameters:
 class MinimizeResult:
     """Outcome of :func:`minimize`.
 
-    ``packing`` holds the final positions (wrapped into the box), ``energy`` the total energy
-    there, ``max_force = max_i |F_i|``, ``converged`` whether ``max_force < ftol`` was reached
-    (it is False when ``max_iter`` ran out or FIRE stalled), ``iterations`` the number of FIRE
+    ``packing`` holds the final positions (a periodic representative, wrapped into the box at
+    the last neighbour-list rebuild; ``packing.wrapped()`` maps them in), ``energy`` the total
+    energy there, ``max_force = max_i |F_i|``, ``converged`` whether ``max_force < ftol`` was
+    reached (False when ``max_iter`` ran out or FIRE stalled), ``iterations`` the number of FIRE
     steps, ``time`` the wall-clock seconds spent, ``n_rebuilds`` the neighbour-list rebuilds.
     """
 

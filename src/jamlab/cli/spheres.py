@@ -1,0 +1,157 @@
+"""``jamlab inspect``, ``jamlab minimize``, ``jamlab random-packing``, ``jamlab import-xyz``.
+
+A thin face over :mod:`jamlab.spheres`; the configuration file format is in ``docs/formats.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+INSPECT_KEYS = (
+    "n",
+    "dim",
+    "phi",
+    "strain",
+    "energy",
+    "shear_stress",
+    "pressure",
+    "z",
+    "z_nr",
+    "n_rattlers",
+    "n_contacts_nr",
+    "max_force",
+)
+
+
+def inspect_packing(path: Path) -> dict[str, float | int]:
+    """The numbers ``jamlab inspect`` prints (keys :data:`INSPECT_KEYS`)."""
+    import jamlab.spheres as sp
+    from jamlab.spheres.io import read_packing
+
+    packing = read_packing(path)
+    nl = sp.NeighborList(packing, skin=0.0)
+    rattlers = sp.remove_rattlers(packing, nl)
+    return {
+        "n": packing.n,
+        "dim": packing.dim,
+        "phi": packing.phi,
+        "strain": packing.strain,
+        "energy": sp.energy(packing, nl),
+        "shear_stress": sp.shear_stress(packing, nl),
+        "pressure": sp.pressure(packing, nl),
+        "z": sp.coordination(packing, nl),
+        "z_nr": rattlers.z_nr,
+        "n_rattlers": rattlers.n_rattlers,
+        "n_contacts_nr": rattlers.n_contacts_nr,
+        "max_force": sp.max_force(packing, nl),
+    }
+
+
+def _positive(name: str, value: float) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be finite and > 0, got {value}")
+    return value
+
+
+def register(app: typer.Typer) -> None:
+    """Add the soft-sphere commands."""
+
+    @app.command("inspect", help="Print N, d, phi, strain, energy, stress, pressure, z, z_nr.")
+    def inspect_command(
+        config: Annotated[Path, typer.Argument(help="Configuration file (HDF5, docs/formats.md).")],
+        as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    ) -> None:
+        info = inspect_packing(config)
+        if as_json:
+            typer.echo(json.dumps(info))
+            return
+        typer.echo(
+            f"{config}: N={info['n']} d={info['dim']} phi={info['phi']:.10g} "
+            f"strain={info['strain']!r}"
+        )
+        width = max(len(k) for k in INSPECT_KEYS)
+        for key in INSPECT_KEYS[4:]:
+            value = info[key]
+            text = f"{value!r}" if isinstance(value, float) else str(value)
+            typer.echo(f"  {key:<{width}}  {text}")
+
+    @app.command("minimize", help="Minimise the energy with FIRE 2.0 at fixed box and strain.")
+    def minimize_command(
+        config: Annotated[Path, typer.Argument(help="Configuration file (HDF5).")],
+        out: Annotated[
+            Path, typer.Option("--out", help="Where to write the minimised configuration.")
+        ],
+        ftol: Annotated[
+            float, typer.Option("--ftol", help="Stop when max_i |F_i| < ftol.")
+        ] = 1e-12,
+        max_iter: Annotated[
+            int, typer.Option("--max-iter", help="Largest number of steps.")
+        ] = 1_000_000,
+    ) -> None:
+        from jamlab.spheres.fire import minimize
+        from jamlab.spheres.io import read_packing, write_packing
+
+        _positive("--ftol", ftol)
+        if max_iter < 0:
+            raise ValueError(f"--max-iter must be >= 0, got {max_iter}")
+        packing = read_packing(config)
+        result = minimize(packing, ftol=ftol, max_iter=max_iter)
+        write_packing(
+            out,
+            result.packing,
+            minimize_converged=int(result.converged),
+            minimize_iterations=result.iterations,
+            minimize_max_force=result.max_force,
+            minimize_ftol=ftol,
+        )
+        status = "converged" if result.converged else "NOT CONVERGED"
+        typer.echo(
+            f"{status}: {result.iterations} iterations, max|F_i| = {result.max_force:.3e} "
+            f"(ftol {ftol:g}), energy = {result.energy!r}, time = {result.time:.3f} s -> {out}"
+        )
+        if not result.converged:
+            raise typer.Exit(1)
+
+    @app.command("random-packing", help="Write uniformly random positions at packing fraction phi.")
+    def random_command(
+        out: Annotated[Path, typer.Option("--out", help="Output configuration file (HDF5).")],
+        n: Annotated[int, typer.Option("--n", help="Number of spheres (>= 2).")],
+        phi: Annotated[float, typer.Option("--phi", help="Packing fraction N v_d(1/2)/L^d (> 0).")],
+        dim: Annotated[int, typer.Option("--dim", help="Dimension (>= 2).")] = 3,
+        seed: Annotated[int, typer.Option("--seed", help="Seed of numpy.random.default_rng.")] = 0,
+    ) -> None:
+        import jamlab.spheres as sp
+        from jamlab.spheres.io import write_packing
+
+        packing = sp.random_packing(n, dim, phi, seed)
+        write_packing(out, packing)
+        typer.echo(f"N={n} d={dim} phi={phi} L={packing.box.length!r} seed={seed} -> {out}")
+
+    @app.command(
+        "import-xyz",
+        help="Convert a text file of positions (one sphere per line, '#' comments; e.g. the "
+        "LAMMPS reference positions.txt) to a configuration file.",
+    )
+    def import_command(
+        positions: Annotated[Path, typer.Argument(help="Text file of positions.")],
+        out: Annotated[Path, typer.Option("--out", help="Output configuration file (HDF5).")],
+        box_length: Annotated[
+            float | None,
+            typer.Option("--box-length", help="Box side L (default: meta.json beside it)."),
+        ] = None,
+        strain: Annotated[
+            float, typer.Option("--strain", help="Accumulated strain of the positions.")
+        ] = 0.0,
+    ) -> None:
+        from jamlab.spheres.io import read_lammps_positions, write_packing
+
+        if box_length is not None:
+            _positive("--box-length", box_length)
+        packing = read_lammps_positions(positions, box_length=box_length, strain=strain)
+        write_packing(out, packing)
+        typer.echo(f"N={packing.n} d={packing.dim} phi={packing.phi:.10g} -> {out}")

@@ -1,0 +1,104 @@
+"""``jamlab inspect`` / ``minimize`` / ``random-packing`` / ``import-xyz``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jamlab.spheres as sp
+from jamlab.spheres.io import read_packing, write_packing
+
+KEYS = {"energy", "shear_stress", "pressure", "z", "z_nr", "n_rattlers", "n_contacts_nr"}
+KEYS |= {"max_force", "n", "dim", "phi", "strain"}
+REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "jamlab", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def one_line_error(r: subprocess.CompletedProcess) -> str:
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith("jamlab: error:")
+    return lines[0]
+
+
+def test_inspect_json_keys_and_values(tmp_path):
+    p = sp.random_packing(120, 3, 0.75, seed=5)
+    p = sp.Packing(p.positions, p.box.with_strain(0.3), seed=5)
+    path = write_packing(tmp_path / "c.h5", p)
+    r = run("inspect", str(path), "--json")
+    assert r.returncode == 0, r.stderr
+    info = json.loads(r.stdout)
+    assert set(info) == KEYS
+    assert info["n"] == 120 and info["dim"] == 3 and info["strain"] == 0.3
+    assert info["energy"] == pytest.approx(sp.energy(p), rel=1e-13)
+    assert info["shear_stress"] == pytest.approx(sp.shear_stress(p), rel=1e-12)
+    rat = sp.remove_rattlers(p)
+    assert info["z_nr"] == rat.z_nr and info["n_rattlers"] == rat.n_rattlers
+    r = run("inspect", str(path))
+    assert r.returncode == 0 and "shear_stress" in r.stdout and "N=120" in r.stdout
+
+
+def test_random_then_minimize(tmp_path):
+    start = tmp_path / "start.h5"
+    r = run(
+        "random-packing",
+        "--out",
+        str(start),
+        "--n",
+        "200",
+        "--phi",
+        "0.8",
+        "--dim",
+        "2",
+        "--seed",
+        "9",
+    )
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "min.h5"
+    r = run("minimize", str(start), "--out", str(out), "--ftol", "1e-11")
+    assert r.returncode == 0, r.stderr
+    assert "converged" in r.stdout and "iterations" in r.stdout
+    p = read_packing(out)
+    assert p.seed == 9 and p.dim == 2
+    assert sp.max_force(p) < 1e-11
+
+
+def test_import_reference_positions(tmp_path):
+    src = REFERENCE / "lammps-aqs-n500-phi0.80-1000steps" / "positions.txt"
+    if not src.is_file():
+        pytest.skip("reference data absent")
+    out = tmp_path / "ref.h5"
+    r = run("import-xyz", str(src), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert read_packing(out).n == 500
+
+
+@pytest.mark.parametrize(
+    "make_args",
+    [
+        lambda d: ["inspect", str(d / "garbage.h5")],
+        lambda d: ["inspect", str(d / "missing.h5")],
+        lambda d: ["inspect", str(d / "empty.h5")],
+        lambda d: ["minimize", str(d / "garbage.h5"), "--out", str(d / "o.h5")],
+        lambda d: ["random-packing", "--out", str(d / "x.h5"), "--n", "1", "--phi", "0.5"],
+        lambda d: ["random-packing", "--out", str(d / "x.h5"), "--n", "10", "--phi", "-0.5"],
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tmp_path, make_args):
+    (tmp_path / "garbage.h5").write_text("not hdf5\n")
+    import h5py
+
+    with h5py.File(tmp_path / "empty.h5", "w") as h5:
+        h5["x"] = np.zeros(3)
+    one_line_error(run(*make_args(tmp_path)))
