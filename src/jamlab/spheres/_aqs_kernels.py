@@ -1,0 +1,75 @@
+"""Numba kernels of the AQS fast path: the pinned backbone Hessian assembled directly as CSR."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from jamlab.spheres._kernels import pair_stiffness
+
+
+@njit(cache=True)
+def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
+    """CSR arrays ``(data, indices, indptr)`` of ``K = H[b, b]`` (``d·n_free`` square).
+
+    ``free_index[i]`` is the row block of particle ``i`` in ``K`` or ``−1`` (pinned particle,
+    rattler: held fixed). From the contact pairs ``(i, j, r_ij)`` and the pair block
+    ``B = 2 n nᵀ + (V'(r)/r)(1 − n nᵀ)``: ``K_ii = Σ_{j in contact} B_ij`` over *all* contacts
+    (a held particle acts as a fixed spring end), ``K_ij = −B_ij`` between free particles.
+    Column indices inside a row are not sorted; the matrix is symmetric.
+    """
+    m, d = cd.shape
+    deg = np.zeros(n_free, np.int64)
+    for p in range(m):
+        fi = free_index[ci[p]]
+        fj = free_index[cj[p]]
+        if fi >= 0 and fj >= 0:
+            deg[fi] += 1
+            deg[fj] += 1
+    slot_ptr = np.zeros(n_free + 1, np.int64)
+    for i in range(n_free):
+        slot_ptr[i + 1] = slot_ptr[i] + 1 + deg[i]
+    n_slots = slot_ptr[n_free]
+    blocks = np.zeros((n_slots, d, d), np.float64)
+    block_col = np.empty(n_slots, np.int64)
+    fill = np.ones(n_free, np.int64)  # slot 0 of each block row is the diagonal
+    for i in range(n_free):
+        block_col[slot_ptr[i]] = i
+    B = np.empty((d, d), np.float64)
+    for p in range(m):
+        fi = free_index[ci[p]]
+        fj = free_index[cj[p]]
+        if fi < 0 and fj < 0:
+            continue
+        pair_stiffness(cd[p], B)
+        if fi >= 0:
+            blocks[slot_ptr[fi]] += B
+        if fj >= 0:
+            blocks[slot_ptr[fj]] += B
+        if fi >= 0 and fj >= 0:
+            s = slot_ptr[fi] + fill[fi]
+            blocks[s] -= B
+            block_col[s] = fj
+            fill[fi] += 1
+            s = slot_ptr[fj] + fill[fj]
+            blocks[s] -= B
+            block_col[s] = fi
+            fill[fj] += 1
+    size = d * n_free
+    indptr = np.zeros(size + 1, np.int64)
+    for i in range(n_free):
+        width = d * (1 + deg[i])
+        for a in range(d):
+            indptr[d * i + a + 1] = indptr[d * i + a] + width
+    data = np.empty(indptr[size], np.float64)
+    indices = np.empty(indptr[size], np.int64)
+    for i in range(n_free):
+        for a in range(d):
+            q = indptr[d * i + a]
+            for s in range(slot_ptr[i], slot_ptr[i + 1]):
+                col = block_col[s]
+                for b in range(d):
+                    data[q] = blocks[s, a, b]
+                    indices[q] = d * col + b
+                    q += 1
+    return data, indices, indptr

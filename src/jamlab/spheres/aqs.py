@@ -1,0 +1,662 @@
+"""Athermal quasi-static (AQS) simple shear with linear-response elastic steps.
+
+Protocol (``SPEC.md`` §3): from a minimum at strain ``γ_n``, shear affinely ``x_i += δγ y_i``,
+``γ_{n+1} = γ_n + δγ``, and minimise the energy at fixed strain. Recorded per step: see
+:mod:`jamlab.spheres.trace`.
+
+Fast elastic steps (``minimizer="linear"``). Let ``H`` be the Hessian at the minimum ``x_n``
+restricted to the *backbone* (rattlers removed, :func:`~jamlab.spheres.potential.remove_rattlers`)
+with one backbone particle pinned (removing the ``d`` global translations), ``K = H[b,b]``,
+factorised once per step with SuperLU in symmetric mode (no row pivoting, symmetric fill-reducing
+order), so that ``K = P (L D Lᵀ) Pᵀ`` and the pivots ``D`` have the signs of the eigenvalues of
+``K`` (Sylvester's law of inertia): all pivots ``> 0`` ⇔ ``K`` positive definite. The step is the
+chord-Newton iteration
+
+    x⁰ = x_n + δγ y e_x (affine),      x^{k+1} = x^k + K⁻¹ F_b(x^k),
+
+whose first iterate is the linear-response prediction ``u = K⁻¹ F_b(x⁰) ≈ δγ K⁻¹ Ξ``
+(``Ξ = ∂F/∂γ``, :func:`~jamlab.spheres.potential.dforce_dstrain`), iterated until
+``max_i |F_i| < ftol`` on the backbone. Rattlers are held at their affinely moved positions during
+the Newton solve; if their (contact) forces then exceed ``ftol`` FIRE relaxes the whole system from
+there (it only moves rattlers in practice). The step is accepted as *elastic* when
+
+1. the Newton iteration contracts: every iteration reduces ``max |F_b|`` by at least
+   ``contraction`` (default 0.5) and it converges within ``max_newton`` iterations;
+2. it stays in the linear-response basin: the Newton corrections after the first step add up to
+   at most ``linear_basin`` (0.5) times the linear prediction ``max_i |u_i|``;
+3. the backbone Hessian at the new minimum is positive definite (all LDLᵀ pivots ``> 0``).
+
+If any test fails, the step is subdivided (``δγ/2, δγ/4, …`` down to ``δγ · min_substep``; the
+substep doubles again after each success), each substep with a fresh factorisation: this is
+pseudo-arclength-free natural continuation of the branch ``x(γ)``. If the branch can be continued
+to ``γ_{n+1}`` the step is elastic and the continued minimum is recorded; if it cannot (the
+Hessian loses positive definiteness or Newton fails even at the smallest substep), the branch of
+``x_n`` ends inside the step: the step is *plastic* and FIRE minimises from the affinely sheared
+``x_n``, carrying the avalanche.
+
+With ``minimizer="fire"`` every step is plain FIRE from the affinely sheared ``x_n``; the same
+continuation (when ``classify=True``) then decides whether FIRE's minimum is the continuation of
+``x_n`` (backbone positions equal within ``match_tol`` after removing a global translation).
+
+``plastic[n]`` is therefore: *the recorded minimum at γ_n is not the continuation of the minimum
+at γ_{n-1}* — the branch ended, or (plain FIRE only) FIRE left a branch that continues. This does
+not look at the sign of ``ΔE``; see ``docs/aqs.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+from jamlab.spheres import _aqs_kernels as AK
+from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.potential import (
+    NeighborList,
+    Packing,
+    contacts,
+    energy_and_forces,
+    remove_rattlers,
+    stress_tensor,
+)
+from jamlab.spheres.trace import Trace, write_trace
+
+__all__ = [
+    "AQSParameters",
+    "ShearResult",
+    "shear",
+    "checkpoint_paths",
+    "n_steps_for",
+]
+
+MINIMIZERS = ("linear", "fire")
+
+
+@dataclass(frozen=True)
+class AQSParameters:
+    """Tolerances of the fast path and of the classification (see the module docstring).
+
+    ``max_newton``: chord-Newton iterations per (sub)step; ``contraction``: required reduction
+    factor of ``max |F_b|`` per iteration; ``linear_basin``: allowed Newton correction relative to
+    the linear prediction; ``min_substep``: smallest substep as a fraction of ``δγ`` before the
+    branch is declared ended; ``energy_tol``: a one-substep step whose trapezoid residual
+    ``|ΔE − ½ δγ ΔΣ|`` exceeds this (absolute energy) is redone in 8 substeps (a kink from a
+    contact change inside the step); ``match_tol``: largest backbone displacement between FIRE's
+    minimum and the continued branch for them to count as the same minimum; ``max_fire_iter``:
+    FIRE iteration cap.
+    """
+
+    max_newton: int = 30
+    max_cg: int = 60
+    refactor_every: int = 100
+    stale_cg: int = 12
+    contraction: float = 0.5
+    linear_basin: float = 1.0
+    min_substep: float = 1.0 / 1024
+    energy_tol: float = 1e-10
+    match_tol: float = 1e-6
+    max_fire_iter: int = 2_000_000
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
+            raise ValueError(f"max_newton must be an integer >= 1, got {self.max_newton!r}")
+        for name in ("contraction", "linear_basin", "min_substep"):
+            v = getattr(self, name)
+            if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
+                raise ValueError(f"{name} must be in (0, 1), got {v!r}")
+        for name in ("energy_tol", "match_tol"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {v!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class ShearResult:
+    """Outcome of :func:`shear`: the ``trace``, the final minimum ``packing`` and counters.
+
+    ``n_fallback``: steps where continuation failed and FIRE carried the step; ``n_substepped``:
+    steps the fast path had to subdivide; ``n_cleanup``: steps where FIRE relaxed rattler forces
+    after Newton; ``n_not_converged``: recorded minima with ``max_force ≥ ftol``; ``time``: wall
+    clock seconds of the stepping loop.
+    """
+
+    trace: Trace
+    packing: Packing
+    n_fallback: int
+    n_substepped: int
+    n_cleanup: int
+    n_not_converged: int
+    time: float
+
+
+# ------------------------------------------------------------------------------------------------
+# linear algebra on the backbone
+
+
+@dataclass(eq=False)
+class _Factor:
+    """Factorised pinned backbone Hessian ``K = H[b, b]`` at one configuration."""
+
+    backbone: np.ndarray  # bool mask of backbone particles (incl. the pinned one)
+    free: np.ndarray  # particle indices of the free backbone particles
+    free_index: np.ndarray  # row block in K of each particle, -1 if held (pinned, rattler)
+    lu: object | None
+    positive_definite: bool
+    fresh: bool = True  # factorised at the current minimum (not yet used for a step)
+
+
+def _free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    idx = np.flatnonzero(backbone)
+    free = idx[1:]  # pin the first backbone particle: removes the d global translations
+    free_index = np.full(backbone.shape[0], -1, dtype=np.int64)
+    free_index[free] = np.arange(free.size)
+    return free, free_index
+
+
+def _backbone_matrix(packing: Packing, nl: NeighborList, fac: _Factor) -> sps.csr_matrix:
+    ci, cj, cd = contacts(packing, nl)
+    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, cd, fac.free_index, fac.free.size)
+    size = fac.free.size * packing.dim
+    return sps.csr_matrix((data, indices, indptr), shape=(size, size))
+
+
+def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Factor:
+    """Factorise the backbone Hessian with one particle pinned; test positive definiteness.
+
+    SuperLU with ``diag_pivot_thresh=0`` and a symmetric ordering (``MMD_AT_PLUS_A``) does no row
+    pivoting on a symmetric matrix, giving ``P K Pᵀ = L U`` with ``U = D Lᵀ``; the inertia of
+    ``K`` is the signs of ``diag(U)`` (Sylvester). Any row pivoting (``perm_r ≠ perm_c``) or a
+    zero pivot is treated as "not positive definite".
+    """
+    free, free_index = _free_set(backbone)
+    fac = _Factor(backbone, free, free_index, None, False)
+    if free.size == 0:
+        return fac
+    k = _backbone_matrix(packing, nl, fac)
+    # K is symmetric, so its CSR arrays read as CSC are K itself: no conversion
+    kc = sps.csc_matrix((k.data, k.indices, k.indptr), shape=k.shape)
+    try:
+        lu = spla.splu(
+            kc,
+            permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+    except RuntimeError:  # exactly singular
+        return fac
+    pivots = lu.U.diagonal()
+    fac.lu = lu
+    fac.positive_definite = bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(pivots > 0))
+    return fac
+
+
+def _max_norm(f: np.ndarray) -> float:
+    return float(np.sqrt(np.max(np.einsum("ij,ij->i", f, f)))) if f.size else 0.0
+
+
+def _pcg(
+    k: sps.csr_matrix, b: np.ndarray, precond: Callable, atol: float, maxiter: int, d: int
+) -> tuple[np.ndarray, bool, int]:
+    """Preconditioned conjugate gradients for ``K x = b``, ``M⁻¹ = precond`` (a nearby ``K⁻¹``).
+
+    Stops when the largest per-particle residual ``max_i |(b − Kx)_i| < atol``. Returns
+    ``(x, ok, iterations)``; ``ok`` is False on negative curvature ``pᵀKp ≤ 0`` (``K`` not
+    positive definite on the Krylov space) or no convergence within ``maxiter``.
+    """
+    x = np.zeros_like(b)
+    r = b.copy()
+    z = precond(r)
+    p = z.copy()
+    rz = float(r @ z)
+    for it in range(maxiter + 1):
+        if _max_norm(r.reshape(-1, d)) < atol:
+            return x, True, it
+        if it == maxiter:
+            break
+        kp = k @ p
+        curvature = float(p @ kp)
+        if not curvature > 0:
+            return x, False, it
+        alpha = rz / curvature
+        x += alpha * p
+        r -= alpha * kp
+        z = precond(r)
+        rz_new = float(r @ z)
+        p = z + (rz_new / rz) * p
+        rz = rz_new
+    return x, False, maxiter
+
+
+@dataclass(frozen=True, eq=False)
+class _Newton:
+    packing: Packing
+    ok: bool
+    iterations: int
+    cg_iterations: int
+
+
+def _newton(
+    start: Packing, nl: NeighborList, fac: _Factor, ftol: float, params: AQSParameters
+) -> _Newton:
+    """Newton ``x ← x + K(x)⁻¹ F_b(x)`` on the free backbone, each solve by PCG preconditioned
+    with the factorisation ``fac``, until ``max |F_b| < ftol`` (tests: module docstring)."""
+    pos = np.array(start.positions)
+    free = fac.free
+    d = start.dim
+    prev = math.inf
+    linear = 0.0
+    correction = np.zeros((free.size, d))
+    cg_total = 0
+    for it in range(params.max_newton + 1):
+        current = start.with_positions(pos)
+        _, f = energy_and_forces(current, nl)
+        fb = f[free]
+        fmax = _max_norm(fb)
+        if fmax < ftol:
+            return _Newton(current, True, it, cg_total)
+        # a contact opening or closing inside the step spoils the first (linear) prediction by
+        # O(1), so iteration 1 need only decrease the force; afterwards Newton must contract
+        if it == 1 and fmax >= prev or it >= 2 and fmax > params.contraction * prev:
+            break
+        if it == params.max_newton:
+            break
+        prev = fmax
+        k = _backbone_matrix(current, nl, fac)
+        atol = max(0.05 * ftol, 1e-9 * fmax)
+        dx, ok, cg_its = _pcg(k, fb.ravel(), fac.lu.solve, atol, params.max_cg, d)
+        cg_total += cg_its
+        if not ok:
+            break
+        dx = dx.reshape(free.size, d)
+        if it == 0:
+            linear = float(np.max(np.abs(dx)))
+        else:
+            correction += dx
+            # far from the linear prediction: not in the linear-response basin of this branch
+            if float(np.max(np.abs(correction))) > params.linear_basin * linear + 1e-12:
+                break
+        pos[free] += dx
+    return _Newton(start.with_positions(pos), False, it, cg_total)
+
+
+def _affine_to(packing: Packing, strain: float) -> Packing:
+    pos = np.array(packing.positions)
+    pos[:, 0] += (strain - packing.strain) * pos[:, 1]
+    return replace(packing, positions=pos, box=packing.box.with_strain(strain))
+
+
+@dataclass(frozen=True, eq=False)
+class _Branch:
+    packing: Packing | None  # None: the branch ends inside the step
+    factor: _Factor | None
+    iterations: int
+    cg_iterations: int
+    substeps: int
+    refactorised: int
+
+
+def _continue_branch(
+    start: Packing,
+    fac: _Factor,
+    strain: float,
+    nl: NeighborList,
+    ftol: float,
+    params: AQSParameters,
+    first_substep: float = 1.0,
+    predictor: np.ndarray | None = None,
+) -> _Branch:
+    """Follow the minimum ``start`` to ``strain`` by natural continuation (module docstring).
+
+    A failed (sub)step with a factorisation from an earlier configuration is retried after
+    refactorising at the current point; with a fresh one the substep is halved. The branch ends
+    when the fresh factorisation is not positive definite or the substep falls below
+    ``min_substep``.
+    """
+    its = cg = substeps = refac = 0
+    g0 = start.strain
+    total = strain - g0
+    cur = start
+    t = 0.0
+    s = first_substep
+    while t < 1.0:
+        if fac.lu is None or not fac.positive_definite:
+            if fac.fresh:
+                return _Branch(None, None, its, cg, substeps, refac)
+            fac = _factorise(cur, nl, remove_rattlers(cur, nl).mask)
+            refac += 1
+            continue
+        last = s >= 1.0 - t
+        t_new = 1.0 if last else t + s
+        target = strain if last else g0 + t_new * total
+        trial = _affine_to(cur, target)
+        if predictor is not None and t == 0.0 and last:
+            # secant predictor: the previous elastic step's non-affine displacement
+            trial = trial.with_positions(trial.positions + predictor)
+        res = _newton(trial, nl, fac, ftol, params)
+        its += res.iterations
+        cg += res.cg_iterations
+        if res.ok:
+            cur, t = res.packing, t_new
+            substeps += 1
+            s = min(2.0 * s, 1.0)
+            fac.fresh = False
+            backbone = remove_rattlers(cur, nl).mask
+            if not np.array_equal(backbone, fac.backbone):
+                fac = _factorise(cur, nl, backbone)
+                refac += 1
+            continue
+        if not fac.fresh:
+            fac = _factorise(cur, nl, remove_rattlers(cur, nl).mask)
+            refac += 1
+            continue
+        s *= 0.5
+        if s < params.min_substep:
+            return _Branch(None, None, its, cg, substeps, refac)
+    return _Branch(cur, fac, its, cg, substeps, refac)
+
+
+def _same_minimum(a: Packing, b: Packing, backbone: np.ndarray, tol: float) -> bool:
+    """Backbone positions equal within ``tol`` after removing the mean displacement."""
+    if not backbone.any():
+        return False
+    dr = a.box.minimum_image(a.positions[backbone] - b.positions[backbone])
+    dr -= dr.mean(axis=0)
+    return bool(np.max(np.abs(dr)) < tol)
+
+
+# ------------------------------------------------------------------------------------------------
+# observables
+
+
+def _observe(packing: Packing, nl: NeighborList) -> tuple[dict[str, float], np.ndarray]:
+    e, f = energy_and_forces(packing, nl)
+    sigma = stress_tensor(packing, nl) * packing.box.volume
+    rat = remove_rattlers(packing, nl)
+    z = 2.0 * float(_n_contacts(packing, nl)) / packing.n
+    row = {
+        "energy": float(e),
+        "shear_stress": float(sigma[0, 1]),
+        "pressure": float(-np.trace(sigma) / (packing.dim * packing.box.volume)),
+        "z": z,
+        "z_nr": float(rat.z_nr),
+        "max_force": _max_norm(f),
+    }
+    return row, rat.mask
+
+
+def _n_contacts(packing: Packing, nl: NeighborList) -> int:
+    return int(contacts(packing, nl)[0].size)
+
+
+# ------------------------------------------------------------------------------------------------
+# the driver
+
+
+def n_steps_for(dgamma: float, gamma_max: float) -> int:
+    """``M = round(γ_max / δγ)`` strain steps; validates ``0 < δγ < γ_max``."""
+    if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+        raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+    if not (isinstance(gamma_max, int | float) and math.isfinite(gamma_max)):
+        raise ValueError(f"gamma_max must be finite, got gamma_max={gamma_max!r}")
+    if not gamma_max > dgamma:
+        raise ValueError(f"need dgamma < gamma_max, got dgamma={dgamma!r}, gamma_max={gamma_max!r}")
+    return int(round(gamma_max / dgamma))
+
+
+def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
+    """``(last, snapshots)``: where :func:`shear` saves the last configuration
+    (``<stem>.last.h5``) and every ``save_every``-th one (``<stem>.configs/step_XXXXXXXX.h5``)."""
+    out = Path(out)
+    stem = out.name[: -len(out.suffix)] if out.suffix else out.name
+    return out.with_name(f"{stem}.last.h5"), out.with_name(f"{stem}.configs")
+
+
+def shear(
+    packing: Packing,
+    dgamma: float,
+    gamma_max: float | None = None,
+    *,
+    n_steps: int | None = None,
+    minimizer: str = "linear",
+    ftol: float = 1e-12,
+    classify: bool = True,
+    params: AQSParameters | None = None,
+    fire_params: FireParameters | None = None,
+    save_every: int | None = None,
+    out: str | Path | None = None,
+    previous: Trace | None = None,
+    source: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ShearResult:
+    """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
+
+    Strains are ``γ_n = γ_0 + n δγ`` (no accumulated rounding), ``γ_0`` the strain of the input
+    (or of row 0 of ``previous``). The input is first minimised with FIRE if its largest force is
+    ``≥ ftol``. ``minimizer``: ``"linear"`` (linear response + chord Newton, FIRE fallback) or
+    ``"fire"`` (plain FIRE every step; ``classify=False`` skips the continuation test and leaves
+    ``plastic`` all False). See the module docstring for the elastic/plastic rule.
+
+    ``out``: trace file to write (atomically) at the end and every ``save_every`` steps, together
+    with the configuration (:func:`checkpoint_paths`). ``previous``: a trace to continue (resume);
+    ``packing`` must then be the configuration at ``previous.gamma[-1]``.
+    """
+    if minimizer not in MINIMIZERS:
+        raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    if (gamma_max is None) == (n_steps is None):
+        raise ValueError("give exactly one of gamma_max and n_steps")
+    if n_steps is None:
+        total = n_steps_for(dgamma, gamma_max)
+    else:
+        if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+            raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+        if not (isinstance(n_steps, int) and n_steps >= 1):
+            raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
+        total = n_steps
+    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if save_every is not None and out is None:
+        raise ValueError("save_every needs an output path (out=...)")
+    params = AQSParameters() if params is None else params
+    fire_params = FireParameters() if fire_params is None else fire_params
+
+    nl = NeighborList(packing)
+    rows: dict[str, list] = {k: [] for k in _ROW_KEYS}
+    if previous is None:
+        gamma0 = packing.strain
+        start_iterations = 0
+        cur = packing
+        row, backbone = _observe(cur, nl)
+        if row["max_force"] >= ftol:
+            res = minimize(cur, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+            cur, start_iterations = res.packing, res.iterations
+            row, backbone = _observe(cur, nl)
+        _append(rows, cur.strain, row, start_iterations, False)
+        first = 1
+    else:
+        gamma0 = float(previous.gamma[0])
+        if not math.isclose(packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15):
+            raise ValueError(
+                f"configuration strain {packing.strain} does not match the trace's last strain "
+                f"{previous.gamma[-1]}"
+            )
+        for k in _ROW_KEYS:
+            rows[k] = list(getattr(previous, k))
+        cur = packing
+        _, backbone = _observe(cur, nl)
+        first = previous.n_steps + 1
+    if first > total:
+        raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
+
+    attrs = {
+        "dgamma": float(dgamma),
+        "gamma_max": float(gamma0 + total * dgamma),
+        "n_steps": int(total),
+        "ftol": float(ftol),
+        "minimizer": minimizer,
+        "N": int(packing.n),
+        "dim": int(packing.dim),
+        "phi": float(packing.phi),
+        "box_length": float(packing.box.length),
+        "seed": int(-1 if packing.seed is None else packing.seed),
+        "jamlab_version": _version(),
+        "source": "" if source is None else str(source),
+    }
+    counters = {"n_fallback": 0, "n_substepped": 0, "n_cleanup": 0, "n_factorisations": 1}
+    fac = _factorise(cur, nl, backbone)
+    age = 0
+    predictor: np.ndarray | None = None
+    t0 = time.perf_counter()
+    for n in range(first, total + 1):
+        target = gamma0 + n * dgamma
+        affine = _affine_to(cur, target)
+        iterations = 0
+        plastic = False
+        branch: _Branch | None = None
+        if minimizer == "linear":
+            branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
+            if branch.packing is not None and branch.substeps == 1:
+                # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
+                e_new, _ = energy_and_forces(branch.packing, nl)
+                s_new = float(stress_tensor(branch.packing, nl)[0, 1] * cur.box.volume)
+                r = (
+                    e_new
+                    - rows["energy"][-1]
+                    - 0.5 * (target - rows["gamma"][-1]) * (rows["shear_stress"][-1] + s_new)
+                )
+                if abs(r) > params.energy_tol:
+                    counters["n_factorisations"] += branch.refactorised
+                    iterations += branch.iterations
+                    branch = _continue_branch(
+                        cur, branch.factor, target, nl, ftol, params, first_substep=0.125
+                    )
+            iterations += branch.iterations
+            counters["n_factorisations"] += branch.refactorised
+            new = branch.packing
+            if new is not None and branch.substeps > 1:
+                counters["n_substepped"] += 1
+            if new is None:
+                counters["n_fallback"] += 1
+                plastic = True
+                res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+                new, iterations = res.packing, iterations + res.iterations
+        else:
+            res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+            new, iterations = res.packing, res.iterations
+            if classify:
+                branch = _continue_branch(cur, fac, target, nl, ftol, params)
+                counters["n_factorisations"] += branch.refactorised
+                plastic = branch.packing is None or not _same_minimum(
+                    new, branch.packing, fac.backbone, params.match_tol
+                )
+        row, backbone = _observe(new, nl)
+        cleaned = False
+        if row["max_force"] >= ftol:
+            # Newton relaxed the backbone with rattlers held; let FIRE relax the rest
+            counters["n_cleanup"] += 1
+            cleaned = True
+            res = minimize(new, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+            new, iterations = res.packing, iterations + res.iterations
+            row, backbone = _observe(new, nl)
+        _append(rows, target, row, iterations, plastic)
+        predictor = None
+        if minimizer == "linear" and not plastic and not cleaned:
+            predictor = new.box.minimum_image(new.positions - affine.positions)
+        cur = new
+        age += 1
+        if branch is not None and branch.factor is not None and not plastic:
+            if branch.refactorised:
+                age = 0
+            fac = branch.factor
+        stale = (
+            plastic
+            or (cleaned and minimizer == "linear")
+            or fac.lu is None
+            or not np.array_equal(fac.backbone, backbone)
+            or age >= params.refactor_every
+            or (branch is not None and branch.cg_iterations > params.stale_cg)
+        )
+        if stale:
+            # the previous preconditioner is useless after an avalanche, and the regular
+            # refactorisation re-checks positive definiteness exactly (LDLᵀ pivots)
+            fac = _factorise(cur, nl, backbone)
+            counters["n_factorisations"] += 1
+            age = 0
+        if progress is not None:
+            progress(n, total)
+        if out is not None and save_every is not None and n % save_every == 0 and n < total:
+            _save(out, rows, attrs, counters, cur, n, snapshot=True)
+    elapsed = time.perf_counter() - t0
+    trace = _make_trace(rows, attrs, counters)
+    if out is not None:
+        _save(out, rows, attrs, counters, cur, total, snapshot=save_every is not None)
+    return ShearResult(
+        trace=trace,
+        packing=cur,
+        n_fallback=counters["n_fallback"],
+        n_substepped=counters["n_substepped"],
+        n_cleanup=counters["n_cleanup"],
+        n_not_converged=int(np.count_nonzero(trace.max_force >= ftol)),
+        time=elapsed,
+    )
+
+
+_ROW_KEYS = (
+    "gamma",
+    "energy",
+    "shear_stress",
+    "pressure",
+    "z",
+    "z_nr",
+    "max_force",
+    "iterations",
+    "plastic",
+)
+
+
+def _append(rows: dict[str, list], gamma: float, row: dict, iterations: int, plastic: bool) -> None:
+    rows["gamma"].append(float(gamma))
+    for k in ("energy", "shear_stress", "pressure", "z", "z_nr", "max_force"):
+        rows[k].append(row[k])
+    rows["iterations"].append(int(iterations))
+    rows["plastic"].append(bool(plastic))
+
+
+def _make_trace(rows: dict[str, list], attrs: dict, counters: dict) -> Trace:
+    trace = Trace.from_rows(rows, attrs=dict(attrs))
+    trace.attrs.update(counters)
+    trace.attrs["n_plastic"] = int(np.count_nonzero(trace.plastic))
+    return trace
+
+
+def _save(
+    out: str | Path,
+    rows: dict[str, list],
+    attrs: dict,
+    counters: dict,
+    packing: Packing,
+    step: int,
+    snapshot: bool,
+) -> None:
+    from jamlab.spheres.io import write_packing
+
+    last, snapshots = checkpoint_paths(out)
+    if snapshot:
+        snapshots.mkdir(exist_ok=True)
+        write_packing(snapshots / f"step_{step:08d}.h5", packing, aqs_step=int(step))
+    # configuration first: a trace never refers to a configuration that is not on disk
+    write_packing(last, packing, aqs_step=int(step))
+    write_trace(out, _make_trace(rows, attrs, counters))
+
+
+def _version() -> str:
+    from jamlab import __version__
+
+    return str(__version__)

@@ -1,0 +1,187 @@
+"""The AQS trace: per-step record of an athermal quasi-static shear run, and its HDF5 file.
+
+Rows ``n = 0 … M``: row 0 is the starting minimum (strain ``γ_0``, usually 0), row ``n ≥ 1`` the
+minimum after the ``n``-th strain step ``γ_{n-1} → γ_n``. Columns (``SPEC.md`` §3, extensive
+``E`` and ``Σ``):
+
+- ``gamma``: accumulated strain ``γ_n``;
+- ``energy``: total energy ``E_n``; ``shear_stress``: ``Σ_n = ∂E/∂γ``; ``pressure``: ``p_n``;
+- ``z = 2 N_c/N``, ``z_nr = 2 N_c'/N'`` (rattlers removed);
+- ``max_force``: ``max_i |F_i|`` of the recorded minimum (a value ``≥ ftol`` means the minimiser did
+  not converge: recorded, never hidden);
+- ``iterations``: minimiser iterations spent on the step (Newton + FIRE; row 0: the initial
+  minimisation, 0 if the input already was a minimum);
+- ``energy_jump``: ``ΔE = E_n − E_{n-1} − (γ_n − γ_{n-1}) Σ_{n-1}``, NaN in row 0;
+- ``stress_jump``: ``ΔΣ = Σ_n − Σ_{n-1}``, NaN in row 0;
+- ``plastic``: True when the minimum of row ``n`` is not the continuation of the minimum of row
+  ``n − 1`` (see ``docs/aqs.md``); False in row 0.
+
+So row ``n`` of ``energy_jump``/``stress_jump``/``plastic`` describes the step ``n−1 → n`` (the
+paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+__all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace"]
+
+FORMAT = "jamlab-aqs-trace"
+FORMAT_VERSION = 1
+
+TRACE_COLUMNS: tuple[str, ...] = (
+    "gamma",
+    "energy",
+    "shear_stress",
+    "pressure",
+    "z",
+    "z_nr",
+    "max_force",
+    "iterations",
+    "energy_jump",
+    "stress_jump",
+    "plastic",
+)
+
+_DTYPES = {"iterations": np.int64, "plastic": np.bool_}
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """Per-step AQS record (1-D arrays of equal length ``M + 1``; see the module docstring).
+
+    ``attrs`` holds the run parameters (``dgamma``, ``gamma_max``, ``ftol``, ``minimizer``,
+    ``N``, ``dim``, ``phi``, ``seed``, ``jamlab_version``, ``source``, ...).
+    """
+
+    gamma: np.ndarray
+    energy: np.ndarray
+    shear_stress: np.ndarray
+    pressure: np.ndarray
+    z: np.ndarray
+    z_nr: np.ndarray
+    max_force: np.ndarray
+    iterations: np.ndarray
+    energy_jump: np.ndarray
+    stress_jump: np.ndarray
+    plastic: np.ndarray
+    attrs: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = None
+        for name in TRACE_COLUMNS:
+            arr = np.array(getattr(self, name), dtype=_DTYPES.get(name, np.float64))
+            if arr.ndim != 1:
+                raise ValueError(f"trace column {name} must be 1-D, got shape {arr.shape}")
+            if n is None:
+                n = arr.shape[0]
+            elif arr.shape[0] != n:
+                raise ValueError(f"trace column {name} has {arr.shape[0]} rows, expected {n}")
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        if n == 0:
+            raise ValueError("a trace needs at least row 0 (the starting minimum)")
+        object.__setattr__(self, "attrs", dict(self.attrs))
+
+    @property
+    def n_steps(self) -> int:
+        """Number of strain steps ``M`` (rows minus one)."""
+        return int(self.gamma.shape[0] - 1)
+
+    @property
+    def residual(self) -> np.ndarray:
+        """Trapezoid residual ``r = ΔE − ½ (γ_n − γ_{n−1}) ΔΣ`` per row (NaN in row 0).
+
+        ``≈ 0`` (``O(δγ³)`` + noise) on an elastic step, ``≈ −S`` on a plastic one.
+        """
+        dg = np.concatenate([[np.nan], np.diff(self.gamma)])
+        return self.energy_jump - 0.5 * dg * self.stress_jump
+
+    @classmethod
+    def from_rows(cls, rows: dict[str, list], attrs: dict | None = None) -> Trace:
+        """Build from per-column lists (``energy_jump``, ``stress_jump`` are derived)."""
+        gamma = np.asarray(rows["gamma"], dtype=np.float64)
+        energy = np.asarray(rows["energy"], dtype=np.float64)
+        stress = np.asarray(rows["shear_stress"], dtype=np.float64)
+        ej = np.full(gamma.shape, np.nan)
+        sj = np.full(gamma.shape, np.nan)
+        ej[1:] = np.diff(energy) - np.diff(gamma) * stress[:-1]
+        sj[1:] = np.diff(stress)
+        cols = {k: rows[k] for k in TRACE_COLUMNS if k not in ("energy_jump", "stress_jump")}
+        return cls(**cols, energy_jump=ej, stress_jump=sj, attrs=attrs or {})
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The eleven columns by name."""
+        return {name: getattr(self, name) for name in TRACE_COLUMNS}
+
+    def head(self, rows: int) -> Trace:
+        """The first ``rows`` rows."""
+        return Trace(**{k: v[:rows] for k, v in self.columns().items()}, attrs=self.attrs)
+
+
+def _attr_value(value: object) -> object:
+    if value is None:
+        return "none"
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def write_trace(path: str | os.PathLike, trace: Trace) -> Path:
+    """Write ``trace`` atomically to HDF5: one 1-D dataset per column (names ``TRACE_COLUMNS``),
+    ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise FileNotFoundError(f"output directory does not exist: {directory}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    os.close(fd)
+    try:
+        with h5py.File(tmp, "w") as h5:
+            for name in TRACE_COLUMNS:
+                h5.create_dataset(name, data=getattr(trace, name))
+            for key, value in trace.attrs.items():
+                h5.attrs[key] = _attr_value(value)
+            h5.attrs["format"] = FORMAT
+            h5.attrs["format_version"] = FORMAT_VERSION
+            h5.flush()
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return path
+
+
+def read_trace(path: str | os.PathLike) -> Trace:
+    """Read a trace written by :func:`write_trace`; ``ValueError`` if the file is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such trace file: {path}")
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError:
+        raise ValueError(f"not an HDF5 file: {path}") from None
+    with h5:
+        missing = [name for name in TRACE_COLUMNS if name not in h5]
+        if missing:
+            raise ValueError(f"not a jamlab AQS trace (missing {', '.join(missing)}): {path}")
+        cols = {name: h5[name][()] for name in TRACE_COLUMNS}
+        attrs = {}
+        for key, value in h5.attrs.items():
+            if key in ("format", "format_version"):
+                continue
+            if isinstance(value, bytes):
+                value = value.decode()
+            elif isinstance(value, np.generic):
+                value = value.item()
+            attrs[key] = value
+    return Trace(**cols, attrs=attrs)
