@@ -277,7 +277,7 @@ class _PowerLaw(ParisiFunction):
     def _dy_u(self, u: FloatArray) -> FloatArray:
         u = np.asarray(u, dtype=np.float64)
         inside = (u > self.u_min) & (u < 1.0 + 1e-300) & (u > 0.0)
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             dens = self.amplitude * self.mu * np.exp((-self.mu - 1.0) * np.log(u))
         return np.where(inside, dens, 0.0)
 

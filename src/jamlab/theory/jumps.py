@@ -1,0 +1,490 @@
+"""The mean-field static jump distribution ``P(ΔE | δγ)`` of SPEC §1, as printed in the paper.
+
+For a Parisi function ``y(q)`` (see :mod:`jamlab.theory.parisi`) and a strain step ``δγ``::
+
+    ρ(x)        = exp(-x²/4)/√π + (x/2) erfc(-x/2),           ρ'(x) = erfc(-x/2)/2
+    x(q)        = (ΔE + δγ² Y(q)) / (√(1-q) |δγ|)
+    C(ΔE, δγ)   = |δγ| ∫ dq y'(q) √(1-q) ρ(x(q)),              R = exp(-C)
+    ∂C/∂ΔE      = ½ ∫ dq y'(q) erfc(-x(q)/2)
+    P(ΔE | δγ)  = δ(ΔE) R(0, δγ) + θ(-ΔE) R(ΔE) ∂C/∂ΔE
+
+The ``y'`` integrals include the atom at ``q = 0`` (and every atom of a step function) and run
+over ``[0, q_max]``.
+
+Numerics. The integrand's features sit at ``1 - q ~ (ΔE/δγ)²`` (as small as 1e-24 here) and, when
+``δγ² Y(q)`` exceeds ``|ΔE|``, at the zero ``q*`` of ``ΔE + δγ² Y(q)`` where ``x`` changes sign,
+possibly within a tiny range of ``q``. The ``q`` integrals are therefore done in
+``s = -log(1 - q)`` (so ``dq = e^{-s} ds``) with fixed composite Gauss–Legendre panels: uniform
+panels of width ``<= 0.5`` on ``[0, s_end]``, panels graded geometrically towards ``s*``, and panel
+edges at the kinks of ``y'``. ``s_end`` is where ``x <= -20`` (beyond it ``ρ`` and ``erfc(-x/2)``
+are below ``1e-40``) or the cut-off ``s_max = -log(1 - q_max)``. ``ρ`` is evaluated in a form free
+of cancellation for ``x < 0`` (see :func:`rho_and_erfc`). ``1 - R`` is computed as
+``-expm1(-C)`` so that the cdf keeps its relative accuracy where it is small.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import erfcx
+
+from jamlab.theory.parisi import ParisiFunction
+
+FloatArray = NDArray[np.float64]
+
+_SQRT_PI = math.sqrt(math.pi)
+_INV_SQRT_PI = 1.0 / _SQRT_PI
+_X_CUT = 20.0  # |x| beyond which e^{-x²/4} < 1e-43: the integrand is negligible
+_PANEL_WIDTH = 0.5  # in s = -log(1-q)
+_GL_ORDER = 10
+_GL_T, _GL_W = np.polynomial.legendre.leggauss(_GL_ORDER)
+_CHUNK = 400_000  # quadrature nodes per vectorised block (memory bound)
+_S_LIMIT = 700.0  # deepest s = -log(1-q) used: 1 - q = e^-700 ~ 1e-304 is still a normal float
+
+# coefficients of 1 - √π z erfcx(z) = Σ_{n>=1} (-1)^{n+1} (2n-1)!! / (2z²)^n  (asymptotic, z >= 10)
+_ASYM_N = 16
+_ASYM_C = np.array(
+    [(-1.0) ** (n + 1) * float(np.prod(np.arange(1, 2 * n, 2))) for n in range(1, _ASYM_N + 1)]
+)
+
+
+def rho_and_erfc(x: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Return ``(ρ(x), erfc(-x/2))`` with full relative accuracy for all real ``x``.
+
+    With ``w = |x|/2`` and ``g(w) = e^{-w²} (1/√π - w erfcx(w)) = ρ(-|x|)``: for ``x < 0``,
+    ``ρ = g`` and ``erfc(-x/2) = erfc(w)``; for ``x >= 0``, ``ρ = x + g`` (``ρ(x) - ρ(-x) = x``)
+    and ``erfc(-x/2) = 2 - erfc(w)``. The bracket of ``g`` cancels for large ``w``; there
+    (``w >= 10``) its asymptotic series ``Σ (-1)^{n+1} (2n-1)!!/(2w²)^n / √π`` is used.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    w = 0.5 * np.abs(x)
+    e = np.exp(-w * w)
+    ex = erfcx(w)
+    big = w >= 10.0
+    bracket = _INV_SQRT_PI - w * ex
+    if np.any(big):
+        inv = 1.0 / (2.0 * w[big] ** 2)
+        series = np.zeros_like(inv)
+        for c in _ASYM_C[::-1]:  # Horner in 1/(2w²)
+            series = (series + c) * inv
+        bracket[big] = series * _INV_SQRT_PI
+    g = e * bracket
+    erfc_w = e * ex
+    neg = x < 0.0
+    rho = np.where(neg, g, x + g)
+    ec = np.where(neg, erfc_w, 2.0 - erfc_w)
+    return rho, ec
+
+
+def _s_of_q(q: FloatArray) -> FloatArray:
+    with np.errstate(divide="ignore"):  # q = 1 maps to s = inf on purpose
+        return -np.log1p(-q)
+
+
+def _panel_nodes(edges: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Gauss–Legendre nodes and weights for sorted panel edges of shape (rows, P+1)."""
+    a = edges[:, :-1, None]
+    b = edges[:, 1:, None]
+    half = 0.5 * (b - a)
+    s = (0.5 * (a + b) + half * _GL_T).reshape(edges.shape[0], -1)
+    w = (half * _GL_W).reshape(edges.shape[0], -1)
+    return s, w
+
+
+def _edges(pf: ParisiFunction, s_end: FloatArray, extra: FloatArray | None = None) -> FloatArray:
+    """Sorted panel edges per row: uniform in ``[0, s_end]``, plus ``extra`` and ``y'`` kinks."""
+    n_uni = max(1, int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)))
+    parts = [s_end[:, None] * np.linspace(0.0, 1.0, n_uni + 1)[None, :]]
+    kinks = _s_of_q(pf._breakpoints_q())
+    if kinks.size:
+        parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
+    if extra is not None:
+        parts.append(extra)
+    edges = np.concatenate(parts, axis=1)
+    edges = np.minimum(np.maximum(edges, 0.0), s_end[:, None])
+    return np.sort(edges, axis=1)
+
+
+def _grading(s_star: FloatArray, width: FloatArray) -> FloatArray:
+    """Panel edges graded geometrically (ratio 1/2) towards ``s*`` from both sides, down to the
+    width of the sign change of ``x`` there (at most 2^-50: below that the change is a step)."""
+    finite = np.isfinite(width)
+    w_min = float(np.min(width[finite])) if np.any(finite) else np.inf
+    depth = 0
+    if w_min < _PANEL_WIDTH:
+        depth = min(50, int(math.ceil(math.log2(_PANEL_WIDTH / max(w_min, 1e-300)))) + 2)
+    offsets = _PANEL_WIDTH * 0.5 ** np.arange(depth + 1)
+    return np.concatenate(
+        [s_star[:, None] - offsets, s_star[:, None], s_star[:, None] + offsets], axis=1
+    )
+
+
+class PrintedJumpDistribution:
+    """``P(ΔE | δγ)`` exactly as printed in Franz & Spigler (2017), eqs. (final)–(functionr).
+
+    Behaves like a ``scipy.stats`` distribution of the energy jump ``ΔE <= 0``: ``pdf`` (continuous
+    part), ``cdf`` (with the atom ``R(0)`` at 0), ``sf``, ``rvs``; plus ``C``, ``R``, ``dC`` and
+    ``p_no_jump``. See the module docstring for the formulas. Symmetric under ``δγ → -δγ``.
+
+    SPEC §1 records that this continuum formula is not exact at finite ``δγ``; it stays available
+    under this name beside any corrected version.
+    """
+
+    def __init__(self, parisi: ParisiFunction, dgamma: float) -> None:
+        if not isinstance(parisi, ParisiFunction):
+            raise TypeError(f"parisi must be a ParisiFunction, got {type(parisi).__name__}")
+        dgamma = float(dgamma)
+        if not math.isfinite(dgamma) or dgamma == 0.0:
+            raise ValueError(f"dgamma must be finite and nonzero, got {dgamma}")
+        self.parisi = parisi
+        self.dgamma = dgamma
+        self._a = abs(dgamma)
+        self._s_max = float(_s_of_q(np.float64(parisi.q_max)))
+        self._atoms_q, self._atoms_m = parisi.atoms()
+        self._has_density = parisi._has_density()
+        self._p0: float | None = None
+
+    # ------------------------------------------------------------------ core integrals
+    def _x(self, dE: FloatArray, s: FloatArray) -> FloatArray:
+        u = np.exp(-s)
+        B = dE + self.dgamma**2 * self.parisi._Y_u(u)
+        return B * np.exp(0.5 * s) / self._a
+
+    def _crossing(self, dE: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``s*`` where ``ΔE + δγ² Y = 0`` (0 if no crossing) and the width of the sign change
+        of ``x`` there, ``1/(|δγ| y(q*) √(1-q*))``."""
+        d2 = self.dgamma**2
+        Y0 = float(self.parisi._Y_u(np.float64(1.0)))
+        has = d2 * Y0 + dE > 0.0
+        s_star = np.zeros_like(dE)
+        width = np.full_like(dE, np.inf)
+        if not np.any(has):
+            return s_star, width
+        de = dE[has]
+        lo = np.zeros_like(de)
+        hi = np.minimum(np.full_like(de, 2.0), self._s_max)
+        # B(s) = ΔE + δγ² Y(e^{-s}) decreases to ΔE < 0 (or to B(s_max)); bracket the zero
+        for _ in range(2000):
+            bad = (de + d2 * self.parisi._Y_u(np.exp(-hi)) > 0.0) & (hi < self._s_max)
+            if not np.any(bad):
+                break
+            hi[bad] = np.minimum(2.0 * hi[bad], self._s_max)
+        inside = de + d2 * self.parisi._Y_u(np.exp(-hi)) <= 0.0
+        for _ in range(64):
+            mid = 0.5 * (lo + hi)
+            pos = de + d2 * self.parisi._Y_u(np.exp(-mid)) > 0.0
+            lo = np.where(pos, mid, lo)
+            hi = np.where(pos, hi, mid)
+        ss = np.where(inside, 0.5 * (lo + hi), self._s_max)
+        u = np.exp(-np.minimum(ss, _S_LIMIT))
+        yq = self.parisi._y_u(u)
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            wd = 1.0 / (self._a * yq * np.sqrt(u))
+        s_star[has] = np.where(inside, ss, 0.0)
+        width[has] = np.where(inside, wd, np.inf)
+        return s_star, width
+
+    def _s_end(self, dE: FloatArray, s_star: FloatArray) -> FloatArray:
+        with np.errstate(divide="ignore"):
+            s_end = np.maximum(2.0 * np.log(_X_CUT * self._a / np.abs(dE)), s_star + 1.0)
+        s_end = np.minimum(np.maximum(s_end, 1.0), self._s_max)
+        for _ in range(400):
+            bad = (self._x(dE, s_end) > -_X_CUT) & (s_end < self._s_max)
+            if not np.any(bad):
+                break
+            s_end[bad] = np.minimum(s_end[bad] + 0.5, self._s_max)
+        return s_end
+
+    def _integrals(self, dE: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``(C, ∂C/∂ΔE)`` for ``ΔE < 0`` (1-d array)."""
+        C = np.zeros_like(dE)
+        dC = np.zeros_like(dE)
+        a = self._a
+        # atoms of y' (the one at q = 0 included)
+        for qa, m in zip(self._atoms_q, self._atoms_m, strict=True):
+            ua = 1.0 - qa
+            x = (dE + self.dgamma**2 * float(self.parisi._Y_u(np.float64(ua)))) / (
+                math.sqrt(ua) * a
+            )
+            rho, ec = rho_and_erfc(x)
+            C += a * m * math.sqrt(ua) * rho
+            dC += 0.5 * m * ec
+        if not self._has_density:
+            return C, dC
+        s_star, width = self._crossing(dE)
+        # Far below the power-law window (|ΔE| << |δγ|^(1+1/(2μ-1))) the zero s* of
+        # ΔE + δγ² Y lies so deep that C is astronomically large. There ρ(x) >= 1/√π for s < s*,
+        # so C >= (|δγ|/√π) ∫_{s*-30}^{s*} y' √(1-q) dq; when even half of that exceeds 800,
+        # R = e^{-C} underflows and (C, ∂C/∂ΔE) are reported as (inf, inf).
+        huge = np.zeros(dE.size, dtype=bool)
+        deep = s_star > 30.0
+        if np.any(deep):
+            hi = np.minimum(s_star[deep], _S_LIMIT)
+            edges = hi[:, None] - np.linspace(30.0, 0.0, 16)[None, :]
+            sb, wb = _panel_nodes(edges)
+            ub = np.exp(-sb)
+            bound = a * _INV_SQRT_PI * np.sum(self.parisi._dy_u(ub) * ub * np.sqrt(ub) * wb, axis=1)
+            huge[deep] = 0.5 * bound > 800.0
+        C[huge] = np.inf
+        dC[huge] = np.inf
+        rows = np.flatnonzero(~huge)
+        if rows.size == 0:
+            return C, dC
+        dE, s_star, width = dE[rows], s_star[rows], width[rows]
+        s_end = self._s_end(dE, s_star)
+        unresolved = s_end > _S_LIMIT
+        s_end = np.minimum(s_end, _S_LIMIT)
+        order = np.argsort(s_end)  # rows of similar length share a block
+        n_guess = int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)) + 110
+        rows_per_block = max(16, _CHUNK // (n_guess * _GL_ORDER))
+        for start in range(0, dE.size, rows_per_block):
+            idx = order[start : start + rows_per_block]
+            edges = _edges(self.parisi, s_end[idx], _grading(s_star[idx], width[idx]))
+            s, w = _panel_nodes(edges)
+            u = np.exp(-s)
+            dens = self.parisi._dy_u(u) * u * w  # y'(q) dq
+            x = (dE[idx, None] + self.dgamma**2 * self.parisi._Y_u(u)) / (np.sqrt(u) * a)
+            rho, ec = rho_and_erfc(x)
+            C[rows[idx]] += a * np.sum(dens * np.sqrt(u) * rho, axis=1)
+            dC[rows[idx]] += 0.5 * np.sum(dens * ec, axis=1)
+        if np.any(unresolved):
+            # features beyond 1 - q = e^-700 cannot be resolved in float64
+            C[rows[unresolved]] = np.nan
+            dC[rows[unresolved]] = np.nan
+        return C, dC
+
+    def _C_zero(self) -> float:
+        """``C(0, δγ)``; ``inf`` if ``∫ y' √(1-q)`` diverges (``μ >= 1/2`` without cut-off)."""
+        a = self._a
+        C = 0.0
+        for qa, m in zip(self._atoms_q, self._atoms_m, strict=True):
+            ua = 1.0 - qa
+            x = self.dgamma**2 * float(self.parisi._Y_u(np.float64(ua))) / (math.sqrt(ua) * a)
+            C += a * m * math.sqrt(ua) * float(rho_and_erfc(np.float64(x))[0])
+        if not self._has_density:
+            return C
+        s_end = min(self._s_max, self.parisi._density_tail_s(1e-18))
+        if not math.isfinite(s_end):
+            return math.inf
+        edges = _edges(self.parisi, np.array([s_end]))
+        s, w = _panel_nodes(edges)
+        u = np.exp(-s)
+        dens = self.parisi._dy_u(u) * u * w
+        x = self.dgamma**2 * self.parisi._Y_u(u) / (np.sqrt(u) * a)
+        C += a * float(np.sum(dens * np.sqrt(u) * rho_and_erfc(x)[0]))
+        return C
+
+    def _check_nonpositive(self, dE: FloatArray) -> None:
+        if np.any(np.isnan(dE)):
+            raise ValueError("dE must not be NaN")
+        if np.any(dE > 0.0):
+            raise ValueError(f"C and R are defined for dE <= 0 only, got {dE[dE > 0][0]}")
+
+    def _C_dC(self, dE: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        dE = np.asarray(dE, dtype=np.float64)
+        flat = dE.ravel()
+        C = np.zeros_like(flat)
+        dC = np.zeros_like(flat)
+        neg = (flat < 0.0) & np.isfinite(flat)
+        if np.any(neg):
+            C[neg], dC[neg] = self._integrals(flat[neg])
+        zero = flat == 0.0
+        if np.any(zero):
+            C[zero] = self._C_zero()
+            dC[zero] = np.nan  # not needed: the pdf is zero there
+        return dE, C.reshape(dE.shape), dC.reshape(dE.shape)
+
+    # ------------------------------------------------------------------ public API
+    def C(self, dE: ArrayLike) -> FloatArray | float:  # noqa: N802 - the paper's name
+        """``C(ΔE, δγ) = -log R = |δγ| ∫ dq y'(q) √(1-q) ρ(x(q))`` for ``ΔE <= 0``."""
+        arr = np.asarray(dE, dtype=np.float64)
+        self._check_nonpositive(arr)
+        return _ret(self._C_dC(arr)[1])
+
+    def dC(self, dE: ArrayLike) -> FloatArray | float:  # noqa: N802
+        """``∂C/∂ΔE = ½ ∫ dq y'(q) erfc(-x(q)/2)`` for ``ΔE < 0``."""
+        arr = np.asarray(dE, dtype=np.float64)
+        self._check_nonpositive(arr)
+        return _ret(self._C_dC(arr)[2])
+
+    def R(self, dE: ArrayLike) -> FloatArray | float:  # noqa: N802
+        """``R(ΔE, δγ) = exp(-C)``: probability that the new ground state lies above ``ΔE``."""
+        return _ret(np.exp(-np.asarray(self.C(dE))))
+
+    @property
+    def p_no_jump(self) -> float:
+        """``R(0, δγ)``: the probability of no jump (the atom of ``P`` at ``ΔE = 0``)."""
+        if self._p0 is None:
+            self._p0 = math.exp(-self._C_zero())
+        return self._p0
+
+    def logpdf(self, dE: ArrayLike) -> FloatArray | float:
+        """``log P(ΔE|δγ) = log ∂C/∂ΔE - C`` for ``ΔE < 0`` (``-inf`` for ``ΔE >= 0``)."""
+        arr = np.asarray(dE, dtype=np.float64)
+        out = np.full(arr.shape, -np.inf)
+        neg = arr < 0.0
+        if np.any(neg):
+            _, C, dC = self._C_dC(arr[neg])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[neg] = np.where(np.isinf(C), -np.inf, np.log(dC) - C)
+        return _ret(out)
+
+    def pdf(self, dE: ArrayLike) -> FloatArray | float:
+        """Continuous part of ``P``: ``R(ΔE) ∂C/∂ΔE`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
+        arr = np.asarray(dE, dtype=np.float64)
+        out = np.zeros(arr.shape)
+        neg = arr < 0.0
+        if np.any(neg):
+            _, C, dC = self._C_dC(arr[neg])
+            with np.errstate(invalid="ignore"):
+                out[neg] = np.where(np.isinf(C), 0.0, np.exp(-C) * dC)
+        return _ret(out)
+
+    def cdf(self, dE: ArrayLike) -> FloatArray | float:
+        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE) = -expm1(-C)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
+        arr = np.asarray(dE, dtype=np.float64)
+        out = np.ones(arr.shape)
+        neg = arr < 0.0
+        if np.any(neg):
+            _, C, _ = self._C_dC(arr[neg])
+            out[neg] = -np.expm1(-C)
+        return _ret(out)
+
+    def sf(self, dE: ArrayLike) -> FloatArray | float:
+        """``P(ΔE' > ΔE)``: ``R(ΔE)`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
+        arr = np.asarray(dE, dtype=np.float64)
+        out = np.zeros(arr.shape)
+        neg = arr < 0.0
+        if np.any(neg):
+            _, C, _ = self._C_dC(arr[neg])
+            out[neg] = np.exp(-C)
+        return _ret(out)
+
+    def ppf_log(self, c: ArrayLike) -> FloatArray:
+        """``ΔE < 0`` with ``C(ΔE) = c`` (``c > 0``), solved in ``log|ΔE|``; see :meth:`rvs`."""
+        c = np.asarray(c, dtype=np.float64).ravel()
+        a = self._a
+        # monotone table of C over log|ΔE|, then Newton steps on the exact C
+        t_grid = np.linspace(math.log(a) - 700.0, math.log(a) + math.log(200.0), 1200)
+        t_grid = t_grid[t_grid > -740.0]
+        C_grid = np.asarray(self.C(-np.exp(t_grid)))
+        # C decreases with |ΔE|; keep finite positive values for interpolation in log C
+        ok = np.isfinite(C_grid) & (C_grid > 0.0)
+        tg, lCg = t_grid[ok][::-1], np.log(C_grid[ok][::-1])
+        t = np.interp(np.log(c), lCg, tg)
+        for _ in range(4):
+            dE = -np.exp(t)
+            _, Cv, dCv = self._C_dC(dE)
+            # dC/dt = dC/dΔE · dΔE/dt = -|ΔE| ∂C/∂ΔE
+            step = (Cv - c) / (-np.exp(t) * dCv)
+            step = np.where(np.isfinite(step), np.clip(step, -2.0, 2.0), 0.0)
+            t = t - step
+        return -np.exp(t)
+
+    def rvs(
+        self, size: int | tuple[int, ...] = 1, seed: int | np.random.Generator | None = None
+    ) -> FloatArray:
+        """Draw ``ΔE`` by exact inversion of the cdf.
+
+        With ``V ~ U(0,1)``: ``ΔE = 0`` if ``V >= 1 - R(0)`` (probability ``R(0)``), else the root
+        of ``C(ΔE) = -log(1 - V)``. Roots below the float64 range (``|ΔE| < 1e-308``, common for
+        ``μ = 1/2`` without cut-off, where most of the mass sits at unresolvably small ``|ΔE|``)
+        come out as ``-0.0``.
+        """
+        rng = np.random.default_rng(seed)
+        v = rng.random(size)
+        flat = np.ravel(v)
+        out = np.zeros_like(flat)
+        p0 = self.p_no_jump
+        jump = flat < 1.0 - p0
+        if np.any(jump):
+            c = -np.log1p(-flat[jump])
+            out[jump] = self.ppf_log(c)
+        return out.reshape(np.shape(v))
+
+
+def _ret(x: FloatArray) -> FloatArray | float:
+    x = np.asarray(x)
+    return float(x) if x.ndim == 0 else x
+
+
+def jump_distribution(y: ParisiFunction, dgamma: float) -> PrintedJumpDistribution:
+    """The paper's printed ``P(ΔE | δγ)`` for Parisi function ``y`` (see the module docstring)."""
+    return PrintedJumpDistribution(y, dgamma)
+
+
+# ---------------------------------------------------------------------- first order in δγ
+def _density_integral(y: ParisiFunction, f, s_end: float) -> float:
+    """``∫_0^{q_max} dq dy(q) f(1-q)`` over the density part, in ``s = -log(1-q)``."""
+    edges = _edges(y, np.array([s_end]))
+    s, w = _panel_nodes(edges)
+    u = np.exp(-s)
+    return float(np.sum(y._dy_u(u) * u * w * f(u)))
+
+
+def jump_rate_first_order(y: ParisiFunction) -> float:
+    """Jump probability per unit ``|δγ|`` at small ``δγ``: ``(1/√π) ∫ dq y'(q) √(1-q)``.
+
+    Includes the atoms of ``y'`` (the one at ``q = 0`` contributes ``y(0+)/√π``); ``inf`` when the
+    integral diverges (``y' ~ (1-q)^(-μ-1)``, ``μ >= 1/2``, no cut-off).
+    """
+    qa, m = y.atoms()
+    total = float(np.sum(m * np.sqrt(1.0 - qa)))
+    s_end = min(float(_s_of_q(np.float64(y.q_max))), y._density_tail_s(1e-18))
+    if not math.isfinite(s_end):
+        return math.inf
+    if s_end > 0.0:
+        total += _density_integral(y, np.sqrt, s_end)
+    return total / _SQRT_PI
+
+
+def overlap_density_first_order(y: ParisiFunction, q: ArrayLike) -> FloatArray | float:
+    """Density of jumps per unit ``|δγ|`` at overlap ``q``: ``P[q] = √((1-q)/π) y'(q)``.
+
+    Only the density part of ``y'`` is returned; the atoms (including the one at ``q = 0``) are
+    point masses given by :func:`overlap_atoms_first_order`. Integrating the density over ``q``
+    and adding the atoms gives :func:`jump_rate_first_order`.
+    """
+    qq = np.asarray(q, dtype=np.float64)
+    return _ret(np.sqrt((1.0 - qq) / math.pi) * np.asarray(y.dy(qq)))
+
+
+def overlap_atoms_first_order(y: ParisiFunction) -> tuple[FloatArray, FloatArray]:
+    """Point masses of ``P[q]`` per unit ``|δγ|``: ``(q_a, m_a √(1-q_a)/√π)`` for each atom
+    ``m_a`` of ``y'`` at ``q_a`` (e.g. ``y(0+)/√π`` at ``q = 0``)."""
+    qa, m = y.atoms()
+    return qa, m * np.sqrt(1.0 - qa) / _SQRT_PI
+
+
+def stress_jump_density_first_order(y: ParisiFunction, dSigma: ArrayLike) -> FloatArray | float:
+    """Density of stress jumps per unit ``δγ > 0`` (derived in ``docs/theory.md``)::
+
+        P[ΔΣ] = θ(ΔΣ) ΔΣ ∫ dq y'(q) exp(-ΔΣ²/(4(1-q))) / √(4π(1-q))
+
+    (atoms of ``y'`` included). The paper prints ``4π(1-q)`` in the exponent and denominator, a
+    typo: two states at overlap ``q`` differ in stress by ``N(0, 2(1-q))``. ``∫ P[ΔΣ] dΔΣ`` equals
+    :func:`jump_rate_first_order`. For ``δγ < 0`` mirror ``ΔΣ → -ΔΣ``.
+    """
+    ds = np.asarray(dSigma, dtype=np.float64)
+    flat = ds.ravel()
+    out = np.zeros_like(flat)
+    qa, m = y.atoms()
+    s_max = float(_s_of_q(np.float64(y.q_max)))
+    pos = np.flatnonzero(flat > 0.0)
+    for i in pos:
+        d = flat[i]
+        val = 0.0
+        for q0, m0 in zip(qa, m, strict=True):
+            u0 = 1.0 - q0
+            val += m0 * math.exp(-d * d / (4.0 * u0)) / math.sqrt(4.0 * math.pi * u0)
+        # the Gaussian kills the integrand once d²/(4u) > 120
+        s_end = min(s_max, math.log(480.0 / (d * d)) if d * d < 480.0 else 0.0)
+        s_end = max(s_end, 0.0)
+        if s_end > 0.0:
+            val += _density_integral(
+                y, lambda u, d=d: np.exp(-d * d / (4.0 * u)) / np.sqrt(4.0 * math.pi * u), s_end
+            )
+        out[i] = d * val
+    return _ret(out.reshape(ds.shape))
