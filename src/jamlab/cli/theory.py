@@ -1,0 +1,75 @@
+"""``jamlab theory``: draw the mean-field jump distribution ``P(ΔE|δγ)`` (paper Fig. 3)."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from typer.core import TyperCommand
+
+_NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+
+
+def _expand_dgamma(args: list[str]) -> list[str]:
+    """Rewrite ``--dgamma a b c`` as ``--dgamma a --dgamma b --dgamma c`` (values run until the
+    next option; negative numbers are values)."""
+    out: list[str] = []
+    active = False
+    for token in args:
+        if token == "--dgamma":
+            active = True
+        elif active and (not token.startswith("-") or _NUMBER.match(token)):
+            out.extend(["--dgamma", token])
+        else:
+            active = False
+            out.append(token)
+    return out
+
+
+class _TheoryCommand(TyperCommand):
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        return super().parse_args(ctx, _expand_dgamma(list(args)))
+
+
+def theory(
+    out: Annotated[Path, typer.Option("--out", help="Output figure (PNG, PDF, SVG).")],
+    mu: Annotated[float, typer.Option("--mu", help="Exponent μ of y'(q) ~ (1-q)^(-μ-1).")] = (
+        0.706346
+    ),
+    dgamma: Annotated[
+        list[float] | None,
+        typer.Option("--dgamma", help="Strain steps δγ (several values: --dgamma 1e-2 1e-3)."),
+    ] = None,
+    csv: Annotated[
+        Path | None, typer.Option("--csv", help="Also write the numbers as CSV.")
+    ] = None,
+    q_max: Annotated[float, typer.Option("--q-max", help="Cut-off q_max in (0, 1].")] = 1.0,
+    amplitude: Annotated[float, typer.Option("--amplitude", help="Amplitude A of y(q).")] = 1.0,
+    points: Annotated[int, typer.Option("--points", help="Points per curve.")] = 300,
+) -> None:
+    """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
+    from jamlab.plots import plot_jump_distributions
+    from jamlab.theory import ParisiFunction
+
+    dgammas = list(dgamma) if dgamma else [1e-2, 1e-3, 1e-4]
+    for dg in dgammas:
+        if not math.isfinite(dg) or dg == 0.0:
+            raise ValueError(f"--dgamma values must be finite and nonzero, got {dg}")
+    if points < 2:
+        raise ValueError(f"--points must be >= 2, got {points}")
+    ParisiFunction.power_law(mu, amplitude=amplitude, q_max=q_max)  # validates the parameters
+    if not out.parent.exists():
+        raise FileNotFoundError(f"output directory does not exist: {out.parent}")
+    table = plot_jump_distributions(
+        mu, dgammas, out, q_max=q_max, amplitude=amplitude, n_points=points, csv=csv
+    )
+    typer.echo(f"wrote {out}" + (f" and {csv}" if csv else ""))
+    for dg, t in table.items():
+        typer.echo(f"  δγ = {dg:g}: P(no jump) = {float(t['p_no_jump'][0]):.6g}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("theory", cls=_TheoryCommand)(theory)
