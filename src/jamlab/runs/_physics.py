@@ -3,28 +3,50 @@ machinery imports no physics until a worker needs it)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from jamlab.runs.study import SampleKey, Study
 from jamlab.runs.tasks import TRACE_FIELDS, SampleFailed, SampleResult
 
 
+def _scalars(prefix: str, obj: Any) -> dict[str, Any]:
+    """Numeric/bool/str attributes of a result object (dataclass fields or a dict), prefixed."""
+    items = obj.items() if isinstance(obj, dict) else getattr(obj, "__dict__", {}).items()
+    out = {}
+    for name, value in items:
+        if isinstance(value, np.generic):
+            value = value.item()
+        if isinstance(value, bool | int | float | str) and not name.startswith("_"):
+            out[f"{prefix}{name}"] = value
+    return out
+
+
 def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
     """``jam``/``prepare`` with ``seed``, then ``shear``; :class:`SampleFailed` if a minimisation
     did not converge."""
-    try:
-        from jamlab.spheres import aqs, packing
-    except ImportError as exc:  # pragma: no cover - until the sphere modules are installed
-        raise SampleFailed(f"the aqs task needs jamlab.spheres.packing and .aqs: {exc}") from None
+    from jamlab.spheres import aqs, packing
 
     if isinstance(key.phi, str):
         prepared = packing.jam(key.n, study.dim, seed, p_target=study.p_target)
     else:
         prepared = packing.prepare(key.n, study.dim, float(key.phi), seed)
-    trace = aqs.shear(prepared, study.dgamma, study.gamma_max)
+    # the preparation may return a Packing or a result object holding one
+    config = getattr(prepared, "packing", prepared)
+    attrs: dict[str, Any] = {}
+    if config is not prepared:
+        attrs.update(_scalars("prep_", prepared))
+        if attrs.get("prep_converged") is False:
+            raise SampleFailed(f"preparation did not converge: {attrs}")
+    result = aqs.shear(config, study.dgamma, study.gamma_max, ftol=study.force_tol)
+    trace = getattr(result, "trace", result)
     traces = {name: np.asarray(getattr(trace, name)) for name in TRACE_FIELDS}
-    converged = getattr(trace, "converged", None)
-    if converged is not None and not bool(np.all(converged)):
-        raise SampleFailed("AQS minimisation did not converge")
-    attrs = {"phi_actual": float(prepared.phi), "box_length": float(prepared.box.length)}
-    return SampleResult(traces, attrs, {"positions": np.asarray(prepared.positions)})
+    attrs.update(_scalars("shear_", result) if trace is not result else {})
+    attrs.pop("shear_time", None)  # wall time: not reproducible, kept out of the sample's data
+    n_bad = int(attrs.get("shear_n_not_converged", 0))
+    if n_bad:
+        raise SampleFailed(f"AQS minimisation did not converge at {n_bad} step(s) (max |F_i|)")
+    attrs["phi_actual"] = float(config.phi)
+    attrs["box_length"] = float(config.box.length)
+    return SampleResult(traces, attrs, {"positions": np.asarray(config.positions)})

@@ -147,14 +147,13 @@ def _local_outcomes(
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
-    with pool:
+    try:
         futures = {pool.submit(run_sample, study, key, seed, task): key for key, seed in items}
-        try:
-            for future in as_completed(futures):
-                yield futures[future], future.result()
-        finally:
-            for future in futures:
-                future.cancel()
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+    finally:
+        # on an interrupt, do not wait for the queued samples
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _dask_outcomes(
