@@ -88,7 +88,7 @@ units lj
 dimension 3
 boundary p p p
 atom_style atomic
-atom_modify map array sort 0 0.0
+atom_modify map array
 read_data in.data
 pair_style harmonic/cut
 pair_coeff 1 1 1.0 1.0

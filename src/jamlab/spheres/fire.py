@@ -112,6 +112,7 @@ def minimize(
         if neighbors.box.length != box.length or neighbors.ref.shape != pos.shape:
             raise ValueError("neighbour list belongs to a different box or particle number")
         neighbors.update(pos, box.strain)
+    pos = neighbors.sorted(pos)
     budget = neighbors.budget(box.strain)
     ref = neighbors.affine_reference()
     out = K.fire(
@@ -144,7 +145,7 @@ def minimize(
         neighbors._adopt(start, nbr, shift, img_y, ref, box.strain)
         neighbors.n_builds += int(n_rebuild) - 1
     elapsed = time.perf_counter() - t0
-    final = replace(packing, positions=pos)
+    final = replace(packing, positions=neighbors.unsorted(pos))
     return MinimizeResult(
         packing=final,
         energy=float(energy),

@@ -48,7 +48,7 @@ __all__ = [
     "affine_shear",
 ]
 
-DEFAULT_SKIN = 0.3
+DEFAULT_SKIN = 0.2
 """Verlet skin (diameters): the list holds pairs closer than ``1 + skin``."""
 
 
@@ -152,12 +152,36 @@ def _effective_skin(length: float, skin: float) -> float:
     return min(skin, 0.49 * (length - 2.0))
 
 
+def spatial_order(positions: np.ndarray, box: Box, cell: float = 1.0) -> np.ndarray:
+    """Permutation listing particles along a Morton (Z-order) curve through cells of side
+    >= ``cell`` in the sheared frame, so that neighbours are close in memory."""
+    L = box.length
+    g = box.reduced_strain
+    s = np.array(positions, dtype=np.float64) / L
+    s[:, 0] -= g * s[:, 1]
+    s -= np.floor(s)
+    dim = s.shape[1]
+    m = max(1, int(L // cell))
+    bits = max(1, int(m - 1).bit_length())
+    bits = min(bits, 62 // dim)
+    k = np.minimum((s * m).astype(np.int64), m - 1) >> max(0, (m - 1).bit_length() - bits)
+    key = np.zeros(len(s), dtype=np.int64)
+    for b in range(bits - 1, -1, -1):
+        for a in range(dim - 1, -1, -1):
+            key = (key << 1) | ((k[:, a] >> b) & 1)
+    return np.argsort(key, kind="stable")
+
+
 class NeighborList:
     """A Verlet list (pairs closer than ``1 + skin``) that follows positions and strain.
 
     Kept valid across affine strain steps: :meth:`update` moves the stored image shifts with the
     strain and rebuilds only when ``2 max_i |u_i| + |Δγ| (1 + skin) ≥ skin``, where ``u_i`` is the
     non-affine displacement since the last build (see :mod:`jamlab.spheres._kernels`).
+
+    For memory locality the list works on the particles permuted by ``order`` (fixed at
+    creation, :func:`spatial_order`): index ``k`` of the list is particle ``order[k]``. The
+    functions of this module translate back, so callers only see the original numbering.
     """
 
     def __init__(self, packing: Packing, skin: float = DEFAULT_SKIN) -> None:
@@ -166,7 +190,18 @@ class NeighborList:
         self.box = packing.box
         self.skin = _effective_skin(packing.box.length, float(skin))
         self.n_builds = 0
-        self._build(np.array(packing.positions), packing.strain)
+        self.order = spatial_order(packing.positions, packing.box, max(1.0, 1.0 + self.skin))
+        self.inverse = np.empty_like(self.order)
+        self.inverse[self.order] = np.arange(len(self.order))
+        self._build(self.sorted(packing.positions), packing.strain)
+
+    def sorted(self, array: np.ndarray) -> np.ndarray:
+        """Per-particle array in list order (``array[order]``), C-contiguous float64."""
+        return np.ascontiguousarray(np.asarray(array, dtype=np.float64)[self.order])
+
+    def unsorted(self, array: np.ndarray) -> np.ndarray:
+        """Per-particle array from list order back to the original numbering."""
+        return np.ascontiguousarray(array[self.inverse])
 
     @property
     def cutoff(self) -> float:
@@ -189,16 +224,20 @@ class NeighborList:
         return self.skin - abs(s - self.ref_strain) * self.cutoff
 
     def affine_reference(self) -> np.ndarray:
-        """Build-time positions carried by the affine strain since: ``x += (γ − γ_build) y``."""
+        """Build-time positions (list order) carried by the affine strain since the build,
+        ``x += (γ − γ_build) y``."""
         ref = self.ref.copy()
         ref[:, 0] += (self.strain - self.ref_strain) * ref[:, 1]
         return ref
 
     def update(self, positions: np.ndarray, strain: float) -> bool:
-        """Follow new positions (same particles) at strain ``strain``; return True if rebuilt."""
-        pos = np.ascontiguousarray(positions, dtype=np.float64)
-        if pos.shape != self.ref.shape:
-            raise ValueError(f"positions must have shape {self.ref.shape}, got {pos.shape}")
+        """Follow new positions (same particles, original numbering) at strain ``strain``;
+        return True if the list was rebuilt."""
+        if np.shape(positions) != self.ref.shape:
+            raise ValueError(
+                f"positions must have shape {self.ref.shape}, got {np.shape(positions)}"
+            )
+        pos = self.sorted(positions)
         dg = strain - self.ref_strain
         budget = self.skin - abs(dg) * self.cutoff
         if budget > 0 and 2.0 * K.max_nonaffine_displacement(pos, self.ref, dg) < budget:
@@ -217,13 +256,14 @@ class NeighborList:
 
 
 def _neighbors(packing: Packing, neighbors: NeighborList | None) -> tuple[np.ndarray, NeighborList]:
-    pos = np.ascontiguousarray(packing.positions)
+    """Positions in list order and an up-to-date list."""
     if neighbors is None:
-        return pos, NeighborList(packing, skin=0.0)
-    if neighbors.box.length != packing.box.length or neighbors.ref.shape != pos.shape:
+        nl = NeighborList(packing, skin=0.0)
+        return nl.sorted(packing.positions), nl
+    if neighbors.box.length != packing.box.length or neighbors.ref.shape != packing.positions.shape:
         raise ValueError("neighbour list belongs to a different box or particle number")
-    neighbors.update(pos, packing.strain)
-    return pos, neighbors
+    neighbors.update(packing.positions, packing.strain)
+    return neighbors.sorted(packing.positions), neighbors
 
 
 def energy(packing: Packing, neighbors: NeighborList | None = None) -> float:
@@ -239,7 +279,7 @@ def energy_and_forces(
     pos, nl = _neighbors(packing, neighbors)
     f = np.empty_like(pos)
     e = K.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, f)
-    return float(e), f
+    return float(e), nl.unsorted(f)
 
 
 def forces(packing: Packing, neighbors: NeighborList | None = None) -> np.ndarray:
@@ -279,9 +319,17 @@ def stress_tensor(packing: Packing, neighbors: NeighborList | None = None) -> np
 def contacts(
     packing: Packing, neighbors: NeighborList | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pairs in contact, ``r_ij < 1``: ``(i, j, r_ij)`` with ``i < j`` and ``r_ij = r_i − r_j``."""
+    """Pairs in contact, ``r_ij < 1``: ``(i, j, r_ij)`` with ``i < j``, ``r_ij = r_i − r_j``
+    (minimum image), sorted by ``(i, j)``."""
     pos, nl = _neighbors(packing, neighbors)
-    return K.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    ci, cj, cd = K.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    i, j = nl.order[ci], nl.order[cj]
+    swap = i > j
+    i[swap], j[swap] = j[swap], i[swap]
+    cd[swap] *= -1.0
+    # the same contacts in the same order whatever the list's internal numbering
+    sort = np.lexsort((j, i))
+    return i[sort], j[sort], np.ascontiguousarray(cd[sort])
 
 
 def coordination(packing: Packing, neighbors: NeighborList | None = None) -> float:
