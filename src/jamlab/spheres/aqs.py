@@ -36,11 +36,13 @@ Hessian loses positive definiteness or Newton fails even at the smallest substep
 
 With ``minimizer="fire"`` every step is plain FIRE from the affinely sheared ``x_n``; the same
 continuation (when ``classify=True``) then decides whether FIRE's minimum is the continuation of
-``x_n`` (backbone positions equal within ``match_tol`` after removing a global translation).
+``x_n`` (same energy and positions, :func:`_same_minimum`).
 
 ``plastic[n]`` is therefore: *the recorded minimum at γ_n is not the continuation of the minimum
 at γ_{n-1}* — the branch ended, or (plain FIRE only) FIRE left a branch that continues. This does
-not look at the sign of ``ΔE``; see ``docs/aqs.md``.
+not look at the sign of ``ΔE``; see ``docs/aqs.md``. A minimum without a backbone (every
+particle a rattler: unjammed, ``E ≈ 0``) has no branch to end; its steps are plain FIRE and
+elastic.
 """
 
 from __future__ import annotations
@@ -87,8 +89,9 @@ class AQSParameters:
     the linear prediction; ``min_substep``: smallest substep as a fraction of ``δγ`` before the
     branch is declared ended; ``energy_tol``: a one-substep step whose trapezoid residual
     ``|ΔE − ½ δγ ΔΣ|`` exceeds this (absolute energy) is redone in 8 substeps (a kink from a
-    contact change inside the step); ``match_tol``: largest backbone displacement between FIRE's
-    minimum and the continued branch for them to count as the same minimum; ``max_fire_iter``:
+    contact change inside the step); ``match_tol``, ``energy_match``: largest displacement and
+    relative energy difference between FIRE's minimum and the continued branch for them to count
+    as the same minimum (:func:`_same_minimum`); ``max_fire_iter``:
     FIRE iteration cap.
     """
 
@@ -100,7 +103,8 @@ class AQSParameters:
     linear_basin: float = 1.0
     min_substep: float = 1.0 / 1024
     energy_tol: float = 1e-10
-    match_tol: float = 1e-6
+    match_tol: float = 1e-3
+    energy_match: float = 1e-13
     max_fire_iter: int = 2_000_000
 
     def __post_init__(self) -> None:
@@ -110,7 +114,7 @@ class AQSParameters:
             v = getattr(self, name)
             if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
                 raise ValueError(f"{name} must be in (0, 1), got {v!r}")
-        for name in ("energy_tol", "match_tol"):
+        for name in ("energy_tol", "match_tol", "energy_match"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {v!r}")
@@ -361,13 +365,22 @@ def _continue_branch(
     return _Branch(cur, fac, its, cg, substeps, refac)
 
 
-def _same_minimum(a: Packing, b: Packing, backbone: np.ndarray, tol: float) -> bool:
-    """Backbone positions equal within ``tol`` after removing the mean displacement."""
-    if not backbone.any():
+def _same_minimum(a: Packing, b: Packing, nl: NeighborList, params: AQSParameters) -> bool:
+    """Whether two minima at the same strain are one: energies equal within
+    ``energy_match · max(1, |E|)`` and backbone-free positions within ``match_tol`` after
+    removing the mean displacement.
+
+    Positions alone are not enough near jamming: along modes of stiffness ``λ`` a minimiser
+    stopped at ``max|F| < ftol`` is off by ``ftol/λ`` (1e-5 at ``λ = 1e-7``), while its energy
+    is off by only ``ftol²/λ``.
+    """
+    ea = energy_and_forces(a, nl)[0]
+    eb = energy_and_forces(b, nl)[0]
+    if abs(ea - eb) > params.energy_match * max(1.0, abs(ea)):
         return False
-    dr = a.box.minimum_image(a.positions[backbone] - b.positions[backbone])
+    dr = a.box.minimum_image(a.positions - b.positions)
     dr -= dr.mean(axis=0)
-    return bool(np.max(np.abs(dr)) < tol)
+    return bool(np.max(np.abs(dr)) < params.match_tol)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -520,7 +533,11 @@ def shear(
         iterations = 0
         plastic = False
         branch: _Branch | None = None
-        if minimizer == "linear":
+        if fac.free.size == 0:
+            # no rigid backbone (unjammed): E ≈ 0, nothing can jump; FIRE just removes overlaps
+            res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+            new, iterations = res.packing, res.iterations
+        elif minimizer == "linear":
             branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
                 # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
@@ -554,7 +571,7 @@ def shear(
                 branch = _continue_branch(cur, fac, target, nl, ftol, params)
                 counters["n_factorisations"] += branch.refactorised
                 plastic = branch.packing is None or not _same_minimum(
-                    new, branch.packing, fac.backbone, params.match_tol
+                    new, branch.packing, nl, params
                 )
         row, backbone = _observe(new, nl)
         cleaned = False

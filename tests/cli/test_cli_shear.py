@@ -1,0 +1,132 @@
+"""``jamlab shear``: trace file contents, resume, plot, and one-line errors."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+import jamlab.spheres as sp
+from jamlab.spheres.fire import minimize
+from jamlab.spheres.io import write_packing
+from jamlab.spheres.trace import TRACE_COLUMNS, read_trace
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "jamlab", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def one_line_error(r: subprocess.CompletedProcess) -> str:
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith("jamlab: error:")
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def start(tmp_path_factory):
+    packing = minimize(sp.random_packing(64, 3, 0.8, seed=11), ftol=1e-12).packing
+    path = tmp_path_factory.mktemp("cfg") / "start.h5"
+    write_packing(path, packing)
+    return path, packing
+
+
+def test_shear_writes_the_documented_trace(start, tmp_path):
+    path, packing = start
+    out = tmp_path / "trace.h5"
+    fig = tmp_path / "fig.png"
+    r = run(
+        "shear",
+        str(path),
+        "--dgamma",
+        "1e-5",
+        "--gamma-max",
+        "1e-4",
+        "--out",
+        str(out),
+        "--plot",
+        str(fig),
+    )
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out) as h5:
+        assert set(h5.keys()) == set(TRACE_COLUMNS)
+        assert all(h5[k].shape == (11,) for k in TRACE_COLUMNS)
+        for key in (
+            "dgamma",
+            "gamma_max",
+            "ftol",
+            "minimizer",
+            "N",
+            "dim",
+            "phi",
+            "seed",
+            "jamlab_version",
+            "source",
+        ):
+            assert key in h5.attrs, key
+        assert h5.attrs["N"] == 64 and h5.attrs["minimizer"] == "linear"
+        assert h5.attrs["source"] == str(path)
+    tr = read_trace(out)
+    np.testing.assert_allclose(tr.gamma, 1e-5 * np.arange(11), rtol=1e-12, atol=0)
+    # row 0 is the input minimum, measured independently
+    assert tr.energy[0] == pytest.approx(sp.energy(packing), rel=1e-12)
+    assert tr.shear_stress[0] == pytest.approx(sp.shear_stress(packing), rel=1e-10)
+    assert np.all(tr.max_force < 1e-12)
+    assert fig.is_file() and fig.stat().st_size > 1000
+
+
+def test_shear_resume_matches_one_run(start, tmp_path):
+    path, _ = start
+    whole = tmp_path / "whole.h5"
+    part = tmp_path / "part.h5"
+    args = ("--dgamma", "1e-5", "--minimizer", "fire")
+    assert (
+        run("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(whole)).returncode == 0
+    )
+    r = run(
+        "shear", str(path), *args, "--gamma-max", "4e-5", "--out", str(part), "--save-every", "2"
+    )
+    assert r.returncode == 0, r.stderr
+    r = run("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(part), "--resume")
+    assert r.returncode == 0, r.stderr
+    a, b = read_trace(whole), read_trace(part)
+    assert b.n_steps == a.n_steps == 8
+    np.testing.assert_allclose(b.energy, a.energy, rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (("--dgamma", "0", "--gamma-max", "0.01"), "dgamma"),
+        (("--dgamma", "-1e-5", "--gamma-max", "0.01"), "dgamma"),
+        (("--dgamma", "0.02", "--gamma-max", "0.01"), "gamma_max"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-5"), "gamma_max"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--minimizer", "cg"), "minimizer"),
+    ],
+)
+def test_bad_arguments_are_one_line_errors(start, tmp_path, args, needle):
+    path, _ = start
+    line = one_line_error(run("shear", str(path), *args, "--out", str(tmp_path / "t.h5")))
+    assert needle in line
+
+
+def test_missing_file_is_one_line_error(tmp_path):
+    line = one_line_error(
+        run(
+            "shear",
+            str(tmp_path / "nope.h5"),
+            "--dgamma",
+            "1e-5",
+            "--gamma-max",
+            "1e-3",
+            "--out",
+            str(tmp_path / "t.h5"),
+        )
+    )
+    assert "nope.h5" in line
