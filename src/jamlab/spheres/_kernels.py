@@ -582,6 +582,24 @@ def max_force(forces):
 
 
 @njit(cache=True)
+def _force_stats(f, v):
+    """``(max_i |F_i|², Σ_i F_i·F_i, Σ_i F_i·v_i)`` in one pass."""
+    n, d = f.shape
+    fmax2 = 0.0
+    ff = 0.0
+    p = 0.0
+    for i in range(n):
+        s = 0.0
+        for a in range(d):
+            s += f[i, a] * f[i, a]
+            p += f[i, a] * v[i, a]
+        ff += s
+        if s > fmax2:
+            fmax2 = s
+    return fmax2, ff, p
+
+
+@njit(cache=True)
 def fire(
     pos,
     L,
@@ -616,7 +634,10 @@ def fire(
         P > 0: N⁺ += 1; if N⁺ > N_delay: Δt = min(f_inc Δt, Δt_max), α = f_α α
         P ≤ 0: N⁻ += 1 (stop if N⁻ > N⁻_max); unless i < N_delay: Δt = max-guarded f_dec Δt,
                α = α₀; x −= Δt v / 2; v = 0
-        v += Δt F;  v = (1 − α) v + α |v| F/|F|;  x += Δt v        (Δt capped so |Δx_i| ≤ dmax)
+        v += Δt F;  v = (1 − α) v + α |v| F/|F|;  x += Δt v
+
+    The step is shortened so that no particle moves more than ``dmax`` (using the bound
+    ``|v_i| ≤ (1 − α) max|v| + α |v| max|F|/|F|``).
 
     ``fire2 = False`` gives Bitzek et al., PRL 97, 170201 (2006): no initial delay and no half
     step back. Converged when ``max_i |F_i| < ftol``. The neighbour list (``start, nbr, shift,
@@ -630,7 +651,8 @@ def fire(
     f = np.empty((n, d), np.float64)
     v = np.zeros((n, d), np.float64)
     e = energy_forces_any(pos, start, nbr, shift, f)
-    fmax = max_force(f)
+    fmax2, ff, p = _force_stats(f, v)
+    ftol2 = ftol * ftol
     dt = dt0
     alpha = alpha0
     n_pos = 0
@@ -639,14 +661,9 @@ def fire(
     n_rebuild = 0
     rc = 1.0 + skin
     half_budget2 = 0.25 * budget * budget
-    while fmax >= ftol and it < max_iter:
+    # three passes over the particles per step (velocity, mix-and-move, forces + statistics)
+    while fmax2 >= ftol2 and it < max_iter:
         it += 1
-        p = 0.0
-        vv = 0.0
-        ff = 0.0
-        for i in range(n):
-            for a in range(d):
-                p += f[i, a] * v[i, a]
         if p > 0.0:
             n_pos += 1
             n_neg = 0
@@ -667,36 +684,39 @@ def fire(
                     for a in range(d):
                         pos[i, a] -= 0.5 * dt * v[i, a]
             v[:, :] = 0.0
-        # semi-implicit Euler with velocity mixing
+        # semi-implicit Euler: v += Δt F, then mix and move
+        vv = 0.0
         vmax2 = 0.0
         for i in range(n):
+            s = 0.0
             for a in range(d):
-                v[i, a] += dt * f[i, a]
-                vv += v[i, a] * v[i, a]
-                ff += f[i, a] * f[i, a]
+                w = v[i, a] + dt * f[i, a]
+                v[i, a] = w
+                s += w * w
+            vv += s
+            if s > vmax2:
+                vmax2 = s
         if ff > 0.0:
             c1 = 1.0 - alpha
             c2 = alpha * np.sqrt(vv / ff)
         else:
             c1 = 1.0
             c2 = 0.0
-        for i in range(n):
-            s = 0.0
-            for a in range(d):
-                w = c1 * v[i, a] + c2 * f[i, a]
-                v[i, a] = w
-                s += w * w
-            if s > vmax2:
-                vmax2 = s
         step = dt
-        if dmax > 0.0 and dt * dt * vmax2 > dmax * dmax:
-            step = dmax / np.sqrt(vmax2)
+        if dmax > 0.0:
+            # |c1 v_i + c2 F_i| <= c1 max|v| + c2 max|F| bounds every particle's displacement
+            bound = c1 * np.sqrt(vmax2) + c2 * np.sqrt(fmax2)
+            if dt * bound > dmax:
+                step = dmax / bound
         need = False
         for i in range(n):
             u2 = 0.0
             for a in range(d):
-                pos[i, a] += step * v[i, a]
-                u = pos[i, a] - ref[i, a]
+                w = c1 * v[i, a] + c2 * f[i, a]
+                v[i, a] = w
+                x = pos[i, a] + step * w
+                pos[i, a] = x
+                u = x - ref[i, a]
                 u2 += u * u
             if u2 >= half_budget2:
                 need = True
@@ -707,5 +727,6 @@ def fire(
             n_rebuild += 1
             half_budget2 = 0.25 * skin * skin
         e = energy_forces_any(pos, start, nbr, shift, f)
-        fmax = max_force(f)
+        fmax2, ff, p = _force_stats(f, v)
+    fmax = np.sqrt(fmax2)
     return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref
