@@ -188,9 +188,22 @@ def dask_cluster(tmp_path):
                 p.wait()
 
 
+def _physics_available() -> bool:
+    try:
+        from jamlab.spheres import packing
+    except ImportError:
+        return False
+    return hasattr(packing, "jam") and hasattr(packing, "prepare")
+
+
 @pytest.mark.slow
 def test_dask_scheduler_gives_the_local_results(tmp_path, dask_cluster):
-    args = [*STUDY_ARGS, "--samples", "3", "--quiet"]
+    # the real sample (prepare + shear) when it is available, else the toy task
+    if _physics_available():
+        args = ["--phi", "jamming", "0.8", "--n", "16", "--dgamma", "1e-3", "--gamma-max",
+                "3e-3", "--seed", "3", "--samples", "2", "--quiet"]  # fmt: skip
+    else:
+        args = [*STUDY_ARGS, "--samples", "3", "--quiet"]
     local, remote = tmp_path / "local", tmp_path / "dask"
     r = jamlab("run", *args, "--out", local, "--workers", "2")
     assert r.returncode == 0, r.stderr

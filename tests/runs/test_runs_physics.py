@@ -1,0 +1,35 @@
+"""The real sample (prepare + AQS shear) through the run machinery, at tiny N."""
+
+import numpy as np
+import pytest
+
+from jamlab.runs import Execution, RunDir, Study, read_sample, run_study, sample_seed
+
+packing = pytest.importorskip("jamlab.spheres.packing")
+aqs = pytest.importorskip("jamlab.spheres.aqs")
+if not (hasattr(packing, "jam") and hasattr(packing, "prepare")):
+    pytest.skip("jamlab.spheres.packing.jam/prepare not available yet", allow_module_level=True)
+
+STUDY = Study(phi=["jamming", 0.8], n=[16], samples=2, dgamma=1e-3, gamma_max=3e-3, seed=1)
+
+
+@pytest.mark.slow
+def test_aqs_samples_equal_a_direct_computation_whatever_the_workers(tmp_path, same_runs):
+    run_study(STUDY, tmp_path / "w0", Execution(workers=0))
+    run_study(STUDY, tmp_path / "w2", Execution(workers=2))
+    same_runs(tmp_path / "w0", tmp_path / "w2")
+    rd = RunDir(tmp_path / "w0")
+    for key in STUDY.keys():
+        stored = read_sample(rd.sample_path(key))
+        seed = sample_seed(STUDY.seed, key)
+        assert stored["attrs"]["seed"] == str(seed)
+        if key.phi == "jamming":
+            prepared = packing.jam(key.n, STUDY.dim, seed, p_target=STUDY.p_target)
+        else:
+            prepared = packing.prepare(key.n, STUDY.dim, key.phi, seed)
+        config = getattr(prepared, "packing", prepared)
+        trace = aqs.shear(config, STUDY.dgamma, STUDY.gamma_max).trace
+        np.testing.assert_array_equal(stored["packing"]["positions"], config.positions)
+        for name in ("gamma", "energy", "shear_stress", "plastic", "energy_jump"):
+            np.testing.assert_array_equal(stored["trace"][name], getattr(trace, name))
+        assert stored["attrs"]["phi_actual"] == config.phi
