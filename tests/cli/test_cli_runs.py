@@ -66,6 +66,7 @@ def test_run_status_and_toml(tmp_path):
     assert r.returncode == 0 and "0 samples written" in r.stderr and "8 already done" in r.stderr
 
 
+@pytest.mark.slow
 def test_bad_input_is_one_line_and_touches_nothing(tmp_path):
     run = tmp_path / "run"
     r = jamlab("run", *STUDY_ARGS, "--samples", 2, "--out", run, "--workers", 1, "--quiet")
