@@ -46,3 +46,9 @@ __all__ = [
     "sphere_volume",
     "stress_tensor",
 ]
+
+# AQS shear and its trace (issue 6)
+from jamlab.spheres.aqs import ShearResult, shear  # noqa: E402
+from jamlab.spheres.trace import Trace, read_trace, write_trace  # noqa: E402
+
+__all__ += ["ShearResult", "Trace", "read_trace", "shear", "write_trace"]
