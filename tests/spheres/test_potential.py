@@ -110,8 +110,9 @@ def test_dforce_dstrain_is_numerical(dim, strain):
     assert np.abs(xi - num).max() < 1e-6 * (1 + np.abs(xi).max())
 
 
-def test_neighbor_list_follows_strain_and_motion():
-    pos, p, L = make(3, 0.8, 0.2, seed=99, n=400)
+@pytest.mark.parametrize("n", [400, 60])  # cell search, and all-pairs search (2 cells per axis)
+def test_neighbor_list_follows_strain_and_motion(n):
+    pos, p, L = make(3, 0.8, 0.2, seed=99, n=n)
     nl = sp.NeighborList(p, skin=0.3)
     builds = nl.n_builds
     q = sp.affine_shear(p, 0.01)

@@ -7,7 +7,8 @@ Neighbour list
 --------------
 A half Verlet list in CSR form (each pair once): the partners of particle ``i`` are
 ``nbr[start[i]:start[i+1]]``; ``shift[k]`` is the Cartesian periodic-image vector of pair ``k``,
-so that ``r_ij = r_i − r_j + shift[k]``, and ``img_y[k]`` is its number of ``y`` crossings. It
+so that ``r_ij = r_i − r_j + shift[k]``, and ``img_y[k] = −shift[k, y]/L`` counts its ``y``
+crossings. It
 contains every pair closer than ``rc = 1 + skin`` when built. Under an affine strain step
 ``γ → γ + Δγ`` the shifts follow exactly (``shift_x −= img_y Δγ L``), so the list is kept across
 strain steps. With ``u_i = r_i − r_i^ref − Δγ y_i^ref e_x`` the non-affine displacement since the
