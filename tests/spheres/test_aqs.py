@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import jamlab.spheres as sp
 from jamlab.analysis.avalanches import branch_residual, jumps_from_trace, noise_floor
 from jamlab.spheres import aqs, random_packing
 from jamlab.spheres.fire import minimize
@@ -139,15 +140,15 @@ def _packing_at(n: int, phi: float, seed: int):
     return res.packing
 
 
-def _events_fast_vs_fire(start, n_steps: int) -> tuple[Trace, Trace]:
+def _events_fast_vs_fire(start, n_steps: int, residual_checks: bool = True) -> tuple[Trace, Trace]:
     fast = aqs.shear(start, DGAMMA, n_steps=n_steps).trace
     fire = aqs.shear(start, DGAMMA, n_steps=n_steps, minimizer="fire").trace
     # each minimiser's flags are consistent with the independent residual test: every step whose
-    # residual drop exceeds 100 δγ² is flagged, and every flagged step lowers the energy
+    # residual drop exceeds 100 δγ² is flagged (not near jamming, where S ~ δγ |ΔΣ|)
     for tr in (fast, fire):
         big = _jumps_by_residual(tr.gamma, tr.energy, tr.shear_stress)
-        assert set(big) <= set(np.flatnonzero(tr.plastic))
-        assert np.all(tr.residual[tr.plastic] < 0)
+        if residual_checks:
+            assert set(big) <= set(np.flatnonzero(tr.plastic))
     # the events happen at the same steps up to where the two runs part ways (an avalanche may
     # land in different minima, and from then on the traces are different samples)
     same = np.isclose(fast.energy, fire.energy, rtol=1e-9, atol=0)
@@ -161,10 +162,48 @@ def _events_fast_vs_fire(start, n_steps: int) -> tuple[Trace, Trace]:
 
 
 @pytest.mark.slow
-def test_events_fast_vs_fire_phi080_300_steps():
-    """300 steps at φ = 0.8 (N = 128 rather than the issue's 500, to fit the CI budget)."""
-    fast, fire = _events_fast_vs_fire(_packing_at(128, 0.8, 7), 300)
-    assert fast.plastic.any()
+@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
+def test_events_fast_vs_fire_phi080():
+    """φ = 0.8, N = 500, 100 steps (not the issue's 300: plain FIRE costs ~0.25 s per step
+    here and φ = 0.8 avalanches are rare — 8 in 1000 steps of this sample); covers the
+    avalanche at step 43 -> 44."""
+    _, _, start = _reference(N500)
+    fast, fire = _events_fast_vs_fire(start, 100)
+    assert fast.plastic.sum() >= 1
+    # plastic steps lower the energy below the branch (r < 0) when S >> δγ |ΔΣ|
+    for tr in (fast, fire):
+        assert np.all(tr.residual[tr.plastic] < 0)
+
+
+def _near_jamming(n: int, seed: int, p_target: float):
+    """Bisection in φ by affine rescaling, FIRE to 1e-12 each time, until p ≈ p_target (within a
+    factor 2). jamlab.spheres.packing.jam was not available when this test was written."""
+
+    def at(p, phi):
+        length = sp.box_length_for(p.n, p.dim, phi)
+        return sp.Packing(p.positions * (length / p.box.length), sp.Box(length, p.dim, 0.0))
+
+    lo, hi = 0.55, 0.70
+    cur = minimize(random_packing(n, 3, hi, seed), ftol=1e-12).packing
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        trial = minimize(at(cur, mid), ftol=1e-12).packing
+        pressure = sp.pressure(trial)
+        if pressure > 2 * p_target:
+            hi, cur = mid, trial
+        elif pressure < 0.5 * p_target:
+            lo = mid
+        else:
+            return trial
+    raise AssertionError("bisection did not reach the target pressure")
+
+
+@pytest.mark.slow
+def test_events_fast_vs_fire_near_jamming():
+    """Near jamming (p ≈ 1e-4, N = 64 rather than 500 for the CI budget, 60 steps)."""
+    start = _near_jamming(64, 5, 1e-4)
+    assert sp.remove_rattlers(start).n_rattlers < start.n
+    _events_fast_vs_fire(start, 60, residual_checks=False)
 
 
 def test_trace_round_trip(tmp_path):

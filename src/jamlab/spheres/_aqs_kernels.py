@@ -42,19 +42,25 @@ def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
         if fi < 0 and fj < 0:
             continue
         pair_stiffness(cd[p], B)
-        if fi >= 0:
-            blocks[slot_ptr[fi]] += B
-        if fj >= 0:
-            blocks[slot_ptr[fj]] += B
+        si = -1
+        sj = -1
         if fi >= 0 and fj >= 0:
-            s = slot_ptr[fi] + fill[fi]
-            blocks[s] -= B
-            block_col[s] = fj
+            si = slot_ptr[fi] + fill[fi]
+            block_col[si] = fj
             fill[fi] += 1
-            s = slot_ptr[fj] + fill[fj]
-            blocks[s] -= B
-            block_col[s] = fi
+            sj = slot_ptr[fj] + fill[fj]
+            block_col[sj] = fi
             fill[fj] += 1
+        for a in range(d):
+            for b in range(d):
+                v = B[a, b]
+                if fi >= 0:
+                    blocks[slot_ptr[fi], a, b] += v
+                if fj >= 0:
+                    blocks[slot_ptr[fj], a, b] += v
+                if si >= 0:
+                    blocks[si, a, b] -= v
+                    blocks[sj, a, b] -= v
     size = d * n_free
     indptr = np.zeros(size + 1, np.int64)
     for i in range(n_free):

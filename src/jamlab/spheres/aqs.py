@@ -97,6 +97,8 @@ class AQSParameters:
     """
 
     max_newton: int = 30
+    max_chord: int = 3
+    chord_contraction: float = 0.2
     max_strikes: int = 3
     max_cg: int = 60
     refactor_every: int = 100
@@ -271,6 +273,23 @@ def _newton(
     f = energy_and_forces(current, nl)[1][free]
     fmax = _max_norm(f)
     prev = math.inf
+    # cheap first: chord steps x ← x + M⁻¹ F_b with the stored factorisation M ≈ K; accepted only
+    # while each contracts the force by the factor chord_contraction (M⁻¹K ≈ 1 on the excited
+    # modes, i.e. the branch is as stable as where M was taken), else full Newton below
+    chord_pos, chord_f, chord_fmax = pos, f, fmax
+    for chord in range(params.max_chord):
+        if chord_fmax < ftol:
+            return _Newton(start.with_positions(chord_pos), True, chord, 0)
+        trial_pos = chord_pos.copy()
+        trial_pos[free] += fac.lu.solve(chord_f.ravel()).reshape(free.size, d)
+        trial_f = energy_and_forces(start.with_positions(trial_pos), nl)[1][free]
+        trial_fmax = _max_norm(trial_f)
+        if not trial_fmax < params.chord_contraction * chord_fmax:
+            break
+        chord_pos, chord_f, chord_fmax = trial_pos, trial_f, trial_fmax
+    else:
+        if chord_fmax < ftol:
+            return _Newton(start.with_positions(chord_pos), True, params.max_chord, 0)
     for it in range(params.max_newton + 1):
         if fmax < ftol:
             return _Newton(current, True, it, cg_total)
@@ -282,7 +301,8 @@ def _newton(
                 break
         prev = fmax
         k = _backbone_matrix(current, nl, fac)
-        atol = max(0.05 * ftol, 1e-9 * fmax)
+        # the next force check decides; 0.25 ftol leaves room for the O(dx²) remainder
+        atol = max(0.25 * ftol, 1e-9 * fmax)
         dx, ok, cg_its = _pcg(k, f.ravel(), fac.lu.solve, atol, params.max_cg, d)
         cg_total += cg_its
         if not ok:
@@ -362,7 +382,7 @@ def _continue_branch(
         target = strain if last else g0 + t_new * total
         trial = _affine_to(cur, target)
         if predictor is not None and t == 0.0 and last:
-            # secant predictor: the previous elastic step's non-affine displacement
+            # extrapolated non-affine displacement of the previous elastic steps
             trial = trial.with_positions(trial.positions + predictor)
         res = _newton(trial, nl, fac, ftol, params)
         its += res.iterations
@@ -372,6 +392,8 @@ def _continue_branch(
             substeps += 1
             s = min(2.0 * s, 1.0)
             fac.fresh = False
+            if t >= 1.0:
+                break  # the caller compares the backbone at the end of the step
             backbone = remove_rattlers(cur, nl).mask
             if not np.array_equal(backbone, fac.backbone):
                 fac = _factorise(cur, nl, backbone)
@@ -410,23 +432,32 @@ def _same_minimum(a: Packing, b: Packing, nl: NeighborList, params: AQSParameter
 
 
 def _observe(packing: Packing, nl: NeighborList) -> tuple[dict[str, float], np.ndarray]:
+    """Row of the trace at a minimum, and the backbone mask (rattlers removed as in
+    :func:`~jamlab.spheres.potential.remove_rattlers`, from one contact list)."""
     e, f = energy_and_forces(packing, nl)
     sigma = stress_tensor(packing, nl) * packing.box.volume
-    rat = remove_rattlers(packing, nl)
-    z = 2.0 * float(_n_contacts(packing, nl)) / packing.n
+    ci, cj, _ = contacts(packing, nl)
+    n = packing.n
+    need = packing.dim + 1
+    keep = np.ones(n, dtype=bool)
+    while True:
+        live = keep[ci] & keep[cj]
+        count = np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n)
+        drop = keep & (count < need)
+        if not drop.any():
+            break
+        keep &= ~drop
+    n_kept = int(keep.sum())
+    n_c_kept = int((keep[ci] & keep[cj]).sum())
     row = {
         "energy": float(e),
         "shear_stress": float(sigma[0, 1]),
         "pressure": float(-np.trace(sigma) / (packing.dim * packing.box.volume)),
-        "z": z,
-        "z_nr": float(rat.z_nr),
+        "z": 2.0 * ci.size / n,
+        "z_nr": 2.0 * n_c_kept / n_kept if n_kept else 0.0,
         "max_force": _max_norm(f),
     }
-    return row, rat.mask
-
-
-def _n_contacts(packing: Packing, nl: NeighborList) -> int:
-    return int(contacts(packing, nl)[0].size)
+    return row, keep
 
 
 # ------------------------------------------------------------------------------------------------
@@ -548,6 +579,7 @@ def shear(
     fac = _factorise(cur, nl, backbone)
     age = 0
     predictor: np.ndarray | None = None
+    last_u: np.ndarray | None = None
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -607,7 +639,12 @@ def shear(
         _append(rows, target, row, iterations, plastic)
         predictor = None
         if minimizer == "linear" and not plastic and not cleaned:
-            predictor = new.box.minimum_image(new.positions - affine.positions)
+            u = new.box.minimum_image(new.positions - affine.positions)
+            # u(γ) is smooth on a branch: extrapolate it linearly from the last two steps
+            predictor = u if last_u is None else 2.0 * u - last_u
+            last_u = u
+        else:
+            last_u = None
         cur = new
         age += 1
         if branch is not None and branch.factor is not None and not plastic:
