@@ -1,0 +1,139 @@
+"""``jamlab prepare`` (jammed / UNSAT packings) and ``jamlab coordination`` (paper Fig. 1).
+
+A thin face over :mod:`jamlab.spheres.packing`; protocol and stopping rule in
+``docs/packings.md``. A packing that fails its stopping rule is still written, with the HDF5
+attributes ``ok = False`` and ``reason``, and the command exits with code 1.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+PHI_CLEARLY_UNJAMMED_3D = 0.62
+"""In 3D no monodisperse random packing jams below ~0.63 (O'Hern et al. 2003 φ_J ≈ 0.639): a
+direct minimisation there would only return an unjammed, zero-pressure state."""
+
+
+@contextlib.contextmanager
+def _status(quiet: bool, title: str) -> Iterator[Callable[[str], None]]:
+    if quiet:
+        yield lambda message: None
+        return
+    from rich.console import Console
+
+    console = Console(stderr=True)
+    with console.status(title) as status:
+        yield lambda message: status.update(f"{title}: {message}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``prepare`` and ``coordination``."""
+
+    @app.command(
+        "prepare",
+        help="Jammed (--phi jamming) or over-jammed (--phi 0.8) packing from a random state.",
+    )
+    def prepare_command(
+        n: Annotated[int, typer.Option("--n", help="Number of spheres.")] = 1000,
+        dim: Annotated[int, typer.Option("--dim", help="Dimension d.")] = 3,
+        phi: Annotated[
+            str, typer.Option("--phi", help="'jamming', or a packing fraction above jamming.")
+        ] = "jamming",
+        seed: Annotated[int, typer.Option("--seed", help="Seed of the random start.")] = 0,
+        out: Annotated[Path, typer.Option("--out", help="Output HDF5 file.")] = Path("packing.h5"),
+        p_target: Annotated[
+            float, typer.Option("--p-target", help="Target pressure at jamming.")
+        ] = 1e-7,
+        phi_init: Annotated[
+            float, typer.Option("--phi-init", help="Quench packing fraction (jamming).")
+        ] = 0.66,
+        ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
+        quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
+    ) -> None:
+        from jamlab.spheres.io import write_packing
+        from jamlab.spheres.packing import jam, prepare
+
+        if phi.strip().lower() == "jamming":
+            with _status(quiet, f"jamming N={n} d={dim} seed={seed}") as progress:
+                res = jam(
+                    n, dim, seed, p_target=p_target, phi_init=phi_init, ftol=ftol, progress=progress
+                )
+        else:
+            try:
+                value = float(phi)
+            except ValueError:
+                raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
+            if not (math.isfinite(value) and 0 < value < 1):
+                raise ValueError(f"--phi must be in (0, 1), got {value}")
+            if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
+                raise ValueError(
+                    f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
+                    f"or a value >= {PHI_CLEARLY_UNJAMMED_3D}"
+                )
+            with _status(quiet, f"minimising N={n} d={dim} phi={value}"):
+                res = prepare(n, dim, value, seed, ftol=ftol)
+        write_packing(out, res.packing, **res.attrs())
+        s = res.state
+        typer.echo(
+            f"{out}: N={n} d={dim} phi={res.packing.phi:.10f} p={s.pressure:.4e} z={s.z:.5f} "
+            f"z_nr={s.z_nr:.5f} rattlers={s.n_rattlers} N_c'={s.n_contacts_nr} "
+            f"(isostatic {s.n_contacts_iso}) minimisations={res.n_minimizations} "
+            f"time={res.time:.1f}s ok={res.ok}"
+        )
+        if not res.ok:
+            typer.echo(f"jamlab: packing failed its stopping rule: {res.reason}", err=True)
+            raise typer.Exit(1)
+
+    @app.command("coordination", help="z, z_nr, p, E along a compression from a jammed packing.")
+    def coordination_command(
+        config: Annotated[Path, typer.Argument(help="Jammed packing (jamlab prepare).")],
+        out: Annotated[Path, typer.Option("--out", help="Figure (PNG/PDF).")] = Path("fig1.png"),
+        csv: Annotated[Path | None, typer.Option("--csv", help="Also write the table.")] = None,
+        steps: Annotated[int, typer.Option("--steps", help="Number of compression steps.")] = 40,
+        dphi_min: Annotated[float, typer.Option("--dphi-min")] = 1e-6,
+        dphi_max: Annotated[float, typer.Option("--dphi-max")] = 0.3,
+        ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
+        quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
+    ) -> None:
+        import h5py
+        import numpy as np
+
+        from jamlab.plots_packings import plot_coordination
+        from jamlab.spheres.io import read_packing
+        from jamlab.spheres.packing import coordination_curve
+
+        packing = read_packing(config)
+        with h5py.File(config, "r") as h5:
+            ok = bool(h5.attrs.get("ok", True))
+            phi_j = float(h5.attrs.get("phi_j", packing.phi))
+        if not ok:
+            typer.echo(f"jamlab: warning: {config} is flagged ok=False", err=True)
+        if not math.isfinite(phi_j):
+            phi_j = packing.phi
+        with _status(quiet, "compressing") as progress:
+            curve = coordination_curve(
+                packing, phi_j, dphi_min, dphi_max, steps, ftol, progress=progress
+            )
+        fits = plot_coordination(curve, out)
+        if csv is not None:
+            cols = curve.as_columns()
+            np.savetxt(
+                csv,
+                np.column_stack(list(cols.values())),
+                delimiter=",",
+                header=",".join(cols),
+                comments="",
+                fmt="%.17g",
+            )
+        for name, (a, sa, _) in fits.items():
+            typer.echo(f"{name} ~ (phi - phi_J)^{a:.4f} ± {sa:.4f}  (fit over [1e-4, 1e-1])")
+        typer.echo(f"wrote {out}" + (f" and {csv}" if csv else ""))
+        if not curve.converged.all():
+            typer.echo("jamlab: some minimisations did not converge (see CSV)", err=True)
+            raise typer.Exit(1)

@@ -1,0 +1,569 @@
+"""Jammed and over-jammed (UNSAT) packings, and the coordination curve (paper Fig. 1).
+
+Conventions are those of ``SPEC.md`` §3 (diameter 1, ``V(r) = (1 − r)²``, total energy ``E``,
+pressure ``p = −(1/(d L^d)) Σ_{i<j} V'(r_ij) r_ij``, contacts ``r_ij < 1``, ``z = 2N_c/N``,
+rattlers removed repeatedly when they have fewer than ``d + 1`` contacts, ``z_nr = 2N_c'/N'``).
+
+A packing is *isostatic* when its rattler-free backbone has exactly the number of contacts needed
+for rigidity in a periodic box, ``N_c' = d(N' − 1) + 1`` (``d(N'−1)`` non-trivial degrees of
+freedom, plus one for the box volume / pressure); equivalently ``z_nr = z_iso(N')`` with
+
+    z_iso(N') = 2 (d (N' − 1) + 1) / N'  →  2d  as  N' → ∞.
+
+Minimisation (:func:`relax`): FIRE 2.0 from :mod:`jamlab.spheres.fire` with ``Δt_max = 0.3``
+(see :data:`JAM_FIRE`), until ``max_i |F_i| < ftol``.
+
+The jamming protocol (:func:`jam`) and its stopping rule are documented in ``docs/packings.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from jamlab.spheres.box import Box, box_length_for
+from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.potential import (
+    Packing,
+    contacts,
+    energy_and_forces,
+    pressure,
+    random_packing,
+    remove_rattlers,
+)
+
+__all__ = [
+    "RelaxResult",
+    "PackingState",
+    "JamResult",
+    "PreparedPacking",
+    "CoordinationCurve",
+    "JAM_FIRE",
+    "JammingError",
+    "rescale",
+    "relax",
+    "compress_to",
+    "describe",
+    "isostatic_contacts",
+    "z_iso",
+    "jam",
+    "prepare",
+    "coordination_curve",
+    "fit_power_law",
+]
+
+
+# ------------------------------------------------------------------------------------------------
+# affine rescaling and minimisation
+
+
+def rescale(packing: Packing, phi: float) -> Packing:
+    """Affine rescale to packing fraction ``φ``: ``L' = (N v_d(1/2)/φ)^(1/d)``, ``r_i → r_i L'/L``.
+
+    Reduced coordinates and strain are kept.
+    """
+    if not (isinstance(phi, int | float | np.floating) and math.isfinite(phi) and phi > 0):
+        raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
+    length = box_length_for(packing.n, packing.dim, float(phi))
+    scale = length / packing.box.length
+    return replace(
+        packing,
+        positions=packing.positions * scale,
+        box=Box(length, packing.dim, packing.box.strain),
+    )
+
+
+JAM_FIRE = FireParameters(dt=0.1, dt_max=0.3)
+"""FIRE parameters used here: ``Δt_max = 0.3``. The largest pair stiffness is ``V'' = 2``, so the
+highest vibrational frequency of a packing is ``ω_max ≈ √(2·2z) ≈ 5–7`` and velocity Verlet /
+semi-implicit Euler is stable only for ``Δt < 2/ω_max ≈ 0.3``; with the engine default
+``Δt_max = 1`` FIRE oscillates and near jamming stalls (measured: N = 1000, max force still 2e-5
+after 1e5 steps, whereas ``Δt_max = 0.3`` reaches 1e-12 in 4.5e4)."""
+
+
+@dataclass(frozen=True, eq=False)
+class RelaxResult:
+    """Outcome of :func:`relax`: the minimum ``packing``, its total ``energy`` and ``pressure``,
+    ``max_force = max_i |F_i|``, whether ``max_force < ftol`` (``converged``), FIRE ``iterations``
+    and wall-clock ``time`` (s)."""
+
+    packing: Packing
+    energy: float
+    pressure: float
+    max_force: float
+    converged: bool
+    iterations: int
+    time: float
+    ftol: float
+
+
+def relax(
+    packing: Packing,
+    ftol: float = 1e-12,
+    max_iter: int = 1_000_000,
+    params: FireParameters | None = None,
+) -> RelaxResult:
+    """Energy minimum at fixed box with FIRE (:func:`jamlab.spheres.fire.minimize`, parameters
+    :data:`JAM_FIRE` unless given) until ``max_i |F_i| < ftol`` (a maximum over particles).
+
+    Non-convergence is reported (``converged=False``), not raised.
+    """
+    r = minimize(packing, ftol=ftol, max_iter=max_iter, params=params or JAM_FIRE)
+    return RelaxResult(
+        packing=r.packing,
+        energy=r.energy,
+        pressure=pressure(r.packing),
+        max_force=r.max_force,
+        converged=r.converged,
+        iterations=r.iterations,
+        time=r.time,
+        ftol=r.ftol,
+    )
+
+
+def compress_to(
+    packing: Packing, phi: float, ftol: float = 1e-12, max_iter: int = 1_000_000
+) -> RelaxResult:
+    """The minimum at packing fraction ``φ`` reached from ``packing``: affine :func:`rescale` to
+    ``φ`` (compression if ``φ`` is larger, decompression otherwise), then :func:`relax`."""
+    return relax(rescale(packing, phi), ftol=ftol, max_iter=max_iter)
+
+
+# ------------------------------------------------------------------------------------------------
+# contact statistics
+
+
+def isostatic_contacts(n_nonrattlers: int, dim: int) -> int:
+    """``N_c,iso = d (N' − 1) + 1`` contacts for a rigid backbone of ``N'`` particles."""
+    return dim * (n_nonrattlers - 1) + 1
+
+
+def z_iso(n_nonrattlers: int | np.ndarray, dim: int) -> float | np.ndarray:
+    """``z_iso(N') = 2(d(N' − 1) + 1)/N'``, the isostatic coordination at finite ``N'``."""
+    n = np.asarray(n_nonrattlers, dtype=np.float64)
+    out = 2.0 * (dim * (n - 1.0) + 1.0) / n
+    return float(out) if out.ndim == 0 else out
+
+
+@dataclass(frozen=True)
+class PackingState:
+    """Contact statistics of a minimum: ``phi``, total ``energy``, ``pressure``, ``z = 2N_c/N``,
+    ``z_nr = 2N_c'/N'``, ``n_rattlers = N − N'``, ``n_contacts`` (N_c), ``n_contacts_nr`` (N_c'),
+    ``n_contacts_iso = d(N'−1)+1``, ``isostatic`` (``N_c' == n_contacts_iso``)."""
+
+    phi: float
+    energy: float
+    pressure: float
+    z: float
+    z_nr: float
+    n_rattlers: int
+    n_contacts: int
+    n_contacts_nr: int
+    n_contacts_iso: int
+    isostatic: bool
+
+    def as_attrs(self, prefix: str = "") -> dict[str, float | int | bool]:
+        """The fields as a flat dict (HDF5 attributes)."""
+        return {f"{prefix}{k}": v for k, v in self.__dict__.items()}
+
+
+def describe(packing: Packing, energy: float | None = None) -> PackingState:
+    """Contact statistics of ``packing`` (see :class:`PackingState`)."""
+    ci, _, _ = contacts(packing)
+    rr = remove_rattlers(packing)
+    n_kept = packing.n - rr.n_rattlers
+    n_iso = isostatic_contacts(n_kept, packing.dim) if n_kept > 0 else 0
+    if energy is None:
+        energy = energy_and_forces(packing)[0]
+    return PackingState(
+        phi=packing.phi,
+        energy=float(energy),
+        pressure=pressure(packing),
+        z=2.0 * len(ci) / packing.n,
+        z_nr=rr.z_nr,
+        n_rattlers=rr.n_rattlers,
+        n_contacts=len(ci),
+        n_contacts_nr=rr.n_contacts_nr,
+        n_contacts_iso=n_iso,
+        isostatic=bool(n_kept > 0 and rr.n_contacts_nr == n_iso),
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# jammed and UNSAT packings
+
+ProgressCallback = Callable[[str], None]
+
+
+class JammingError(RuntimeError):
+    """Raised by :func:`jam` with ``strict=True`` when the protocol fails; carries ``result``."""
+
+    def __init__(self, result: PreparedPacking) -> None:
+        super().__init__(result.reason)
+        self.result = result
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedPacking:
+    """A prepared packing and how it was made.
+
+    ``protocol`` is ``"jamming"`` (:func:`jam`) or ``"direct"`` (:func:`prepare`). ``state`` holds
+    the contact statistics; ``phi_j`` is ``φ_J`` (the final packing fraction of a jamming run, NaN
+    for ``"direct"``). ``converged`` says the last minimisation met ``ftol``; ``ok`` says the
+    packing satisfies its protocol's stopping rule; if not, ``reason`` says why. ``history`` lists
+    ``(φ, p, jammed)`` for every minimisation in order; ``params`` the protocol parameters.
+    """
+
+    packing: Packing
+    state: PackingState
+    protocol: str
+    phi_j: float
+    converged: bool
+    ok: bool
+    reason: str
+    n_minimizations: int
+    fire_iterations: int
+    time: float
+    params: dict[str, float | int | str] = field(default_factory=dict)
+    history: tuple[tuple[float, float, bool], ...] = ()
+
+    def attrs(self) -> dict[str, float | int | str | bool]:
+        """Flat HDF5 attributes: the state, ``phi_j``, flags, ``reason``, counts and
+        ``param_*``."""
+        out: dict[str, float | int | str | bool] = dict(self.state.as_attrs())
+        out.pop("phi")
+        out.update(
+            protocol=self.protocol,
+            phi_j=self.phi_j,
+            converged=self.converged,
+            ok=self.ok,
+            reason=self.reason,
+            n_minimizations=self.n_minimizations,
+            fire_iterations=self.fire_iterations,
+            time_seconds=self.time,
+        )
+        out.update({f"param_{k}": v for k, v in self.params.items()})
+        return out
+
+
+JamResult = PreparedPacking
+
+
+def _check_common(n: int, dim: int, seed: int, ftol: float) -> None:
+    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2):
+        raise ValueError(f"number of particles must be an integer >= 2, got n={n!r}")
+    if not (isinstance(dim, int | np.integer) and not isinstance(dim, bool) and dim >= 2):
+        raise ValueError(f"dimension must be an integer >= 2, got dim={dim!r}")
+    if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
+        raise ValueError(f"seed must be an integer >= 0, got seed={seed!r}")
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+
+
+def jam(
+    n: int,
+    dim: int = 3,
+    seed: int = 0,
+    p_target: float = 1e-7,
+    phi_init: float = 0.66,
+    ftol: float = 1e-12,
+    p_floor_factor: float = 1e-3,
+    max_minimizations: int = 60,
+    max_iter: int = 1_000_000,
+    strict: bool = False,
+    progress: ProgressCallback | None = None,
+) -> PreparedPacking:
+    """A packing at the jamming point by quench and decompression/compression steps.
+
+    1. Uniformly random positions at ``φ_init`` (:func:`random_packing` with ``seed``), minimised
+       (an infinitely fast quench, O'Hern et al. 2003).
+    2. Every later minimisation starts from the last *jammed* minimum (``p > p_target ×
+       p_floor_factor / 10``), affinely rescaled to the next ``φ``, chosen by a secant step on
+       ``p(φ) ≈ k (φ − φ_J)`` towards the goal pressure ``p_goal`` (slope ``k`` from the last two
+       jammed minima; ``k = 1`` at first), or by bisection between the last jammed and the highest
+       unjammed ``φ`` when the secant step would leave that bracket.
+    3. Stop when ``p ∈ [p_target/2, 2 p_target]`` and the backbone is isostatic,
+       ``N_c' = d(N' − 1) + 1``. Above jamming ``N_c' − N_c,iso ∝ N (φ − φ_J)^(1/2)``, so at finite
+       ``p`` a few excess contacts may remain: then ``p_goal`` is halved and the search goes on,
+       down to ``p_floor = p_target × p_floor_factor``.
+
+    Returns a :class:`PreparedPacking` with ``ok=False`` and a ``reason`` if a minimisation does
+    not converge, if ``max_minimizations`` are used up, or if ``p_floor`` is reached without an
+    isostatic backbone (``strict=True`` raises :class:`JammingError` instead).
+    """
+    _check_common(n, dim, seed, ftol)
+    if not (isinstance(p_target, int | float) and math.isfinite(p_target) and p_target > 0):
+        raise ValueError(f"target pressure must be finite and > 0, got p_target={p_target!r}")
+    if not (isinstance(phi_init, int | float) and 0 < phi_init < 1):
+        raise ValueError(f"initial packing fraction must be in (0, 1), got phi_init={phi_init!r}")
+    if not 0 < p_floor_factor <= 0.5:
+        raise ValueError(f"p_floor_factor must be in (0, 0.5], got {p_floor_factor!r}")
+    t0 = time.perf_counter()
+    params: dict[str, float | int | str] = dict(
+        p_target=float(p_target),
+        phi_init=float(phi_init),
+        ftol=float(ftol),
+        p_floor_factor=float(p_floor_factor),
+        max_minimizations=int(max_minimizations),
+        max_iter=int(max_iter),
+        fire_dt_max=JAM_FIRE.dt_max,
+        n=int(n),
+        dim=int(dim),
+        seed=int(seed),
+    )
+    p_floor = p_target * p_floor_factor
+    p_jammed = p_floor / 10.0
+    history: list[tuple[float, float, bool]] = []
+    fire_it = 0
+
+    def finish(r: RelaxResult, ok: bool, reason: str, state: PackingState) -> PreparedPacking:
+        res = PreparedPacking(
+            packing=r.packing,
+            state=state,
+            protocol="jamming",
+            phi_j=r.packing.phi,
+            converged=r.converged,
+            ok=ok,
+            reason=reason,
+            n_minimizations=len(history),
+            fire_iterations=fire_it,
+            time=time.perf_counter() - t0,
+            params=params,
+            history=tuple(history),
+        )
+        if strict and not ok:
+            raise JammingError(res)
+        return res
+
+    r = relax(random_packing(int(n), int(dim), float(phi_init), int(seed)), ftol, max_iter)
+    fire_it += r.iterations
+    history.append((r.packing.phi, r.pressure, r.pressure > p_jammed))
+    if not r.converged:
+        return finish(
+            r,
+            False,
+            f"quench at phi={phi_init} did not converge "
+            f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
+            describe(r.packing),
+        )
+    if r.pressure <= p_jammed:
+        return finish(
+            r,
+            False,
+            f"not jammed after the quench at phi_init={phi_init} "
+            f"(p={r.pressure:.3e}); use a larger phi_init",
+            describe(r.packing),
+        )
+    hi = r  # last jammed minimum
+    prev: RelaxResult | None = None
+    lo_phi = -math.inf
+    slope = 1.0
+    p_goal = p_target
+    last = r
+    while len(history) < max_minimizations:
+        phi_hi, p_hi = hi.packing.phi, hi.pressure
+        target = phi_hi + (p_goal - p_hi) / slope
+        if not lo_phi < target:
+            target = 0.5 * (lo_phi + phi_hi)
+        r = compress_to(hi.packing, target, ftol, max_iter)
+        fire_it += r.iterations
+        last = r
+        state = describe(r.packing, r.energy)
+        # a hypostatic backbone cannot carry a pressure: a residual p there is unrelaxed noise
+        jammed = r.pressure > p_jammed and state.n_contacts_nr >= state.n_contacts_iso
+        history.append((target, r.pressure, jammed))
+        if progress is not None:
+            progress(f"phi={target:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
+        if not r.converged:
+            return finish(
+                r,
+                False,
+                f"minimisation at phi={target:.10f} did not converge "
+                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
+                state,
+            )
+        if not jammed:
+            lo_phi = target
+            continue
+        if r.packing.phi != phi_hi:
+            k = (r.pressure - p_hi) / (r.packing.phi - phi_hi)
+            if k > 0 and math.isfinite(k):
+                slope = k
+        prev, hi = hi, r
+        if r.pressure <= 2 * p_target:
+            if state.isostatic and r.pressure >= p_target / 2:
+                return finish(r, True, "", state)
+            if state.isostatic and r.pressure < p_target / 2 and p_goal < p_target / 2:
+                return finish(r, True, "", state)  # reached while removing excess contacts
+            if not state.isostatic and r.pressure >= p_target / 2:
+                p_goal = min(p_goal, r.pressure) / 2
+                if p_goal < p_floor:
+                    return finish(
+                        r,
+                        False,
+                        f"still {state.n_contacts_nr - state.n_contacts_iso}"
+                        f" excess contacts at p={r.pressure:.3e} > p_floor",
+                        state,
+                    )
+            elif not state.isostatic and p_goal < p_target / 2:
+                p_goal = r.pressure / 2
+                if p_goal < p_floor:
+                    return finish(
+                        r,
+                        False,
+                        f"still {state.n_contacts_nr - state.n_contacts_iso}"
+                        f" excess contacts at p={r.pressure:.3e} > p_floor",
+                        state,
+                    )
+    del prev
+    return finish(
+        last,
+        False,
+        f"no isostatic packing with p <= 2 p_target after {max_minimizations} minimisations",
+        describe(last.packing),
+    )
+
+
+def prepare(
+    n: int, dim: int, phi: float, seed: int, ftol: float = 1e-12, max_iter: int = 1_000_000
+) -> PreparedPacking:
+    """An UNSAT packing: uniformly random positions at ``φ`` (:func:`random_packing` with
+    ``seed``) minimised directly there. ``ok`` iff FIRE converged and the packing is jammed
+    (``p > 0`` with a non-empty backbone)."""
+    _check_common(n, dim, seed, ftol)
+    if not (isinstance(phi, int | float | np.floating) and 0 < phi < 1):
+        raise ValueError(f"packing fraction must be in (0, 1), got phi={phi!r}")
+    r = relax(random_packing(int(n), int(dim), float(phi), int(seed)), ftol, max_iter)
+    state = describe(r.packing, r.energy)
+    reason = ""
+    if not r.converged:
+        reason = f"minimisation did not converge (max force {r.max_force:.3e} >= ftol {ftol:.1e})"
+    elif state.n_contacts_nr == 0:
+        reason = f"not jammed at phi={phi} (p={state.pressure:.3e}): below jamming"
+    return PreparedPacking(
+        packing=r.packing,
+        state=state,
+        protocol="direct",
+        phi_j=math.nan,
+        converged=r.converged,
+        ok=not reason,
+        reason=reason,
+        n_minimizations=1,
+        fire_iterations=r.iterations,
+        time=r.time,
+        params=dict(
+            phi=float(phi),
+            ftol=float(ftol),
+            max_iter=int(max_iter),
+            n=int(n),
+            dim=int(dim),
+            seed=int(seed),
+            fire_dt_max=JAM_FIRE.dt_max,
+        ),
+        history=((r.packing.phi, state.pressure, state.n_contacts_nr > 0),),
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# coordination curve (paper Fig. 1)
+
+
+@dataclass(frozen=True, eq=False)
+class CoordinationCurve:
+    """Minima along a compression from a jammed packing, one entry per step.
+
+    ``phi``, ``dphi = φ − φ_J``, ``z``, ``z_nr``, ``z_iso = 2(d(N'−1)+1)/N'``, ``n_rattlers``,
+    total ``energy``, ``pressure``, ``converged``; ``phi_j`` and ``dim`` of the start.
+    """
+
+    phi_j: float
+    dim: int
+    n: int
+    phi: np.ndarray
+    dphi: np.ndarray
+    z: np.ndarray
+    z_nr: np.ndarray
+    z_iso: np.ndarray
+    n_rattlers: np.ndarray
+    energy: np.ndarray
+    pressure: np.ndarray
+    converged: np.ndarray
+
+    def as_columns(self) -> dict[str, np.ndarray]:
+        """The per-step arrays by name (for CSV output)."""
+        names = ("phi", "dphi", "z", "z_nr", "z_iso", "n_rattlers", "energy", "pressure")
+        return {k: getattr(self, k) for k in names} | {"converged": self.converged.astype(int)}
+
+
+def coordination_curve(
+    packing: Packing,
+    phi_j: float | None = None,
+    dphi_min: float = 1e-6,
+    dphi_max: float = 0.3,
+    steps: int = 40,
+    ftol: float = 1e-12,
+    max_iter: int = 1_000_000,
+    progress: ProgressCallback | None = None,
+) -> CoordinationCurve:
+    """Compress a jammed packing to ``φ_k = φ_J + Δφ_k`` with ``Δφ_k`` logarithmically spaced
+    from ``dphi_min`` to ``dphi_max`` (``steps`` values); each minimum starts from the previous
+    one, affinely rescaled (:func:`compress_to`). ``φ_J`` defaults to the packing's ``φ``."""
+    if not (0 < dphi_min < dphi_max):
+        raise ValueError(f"need 0 < dphi_min < dphi_max, got {dphi_min!r}, {dphi_max!r}")
+    if not (isinstance(steps, int | np.integer) and steps >= 2):
+        raise ValueError(f"steps must be an integer >= 2, got steps={steps!r}")
+    phi_j = packing.phi if phi_j is None else float(phi_j)
+    dphi = np.geomspace(dphi_min, dphi_max, int(steps))
+    if phi_j + dphi[-1] >= 1.0:
+        raise ValueError(f"phi_J + dphi_max = {phi_j + dphi[-1]} must stay below 1")
+    rows = []
+    pk = packing
+    for k, dp in enumerate(dphi):
+        r = compress_to(pk, phi_j + dp, ftol=ftol, max_iter=max_iter)
+        pk = r.packing
+        s = describe(pk, r.energy)
+        rows.append(
+            (s.z, s.z_nr, pk.n - s.n_rattlers, s.n_rattlers, s.energy, s.pressure, r.converged)
+        )
+        if progress is not None:
+            progress(f"step {k + 1}/{len(dphi)}: dphi={dp:.2e} p={s.pressure:.3e} z={s.z:.4f}")
+    z, z_nr, n_kept, n_ratt, e, p, conv = (np.array(c) for c in zip(*rows, strict=True))
+    return CoordinationCurve(
+        phi_j=phi_j,
+        dim=packing.dim,
+        n=packing.n,
+        phi=phi_j + dphi,
+        dphi=dphi,
+        z=z.astype(np.float64),
+        z_nr=z_nr.astype(np.float64),
+        z_iso=np.where(n_kept > 0, z_iso(np.maximum(n_kept, 1), packing.dim), np.nan),
+        n_rattlers=n_ratt.astype(np.int64),
+        energy=e.astype(np.float64),
+        pressure=p.astype(np.float64),
+        converged=conv.astype(bool),
+    )
+
+
+def fit_power_law(
+    x: np.ndarray, y: np.ndarray, xmin: float = 1e-4, xmax: float = 1e-1
+) -> tuple[float, float, float]:
+    """Least-squares fit of ``log y = log c + a log x`` over ``xmin <= x <= xmax`` (and ``y > 0``).
+
+    Returns ``(a, σ_a, c)``; ``σ_a`` is the standard error of the slope from the residual
+    scatter (ordinary least squares, ``σ_a² = s² / Σ(log x − mean)²``).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    sel = (x >= xmin) & (x <= xmax) & (y > 0) & np.isfinite(y)
+    if sel.sum() < 3:
+        raise ValueError(f"need at least 3 points with y > 0 in [{xmin}, {xmax}], got {sel.sum()}")
+    lx, ly = np.log(x[sel]), np.log(y[sel])
+    a, b = np.polyfit(lx, ly, 1)
+    resid = ly - (a * lx + b)
+    s2 = float(resid @ resid) / max(len(lx) - 2, 1)
+    sa = math.sqrt(s2 / float(((lx - lx.mean()) ** 2).sum()))
+    return float(a), sa, float(math.exp(b))
