@@ -1,0 +1,66 @@
+"""``jamlab prepare`` and ``jamlab coordination``: files, attributes, exit codes."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from jamlab.cli import main
+from jamlab.spheres.io import read_packing
+from jamlab.spheres.packing import describe
+
+
+def run(args: list[str]) -> int:
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    return int(exc.value.code)
+
+
+def test_prepare_jamming_and_coordination(tmp_path, capsys) -> None:
+    out = tmp_path / "jammed.h5"
+    args = ["prepare", "--n", "128", "--dim", "3", "--phi", "jamming", "--seed", "1"]
+    assert run([*args, "--out", str(out), "--quiet"]) == 0
+    packing = read_packing(out)
+    state = describe(packing)  # recomputed from positions, independent of the stored attrs
+    with h5py.File(out, "r") as h5:
+        a = dict(h5.attrs)
+    assert bool(a["ok"]) and a["protocol"] == "jamming" and a["seed"] == 1
+    assert a["phi_j"] == pytest.approx(packing.phi, rel=1e-14)
+    assert a["n_contacts_nr"] == state.n_contacts_nr == state.n_contacts_iso
+    assert a["pressure"] == pytest.approx(state.pressure, rel=1e-12)
+    assert a["param_p_target"] == 1e-7
+    fig, csv = tmp_path / "fig1.png", tmp_path / "fig1.csv"
+    code = run(
+        ["coordination", str(out), "--out", str(fig), "--csv", str(csv), "--steps", "8", "--quiet"]
+    )
+    assert code == 0 and fig.stat().st_size > 0
+    table = np.genfromtxt(csv, delimiter=",", names=True)
+    assert len(table) == 8 and np.all(np.diff(table["pressure"]) > 0)
+    assert "p ~ (phi - phi_J)^" in capsys.readouterr().out
+
+
+def test_prepare_unsat_and_errors(tmp_path, capsys) -> None:
+    out = tmp_path / "unsat.h5"
+    assert (
+        run(["prepare", "--n", "128", "--phi", "0.8", "--seed", "2", "--out", str(out), "--quiet"])
+        == 0
+    )
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["protocol"] == "direct" and bool(h5.attrs["ok"])
+    assert read_packing(out).phi == pytest.approx(0.8)
+    capsys.readouterr()
+    assert run(["prepare", "--n", "128", "--phi", "0.5", "--out", str(out)]) == 2
+    assert "below jamming" in capsys.readouterr().err
+    assert run(["prepare", "--n", "128", "--phi", "dense", "--out", str(out)]) == 2
+
+
+def test_prepare_failure_writes_flagged_file(tmp_path, capsys) -> None:
+    out = tmp_path / "below.h5"
+    assert (
+        run(["prepare", "--n", "128", "--dim", "2", "--phi", "0.3", "--out", str(out), "--quiet"])
+        == 1
+    )
+    with h5py.File(out, "r") as h5:
+        assert not bool(h5.attrs["ok"]) and "below jamming" in h5.attrs["reason"]
+    assert "failed its stopping rule" in capsys.readouterr().err
