@@ -207,12 +207,14 @@ def test_dask_scheduler_gives_the_local_results(tmp_path, dask_cluster):
         args = [*STUDY_ARGS, "--samples", "3", "--quiet"]
     local, remote = tmp_path / "local", tmp_path / "dask"
     r = jamlab("run", *args, "--out", local, "--workers", "2")
-    assert r.returncode == 0, r.stderr
+    assert r.returncode in (0, 1), r.stderr  # 1: some sample failed (recorded, compared below)
     r = jamlab("run", *args, "--out", remote, "--scheduler", dask_cluster)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode in (0, 1), r.stderr  # 1: some sample failed (recorded, compared below)
     assert_same_runs(local, remote)
     # the workers really ran them: each sample file records the sample's own seed, no sharing
     shutil.rmtree(remote / "samples" / "phi=0.8")
     r = jamlab("run", *args, "--out", remote, "--scheduler", dask_cluster)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode in (0, 1), r.stderr  # 1: some sample failed (recorded, compared below)
     assert_same_runs(local, remote)
+    failed = sorted(p.relative_to(local) for p in local.rglob("*.failed.json"))
+    assert failed == sorted(p.relative_to(remote) for p in remote.rglob("*.failed.json"))

@@ -29,16 +29,23 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
     from jamlab.spheres import aqs, packing
 
     if isinstance(key.phi, str):
-        prepared = packing.jam(key.n, study.dim, seed, p_target=study.p_target)
+        prepared = packing.jam(
+            key.n, study.dim, seed, p_target=study.p_target, ftol=study.force_tol
+        )
     else:
-        prepared = packing.prepare(key.n, study.dim, float(key.phi), seed)
-    # the preparation may return a Packing or a result object holding one
-    config = getattr(prepared, "packing", prepared)
-    attrs: dict[str, Any] = {}
-    if config is not prepared:
-        attrs.update(_scalars("prep_", prepared))
-        if attrs.get("prep_converged") is False:
-            raise SampleFailed(f"preparation did not converge: {attrs}")
+        prepared = packing.prepare(key.n, study.dim, float(key.phi), seed, ftol=study.force_tol)
+    config = prepared.packing
+    info = prepared.attrs() if hasattr(prepared, "attrs") else _scalars("", prepared)
+    # wall-clock times are not reproducible: kept out of the sample's data
+    attrs: dict[str, Any] = {
+        f"prep_{k}": (v.item() if isinstance(v, np.generic) else v)
+        for k, v in info.items()
+        if not k.startswith("time")
+    }
+    if not prepared.converged:
+        raise SampleFailed(f"preparation did not converge: {prepared.reason or 'FIRE'}")
+    if not prepared.ok:
+        raise SampleFailed(f"preparation failed its stopping rule: {prepared.reason}")
     result = aqs.shear(config, study.dgamma, study.gamma_max, ftol=study.force_tol)
     trace = getattr(result, "trace", result)
     traces = {name: np.asarray(getattr(trace, name)) for name in TRACE_FIELDS}
