@@ -53,6 +53,16 @@ def test_matches_brute_force(dim, strain, phi):
         p_scale = np.trace(ref["virial_scale"]) / (dim * L**dim)
         assert abs(sp.pressure(p, nl) - ref["pressure"]) <= RTOL * p_scale
         assert sp.coordination(p, nl) == pytest.approx(2 * ref["n_contacts"] / p.n, rel=0, abs=0)
+        ev = sp.evaluate(p, nl)
+        assert abs(ev.energy - ref["energy"]) <= RTOL * ref["energy_scale"]
+        assert np.abs(ev.forces - ref["forces"]).max() <= RTOL * ref["force_scale"]
+        assert np.all(
+            np.abs(ev.stress_tensor * L**dim - ref["virial"]) <= RTOL * ref["virial_scale"]
+        )
+        assert abs(ev.shear_stress - ref["shear_stress"]) <= RTOL * ref["virial_scale"][0, 1]
+        assert abs(ev.pressure - ref["pressure"]) <= RTOL * p_scale
+        assert ev.n_contacts == ref["n_contacts"]
+        assert ev.max_force == pytest.approx(np.linalg.norm(ref["forces"], axis=1).max(), rel=1e-10)
     H = sp.hessian(p).toarray()
     scale = np.abs(ref["hessian"]).max()
     assert np.abs(H - ref["hessian"]).max() <= RTOL * scale

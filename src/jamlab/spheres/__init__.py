@@ -5,6 +5,7 @@ from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.io import read_lammps_positions, read_packing, write_packing
 from jamlab.spheres.potential import (
     DEFAULT_SKIN,
+    Evaluation,
     NeighborList,
     Packing,
     RattlerResult,
@@ -14,6 +15,7 @@ from jamlab.spheres.potential import (
     dforce_dstrain,
     energy,
     energy_and_forces,
+    evaluate,
     forces,
     hessian,
     max_force,
@@ -27,6 +29,7 @@ from jamlab.spheres.potential import (
 __all__ = [
     "Box",
     "DEFAULT_SKIN",
+    "Evaluation",
     "FireParameters",
     "MinimizeResult",
     "NeighborList",
@@ -39,6 +42,7 @@ __all__ = [
     "dforce_dstrain",
     "energy",
     "energy_and_forces",
+    "evaluate",
     "forces",
     "hessian",
     "max_force",

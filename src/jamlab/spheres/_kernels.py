@@ -454,6 +454,38 @@ def virial_tensor(pos, start, nbr, shift):
 
 
 @njit(cache=True)
+def energy_forces_virial(pos, start, nbr, shift, forces, virial):
+    """One pass: returns ``E``, writes ``F`` into ``forces`` and ``S_ab`` (see
+    ``virial_tensor``) into ``virial``; also returns the number of contacts ``N_c``."""
+    n, d = pos.shape
+    forces[:, :] = 0.0
+    virial[:, :] = 0.0
+    e = 0.0
+    n_c = 0
+    dr = np.empty(d, np.float64)
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                dr[a] = t
+                r2 += t * t
+            if r2 < 1.0:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                n_c += 1
+                c = 2.0 * h / r
+                for a in range(d):
+                    forces[i, a] += c * dr[a]
+                    forces[j, a] -= c * dr[a]
+                    for b in range(d):
+                        virial[a, b] -= c * dr[a] * dr[b]
+    return e, n_c
+
+
+@njit(cache=True)
 def contact_pairs(pos, start, nbr, shift):
     """Pairs in contact (``r_ij < 1``): arrays ``i``, ``j`` (``i < j``) and the separations."""
     n, d = pos.shape

@@ -46,6 +46,8 @@ __all__ = [
     "hessian",
     "dforce_dstrain",
     "affine_shear",
+    "Evaluation",
+    "evaluate",
 ]
 
 DEFAULT_SKIN = 0.2
@@ -280,6 +282,41 @@ def energy_and_forces(
     f = np.empty_like(pos)
     e = K.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, f)
     return float(e), nl.unsorted(f)
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """Everything one pass over the pairs gives (see :func:`evaluate`)."""
+
+    energy: float
+    forces: np.ndarray
+    shear_stress: float
+    pressure: float
+    stress_tensor: np.ndarray
+    max_force: float
+    n_contacts: int
+
+
+def evaluate(packing: Packing, neighbors: NeighborList | None = None) -> Evaluation:
+    """``E``, ``F``, ``Σ``, ``p``, ``σ_ab``, ``max_i |F_i|`` and ``N_c`` in one pass over pairs.
+
+    With a :class:`NeighborList` kept across calls (e.g. in AQS), nothing is rebuilt unless the
+    particles moved more than the skin allows.
+    """
+    pos, nl = _neighbors(packing, neighbors)
+    f = np.empty_like(pos)
+    s = np.empty((packing.dim, packing.dim))
+    e, n_c = K.energy_forces_virial(pos, nl.start, nl.nbr, nl.shift, f, s)
+    volume = packing.box.volume
+    return Evaluation(
+        energy=float(e),
+        forces=nl.unsorted(f),
+        shear_stress=float(s[0, 1]),
+        pressure=float(-np.trace(s) / (packing.dim * volume)),
+        stress_tensor=s / volume,
+        max_force=float(K.max_force(f)),
+        n_contacts=int(n_c),
+    )
 
 
 def forces(packing: Packing, neighbors: NeighborList | None = None) -> np.ndarray:
