@@ -85,15 +85,17 @@ MINIMIZERS = ("linear", "fire")
 class AQSParameters:
     """Tolerances of the fast path and of the classification (see the module docstring).
 
-    ``max_newton``: chord-Newton iterations per (sub)step; ``contraction``: required reduction
+    ``max_newton``: Newton iterations per (sub)step; ``max_chord``, ``chord_contraction``: chord
+    steps with the stored factorisation tried first, each required to cut the force by that
+    factor; ``contraction``: required reduction
     factor of ``max |F_b|`` per iteration; ``linear_basin``: allowed Newton correction relative to
     the linear prediction; ``min_substep``: smallest substep as a fraction of ``δγ`` before the
     branch is declared ended; ``energy_tol``: a one-substep step whose trapezoid residual
-    ``|ΔE − ½ δγ ΔΣ|`` exceeds this (absolute energy) is redone in 8 substeps (a kink from a
-    contact change inside the step); ``match_tol``, ``energy_match``: largest displacement and
-    relative energy difference between FIRE's minimum and the continued branch for them to count
-    as the same minimum (:func:`_same_minimum`); ``max_fire_iter``:
-    FIRE iteration cap.
+    ``|ΔE − ½ δγ ΔΣ|`` exceeds ``energy_tol · δγ²`` (energy units; a contact change inside the
+    step gives ``≲ ΔG L^d δγ²/8``) is redone in 8 substeps as a safety check; ``match_tol``,
+    ``energy_match``: largest displacement and relative energy difference between FIRE's minimum
+    and the continued branch for them to count as the same minimum (:func:`_same_minimum`);
+    ``max_fire_iter``: FIRE iteration cap.
     """
 
     max_newton: int = 30
@@ -106,7 +108,7 @@ class AQSParameters:
     contraction: float = 0.5
     linear_basin: float = 1.0
     min_substep: float = 1.0 / 1024
-    energy_tol: float = 1e-10
+    energy_tol: float = 100.0
     match_tol: float = 1e-3
     energy_match: float = 1e-13
     max_fire_iter: int = 2_000_000
@@ -602,7 +604,7 @@ def shear(
                     - rows["energy"][-1]
                     - 0.5 * (target - rows["gamma"][-1]) * (rows["shear_stress"][-1] + s_new)
                 )
-                if abs(r) > params.energy_tol:
+                if abs(r) > params.energy_tol * dgamma**2:
                     counters["n_factorisations"] += branch.refactorised
                     iterations += branch.iterations
                     branch = _continue_branch(
