@@ -215,7 +215,8 @@ class PreparedPacking:
     the contact statistics; ``phi_j`` is ``φ_J`` (the final packing fraction of a jamming run, NaN
     for ``"direct"``). ``converged`` says the last minimisation met ``ftol``; ``ok`` says the
     packing satisfies its protocol's stopping rule; if not, ``reason`` says why. ``history`` lists
-    ``(φ, p, jammed)`` for every minimisation in order; ``params`` the protocol parameters.
+    ``(φ, p, jammed)`` for every minimisation in order (over all attempts); ``params`` the
+    protocol parameters; ``n_restarts`` how many failed attempts :func:`jam` discarded.
     """
 
     packing: Packing
@@ -230,6 +231,7 @@ class PreparedPacking:
     time: float
     params: dict[str, float | int | str] = field(default_factory=dict)
     history: tuple[tuple[float, float, bool], ...] = ()
+    n_restarts: int = 0
 
     def attrs(self) -> dict[str, float | int | str | bool]:
         """Flat HDF5 attributes: the state, ``phi_j``, flags, ``reason``, counts and
@@ -244,6 +246,7 @@ class PreparedPacking:
             reason=self.reason,
             n_minimizations=self.n_minimizations,
             fire_iterations=self.fire_iterations,
+            n_restarts=self.n_restarts,
             time_seconds=self.time,
         )
         out.update({f"param_{k}": v for k, v in self.params.items()})
@@ -264,6 +267,174 @@ def _check_common(n: int, dim: int, seed: int, ftol: float) -> None:
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
 
 
+def _quench_seed(seed: int, attempt: int) -> int:
+    """Seed of the random start of attempt ``attempt`` (0: ``seed`` itself; later attempts: an
+    independent stream derived from ``(seed, attempt)`` with :class:`numpy.random.SeedSequence`)."""
+    if attempt == 0:
+        return int(seed)
+    return int(np.random.SeedSequence([int(seed), int(attempt)]).generate_state(1, np.uint64)[0])
+
+
+@dataclass
+class _Attempt:
+    """Outcome of one quench + search (internal to :func:`jam`)."""
+
+    last: RelaxResult
+    state: PackingState
+    ok: bool
+    reason: str
+    restartable: bool
+    history: list[tuple[float, float, bool]]
+    fire_iterations: int
+
+
+def _jam_attempt(
+    n: int,
+    dim: int,
+    quench_seed: int,
+    p_target: float,
+    phi_init: float,
+    ftol: float,
+    p_floor_factor: float,
+    compress_factor: float,
+    max_minimizations: int,
+    max_iter: int,
+    progress: ProgressCallback | None,
+) -> _Attempt:
+    """One quench from random positions at ``φ_init`` and the search of :func:`jam`."""
+    p_floor = p_target * p_floor_factor
+    p_jammed = p_floor / 10.0
+    history: list[tuple[float, float, bool]] = []
+    fire_it = 0
+
+    def out(
+        r: RelaxResult, state: PackingState, ok: bool, reason: str, restartable: bool = False
+    ) -> _Attempt:
+        return _Attempt(r, state, ok, reason, restartable, history, fire_it)
+
+    def is_jammed(r: RelaxResult, state: PackingState) -> bool:
+        # a hypostatic backbone cannot carry a pressure: a residual p there is unrelaxed noise
+        return r.pressure > p_jammed and state.n_contacts_nr >= state.n_contacts_iso
+
+    # 1. quench at phi_init; 2. while unjammed, compress: the excess over the last unjammed phi
+    # grows geometrically, phi_{k+1} = phi_k + (compress_factor - 1) * phi_k * 2^k
+    r = relax(random_packing(n, dim, phi_init, quench_seed), ftol, max_iter)
+    lo_phi = -math.inf
+    step = compress_factor - 1.0
+    while True:
+        fire_it += r.iterations
+        state = describe(r.packing, r.energy)
+        jammed = is_jammed(r, state)
+        history.append((r.packing.phi, r.pressure, jammed))
+        if progress is not None:
+            progress(f"phi={r.packing.phi:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
+        if not r.converged:
+            return out(
+                r,
+                state,
+                False,
+                f"minimisation at phi={r.packing.phi:.10f} did not converge "
+                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
+            )
+        if jammed:
+            break
+        lo_phi = r.packing.phi
+        nxt = lo_phi * (1.0 + step)
+        step *= 2.0
+        if nxt >= _PHI_MAX or len(history) >= max_minimizations:
+            return out(
+                r,
+                state,
+                False,
+                f"not jammed after compressing from phi_init={phi_init} to phi={lo_phi:.6f} "
+                f"(p={r.pressure:.3e}, {len(history)} minimisations)",
+                True,
+            )
+        r = compress_to(r.packing, nxt, ftol, max_iter)
+
+    # 3. secant / bisection between the highest unjammed and the last jammed phi
+    hi = r
+    slope = 1.0
+    p_goal = p_target
+    last = r
+    max_down = math.inf  # largest decompression from hi allowed (halved after a saddle)
+    while len(history) < max_minimizations:
+        phi_hi, p_hi = hi.packing.phi, hi.pressure
+        if phi_hi - lo_phi <= 1e-13 * phi_hi and p_hi > 2 * p_target:
+            # the bracket closed on a finite pressure: its lower end belongs to another branch
+            # (the jammed state rearranged on decompression), so it bounds nothing here
+            lo_phi = -math.inf
+        target = phi_hi + (p_goal - p_hi) / slope
+        if not lo_phi < target:
+            target = 0.5 * (lo_phi + phi_hi)
+        target = max(target, phi_hi - max_down)
+        r = compress_to(hi.packing, target, ftol, max_iter)
+        fire_it += r.iterations
+        last = r
+        state = describe(r.packing, r.energy)
+        jammed = is_jammed(r, state)
+        history.append((target, r.pressure, jammed))
+        if progress is not None:
+            progress(f"phi={target:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
+        if not r.converged:
+            return out(
+                r,
+                state,
+                False,
+                f"minimisation at phi={target:.10f} did not converge "
+                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
+            )
+        if not jammed:
+            if r.pressure > p_jammed:
+                # stressed but hypostatic: a saddle reached on decompression (seen at N = 16),
+                # not an unjammed state; retry a smaller decompression from hi
+                max_down = 0.5 * (phi_hi - target)
+                if max_down < 1e-12 * phi_hi:
+                    return out(
+                        r,
+                        state,
+                        False,
+                        f"every decompression from the jammed state at phi={phi_hi:.12f} "
+                        f"(p={p_hi:.3e}) ends on a stressed hypostatic saddle",
+                        True,
+                    )
+            else:
+                lo_phi = target
+            continue
+        max_down = math.inf
+        if r.packing.phi != phi_hi:
+            k = (r.pressure - p_hi) / (r.packing.phi - phi_hi)
+            if k > 0 and math.isfinite(k):
+                slope = k
+        hi = r
+        if r.pressure <= 2 * p_target:
+            if state.isostatic and (r.pressure >= p_target / 2 or p_goal < p_target / 2):
+                # (below p_target/2 only when the search went on to remove excess contacts)
+                return out(r, state, True, "")
+            if not state.isostatic:
+                p_goal = min(p_goal, r.pressure) / 2
+                if p_goal < p_floor:
+                    return out(
+                        r,
+                        state,
+                        False,
+                        f"still {state.n_contacts_nr - state.n_contacts_iso} excess contacts at "
+                        f"p={r.pressure:.3e} (p_floor={p_floor:.1e}): hyperstatic at jamming",
+                        True,
+                    )
+    return out(
+        last,
+        describe(last.packing),
+        False,
+        f"no isostatic packing with p <= 2 p_target after {max_minimizations} minimisations",
+        True,
+    )
+
+
+_PHI_MAX = 0.95
+"""Upper bound of the compression of an unjammed quench in :func:`jam`."""
+
+
 def jam(
     n: int,
     dim: int = 3,
@@ -272,7 +443,9 @@ def jam(
     phi_init: float = 0.66,
     ftol: float = 1e-12,
     p_floor_factor: float = 1e-3,
+    compress_factor: float = 1.01,
     max_minimizations: int = 60,
+    max_restarts: int = 10,
     max_iter: int = 1_000_000,
     strict: bool = False,
     progress: ProgressCallback | None = None,
@@ -281,151 +454,107 @@ def jam(
 
     1. Uniformly random positions at ``φ_init`` (:func:`random_packing` with ``seed``), minimised
        (an infinitely fast quench, O'Hern et al. 2003).
-    2. Every later minimisation starts from the last *jammed* minimum (``p > p_target ×
-       p_floor_factor / 10``), affinely rescaled to the next ``φ``, chosen by a secant step on
-       ``p(φ) ≈ k (φ − φ_J)`` towards the goal pressure ``p_goal`` (slope ``k`` from the last two
-       jammed minima; ``k = 1`` at first), or by bisection between the last jammed and the highest
-       unjammed ``φ`` when the secant step would leave that bracket.
-    3. Stop when ``p ∈ [p_target/2, 2 p_target]`` and the backbone is isostatic,
+    2. If that minimum is not jammed (small ``N`` jams over a wide range of ``φ``), compress it
+       affinely and minimise again, ``φ_{k+1} = φ_k (1 + (compress_factor − 1) 2^k)``, until it is
+       (or ``φ`` would exceed 0.95).
+    3. Every later minimisation starts from the last *jammed* minimum (``p > p_target ×
+       p_floor_factor / 10`` and a backbone that is not hypostatic), affinely rescaled to the next
+       ``φ``, chosen by a secant step on ``p(φ) ≈ k (φ − φ_J)`` towards the goal pressure
+       ``p_goal`` (slope ``k`` from the last two jammed minima; ``k = 1`` at first), or by
+       bisection between the last jammed and the highest unjammed ``φ`` when the secant step
+       would leave that bracket. A decompression that ends on a *stressed* hypostatic minimum
+       (``p > 0`` but ``N_c' < d(N'−1)+1``: a saddle, seen at ``N = 16``) does not bound ``φ_J``:
+       the next decompression from the jammed state is halved. If the bracket closes on a finite
+       pressure its lower end came from another branch (a rearrangement) and is dropped.
+    4. Stop when ``p ∈ [p_target/2, 2 p_target]`` and the backbone is isostatic,
        ``N_c' = d(N' − 1) + 1``. Above jamming ``N_c' − N_c,iso ∝ N (φ − φ_J)^(1/2)``, so at finite
        ``p`` a few excess contacts may remain: then ``p_goal`` is halved and the search goes on,
        down to ``p_floor = p_target × p_floor_factor``.
+    5. An attempt that fails for a structural reason — excess contacts that survive down to
+       ``p_floor`` (a non-generic, hyperstatic jammed state, e.g. local crystalline order at small
+       ``N``), only saddles below the jammed state, no jammed state below ``φ = 0.95``, or
+       ``max_minimizations`` used up — is discarded and the protocol restarts from new random
+       positions (seed derived from ``(seed, attempt)``, see :func:`_quench_seed`), at most
+       ``max_restarts`` times. The number of restarts is recorded (``n_restarts``).
 
     Returns a :class:`PreparedPacking` with ``ok=False`` and a ``reason`` if a minimisation does
-    not converge, if ``max_minimizations`` are used up, or if ``p_floor`` is reached without an
-    isostatic backbone (``strict=True`` raises :class:`JammingError` instead).
+    not converge (no restart: that is a numerical failure), or if every attempt fails
+    (``strict=True`` raises :class:`JammingError` instead).
     """
     _check_common(n, dim, seed, ftol)
     if not (isinstance(p_target, int | float) and math.isfinite(p_target) and p_target > 0):
         raise ValueError(f"target pressure must be finite and > 0, got p_target={p_target!r}")
-    if not (isinstance(phi_init, int | float) and 0 < phi_init < 1):
-        raise ValueError(f"initial packing fraction must be in (0, 1), got phi_init={phi_init!r}")
+    if not (isinstance(phi_init, int | float) and 0 < phi_init < _PHI_MAX):
+        raise ValueError(
+            f"initial packing fraction must be in (0, {_PHI_MAX}), got phi_init={phi_init!r}"
+        )
     if not 0 < p_floor_factor <= 0.5:
         raise ValueError(f"p_floor_factor must be in (0, 0.5], got {p_floor_factor!r}")
+    if not (isinstance(compress_factor, int | float) and 1 < compress_factor < 2):
+        raise ValueError(f"compress_factor must be in (1, 2), got {compress_factor!r}")
+    if not (isinstance(max_restarts, int) and max_restarts >= 0):
+        raise ValueError(f"max_restarts must be an integer >= 0, got {max_restarts!r}")
     t0 = time.perf_counter()
     params: dict[str, float | int | str] = dict(
         p_target=float(p_target),
         phi_init=float(phi_init),
         ftol=float(ftol),
         p_floor_factor=float(p_floor_factor),
+        compress_factor=float(compress_factor),
         max_minimizations=int(max_minimizations),
+        max_restarts=int(max_restarts),
         max_iter=int(max_iter),
         fire_dt_max=JAM_FIRE.dt_max,
         n=int(n),
         dim=int(dim),
         seed=int(seed),
     )
-    p_floor = p_target * p_floor_factor
-    p_jammed = p_floor / 10.0
     history: list[tuple[float, float, bool]] = []
     fire_it = 0
-
-    def finish(r: RelaxResult, ok: bool, reason: str, state: PackingState) -> PreparedPacking:
-        res = PreparedPacking(
-            packing=r.packing,
-            state=state,
-            protocol="jamming",
-            phi_j=r.packing.phi,
-            converged=r.converged,
-            ok=ok,
-            reason=reason,
-            n_minimizations=len(history),
-            fire_iterations=fire_it,
-            time=time.perf_counter() - t0,
-            params=params,
-            history=tuple(history),
+    reasons: list[str] = []
+    for attempt in range(int(max_restarts) + 1):
+        a = _jam_attempt(
+            int(n),
+            int(dim),
+            _quench_seed(int(seed), attempt),
+            float(p_target),
+            float(phi_init),
+            float(ftol),
+            float(p_floor_factor),
+            float(compress_factor),
+            int(max_minimizations),
+            int(max_iter),
+            progress,
         )
-        if strict and not ok:
-            raise JammingError(res)
-        return res
-
-    r = relax(random_packing(int(n), int(dim), float(phi_init), int(seed)), ftol, max_iter)
-    fire_it += r.iterations
-    history.append((r.packing.phi, r.pressure, r.pressure > p_jammed))
-    if not r.converged:
-        return finish(
-            r,
-            False,
-            f"quench at phi={phi_init} did not converge "
-            f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
-            describe(r.packing),
-        )
-    if r.pressure <= p_jammed:
-        return finish(
-            r,
-            False,
-            f"not jammed after the quench at phi_init={phi_init} "
-            f"(p={r.pressure:.3e}); use a larger phi_init",
-            describe(r.packing),
-        )
-    hi = r  # last jammed minimum
-    prev: RelaxResult | None = None
-    lo_phi = -math.inf
-    slope = 1.0
-    p_goal = p_target
-    last = r
-    while len(history) < max_minimizations:
-        phi_hi, p_hi = hi.packing.phi, hi.pressure
-        target = phi_hi + (p_goal - p_hi) / slope
-        if not lo_phi < target:
-            target = 0.5 * (lo_phi + phi_hi)
-        r = compress_to(hi.packing, target, ftol, max_iter)
-        fire_it += r.iterations
-        last = r
-        state = describe(r.packing, r.energy)
-        # a hypostatic backbone cannot carry a pressure: a residual p there is unrelaxed noise
-        jammed = r.pressure > p_jammed and state.n_contacts_nr >= state.n_contacts_iso
-        history.append((target, r.pressure, jammed))
-        if progress is not None:
-            progress(f"phi={target:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
-        if not r.converged:
-            return finish(
-                r,
-                False,
-                f"minimisation at phi={target:.10f} did not converge "
-                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
-                state,
-            )
-        if not jammed:
-            lo_phi = target
-            continue
-        if r.packing.phi != phi_hi:
-            k = (r.pressure - p_hi) / (r.packing.phi - phi_hi)
-            if k > 0 and math.isfinite(k):
-                slope = k
-        prev, hi = hi, r
-        if r.pressure <= 2 * p_target:
-            if state.isostatic and r.pressure >= p_target / 2:
-                return finish(r, True, "", state)
-            if state.isostatic and r.pressure < p_target / 2 and p_goal < p_target / 2:
-                return finish(r, True, "", state)  # reached while removing excess contacts
-            if not state.isostatic and r.pressure >= p_target / 2:
-                p_goal = min(p_goal, r.pressure) / 2
-                if p_goal < p_floor:
-                    return finish(
-                        r,
-                        False,
-                        f"still {state.n_contacts_nr - state.n_contacts_iso}"
-                        f" excess contacts at p={r.pressure:.3e} > p_floor",
-                        state,
-                    )
-            elif not state.isostatic and p_goal < p_target / 2:
-                p_goal = r.pressure / 2
-                if p_goal < p_floor:
-                    return finish(
-                        r,
-                        False,
-                        f"still {state.n_contacts_nr - state.n_contacts_iso}"
-                        f" excess contacts at p={r.pressure:.3e} > p_floor",
-                        state,
-                    )
-    del prev
-    return finish(
-        last,
-        False,
-        f"no isostatic packing with p <= 2 p_target after {max_minimizations} minimisations",
-        describe(last.packing),
+        history.extend(a.history)
+        fire_it += a.fire_iterations
+        reason = a.reason
+        if not a.ok and a.restartable:
+            reasons.append(f"attempt {attempt}: {a.reason}")
+            if attempt < max_restarts:
+                if progress is not None:
+                    progress(f"restart {attempt + 1}: {a.reason}")
+                continue
+            reason = f"all {attempt + 1} attempts failed ({'; '.join(reasons)})"
+        break
+    res = PreparedPacking(
+        packing=a.last.packing,
+        state=a.state,
+        protocol="jamming",
+        phi_j=a.last.packing.phi,
+        converged=a.last.converged,
+        ok=a.ok,
+        reason=reason,
+        n_minimizations=len(history),
+        fire_iterations=fire_it,
+        time=time.perf_counter() - t0,
+        params=params,
+        history=tuple(history),
+        n_restarts=attempt,
     )
+    if strict and not res.ok:
+        raise JammingError(res)
+    return res
 
 
 def prepare(
