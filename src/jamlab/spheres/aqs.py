@@ -59,14 +59,14 @@ import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from jamlab.spheres import _aqs_kernels as AK
+from jamlab.spheres import _kernels as K
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import (
     NeighborList,
     Packing,
-    contacts,
+    _neighbors,
     energy_and_forces,
-    remove_rattlers,
-    stress_tensor,
+    evaluate,
 )
 from jamlab.spheres.trace import Trace, write_trace
 
@@ -169,8 +169,40 @@ def _free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return free, free_index
 
 
+def _contact_list(
+    packing: Packing, nl: NeighborList
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs in contact ``(i, j, r_ij)`` (original numbering) in the neighbour list's order.
+
+    The same set as :func:`~jamlab.spheres.potential.contacts` without its canonical sorting,
+    which costs ten times the search itself; the pair block of the Hessian is even in
+    ``r_ij``, and the rattler count does not depend on the order either.
+    """
+    pos, nl = _neighbors(packing, nl)
+    ci, cj, cd = K.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    return nl.order[ci], nl.order[cj], cd
+
+
+def _backbone_mask(ci: np.ndarray, cj: np.ndarray, n: int, dim: int) -> np.ndarray:
+    """Non-rattlers: repeatedly drop particles with fewer than ``dim + 1`` contacts among the
+    kept ones (as :func:`~jamlab.spheres.potential.remove_rattlers`)."""
+    keep = np.ones(n, dtype=bool)
+    while True:
+        live = keep[ci] & keep[cj]
+        count = np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n)
+        drop = keep & (count < dim + 1)
+        if not drop.any():
+            return keep
+        keep &= ~drop
+
+
+def _backbone(packing: Packing, nl: NeighborList) -> np.ndarray:
+    ci, cj, _ = _contact_list(packing, nl)
+    return _backbone_mask(ci, cj, packing.n, packing.dim)
+
+
 def _backbone_matrix(packing: Packing, nl: NeighborList, fac: _Factor) -> sps.csr_matrix:
-    ci, cj, cd = contacts(packing, nl)
+    ci, cj, cd = _contact_list(packing, nl)
     data, indices, indptr = AK.backbone_hessian_csr(ci, cj, cd, fac.free_index, fac.free.size)
     size = fac.free.size * packing.dim
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))
@@ -287,6 +319,9 @@ def _newton(
         trial_f = energy_and_forces(start.with_positions(trial_pos), nl)[1][free]
         trial_fmax = _max_norm(trial_f)
         if not trial_fmax < params.chord_contraction * chord_fmax:
+            if trial_fmax < ftol and trial_fmax < params.contraction * chord_fmax:
+                # converged, though M⁻¹K is only roughly 1 here (a contact changed in the step)
+                return _Newton(start.with_positions(trial_pos), True, chord + 1, 0)
             break
         chord_pos, chord_f, chord_fmax = trial_pos, trial_f, trial_fmax
     else:
@@ -333,6 +368,16 @@ def _newton(
     return _Newton(current, False, it, cg_total)
 
 
+def _extrapolate(history: list[np.ndarray]) -> np.ndarray:
+    """Polynomial extrapolation of the non-affine displacement one step ahead from the last
+    (newest first) one, two or three steps: ``u₀``, ``2u₀ − u₁``, ``3u₀ − 3u₁ + u₂``."""
+    if len(history) == 1:
+        return history[0]
+    if len(history) == 2:
+        return 2.0 * history[0] - history[1]
+    return 3.0 * (history[0] - history[1]) + history[2]
+
+
 def _affine_to(packing: Packing, strain: float) -> Packing:
     pos = np.array(packing.positions)
     pos[:, 0] += (strain - packing.strain) * pos[:, 1]
@@ -376,7 +421,7 @@ def _continue_branch(
         if fac.lu is None or not fac.positive_definite:
             if fac.fresh:
                 return _Branch(None, None, its, cg, substeps, refac)
-            fac = _factorise(cur, nl, remove_rattlers(cur, nl).mask)
+            fac = _factorise(cur, nl, _backbone(cur, nl))
             refac += 1
             continue
         last = s >= 1.0 - t
@@ -396,13 +441,13 @@ def _continue_branch(
             fac.fresh = False
             if t >= 1.0:
                 break  # the caller compares the backbone at the end of the step
-            backbone = remove_rattlers(cur, nl).mask
+            backbone = _backbone(cur, nl)
             if not np.array_equal(backbone, fac.backbone):
                 fac = _factorise(cur, nl, backbone)
                 refac += 1
             continue
         if not fac.fresh:
-            fac = _factorise(cur, nl, remove_rattlers(cur, nl).mask)
+            fac = _factorise(cur, nl, _backbone(cur, nl))
             refac += 1
             continue
         s *= 0.5
@@ -436,28 +481,19 @@ def _same_minimum(a: Packing, b: Packing, nl: NeighborList, params: AQSParameter
 def _observe(packing: Packing, nl: NeighborList) -> tuple[dict[str, float], np.ndarray]:
     """Row of the trace at a minimum, and the backbone mask (rattlers removed as in
     :func:`~jamlab.spheres.potential.remove_rattlers`, from one contact list)."""
-    e, f = energy_and_forces(packing, nl)
-    sigma = stress_tensor(packing, nl) * packing.box.volume
-    ci, cj, _ = contacts(packing, nl)
+    ev = evaluate(packing, nl)
+    ci, cj, _ = _contact_list(packing, nl)
     n = packing.n
-    need = packing.dim + 1
-    keep = np.ones(n, dtype=bool)
-    while True:
-        live = keep[ci] & keep[cj]
-        count = np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n)
-        drop = keep & (count < need)
-        if not drop.any():
-            break
-        keep &= ~drop
+    keep = _backbone_mask(ci, cj, n, packing.dim)
     n_kept = int(keep.sum())
     n_c_kept = int((keep[ci] & keep[cj]).sum())
     row = {
-        "energy": float(e),
-        "shear_stress": float(sigma[0, 1]),
-        "pressure": float(-np.trace(sigma) / (packing.dim * packing.box.volume)),
+        "energy": ev.energy,
+        "shear_stress": ev.shear_stress,
+        "pressure": ev.pressure,
         "z": 2.0 * ci.size / n,
         "z_nr": 2.0 * n_c_kept / n_kept if n_kept else 0.0,
-        "max_force": _max_norm(f),
+        "max_force": ev.max_force,
     }
     return row, keep
 
@@ -581,7 +617,7 @@ def shear(
     fac = _factorise(cur, nl, backbone)
     age = 0
     predictor: np.ndarray | None = None
-    last_u: np.ndarray | None = None
+    history: list[np.ndarray] = []  # non-affine displacements of the last elastic steps
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -589,6 +625,7 @@ def shear(
         iterations = 0
         plastic = False
         branch: _Branch | None = None
+        observed: tuple[Packing, dict[str, float], np.ndarray] | None = None
         if fac.free.size == 0:
             # no rigid backbone (unjammed): E ≈ 0, nothing can jump; FIRE just removes overlaps
             res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
@@ -597,12 +634,13 @@ def shear(
             branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
                 # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
-                e_new, _ = energy_and_forces(branch.packing, nl)
-                s_new = float(stress_tensor(branch.packing, nl)[0, 1] * cur.box.volume)
+                observed = (branch.packing, *_observe(branch.packing, nl))
                 r = (
-                    e_new
+                    observed[1]["energy"]
                     - rows["energy"][-1]
-                    - 0.5 * (target - rows["gamma"][-1]) * (rows["shear_stress"][-1] + s_new)
+                    - 0.5
+                    * (target - rows["gamma"][-1])
+                    * (rows["shear_stress"][-1] + observed[1]["shear_stress"])
                 )
                 if abs(r) > params.energy_tol * dgamma**2:
                     counters["n_factorisations"] += branch.refactorised
@@ -629,7 +667,10 @@ def shear(
                 plastic = branch.packing is None or not _same_minimum(
                     new, branch.packing, nl, params
                 )
-        row, backbone = _observe(new, nl)
+        if observed is not None and observed[0] is new:
+            row, backbone = observed[1], observed[2]
+        else:
+            row, backbone = _observe(new, nl)
         cleaned = False
         if row["max_force"] >= ftol:
             # Newton relaxed the backbone with rattlers held; let FIRE relax the rest
@@ -642,11 +683,11 @@ def shear(
         predictor = None
         if minimizer == "linear" and not plastic and not cleaned:
             u = new.box.minimum_image(new.positions - affine.positions)
-            # u(γ) is smooth on a branch: extrapolate it linearly from the last two steps
-            predictor = u if last_u is None else 2.0 * u - last_u
-            last_u = u
+            history = [u] + history[:2]
+            # u(γ) is smooth on a branch: extrapolate it from the last three steps
+            predictor = _extrapolate(history)
         else:
-            last_u = None
+            history = []
         cur = new
         age += 1
         if branch is not None and branch.factor is not None and not plastic:
