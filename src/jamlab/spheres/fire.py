@@ -6,9 +6,16 @@ back on ``P = F·v ≤ 0``). FIRE (original): E. Bitzek, P. Koskinen, F. Gähler
 P. Gumbsch, Phys. Rev. Lett. 97, 170201 (2006). Unit masses.
 
 Default parameters are the papers' standard ones, in units of the time step ``Δt₀ = 0.1`` used
-for the LAMMPS reference data (``timestep 0.1``): ``Δt_max = 10 Δt₀``, ``Δt_min = 0.02 Δt₀``,
-``N_delay = 20``, ``f_inc = 1.1``, ``f_dec = 0.5``, ``α₀ = 0.25``, ``f_α = 0.99``,
-``N⁻_max = 2000``, and a cap ``dmax = 0.1`` on any particle's displacement per step (as LAMMPS).
+for the LAMMPS reference data (``timestep 0.1``): ``Δt_min = 0.02 Δt₀``, ``N_delay = 20``,
+``f_inc = 1.1``, ``f_dec = 0.5``, ``α₀ = 0.25``, ``f_α = 0.99``, ``N⁻_max = 2000``, and a cap
+``dmax = 0.1`` on any particle's displacement per step (as LAMMPS) — except ``Δt_max = 3 Δt₀ = 0.3``
+(the papers and LAMMPS use ``10 Δt₀``). For ``V = (1 − r)²`` the pair stiffness is ``V'' = 2``, so
+the largest Hessian eigenvalue is at most ``2·2·z_max`` (Gershgorin) and ``ω_max ≤ 2√z_max ≈ 6.9``
+in 3D (``z_max = 12``); in practice ``ω_max ≈ 5–6``. Semi-implicit Euler is stable for
+``Δt < 2/ω_max ≈ 0.3–0.4``: with ``Δt_max = 1`` FIRE runs unstable and relies on its ``P ≤ 0``
+restarts, which near jamming stalls (measured in ``docs/spheres.md``: N = 1000 near jamming, no
+convergence to 1e-12 in 2e5 steps with ``Δt_max = 1``, 1.3e4–1e5 steps with 0.3; at φ = 0.8,
+2.9× fewer steps). In ``d ≥ 4`` (``z_max = 24`` → ``2/ω_max ≈ 0.2``) a smaller ``dt_max`` may pay.
 
 Converged when the largest per-particle force ``max_i |F_i| < ftol`` (a maximum, not a norm).
 """
@@ -32,7 +39,7 @@ class FireParameters:
     """FIRE parameters (see the module docstring); ``variant`` is ``"fire2"`` or ``"fire"``."""
 
     dt: float = 0.1
-    dt_max: float = 1.0
+    dt_max: float = 0.3
     dt_min: float = 0.002
     n_delay: int = 20
     f_inc: float = 1.1

@@ -10,8 +10,8 @@ freedom, plus one for the box volume / pressure); equivalently ``z_nr = z_iso(N'
 
     z_iso(N') = 2 (d (N' − 1) + 1) / N'  →  2d  as  N' → ∞.
 
-Minimisation (:func:`relax`): FIRE 2.0 from :mod:`jamlab.spheres.fire` with ``Δt_max = 0.3``
-(see :data:`JAM_FIRE`), until ``max_i |F_i| < ftol``.
+Minimisation (:func:`relax`): FIRE 2.0 from :mod:`jamlab.spheres.fire` with its defaults,
+``Δt_max = 0.3`` (see :data:`JAM_FIRE`), until ``max_i |F_i| < ftol``.
 
 The jamming protocol (:func:`jam`) and its stopping rule are documented in ``docs/packings.md``.
 """
@@ -77,12 +77,11 @@ def rescale(packing: Packing, phi: float) -> Packing:
     )
 
 
-JAM_FIRE = FireParameters(dt=0.1, dt_max=0.3)
-"""FIRE parameters used here: ``Δt_max = 0.3``. The largest pair stiffness is ``V'' = 2``, so the
-highest vibrational frequency of a packing is ``ω_max ≈ √(2·2z) ≈ 5–7`` and velocity Verlet /
-semi-implicit Euler is stable only for ``Δt < 2/ω_max ≈ 0.3``; with the engine default
-``Δt_max = 1`` FIRE oscillates and near jamming stalls (measured: N = 1000, max force still 2e-5
-after 1e5 steps, whereas ``Δt_max = 0.3`` reaches 1e-12 in 4.5e4)."""
+JAM_FIRE = FireParameters()
+"""FIRE parameters used here: the engine defaults, ``Δt_max = 0.3``. The largest pair stiffness is
+``V'' = 2``, so the highest vibrational frequency of a packing is ``ω_max ≈ √(2·2z) ≈ 5–7`` and
+semi-implicit Euler is stable only for ``Δt < 2/ω_max ≈ 0.3``; with ``Δt_max = 1`` (the engine
+default until this was measured) FIRE oscillates and near jamming stalls (``docs/spheres.md``)."""
 
 
 @dataclass(frozen=True, eq=False)
