@@ -1,0 +1,53 @@
+"""``jamlab reproduce``: the paper's figures and numbers in one report (``docs/reproduce.md``)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+def reproduce_command(
+    out: Annotated[Path, typer.Option("--out", help="Report directory (index.html, report.md).")],
+    scale: Annotated[
+        str, typer.Option("--scale", help="quick (< 30 min on 2 cores), paper (a cluster), tiny.")
+    ] = "quick",
+    runs: Annotated[
+        Path | None,
+        typer.Option("--runs", help="Where the run directories live (default OUT/runs)."),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option("--workers", help="Local worker processes (default: all cores; 0 = here)."),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="Address of a running dask scheduler, tcp://HOST:8786."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Master seed (default 0).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")] = False,
+) -> None:
+    """Run (or resume) the ensembles of a scale, make every figure and write the report with the
+    table quantity | paper | ours ± uncertainty | samples | verdict."""
+    from jamlab.reproduce import SCALES, reproduce, with_seed
+    from jamlab.runs import Execution
+
+    if scale not in SCALES:
+        raise ValueError(f"unknown scale {scale!r}: valid scales are {', '.join(SCALES)}")
+    chosen = SCALES[scale] if seed is None else with_seed(SCALES[scale], seed)
+    if seed is not None and seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed}")
+    execution = Execution(workers=workers, scheduler=scheduler)
+    log = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+    result = reproduce(chosen, out, runs=runs, execution=execution, log=log)
+    failed = sum(r["failed"] for r in result.data.get("runs", {}).values())
+    typer.echo(f"wrote {result.paths['html']} and {result.paths['markdown']} "
+               f"in {result.seconds:.0f} s ({len(result.rows)} rows, "
+               f"{len(result.figures)} figures, {failed} failed samples)")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``reproduce``."""
+    app.command("reproduce")(reproduce_command)

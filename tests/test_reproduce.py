@@ -1,0 +1,197 @@
+"""`reproduce` end to end at the `tiny` scale: files, figures, and every table number recomputed
+here from the stored runs (h5py and numpy, or jamlab.analysis), not copied from the pipeline."""
+
+import glob
+import json
+import math
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from jamlab.analysis import fit_power_law
+from jamlab.reproduce import SCALES, reproduce
+from jamlab.runs import Execution
+from jamlab.theory import exact_jump_R, one_level_R
+from test_report import parse_html  # noqa: E402  (tests/ is on sys.path via rootdir conftest)
+
+pytestmark = pytest.mark.slow  # one tiny reproduction, ~20-40 s on one core
+
+SCALE = SCALES["tiny"]
+FIGURES = ("fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "theory_vs_cascade")
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tiny") / "report"
+    result = reproduce("tiny", out, execution=Execution(workers=0))
+    data = json.loads((out / "results.json").read_text())
+    rows = {r["quantity"]: r for r in data["rows"]}
+    return out, result, data, rows
+
+
+def _traces(run_dir: Path, phi: str, n: int) -> list[dict]:
+    """Every finished sample's trace and attributes, read with h5py."""
+    out = []
+    for f in sorted(glob.glob(str(run_dir / "samples" / f"phi={phi}" / f"N={n}" / "*.h5"))):
+        with h5py.File(f, "r") as h5:
+            if not h5.attrs.get("complete", False):
+                continue
+            out.append({"trace": {k: h5["trace"][k][()] for k in h5["trace"]},
+                        "attrs": dict(h5.attrs)})
+    return out
+
+
+def _sizes(run_dir: Path, phi: str, ns) -> tuple[np.ndarray, int]:
+    sizes, samples = [], 0
+    for n in ns:
+        for s in _traces(run_dir, phi, n):
+            t = s["trace"]
+            de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+            sizes.append(-de[pl & (de < 0)])
+            samples += 1
+    return np.concatenate(sizes), samples
+
+
+def _row(rows, start):
+    hits = [r for q, r in rows.items() if q.startswith(start)]
+    assert len(hits) == 1, (start, list(rows))
+    return hits[0]
+
+
+def test_files_and_figures(tiny):
+    out, result, data, _ = tiny
+    for name in ("index.html", "report.md", "results.json"):
+        assert (out / name).is_file()
+    keys = [f["key"] for f in data["figures"]]
+    assert keys == list(FIGURES)
+    for f in data["figures"]:
+        png = out / f["path"]
+        assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert f["caption"]
+
+
+def test_html_is_well_formed_and_links_existing_images(tiny):
+    out, _, data, rows = tiny
+    p = parse_html((out / "index.html").read_text())
+    assert p.errors == [] and p.stack == []
+    assert sorted(p.images) == sorted(f["path"] for f in data["figures"])
+    assert all((out / src).is_file() for src in p.images)
+    table = [c for c in p.cells if c and c[0] != "quantity"]
+    assert [c[0] for c in table] == list(rows)
+    md = (out / "report.md").read_text()
+    for r in rows.values():
+        assert r["value_text"].replace("|", "\\|") in md
+
+
+def test_tau_rows_recomputed_from_the_runs(tiny):
+    out, _, _, rows = tiny
+    for phi, title, ns, run in (("jamming", "τ at jamming", SCALE.jamming_n, "jamming"),
+                                ("0.75", "τ at φ = 0.75", SCALE.unsat_n, "unsat"),
+                                ("0.8", "τ at φ = 0.80", SCALE.unsat_n, "unsat")):
+        sizes, samples = _sizes(out / "runs" / run, phi, ns)
+        row = _row(rows, title)
+        assert f"{samples} samples" in row["samples"]
+        assert f"{sizes.size} avalanches" in row["samples"]
+        if sizes.size < SCALE.min_tail:
+            assert row["value"] is None and row["value_text"] == "n/a"
+            assert all("no data" in v for v in row["verdicts"])
+            continue
+        fit = fit_power_law(sizes, x_max=float(sizes.max()), min_tail=SCALE.min_tail,
+                            n_boot=SCALE.n_boot, seed=SCALE.seed)
+        assert row["value"] == pytest.approx(fit.tau, rel=1e-12)
+        assert row["error"] == pytest.approx((fit.ci_high - fit.ci_low) / (2 * 1.959964),
+                                             rel=1e-5)
+        theory = 1.412693 if phi == "jamming" else 1.0
+        k = abs(fit.tau - theory) / row["error"]
+        assert any(v.startswith("theory: " + ("agrees" if k <= 2 else "differs"))
+                   for v in row["verdicts"])
+
+
+def test_phi_j_row_recomputed(tiny):
+    out, _, _, rows = tiny
+    phis = [s["attrs"]["phi_actual"] for n in SCALE.jamming_n
+            for s in _traces(out / "runs" / "jamming", "jamming", n)]
+    row = _row(rows, "φ_J")
+    assert row["value"] == pytest.approx(np.mean(phis), rel=1e-12)
+    assert row["error"] == pytest.approx(np.std(phis, ddof=1) / math.sqrt(len(phis)), rel=1e-9)
+    assert 0.55 < row["value"] < 0.70  # a jammed monodisperse 3D packing, any N
+
+
+@pytest.mark.parametrize("phi,run,ns,title", [
+    ("jamming", "jamming", SCALE.jamming_n, "at jamming"),
+    ("0.75", "unsat", SCALE.unsat_n, "at φ = 0.75"),
+])
+def test_moduli_slope_recomputed_with_numpy(tiny, phi, run, ns, title):
+    out, _, _, rows = tiny
+    n = max(ns)
+    samples = _traces(out / "runs" / run, phi, n)
+    stress = np.array([s["trace"]["shear_stress"] / s["attrs"]["box_length"] ** 3
+                       for s in samples])
+    lags = [m for m in SCALE.moduli_lags if m <= SCALE.moduli_fit_max_lag]
+    x, y, e = [], [], []
+    for m in lags:
+        d = stress[:, m:] - stress[:, :-m]
+        per = (d**2).mean(axis=1) / (m * SCALE.dgamma) ** 2
+        x.append(m * SCALE.dgamma)
+        y.append(per.mean())
+        e.append(per.std(ddof=1) / math.sqrt(per.size))
+    x, y, e = map(np.array, (x, y, e))
+    slope = np.polyfit(np.log(x), np.log(y), 1, w=y / e)[0]
+    row = _row(rows, f"slope of log⟨μ_1²⟩ vs log δγ, {title}")
+    assert row["value"] == pytest.approx(slope, rel=1e-8, abs=1e-10)
+    mu1 = ((stress[:, 1:] - stress[:, :-1]).mean(axis=1) / SCALE.dgamma).mean()
+    mu_row = _row(rows, f"⟨μ_1⟩ at the smallest and largest δγ, {title}")
+    assert mu_row["value"] == pytest.approx(mu1, rel=1e-10)
+
+
+def test_coordination_rows_recomputed(tiny):
+    out, _, _, rows = tiny
+    files = sorted((out / "data").glob("coordination_*.npz"))
+    assert len(files) == SCALE.coord_samples
+    expected = {}
+    for f in files:
+        with np.load(f) as z:
+            for name, y in (("z", z["z_nr"] - z["z_iso"]), ("p", z["pressure"])):
+                sel = (z["dphi"] >= 1e-4) & (z["dphi"] <= 1e-1) & (y > 0)
+                expected.setdefault(name, []).append(
+                    np.polyfit(np.log(z["dphi"][sel]), np.log(y[sel]), 1)[0])
+    assert _row(rows, "exponent of z_nr")["value"] == pytest.approx(np.mean(expected["z"]))
+    assert _row(rows, "exponent of p")["value"] == pytest.approx(np.mean(expected["p"]))
+
+
+def test_theory_rows(tiny):
+    _, _, data, rows = tiny
+    k1 = _row(rows, "k = 1 no-jump")
+    # SPEC §1: exact 0.744, the paper's chi 0.629
+    assert data["data"]["theory"]["k1_exact"] == pytest.approx(0.744, abs=5e-4)
+    assert data["data"]["theory"]["k1_chi"] == pytest.approx(0.629, abs=5e-4)
+    assert data["data"]["theory"]["k1_exact"] == pytest.approx(one_level_R(0.0, 1.0, 0.5))
+    assert abs(k1["value"] - 0.744) < 5 * k1["error"]  # sampled, 5 sigma
+    check = _row(rows, "P(no jump) at δγ = 0.3, y = 2.5q")
+    from jamlab.theory import ParisiFunction
+
+    q, y = ParisiFunction.linear(2.5, 0.0, 0.9).discretise(SCALE.cascade_k)
+    exact = float(exact_jump_R(q, y, 0.3, 0.0)[0])
+    assert f"{exact:.4f}" in check["reference_text"]
+    assert abs(check["value"] - exact) < 5 * check["error"]
+    tau = _row(rows, "τ_J")
+    assert tau["value"] == pytest.approx((3 + 0.42311) / (2 + 0.42311), rel=1e-12)
+
+
+def test_second_call_reuses_the_runs(tiny, tmp_path):
+    out, result, _, _ = tiny
+    runs = result.data["runs"]
+    assert sum(r["done"] for r in runs.values()) == sum(r["total"] for r in runs.values())
+    again = reproduce("tiny", tmp_path / "r2", runs=out / "runs", execution=Execution(workers=0))
+    assert all(r["done"] == 0 and r["skipped"] == r["total"] for r in again.data["runs"].values())
+    assert [r.value_text for r in again.rows][:4] == [r.value_text for r in result.rows][:4]
+
+
+def test_unknown_scale_and_unwritable_out(tmp_path):
+    with pytest.raises(ValueError, match="unknown scale 'huge'"):
+        reproduce("huge", tmp_path / "x")
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match="cannot create output directory"):
+        reproduce("tiny", tmp_path / "file" / "sub")
