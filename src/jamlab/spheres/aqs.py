@@ -702,7 +702,7 @@ def shear(
             or age >= params.refactor_every
             or (branch is not None and branch.cg_iterations > params.stale_cg)
         )
-        if stale:
+        if stale and n < total:  # (after the last step nothing would use it)
             # the previous preconditioner is useless after an avalanche, and the regular
             # refactorisation re-checks positive definiteness exactly (LDLᵀ pivots)
             fac = _factorise(cur, nl, backbone)
