@@ -11,6 +11,7 @@ dimensionless (state stresses of unit variance per unit ``1 − q``).
 from __future__ import annotations
 
 import os
+import textwrap
 from collections.abc import Mapping, Sequence
 
 import matplotlib
@@ -112,10 +113,10 @@ def plot_avalanche_histograms(
         med = float(np.exp(np.average(np.log(h.centres[ok]), weights=h.counts[ok])))
         ax.loglog(h.centres[ok] / med, h.density[ok] * med, "o-", ms=3, color=f"C{j}",
                   label=PHI_TITLES.get(lab, lab))
-    for k, (tau, style) in enumerate(sorted({(v, s) for v, s in zip(
-            predicted.values(), ("r--", "b--", "g--"), strict=False)})):
+    for k, tau in enumerate(sorted(set(predicted.values()))):
         xs = np.geomspace(1e-2, 1e2, 10)
-        ax.loglog(xs, 0.3 * (10.0 ** -k) * xs ** (-tau), style, lw=1, label=f"slope −{tau:.4g}")
+        ax.loglog(xs, 0.3 * (10.0**-k) * xs ** (-tau), ("r--", "b--", "g--")[k % 3], lw=1,
+                  label=f"predicted slope −{tau:.4g}")
     ax.set_xlabel("S / (typical S of that φ)  (dimensionless)")
     ax.set_ylabel("P(S) × typical S per step (dimensionless)")
     ax.set_title(f"({letters[len(labels)]}) all together (rescaled)")
@@ -221,7 +222,7 @@ def plot_moduli(
         ax2.set_ylabel("⟨μ_1²⟩ = ⟨ΔΣ²⟩/(L⁶ δγ²) (ε²/σ⁶)")
         ax2.set_title(f"({next(letters)}) ⟨μ_1²⟩, {PHI_TITLES.get(lab, lab)}")
         ax2.legend(fontsize=7)
-    fig.suptitle(how, fontsize=9)
+    fig.suptitle("\n".join(textwrap.wrap(how, 150)), fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)

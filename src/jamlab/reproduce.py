@@ -57,6 +57,7 @@ __all__ = [
     "ReproduceResult",
     "avalanche_sizes_of",
     "fit_tau",
+    "make_figure",
     "reproduce",
     "studies",
 ]
@@ -428,13 +429,10 @@ def reproduce(
     figdir.mkdir(parents=True, exist_ok=True)
 
     summaries = _run_all(scale, runs_dir, execution, log)
-    from jamlab.runs import open_run
-
-    ds_j = open_run(runs_dir / "jamming")
-    ds_u = open_run(runs_dir / "unsat")
-    ds_s = open_run(runs_dir / "stress-strain")
     log("analysis and figures")
-    rows, figures, data = _analyse(scale, ds_j, ds_u, ds_s, out, figdir, log)
+    ctx = _Ctx(scale, runs_dir, out, figdir, log)
+    figures = _analyse(ctx)
+    rows, data = ctx.rows, ctx.data
     data["runs"] = {k: asdict(v) | {"failures": [str(f) for f in v.failures]}
                     for k, v in summaries.items()}
     seconds = time.perf_counter() - t0
@@ -505,17 +503,34 @@ def _fit_text(fit: Any) -> str:
             f"{fit.ci_high:.3f}], x_min = {fit.x_min:.3g} ε, tail {fit.n_tail})")
 
 
-def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: Path,
-             log: Callable[[str], None]) -> tuple[list[Row], list[Figure], dict[str, Any]]:
-    from jamlab.analysis import fit_log_slope, log_histogram, moduli_from_trace
+class _Ctx:
+    """What the parts of the analysis share: scale, datasets, output places, results so far."""
+
+    def __init__(self, scale: Scale, runs: Path, out: Path, figdir: Path,
+                 log: Callable[[str], None]) -> None:
+        self.scale, self.runs, self.out, self.figdir, self.log = scale, runs, out, figdir, log
+        self.rows: list[Row] = []
+        self.files: dict[str, Path] = {}
+        self.data: dict[str, Any] = {}
+        self._ds: dict[str, Any] = {}
+
+    def ds(self, name: str) -> Any:
+        """The run directory ``name`` opened with :func:`jamlab.runs.open_run` (once)."""
+        if name not in self._ds:
+            from jamlab.runs import open_run
+
+            self._ds[name] = open_run(self.runs / name)
+        return self._ds[name]
+
+
+def _part_avalanches(c: _Ctx) -> None:
+    """τ rows and Fig. 5."""
+    scale, rows, data, figdir = c.scale, c.rows, c.data, c.figdir
+    from jamlab.analysis import log_histogram
     from jamlab.theory import tau_jamming
 
-    rows: list[Row] = []
-    figures: list[Figure] = []
-    data: dict[str, Any] = {}
+    ds_j, ds_u = c.ds("jamming"), c.ds("unsat")
     tau_j = tau_jamming()
-
-    # ---- avalanches (Fig. 5, τ rows)
     per_n: dict[str, dict[int, Any]] = {}
     pooled: dict[str, Any] = {}
     fits: dict[str, Any] = {}
@@ -541,7 +556,8 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
             tau=fits[label].tau, sigma=_tau_sigma(fits[label]), ci_low=fits[label].ci_low,
             ci_high=fits[label].ci_high, x_min=fits[label].x_min, n_tail=fits[label].n_tail,
             n_avalanches=int(sizes.size))
-        log(f"τ at {label}: {_fit_text(fits[label])}, {sizes.size} avalanches")
+        c.log(f"τ at {label}: {_fit_text(fits[label])}, {sizes.size} avalanches")
+    data["avalanche_counts"] = {k: v[0] for k, v in counts.items()}
     predicted = {"jamming": tau_j, "0.75": 1.0, "0.8": 1.0}
     for label, title in (("jamming", "τ at jamming"), ("0.75", "τ at φ = 0.75"),
                          ("0.8", "τ at φ = 0.80")):
@@ -565,7 +581,7 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
                 Comparison(f"|τ − {theory:.3g}| ≤ {tol:g}", theory, tolerance=tol),
             ),
         ))
-    plot_files = {}
+
     from jamlab.plots_report import plot_avalanche_histograms
 
     f5 = figdir / "fig5_avalanches.png"
@@ -573,9 +589,13 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
     plot_avalanche_histograms({k: per_n[k] for k in order}, {k: pooled[k] for k in order},
                               fits, predicted, f5,
                               title=f"δγ = {scale.dgamma:g}, γ_max = {scale.gamma_max:g}")
-    plot_files["fig5"] = f5
+    c.files["fig5"] = f5
 
-    # ---- φ_J
+
+def _part_phi_j(c: _Ctx) -> None:
+    """The φ_J row."""
+    scale, rows, data = c.scale, c.rows, c.data
+    ds_j = c.ds("jamming")
     done = ds_j.status.values == "done"
     phis = np.asarray(ds_j.phi_actual.values)[done]
     phi_mean = float(phis.mean()) if phis.size else math.nan
@@ -594,7 +614,13 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
     ))
     data["phi_j"] = dict(mean=phi_mean, sem=phi_err, n=int(phis.size))
 
-    # ---- moduli (Fig. 7)
+
+def _part_moduli(c: _Ctx) -> None:
+    """Slope and ⟨μ_1⟩ rows and Fig. 7."""
+    scale, rows, data, figdir = c.scale, c.rows, c.data, c.figdir
+    from jamlab.analysis import fit_log_slope, moduli_from_trace
+
+    ds_j, ds_u = c.ds("jamming"), c.ds("unsat")
     moments: dict[str, dict[int, Any]] = {}
     slope_fits: dict[str, Any] = {}
     for label, ds, ns in (("jamming", ds_j, scale.jamming_n), ("0.75", ds_u, scale.unsat_n)):
@@ -619,7 +645,7 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
 
     f7 = figdir / "fig7_moduli.png"
     plot_moduli(moments, slope_fits, f7, how)
-    plot_files["fig7"] = f7
+    c.files["fig7"] = f7
     for label, title in (("jamming", "at jamming"), ("0.75", "at φ = 0.75")):
         sf = slope_fits[label]
         val, err = (sf[1].slope, sf[1].slope_err) if sf else (math.nan, math.nan)
@@ -657,8 +683,12 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
             note="finite and δγ-independent if it agrees with its value at the largest δγ",
         ))
 
-    # ---- Fig. 4: one jammed sample
-    from jamlab.plots_report import plot_one_trace, plot_stress_strain
+
+def _part_trace(c: _Ctx) -> None:
+    """Fig. 4 (one jammed sample)."""
+    scale, figdir = c.scale, c.figdir
+    ds_j = c.ds("jamming")
+    from jamlab.plots_report import plot_one_trace
 
     n4 = max(scale.jamming_n)
     done4 = np.flatnonzero(_done(ds_j, "jamming", n4))
@@ -673,9 +703,15 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
                        title=f"one sample at jamming: N = {n4}, sample {i}, "
                              f"φ_J = {float(ds_j.phi_actual.sel(**sel)):.4f}, "
                              f"δγ = {scale.dgamma:g}")
-        plot_files["fig4"] = f4
+        c.files["fig4"] = f4
 
-    # ---- Fig. 6: stress–strain
+
+def _part_stress_strain(c: _Ctx) -> None:
+    """Fig. 6 (mean stress–strain curve)."""
+    scale, data, figdir = c.scale, c.data, c.figdir
+    from jamlab.plots_report import plot_stress_strain
+
+    ds_s = c.ds("stress-strain")
     lab6 = repr(float(scale.stress_phi))
     st6 = intensive_stress(ds_s, lab6, scale.stress_n)
     f6 = figdir / "fig6_stress_strain.png"
@@ -685,17 +721,21 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
         plot_stress_strain(gamma, st6, f6, example=0,
                            title=f"φ = {scale.stress_phi:g}, N = {scale.stress_n}, "
                                  f"δγ = {scale.stress_dgamma:g}")
-        plot_files["fig6"] = f6
+        c.files["fig6"] = f6
         data["stress_strain"] = dict(samples=int(st6.shape[0]))
 
-    # ---- Fig. 1: coordination
+
+def _part_coordination(c: _Ctx) -> None:
+    """Coordination-exponent rows and Fig. 1."""
+    scale, rows, data, figdir = c.scale, c.rows, c.data, c.figdir
+    out, log = c.out, c.log
     from jamlab.plots_packings import plot_coordination
 
     curves = _coordination(scale, out / "data", log)
     f1 = figdir / "fig1_coordination.png"
     if curves:
         plot_coordination(curves[0], f1)
-        plot_files["fig1"] = f1
+        c.files["fig1"] = f1
     exps = coordination_exponents(curves)
     for name, title in (("z_nr - z_iso", "exponent of z_nr − z_iso(N') vs φ − φ_J"),
                         ("p", "exponent of p vs φ − φ_J")):
@@ -709,8 +749,15 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
         ))
     data["coordination"] = {k: dict(exponent=v[0], sigma=v[1], packings=v[2])
                             for k, v in exps.items()}
+    data["coordination"]["phi_j_first"] = curves[0].phi_j if curves else math.nan
 
-    # ---- theory: Figs. 2, 3, theory vs cascade
+
+def _part_theory(c: _Ctx) -> None:
+    """Theory rows, Figs. 2, 3 and theory vs cascade."""
+    scale, rows, data, figdir = c.scale, c.rows, c.data, c.figdir
+    from jamlab.theory import tau_jamming
+
+    tau_j = tau_jamming()
     from jamlab.plots import jump_distribution_table
     from jamlab.plots_cascade import cascade_tree_figure
     from jamlab.plots_report import plot_jump_distributions_two_panels, plot_no_jump_probability
@@ -719,13 +766,13 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
     f2 = figdir / "fig2_cascade_tree.png"
     q6, y6 = ParisiFunction.linear(2.5, 0.0, 0.9).discretise(6)
     cascade_tree_figure(sample_cascade_tree(q6, y6, 0.3, seed=scale.seed + 2), f2)
-    plot_files["fig2"] = f2
+    c.files["fig2"] = f2
     f3 = figdir / "fig3_theory.png"
     dgs = (1e-2, 1e-3, 1e-4)
     plot_jump_distributions_two_panels(
         [(mu_jamming(), jump_distribution_table(mu_jamming(), dgs, n_points=150)),
          (0.5, jump_distribution_table(0.5, dgs, n_points=150))], f3)
-    plot_files["fig3"] = f3
+    c.files["fig3"] = f3
     th = theory_checks(scale)
     data["theory"] = th
     ftc = figdir / "theory_vs_cascade.png"
@@ -737,7 +784,7 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
         np.array([r["sampled_err"] for r in rr]), ftc,
         title=f"y(q) = 2.5 q, q_max = 0.9; cascade and recursion with k = {th['k']} levels, "
               f"{th['n']} samples per point")
-    plot_files["theory_vs_cascade"] = ftc
+    c.files["theory_vs_cascade"] = ftc
     check = next(r for r in rr if r["dgamma"] == scale.cascade_check_dgamma)
     rows.append(Row(
         quantity="τ_J = (3+θ)/(2+θ), θ = 0.42311",
@@ -775,30 +822,52 @@ def _analyse(scale: Scale, ds_j: Any, ds_u: Any, ds_s: Any, out: Path, figdir: P
                      Comparison("the paper's χ_1 (computed)", th["k1_chi"])),
     ))
 
-    captions = _captions(scale, fits, counts, curves, th)
-    titles = {
-        "fig1": "Fig. 1 — coordination vs packing fraction",
-        "fig2": "Fig. 2 — a Derrida–Ruelle cascade",
-        "fig3": "Fig. 3 — mean-field jump distribution P(ΔE|δγ)",
-        "fig4": "Fig. 4 — energy and stress vs strain, one jammed sample",
-        "fig5": "Fig. 5 — avalanche size distributions",
-        "fig6": "Fig. 6 — mean stress–strain curve",
-        "fig7": "Fig. 7 — moments of the shear modulus vs δγ",
-        "theory_vs_cascade": "Theory vs cascade — probability of no jump",
-    }
-    for key in titles:
-        if key in plot_files:
-            figures.append(Figure(key, titles[key], plot_files[key].relative_to(out).as_posix(),
-                                  captions[key]))
-    return rows, figures, data
+
+PARTS: dict[str, Callable[[_Ctx], None]] = {
+    "avalanches": _part_avalanches,
+    "phi_j": _part_phi_j,
+    "moduli": _part_moduli,
+    "trace": _part_trace,
+    "stress_strain": _part_stress_strain,
+    "coordination": _part_coordination,
+    "theory": _part_theory,
+}
+"""The analysis in independent parts, in report order of their rows."""
+
+FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory", "fig4": "trace",
+               "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
+               "theory_vs_cascade": "theory"}
+"""Which part makes which figure."""
+
+TITLES = {
+    "fig1": "Fig. 1 — coordination vs packing fraction",
+    "fig2": "Fig. 2 — a Derrida–Ruelle cascade",
+    "fig3": "Fig. 3 — mean-field jump distribution P(ΔE|δγ)",
+    "fig4": "Fig. 4 — energy and stress vs strain, one jammed sample",
+    "fig5": "Fig. 5 — avalanche size distributions",
+    "fig6": "Fig. 6 — mean stress–strain curve",
+    "fig7": "Fig. 7 — moments of the shear modulus vs δγ",
+    "theory_vs_cascade": "Theory vs cascade — probability of no jump",
+}
 
 
-def _captions(scale: Scale, fits: dict, counts: dict, curves: list, th: dict) -> dict[str, str]:
-    c = curves[0] if curves else None
+def _analyse(c: _Ctx, parts: tuple[str, ...] = tuple(PARTS)) -> list[Figure]:
+    """Run the ``parts`` (rows into ``c.rows``) and return the figures made, in report order."""
+    for name in parts:
+        PARTS[name](c)
+    captions = _captions(c.scale, c.data)
+    return [Figure(key, TITLES[key], c.files[key].relative_to(c.out).as_posix(), captions[key])
+            for key in TITLES if key in c.files]
+
+
+def _captions(scale: Scale, data: dict[str, Any]) -> dict[str, str]:
+    phi_j = data.get("coordination", {}).get("phi_j_first", math.nan)
+    counts = data.get("avalanche_counts", {})
+    th = data.get("theory", {"k": scale.cascade_k, "n": scale.cascade_samples})
     return {
         "fig1": (f"Mean coordination z (all particles) and z_nr (rattlers removed) of one "
                  f"packing of N = {scale.coord_n} compressed from its jamming point "
-                 + (f"φ_J = {c.phi_j:.5f}" if c else "") + "; right: z_nr − 2d, z_nr − z_iso(N') "
+                 f"φ_J = {phi_j:.5f}; right: z_nr − 2d, z_nr − z_iso(N') "
                  "and pressure p (ε/σ³) against φ − φ_J with least-squares power laws over the "
                  "shaded range."),
         "fig2": ("A 6-level cascade (y = 2.5 q, q_max = 0.9 discretised) at δγ = 0.3: states "
@@ -815,7 +884,7 @@ def _captions(scale: Scale, fits: dict, counts: dict, curves: list, th: dict) ->
                  "typical size of each φ. Black: maximum-likelihood truncated power law fitted "
                  "to all N pooled (x_min dotted); red dashed: predicted τ (1 above jamming, "
                  "1.41269 at jamming). Avalanches: "
-                 + ", ".join(f"{k}: {v[0]}" for k, v in counts.items()) + "."),
+                 + ", ".join(f"{k}: {v}" for k, v in counts.items()) + "."),
         "fig6": (f"Mean intensive shear stress over {scale.stress_samples} samples at "
                  f"φ = {scale.stress_phi:g} (N = {scale.stress_n}, δγ = "
                  f"{scale.stress_dgamma:g}), shaded ± one sample-to-sample standard deviation, "
@@ -831,6 +900,52 @@ def _captions(scale: Scale, fits: dict, counts: dict, curves: list, th: dict) ->
             "The printed formula departs from the exact cascade at finite δγ "
             "(docs/theory-vs-cascade.md)."),
     }
+
+
+def make_figure(
+    name: str,
+    scale: Scale | str,
+    runs: str | os.PathLike,
+    out_file: str | os.PathLike,
+    work: str | os.PathLike | None = None,
+) -> Path:
+    """Make one figure of the report (``fig1`` … ``fig7``, ``theory_vs_cascade``) from existing
+    run directories under ``runs`` (those of ``jamlab reproduce``; nothing is run except the
+    coordination curve and the theory, which need no ensemble) and copy it to ``out_file``.
+
+    ``work`` keeps the intermediate files (default: a temporary directory); the coordination
+    curves are cached in ``work/data``.
+    """
+    import shutil
+    import tempfile
+
+    if name not in FIGURE_PART:
+        raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
+    if isinstance(scale, str):
+        if scale not in SCALES:
+            raise ValueError(f"unknown scale {scale!r}: valid scales are {', '.join(SCALES)}")
+        scale = SCALES[scale]
+    runs = Path(runs)
+    part = FIGURE_PART[name]
+    needs = {"avalanches": ("jamming", "unsat"), "moduli": ("jamming", "unsat"),
+             "trace": ("jamming",), "stress_strain": ("stress-strain",)}.get(part, ())
+    for run in needs:
+        if not (runs / run / "manifest.json").is_file():
+            raise ValueError(f"{runs / run} is not a run directory: run `jamlab reproduce "
+                             f"--scale {scale.name}` first (or give --runs)")
+    out_file = Path(out_file)
+    if not out_file.parent.is_dir():
+        raise FileNotFoundError(f"output directory does not exist: {out_file.parent}")
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(work) if work is not None else Path(tmp)
+        figdir = base / "figures"
+        figdir.mkdir(parents=True, exist_ok=True)
+        ctx = _Ctx(scale, runs, base, figdir, lambda msg: None)
+        PARTS[part](ctx)
+        if name not in ctx.files:
+            raise ValueError(f"no data for {name} in {runs} (no finished samples)")
+        shutil.copyfile(ctx.files[name], out_file)
+    return out_file
 
 
 def with_seed(scale: Scale, seed: int) -> Scale:

@@ -56,3 +56,18 @@ def test_tiny_reproduction_then_resume(tmp_path):
         assert f"{name}: 0 computed, {total} reused, 0 failed" in r2.stderr
     again = json.loads((out / "results.json").read_text())
     assert [r["value"] for r in again["rows"]] == [r["value"] for r in data["rows"]]
+
+
+def test_figure_command_makes_one_theory_figure(tmp_path):
+    r = jamlab("figure", "fig2", "--out", tmp_path / "tree.png")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "tree.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_figure_command_errors_are_one_line(tmp_path):
+    assert "unknown figure 'fig9'" in one_line_error(
+        jamlab("figure", "fig9", "--out", tmp_path / "x.png"))
+    assert "needs --runs" in one_line_error(jamlab("figure", "fig5", "--out", tmp_path / "x.png"))
+    line = one_line_error(jamlab("figure", "fig5", "--runs", tmp_path, "--out", tmp_path / "x.png"))
+    assert "is not a run directory" in line
+    assert not (tmp_path / "x.png").exists()

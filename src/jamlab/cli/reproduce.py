@@ -48,6 +48,30 @@ def reproduce_command(
                f"{len(result.figures)} figures, {failed} failed samples)")
 
 
+def figure_command(
+    name: Annotated[str, typer.Argument(help="fig1 … fig7 or theory_vs_cascade.")],
+    out: Annotated[Path, typer.Option("--out", help="Output PNG file.")],
+    runs: Annotated[
+        Path | None,
+        typer.Option("--runs", help="Run directories of `jamlab reproduce` (its OUT/runs)."),
+    ] = None,
+    scale: Annotated[str, typer.Option("--scale", help="Scale the runs were made with.")] = (
+        "quick"
+    ),
+) -> None:
+    """Make one figure of the report from existing runs (figs. 1-3 and theory_vs_cascade need
+    none: they are computed)."""
+    from jamlab.reproduce import FIGURE_PART, make_figure
+
+    if name in ("fig4", "fig5", "fig6", "fig7") and runs is None:
+        raise ValueError(f"{name} needs --runs (the runs/ directory of a `jamlab reproduce`)")
+    if name not in FIGURE_PART:
+        raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
+    path = make_figure(name, scale, runs if runs is not None else Path("."), out)
+    typer.echo(f"wrote {path}")
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``reproduce``."""
+    """Add ``reproduce`` and ``figure``."""
     app.command("reproduce")(reproduce_command)
+    app.command("figure")(figure_command)
