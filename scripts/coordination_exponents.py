@@ -25,7 +25,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=30)
     ap.add_argument("--no-curve", action="store_true")
     args = ap.parse_args()
-    phis, a_iso, a_2d, b = [], [], [], []
+    phis, a_iso, a_2d, b, cpus = [], [], [], [], []
+    curves = []
     for seed in args.seeds:
         t = time.process_time()
         res = jam(args.n, args.dim, seed)
@@ -39,9 +40,11 @@ def main() -> None:
         if not res.ok:
             continue
         phis.append(res.phi_j)
+        cpus.append(time.process_time() - t)
         if args.no_curve:
             continue
         c = coordination_curve(res.packing, res.phi_j, steps=args.steps)
+        curves.append(c)
         a_iso.append(fit_power_law(c.dphi, c.z_nr - c.z_iso)[0])
         a_2d.append(fit_power_law(c.dphi, c.z_nr - 2 * args.dim)[0])
         b.append(fit_power_law(c.dphi, c.pressure)[0])
@@ -53,10 +56,23 @@ def main() -> None:
         f"N={args.n} d={args.dim}: phi_J = {phis.mean():.5f} ± {phis.std(ddof=1):.5f} (std), "
         f"range [{phis.min():.5f}, {phis.max():.5f}], {len(phis)} seeds"
     )
+    print(f"CPU to jam: mean {np.mean(cpus):.1f} s, max {np.max(cpus):.1f} s")
     for name, v in (("a (z_nr - z_iso)", a_iso), ("a (z_nr - 2d)", a_2d), ("b (p)", b)):
         if len(v) > 1:
             v = np.array(v)
             print(f"{name} = {v.mean():.4f} ± {v.std(ddof=1) / np.sqrt(len(v)):.4f} (s.e.)")
+    if len(curves) > 1:
+        # the ensemble-averaged curve (mean over seeds at each Δφ), then one fit
+        dphi = curves[0].dphi
+        mean = {
+            "z_nr - z_iso": np.mean([c.z_nr - c.z_iso for c in curves], axis=0),
+            "z_nr - 2d": np.mean([c.z_nr for c in curves], axis=0) - 2 * args.dim,
+            "p": np.mean([c.pressure for c in curves], axis=0),
+        }
+        for name, y in mean.items():
+            for lo, hi in ((1e-4, 1e-1), (1e-4, 1e-2), (1e-3, 1e-1)):
+                e, se, _ = fit_power_law(dphi, y, lo, hi)
+                print(f"ensemble-mean {name}: exponent {e:.4f} ± {se:.4f} (fit) on [{lo}, {hi}]")
 
 
 if __name__ == "__main__":
