@@ -37,6 +37,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from jamlab._atomic import atomic_write
 from jamlab.runs.study import SampleKey, Study, phi_label
 from jamlab.runs.tasks import SampleFailure, SampleResult
 
@@ -65,31 +66,6 @@ class RunError(ValueError):
     """A run directory that cannot be used as asked (reported as a one-line user error)."""
 
 
-def _fsync_dir(directory: Path) -> None:
-    fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _atomic_write(path: Path, write: Any) -> None:
-    """Call ``write(tmp_path)``, fsync, rename over ``path``, fsync the directory."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.remove(tmp)
-        raise
-    _fsync_dir(path.parent)
-
-
 def _write_json(path: Path, data: dict[str, Any]) -> None:
     def write(tmp: str) -> None:
         with open(tmp, "w") as fh:
@@ -97,7 +73,7 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
             fh.write("\n")
             fh.flush()
 
-    _atomic_write(path, write)
+    atomic_write(path, write, make_parents=True)
 
 
 def _is_manifest_tmp(path: Path) -> bool:
@@ -300,7 +276,7 @@ class RunDir:
                 h5.flush()
 
         path = self.sample_path(key)
-        _atomic_write(path, write)
+        atomic_write(path, write, make_parents=True)
         self.failure_path(key).unlink(missing_ok=True)
         return path
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from jamlab.runs.study import SampleKey, Study
+from jamlab.spheres.trace import TRACE_COLUMNS
 
 __all__ = [
     "TRACE_FIELDS",
@@ -41,19 +42,7 @@ __all__ = [
     "aqs_task",
 ]
 
-TRACE_FIELDS = (
-    "gamma",
-    "energy",
-    "shear_stress",
-    "pressure",
-    "z",
-    "z_nr",
-    "max_force",
-    "iterations",
-    "energy_jump",
-    "stress_jump",
-    "plastic",
-)
+TRACE_FIELDS = TRACE_COLUMNS
 """The per-step arrays of :class:`jamlab.spheres.trace.Trace` that every sample stores."""
 
 

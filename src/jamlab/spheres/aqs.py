@@ -68,7 +68,7 @@ from jamlab.spheres.potential import (
     energy_and_forces,
     evaluate,
 )
-from jamlab.spheres.trace import Trace, write_trace
+from jamlab.spheres.trace import TRACE_COLUMNS, Trace, write_trace
 
 __all__ = [
     "AQSParameters",
@@ -727,17 +727,8 @@ def shear(
     )
 
 
-_ROW_KEYS = (
-    "gamma",
-    "energy",
-    "shear_stress",
-    "pressure",
-    "z",
-    "z_nr",
-    "max_force",
-    "iterations",
-    "plastic",
-)
+# the columns measured at a minimum (the jumps are differences between rows)
+_ROW_KEYS = tuple(c for c in TRACE_COLUMNS if c not in ("energy_jump", "stress_jump"))
 
 
 def _append(rows: dict[str, list], gamma: float, row: dict, iterations: int, plastic: bool) -> None:

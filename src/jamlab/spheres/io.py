@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import h5py
 import numpy as np
 
+from jamlab._atomic import atomic_write
 from jamlab.spheres.box import Box
 from jamlab.spheres.potential import Packing
 
@@ -36,13 +36,7 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
     additional root attributes (numbers or strings). Returns the path."""
     from jamlab import __version__
 
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise FileNotFoundError(f"output directory does not exist: {directory}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    os.close(fd)
-    try:
+    def write(tmp: str) -> None:
         with h5py.File(tmp, "w") as h5:
             h5.create_dataset("positions", data=np.asarray(packing.positions, dtype=np.float64))
             h5.attrs["box_length"] = float(packing.box.length)
@@ -56,14 +50,8 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
             for key, value in extra_attrs.items():
                 h5.attrs[key] = value
             h5.flush()
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    return path
+
+    return atomic_write(path, write)
 
 
 def read_packing(path: str | os.PathLike) -> Packing:

@@ -23,12 +23,13 @@ paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``o
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from jamlab._atomic import atomic_write
 
 __all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace"]
 
@@ -136,13 +137,8 @@ def _attr_value(value: object) -> object:
 def write_trace(path: str | os.PathLike, trace: Trace) -> Path:
     """Write ``trace`` atomically to HDF5: one 1-D dataset per column (names ``TRACE_COLUMNS``),
     ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``."""
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise FileNotFoundError(f"output directory does not exist: {directory}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    os.close(fd)
-    try:
+
+    def write(tmp: str) -> None:
         with h5py.File(tmp, "w") as h5:
             for name in TRACE_COLUMNS:
                 h5.create_dataset(name, data=getattr(trace, name))
@@ -151,14 +147,8 @@ def write_trace(path: str | os.PathLike, trace: Trace) -> Path:
             h5.attrs["format"] = FORMAT
             h5.attrs["format_version"] = FORMAT_VERSION
             h5.flush()
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    return path
+
+    return atomic_write(path, write)
 
 
 def read_trace(path: str | os.PathLike) -> Trace:
