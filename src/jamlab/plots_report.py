@@ -284,7 +284,7 @@ def plot_no_jump_probability(
     ax.errorbar(dgamma, sampled, sampled_err, fmt="C0o", ms=4, label="cascade sampler (k levels)")
     ax.set_xlabel("strain step δγ (dimensionless)")
     ax.set_ylabel("P(no jump) = R(0) (probability)")
-    ax.set_title(title, fontsize=10)
+    ax.set_title("\n".join(textwrap.wrap(title, 80)), fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=110)

@@ -440,7 +440,11 @@ def reproduce(
         title="jamlab: reproduction of Franz & Spigler, Mean-field avalanches in jammed spheres",
         scale=scale.name,
         seconds=seconds,
-        parameters=_parameters(scale, runs_dir),
+        parameters={"this invocation": (
+            f"{sum(v.done for v in summaries.values())} samples computed, "
+            f"{sum(v.skipped for v in summaries.values())} reused from earlier runs, "
+            f"{sum(v.failed for v in summaries.values())} failed "
+            f"(the wall time covers only this invocation)")} | _parameters(scale, runs_dir),
         notes=_notes(scale),
     )
     paths = write_report(out, rows, figures, meta, extra=data)
@@ -462,9 +466,11 @@ def _parameters(scale: Scale, runs: Path) -> dict[str, str]:
         "run directories": str(runs),
         "avalanche ensembles": (
             f"jamming: N = {', '.join(map(str, scale.jamming_n))}, {scale.jamming_samples} "
-            f"samples each; φ = 0.75, 0.80: N = {', '.join(map(str, scale.unsat_n))}, "
-            f"{scale.unsat_samples} samples each; δγ = {scale.dgamma:g}, "
-            f"γ_max = {scale.gamma_max:g} ({round(scale.gamma_max / scale.dgamma)} steps)"
+            f"samples each, γ_max = {scale.jamming_gamma_max:g} "
+            f"({round(scale.jamming_gamma_max / scale.dgamma)} steps); φ = 0.75, 0.80: "
+            f"N = {', '.join(map(str, scale.unsat_n))}, {scale.unsat_samples} samples each, "
+            f"γ_max = {scale.gamma_max:g} ({round(scale.gamma_max / scale.dgamma)} steps); "
+            f"δγ = {scale.dgamma:g}"
         ),
         "stress–strain ensemble": (
             f"φ = {scale.stress_phi:g}, N = {scale.stress_n}, {scale.stress_samples} samples, "
@@ -657,7 +663,7 @@ def _part_moduli(c: _Ctx) -> None:
             value=val, error=err,
             value_text=(format_value(val, err) + (
                 f" (N = {n_big}, δγ ≤ {scale.moduli_fit_max_lag * scale.dgamma:g}, "
-                f"χ²/dof = {sf[1].chi2:.1f}/{sf[1].dof})" if sf else "")),
+                f"χ²/dof = {sf[1].chi2:.2g}/{sf[1].dof})" if sf else "")),
             samples=f"{m.n_samples if m else 0} samples",
             comparisons=(Comparison("theory", -1.0),
                          Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
@@ -746,6 +752,8 @@ def _part_coordination(c: _Ctx) -> None:
             value=a, error=err, value_text=format_value(a, err),
             samples=f"{k} packing(s) of N = {scale.coord_n}, fit over Δφ ∈ [1e-4, 0.1]",
             comparisons=(Comparison("O'Hern et al.", COORDINATION_EXPONENTS[name]),),
+            note="σ is the spread over packings only; finite-N and fit-window effects "
+                 "(systematic) are not in it",
         ))
     data["coordination"] = {k: dict(exponent=v[0], sigma=v[1], packings=v[2])
                             for k, v in exps.items()}
