@@ -43,10 +43,10 @@ def _have_prepare() -> bool:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--task", default=None, choices=["aqs", "toy", "random-shear"])
-    parser.add_argument("--n", type=int, default=64, help="particles per sample")
+    parser.add_argument("--n", type=int, default=256, help="particles per sample")
     parser.add_argument("--phi", default="0.8", help="packing fraction or 'jamming'")
     parser.add_argument("--dgamma", type=float, default=1e-4)
-    parser.add_argument("--gamma-max", type=float, default=4e-3)
+    parser.add_argument("--gamma-max", type=float, default=2e-2)
     args = parser.parse_args()
     if args.task is None:
         args.task = "aqs" if _have_prepare() else "random-shear"
