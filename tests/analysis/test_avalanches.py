@@ -13,7 +13,13 @@ from jamlab.analysis import (
     noise_floor,
 )
 
-REFERENCE = Path("/work/shared/reference/lammps-aqs-n500-phi0.80-1000steps/trace.csv")
+REFERENCE = (
+    Path(__file__).resolve().parents[3]
+    / "shared"
+    / "reference"
+    / "lammps-aqs-n500-phi0.80-1000steps"
+    / "trace.csv"
+)
 
 
 def _synthetic_trace(rng, noise):
