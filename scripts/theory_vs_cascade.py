@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import erfc
 
-from jamlab.plots_cascade import cascade_tree_figure, jump_histograms_figure
+from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
 from jamlab.theory.cascade import sample_cascade_jumps, sample_cascade_tree
 from jamlab.theory.exact import exact_jump_R, one_level_R
 from jamlab.theory.jumps import jump_distribution

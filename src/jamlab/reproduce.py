@@ -589,7 +589,7 @@ def _part_avalanches(c: _Ctx) -> None:
             ),
         ))
 
-    from jamlab.plots_report import plot_avalanche_histograms
+    from jamlab.plots.report import plot_avalanche_histograms
 
     f5 = figdir / "fig5_avalanches.png"
     order = ["0.75", "0.8", "jamming"]
@@ -648,7 +648,7 @@ def _part_moduli(c: _Ctx) -> None:
            f"Σ(γ+mδγ₀) − Σ(γ), δγ₀ = {scale.dgamma:g}, lags m = "
            f"{', '.join(map(str, scale.moduli_lags))}); no separate runs. Error bars: standard "
            "error over samples.")
-    from jamlab.plots_report import plot_moduli
+    from jamlab.plots.report import plot_moduli
 
     f7 = figdir / "fig7_moduli.png"
     plot_moduli(moments, slope_fits, f7, how)
@@ -695,7 +695,7 @@ def _part_trace(c: _Ctx) -> None:
     """Fig. 4 (one jammed sample)."""
     scale, figdir = c.scale, c.figdir
     ds_j = c.ds("jamming")
-    from jamlab.plots_report import plot_one_trace
+    from jamlab.plots.report import plot_one_trace
 
     n4 = max(scale.jamming_n)
     done4 = np.flatnonzero(_done(ds_j, "jamming", n4))
@@ -716,7 +716,7 @@ def _part_trace(c: _Ctx) -> None:
 def _part_stress_strain(c: _Ctx) -> None:
     """Fig. 6 (mean stress–strain curve)."""
     scale, data, figdir = c.scale, c.data, c.figdir
-    from jamlab.plots_report import plot_stress_strain
+    from jamlab.plots.report import plot_stress_strain
 
     ds_s = c.ds("stress-strain")
     lab6 = repr(float(scale.stress_phi))
@@ -736,7 +736,7 @@ def _part_coordination(c: _Ctx) -> None:
     """Coordination-exponent rows and Fig. 1."""
     scale, rows, data, figdir = c.scale, c.rows, c.data, c.figdir
     out, log = c.out, c.log
-    from jamlab.plots_packings import plot_coordination
+    from jamlab.plots.packings import plot_coordination
 
     curves = _coordination(scale, out / "data", log)
     f1 = figdir / "fig1_coordination.png"
@@ -767,9 +767,9 @@ def _part_theory(c: _Ctx) -> None:
     from jamlab.theory import tau_jamming
 
     tau_j = tau_jamming()
-    from jamlab.plots import jump_distribution_table
-    from jamlab.plots_cascade import cascade_tree_figure
-    from jamlab.plots_report import plot_jump_distributions_two_panels, plot_no_jump_probability
+    from jamlab.plots.cascade import cascade_tree_figure
+    from jamlab.plots.report import plot_jump_distributions_two_panels, plot_no_jump_probability
+    from jamlab.plots.theory import jump_distribution_table
     from jamlab.theory import ParisiFunction, mu_jamming, sample_cascade_tree
 
     f2 = figdir / "fig2_cascade_tree.png"

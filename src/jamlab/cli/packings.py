@@ -104,7 +104,7 @@ def register(app: typer.Typer) -> None:
         import h5py
         import numpy as np
 
-        from jamlab.plots_packings import plot_coordination
+        from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve
 

@@ -93,7 +93,7 @@ def register(app: typer.Typer) -> None:
             f"{result.n_not_converged} not converged, {result.time:.2f} s -> {out}"
         )
         if plot is not None:
-            from jamlab.plots_shear import stress_strain_figure
+            from jamlab.plots.shear import stress_strain_figure
 
             stress_strain_figure(tr, plot)
             typer.echo(f"figure -> {plot}")

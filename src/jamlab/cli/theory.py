@@ -51,7 +51,7 @@ def theory(
     points: Annotated[int, typer.Option("--points", help="Points per curve.")] = 300,
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
-    from jamlab.plots import plot_jump_distributions
+    from jamlab.plots.theory import plot_jump_distributions
     from jamlab.theory import ParisiFunction
 
     dgammas = list(dgamma) if dgamma else [1e-2, 1e-3, 1e-4]

@@ -233,7 +233,7 @@ def plot_jump_distributions_two_panels(
     out: str | os.PathLike,
 ) -> None:
     """Paper Fig. 3: ``P(ΔE|δγ)`` of the printed formula against ``|ΔE|``, one panel per ``μ``
-    (``tables = [(μ, jamlab.plots.jump_distribution_table(μ, ...)), ...]``), with a guide of
+    (``tables = [(μ, jamlab.plots.theory.jump_distribution_table(μ, ...)), ...]``), with a guide of
     slope ``−2μ``."""
     fig, axes = plt.subplots(1, len(tables), figsize=(6 * len(tables), 4.6), squeeze=False)
     for ax, (mu, table), letter in zip(axes[0], tables, "abcd", strict=False):
