@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import time
 from pathlib import Path
 
 import jamlab.spheres as sp
@@ -52,3 +54,23 @@ def write_data(path: Path, packing: sp.Packing) -> None:
     ]
     lines += [f"{i + 1} 1 {x!r} {y!r} {z!r}" for i, (x, y, z) in enumerate(pos.tolist())]
     path.write_text("\n".join(lines) + "\n")
+
+
+def run_script(exe: str, env: dict[str, str], script: str, workdir: Path) -> tuple[str, float]:
+    """Run the LAMMPS input ``script`` in ``workdir``; return (the log text, wall seconds).
+
+    ``RuntimeError`` with the tails of stderr and the log if LAMMPS fails."""
+    (workdir / "in.lmp").write_text(script)
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [exe, "-in", "in.lmp", "-log", "log.lammps", "-screen", "none"],
+        cwd=workdir,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    wall = time.perf_counter() - t0
+    log = (workdir / "log.lammps").read_text() if (workdir / "log.lammps").exists() else ""
+    if proc.returncode != 0:
+        raise RuntimeError(f"LAMMPS failed: {proc.stderr[-2000:]}\n{log[-2000:]}")
+    return log, wall

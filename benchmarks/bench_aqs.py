@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import subprocess
 import sys
 import tempfile
 import time
@@ -38,7 +37,7 @@ REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
 START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _lammps import find_lammps, write_data  # noqa: E402  (benchmarks run as scripts)
+from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
 
 def lammps_aqs(lmp, packing: sp.Packing, dgamma: float, steps: int, ftol: float) -> dict:
@@ -73,19 +72,7 @@ print "ROW $i $(pe:%.17g) $(v_sig:%.17g)"
 next i
 jump SELF loop
 """
-        (work / "in.aqs").write_text(script)
-        t0 = time.perf_counter()
-        proc = subprocess.run(
-            [exe, "-in", "in.aqs", "-log", "log.lammps", "-screen", "none"],
-            cwd=work,
-            env=env,
-            capture_output=True,
-            text=True,
-        )
-        wall = time.perf_counter() - t0
-        log = (work / "log.lammps").read_text() if (work / "log.lammps").exists() else ""
-        if proc.returncode != 0:
-            raise RuntimeError(f"LAMMPS failed: {proc.stderr[-2000:]}\n{log[-2000:]}")
+        log, wall = run_script(exe, env, script, work)
     rows = np.array(
         [[float(x) for x in line.split()[1:]] for line in log.splitlines() if line[:4] == "ROW "]
     )

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import re
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -38,7 +37,7 @@ import jamlab.spheres as sp
 from jamlab.spheres.fire import minimize
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _lammps import find_lammps, write_data  # noqa: E402  (benchmarks run as scripts)
+from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
 
 def run_lammps(lmp, packing: sp.Packing, ftol: float | None, workdir: Path) -> dict:
@@ -68,19 +67,7 @@ min_modify norm max
     else:
         script += f"minimize 0.0 {ftol!r} 10000000 10000000\n"
     script += "write_dump all custom out.dump id x y z modify sort id format float %.17g\n"
-    (workdir / "in.lmp").write_text(script)
-    t0 = time.perf_counter()
-    proc = subprocess.run(
-        [exe, "-in", "in.lmp", "-log", "log.lammps", "-screen", "none"],
-        cwd=workdir,
-        env=env,
-        capture_output=True,
-        text=True,
-    )
-    wall = time.perf_counter() - t0
-    log = (workdir / "log.lammps").read_text() if (workdir / "log.lammps").exists() else ""
-    if proc.returncode != 0:
-        raise RuntimeError(f"LAMMPS failed: {proc.stderr[-2000:]}\n{log[-2000:]}")
+    log, wall = run_script(exe, env, script, workdir)
     rows = re.findall(r"^\s*(\d+)\s+(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s*$", log, re.M)
     step, pe, pxy, press, fmax = rows[-1]
     out = {

@@ -1,23 +1,10 @@
 """`jamlab reproduce`: bad input is one line with exit code 2; the tiny scale runs and resumes."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
-
-def jamlab(*args, timeout=600):
-    return subprocess.run([sys.executable, "-m", "jamlab", *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
-
-
-def one_line_error(result):
-    assert result.returncode == 2, (result.returncode, result.stderr)
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, result.stderr
-    assert lines[0].startswith("jamlab: error:") and "Traceback" not in result.stderr
-    return lines[0]
+from cli_helpers import jamlab, one_line_error
 
 
 def test_unknown_scale_is_one_line(tmp_path):

@@ -12,30 +12,14 @@ from pathlib import Path
 
 import h5py
 import pytest
+from runs_helpers import assert_same_runs, sample_files
 
-# the run tests' helpers
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "runs"))
-from runs_helpers import assert_same_runs, sample_files  # noqa: E402
+from cli_helpers import jamlab, one_line_error
 
 BIN = Path(sys.executable).parent
 TASK = "toy"
 STUDY_ARGS = ["--phi", "jamming", "0.8", "--n", "8", "12", "--dgamma", "1e-3", "--gamma-max",
               "4e-3", "--seed", "3", "--task", TASK]  # fmt: skip
-
-
-def jamlab(*args, env=None, timeout=300):
-    return subprocess.run(
-        [sys.executable, "-m", "jamlab", *map(str, args)],
-        capture_output=True, text=True, timeout=timeout, env=env,
-    )  # fmt: skip
-
-
-def one_line_error(result):
-    assert result.returncode == 2, (result.returncode, result.stderr)
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, result.stderr
-    assert lines[0].startswith("jamlab: error:") and "Traceback" not in result.stderr
-    return lines[0]
 
 
 def snapshot(root: Path):

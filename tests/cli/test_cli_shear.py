@@ -2,31 +2,15 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import h5py
 import numpy as np
 import pytest
 
 import jamlab.spheres as sp
+from cli_helpers import jamlab, one_line_error
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import write_packing
 from jamlab.spheres.trace import TRACE_COLUMNS, read_trace
-
-
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "jamlab", *args], capture_output=True, text=True, timeout=300
-    )
-
-
-def one_line_error(r: subprocess.CompletedProcess) -> str:
-    assert r.returncode == 2, (r.stdout, r.stderr)
-    lines = [line for line in r.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, r.stderr
-    assert lines[0].startswith("jamlab: error:")
-    return lines[0]
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +25,7 @@ def test_shear_writes_the_documented_trace(start, tmp_path):
     path, packing = start
     out = tmp_path / "trace.h5"
     fig = tmp_path / "fig.png"
-    r = run(
+    r = jamlab(
         "shear",
         str(path),
         "--dgamma",
@@ -87,13 +71,14 @@ def test_shear_resume_matches_one_run(start, tmp_path):
     part = tmp_path / "part.h5"
     args = ("--dgamma", "1e-5", "--minimizer", "fire")
     assert (
-        run("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(whole)).returncode == 0
+        jamlab("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(whole)).returncode
+        == 0
     )
-    r = run(
+    r = jamlab(
         "shear", str(path), *args, "--gamma-max", "4e-5", "--out", str(part), "--save-every", "2"
     )
     assert r.returncode == 0, r.stderr
-    r = run("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(part), "--resume")
+    r = jamlab("shear", str(path), *args, "--gamma-max", "8e-5", "--out", str(part), "--resume")
     assert r.returncode == 0, r.stderr
     a, b = read_trace(whole), read_trace(part)
     assert b.n_steps == a.n_steps == 8
@@ -112,13 +97,13 @@ def test_shear_resume_matches_one_run(start, tmp_path):
 )
 def test_bad_arguments_are_one_line_errors(start, tmp_path, args, needle):
     path, _ = start
-    line = one_line_error(run("shear", str(path), *args, "--out", str(tmp_path / "t.h5")))
+    line = one_line_error(jamlab("shear", str(path), *args, "--out", str(tmp_path / "t.h5")))
     assert needle in line
 
 
 def test_missing_file_is_one_line_error(tmp_path):
     line = one_line_error(
-        run(
+        jamlab(
             "shear",
             str(tmp_path / "nope.h5"),
             "--dgamma",

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import jamlab.spheres as sp
+from cli_helpers import jamlab, one_line_error
 from jamlab.spheres.io import read_packing, write_packing
 
 KEYS = {"energy", "shear_stress", "pressure", "z", "z_nr", "n_rattlers", "n_contacts_nr"}
@@ -18,25 +17,11 @@ KEYS |= {"max_force", "n", "dim", "phi", "strain"}
 REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "jamlab", *args], capture_output=True, text=True, timeout=300
-    )
-
-
-def one_line_error(r: subprocess.CompletedProcess) -> str:
-    assert r.returncode == 2, (r.stdout, r.stderr)
-    lines = [line for line in r.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, r.stderr
-    assert lines[0].startswith("jamlab: error:")
-    return lines[0]
-
-
 def test_inspect_json_keys_and_values(tmp_path):
     p = sp.random_packing(120, 3, 0.75, seed=5)
     p = sp.Packing(p.positions, p.box.with_strain(0.3), seed=5)
     path = write_packing(tmp_path / "c.h5", p)
-    r = run("inspect", str(path), "--json")
+    r = jamlab("inspect", str(path), "--json")
     assert r.returncode == 0, r.stderr
     info = json.loads(r.stdout)
     assert set(info) == KEYS
@@ -45,13 +30,13 @@ def test_inspect_json_keys_and_values(tmp_path):
     assert info["shear_stress"] == pytest.approx(sp.shear_stress(p), rel=1e-12)
     rat = sp.remove_rattlers(p)
     assert info["z_nr"] == rat.z_nr and info["n_rattlers"] == rat.n_rattlers
-    r = run("inspect", str(path))
+    r = jamlab("inspect", str(path))
     assert r.returncode == 0 and "shear_stress" in r.stdout and "N=120" in r.stdout
 
 
 def test_random_then_minimize(tmp_path):
     start = tmp_path / "start.h5"
-    r = run(
+    r = jamlab(
         "random-packing",
         "--out",
         str(start),
@@ -66,7 +51,7 @@ def test_random_then_minimize(tmp_path):
     )
     assert r.returncode == 0, r.stderr
     out = tmp_path / "min.h5"
-    r = run("minimize", str(start), "--out", str(out), "--ftol", "1e-11")
+    r = jamlab("minimize", str(start), "--out", str(out), "--ftol", "1e-11")
     assert r.returncode == 0, r.stderr
     assert "converged" in r.stdout and "iterations" in r.stdout
     p = read_packing(out)
@@ -79,7 +64,7 @@ def test_import_reference_positions(tmp_path):
     if not src.is_file():
         pytest.skip("reference data absent")
     out = tmp_path / "ref.h5"
-    r = run("import-xyz", str(src), "--out", str(out))
+    r = jamlab("import-xyz", str(src), "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert read_packing(out).n == 500
 
@@ -101,4 +86,4 @@ def test_bad_input_is_one_line_exit_2(tmp_path, make_args):
 
     with h5py.File(tmp_path / "empty.h5", "w") as h5:
         h5["x"] = np.zeros(3)
-    one_line_error(run(*make_args(tmp_path)))
+    one_line_error(jamlab(*make_args(tmp_path)))

@@ -1,26 +1,15 @@
 """``jamlab theory``: the README's main job, several --dgamma values, CSV, one-line errors."""
 
 import csv
-import subprocess
-import sys
 
 import numpy as np
 
+from cli_helpers import jamlab
 from jamlab.theory import ParisiFunction, jump_distribution
 
 
-def run(*args: str, cwd=None) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "jamlab", *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=cwd,
-    )
-
-
 def test_theory_draws_figure_and_csv(tmp_path):
-    r = run(
+    r = jamlab(
         "theory", "--mu", "0.706346", "--dgamma", "1e-2", "1e-3", "1e-4",
         "--out", "fig3a.png", "--csv", "fig3a.csv", "--points", "40", cwd=tmp_path,
     )  # fmt: skip
@@ -48,7 +37,7 @@ def test_theory_bad_arguments_are_one_line(tmp_path):
         ["--mu", "abc", "--out", "x.png"],
         ["--mu", "0.6", "--out", "no/such/dir/x.png"],
     ):
-        r = run("theory", *args, cwd=tmp_path)
+        r = jamlab("theory", *args, cwd=tmp_path)
         assert r.returncode == 2, (args, r.stderr)
         lines = [line for line in r.stderr.splitlines() if line.strip()]
         assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), r.stderr
