@@ -79,3 +79,41 @@ def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
                     indices[q] = d * col + b
                     q += 1
     return data, indices, indptr
+
+
+@njit(cache=True)
+def contact_changes(keys0, ci, cj, n):
+    """Contacts that closed and opened since a reference list.
+
+    ``keys0``: sorted keys ``min(i, j)·n + max(i, j)`` of the reference contacts; ``(ci, cj)``
+    the current contacts (either orientation, any order). Returns ``(closed, where, opened)``:
+    the sorted keys of current contacts absent from ``keys0``, their positions in
+    ``(ci, cj)``, and the sorted keys of reference contacts absent now.
+    """
+    m0 = keys0.size
+    seen = np.zeros(m0, np.bool_)
+    m = ci.size
+    new_pos = np.empty(m, np.int64)
+    k = 0
+    keys = np.minimum(ci, cj) * n + np.maximum(ci, cj)
+    for p in range(m):
+        key = keys[p]
+        q = np.searchsorted(keys0, key)
+        if q < m0 and keys0[q] == key:
+            seen[q] = True
+        else:
+            new_pos[k] = p
+            k += 1
+    new_pos = new_pos[:k]
+    new_keys = keys[new_pos]
+    order = np.argsort(new_keys)
+    closed = new_keys[order]
+    where = new_pos[order]
+    n_open = m0 - np.count_nonzero(seen)
+    opened = np.empty(n_open, np.int64)
+    k = 0
+    for q in range(m0):
+        if not seen[q]:
+            opened[k] = keys0[q]
+            k += 1
+    return closed, where, opened

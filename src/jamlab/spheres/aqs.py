@@ -99,12 +99,13 @@ class AQSParameters:
     """
 
     max_newton: int = 30
-    max_chord: int = 3
+    max_chord: int = 8
     chord_contraction: float = 0.2
     max_strikes: int = 3
     max_cg: int = 60
-    refactor_every: int = 100
-    stale_cg: int = 12
+    max_corrections: int = 48
+    refactor_every: int = 250
+    stale_cg: int = 24
     contraction: float = 0.5
     linear_basin: float = 1.0
     min_substep: float = 1.0 / 1024
@@ -151,7 +152,19 @@ class ShearResult:
 
 @dataclass(eq=False)
 class _Factor:
-    """Factorised pinned backbone Hessian ``K = H[b, b]`` at one configuration."""
+    """Factorised pinned backbone Hessian ``M = K(x₀)`` at one configuration ``x₀``, and the
+    low-rank corrections for the contacts that opened or closed since (:meth:`update`).
+
+    A contact that closes adds ``2 n nᵀ`` to the pair block of ``K`` (its tangential part
+    ``(V'/r)(1 − n nᵀ)`` vanishes at ``r = 1``), one that opens removes it. With ``U`` the
+    columns ``b_c`` (``+n`` on particle ``i``, ``−n`` on ``j``, held particles left out) and
+    ``S = diag(±2)``, the preconditioner is ``P = M + U S Uᵀ`` and (Woodbury)
+    ``P⁻¹ = M⁻¹ − W C⁻¹ Wᵀ``, ``W = M⁻¹U``, ``C = S⁻¹ + UᵀW``; each new column of ``W`` costs
+    one triangular solve, cached per contact. ``P`` is positive definite iff the number of
+    positive eigenvalues of ``C`` equals the number of closed contacts (Haynsworth inertia
+    additivity on ``[[M, U], [Uᵀ, −S⁻¹]]``, ``M`` positive definite): an exact test of the
+    corrected matrix, used to fail a step early (a fresh factorisation then decides).
+    """
 
     backbone: np.ndarray  # bool mask of backbone particles (incl. the pinned one)
     free: np.ndarray  # particle indices of the free backbone particles
@@ -159,6 +172,78 @@ class _Factor:
     lu: object | None
     positive_definite: bool
     fresh: bool = True  # factorised at the current minimum (not yet used for a step)
+    keys0: np.ndarray | None = None  # sorted keys min(i,j)·N + max(i,j) at factorisation
+    normals0: np.ndarray | None = None  # their separations r_ij at factorisation
+    corr_keys: np.ndarray | None = None  # keys of the corrected contacts (signed: + closed)
+    w: np.ndarray | None = None  # W = M⁻¹U, one column per correction
+    c_inv: np.ndarray | None = None  # C⁻¹
+    corrected_pd: bool = True
+    cache: dict | None = None  # signed key -> (dof indices, values, column of W)
+
+    def solve(self, r: np.ndarray) -> np.ndarray:
+        """``P⁻¹ r`` (``M⁻¹ r`` without corrections)."""
+        x = self.lu.solve(r)
+        if self.w is not None:
+            x -= self.w @ (self.c_inv @ (self.w.T @ r))
+        return x
+
+    def update(self, ci: np.ndarray, cj: np.ndarray, cd: np.ndarray, max_rank: int) -> None:
+        """Set the corrections for the contact list ``(ci, cj, r_ij)`` of the current point.
+
+        Without corrections (plain ``M``) when more than ``max_rank`` contacts changed or when
+        ``P`` is not positive definite (``corrected_pd`` False): the iteration then runs with
+        ``M`` alone, as before corrections existed, and its own tests decide."""
+        n = self.free_index.size
+        d = cd.shape[1]
+        closed, where, opened = AK.contact_changes(self.keys0, ci, cj, n)
+        # only contacts touching a free particle enter K
+        touch = (self.free_index[closed // n] >= 0) | (self.free_index[closed % n] >= 0)
+        closed, where = closed[touch], where[touch]
+        opened = opened[(self.free_index[opened // n] >= 0) | (self.free_index[opened % n] >= 0)]
+        signed = np.concatenate([closed + 1, -(opened + 1)])
+        if self.corr_keys is not None and np.array_equal(signed, self.corr_keys):
+            return
+        self.corr_keys, self.w, self.c_inv, self.corrected_pd = signed, None, None, True
+        if signed.size == 0 or signed.size > max_rank:
+            return
+        cache = self.cache if self.cache is not None else {}
+        self.cache = cache
+        cols, idxs, vals = [], [], []
+        for key in signed.tolist():
+            if key not in cache:
+                k = abs(key) - 1
+                i, j = divmod(k, n)
+                if key > 0:
+                    v = cd[where[np.searchsorted(closed, k)]]
+                else:  # an opened contact: its last separation is not in the list; use the
+                    v = self.normals0[np.searchsorted(self.keys0, k)]  # one at x₀
+                v = v / np.sqrt(v @ v)
+                idx, val = [], []
+                for particle, sign in ((i, 1.0), (j, -1.0)):
+                    f = self.free_index[particle]
+                    if f >= 0:
+                        idx.extend(range(d * f, d * f + d))
+                        val.extend((sign * v).tolist())
+                idx_a, val_a = np.array(idx, dtype=np.int64), np.array(val)
+                b = np.zeros(self.free.size * d)
+                b[idx_a] = val_a
+                cache[key] = (idx_a, val_a, self.lu.solve(b))
+            idx_a, val_a, col = cache[key]
+            cols.append(col)
+            idxs.append(idx_a)
+            vals.append(val_a)
+        w = np.column_stack(cols)
+        c = np.diag(np.where(signed > 0, 0.5, -0.5))
+        for a in range(signed.size):
+            c[a, :] += vals[a] @ w[idxs[a], :]
+        c = 0.5 * (c + c.T)
+        eig = np.linalg.eigvalsh(c)
+        self.corrected_pd = bool(
+            np.count_nonzero(eig > 0) == np.count_nonzero(signed > 0)
+            and np.min(np.abs(eig)) > 1e-12 * np.max(np.abs(eig))
+        )
+        if self.corrected_pd:
+            self.w, self.c_inv = w, np.linalg.inv(c)
 
 
 def _free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -201,8 +286,10 @@ def _backbone(packing: Packing, nl: NeighborList) -> np.ndarray:
     return _backbone_mask(ci, cj, packing.n, packing.dim)
 
 
-def _backbone_matrix(packing: Packing, nl: NeighborList, fac: _Factor) -> sps.csr_matrix:
-    ci, cj, cd = _contact_list(packing, nl)
+def _backbone_matrix(
+    packing: Packing, nl: NeighborList, fac: _Factor, contacts: tuple | None = None
+) -> sps.csr_matrix:
+    ci, cj, cd = _contact_list(packing, nl) if contacts is None else contacts
     data, indices, indptr = AK.backbone_hessian_csr(ci, cj, cd, fac.free_index, fac.free.size)
     size = fac.free.size * packing.dim
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))
@@ -220,7 +307,12 @@ def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Fac
     fac = _Factor(backbone, free, free_index, None, False)
     if free.size == 0:
         return fac
-    k = _backbone_matrix(packing, nl, fac)
+    ci, cj, cd = _contact_list(packing, nl)
+    k = _backbone_matrix(packing, nl, fac, (ci, cj, cd))
+    keys = np.minimum(ci, cj) * packing.n + np.maximum(ci, cj)  # ci > cj after a re-sort
+    order = np.argsort(keys)
+    fac.keys0 = keys[order]
+    fac.normals0 = cd[order]
     # K is symmetric, so its CSR arrays read as CSC are K itself: no conversion
     kc = sps.csc_matrix((k.data, k.indices, k.indptr), shape=k.shape)
     try:
@@ -314,8 +406,10 @@ def _newton(
     for chord in range(params.max_chord):
         if chord_fmax < ftol:
             return _Newton(start.with_positions(chord_pos), True, chord, 0)
+        # the preconditioner follows the contacts that opened or closed since it was factorised
+        fac.update(*_contact_list(start.with_positions(chord_pos), nl), params.max_corrections)
         trial_pos = chord_pos.copy()
-        trial_pos[free] += fac.lu.solve(chord_f.ravel()).reshape(free.size, d)
+        trial_pos[free] += fac.solve(chord_f.ravel()).reshape(free.size, d)
         trial_f = energy_and_forces(start.with_positions(trial_pos), nl)[1][free]
         trial_fmax = _max_norm(trial_f)
         if not trial_fmax < params.chord_contraction * chord_fmax:
@@ -337,10 +431,12 @@ def _newton(
             if strikes > params.max_strikes:
                 break
         prev = fmax
-        k = _backbone_matrix(current, nl, fac)
+        contacts = _contact_list(current, nl)
+        k = _backbone_matrix(current, nl, fac, contacts)
+        fac.update(*contacts, params.max_corrections)
         # the next force check decides; 0.25 ftol leaves room for the O(dx²) remainder
         atol = max(0.25 * ftol, 1e-9 * fmax)
-        dx, ok, cg_its = _pcg(k, f.ravel(), fac.lu.solve, atol, params.max_cg, d)
+        dx, ok, cg_its = _pcg(k, f.ravel(), fac.solve, atol, params.max_cg, d)
         cg_total += cg_its
         if not ok:
             break
