@@ -82,33 +82,40 @@ def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
 
 
 @njit(cache=True)
-def contact_changes(keys0, ci, cj, n):
+def contact_changes(keys0, row0, ci, cj, n):
     """Contacts that closed and opened since a reference list.
 
-    ``keys0``: sorted keys ``min(i, j)·n + max(i, j)`` of the reference contacts; ``(ci, cj)``
-    the current contacts (either orientation, any order). Returns ``(closed, where, opened)``:
-    the sorted keys of current contacts absent from ``keys0``, their positions in
-    ``(ci, cj)``, and the sorted keys of reference contacts absent now.
+    ``keys0``: sorted keys ``min(i, j)·n + max(i, j)`` of the reference contacts, ``row0`` their
+    row pointers (``keys0[row0[i]:row0[i+1]]`` are the pairs whose smaller index is ``i``);
+    ``(ci, cj)`` the current contacts (either orientation, any order). Returns
+    ``(closed, where, opened)``: the sorted keys of current contacts absent from ``keys0``,
+    their positions in ``(ci, cj)``, and the sorted keys of reference contacts absent now.
     """
     m0 = keys0.size
     seen = np.zeros(m0, np.bool_)
     m = ci.size
     new_pos = np.empty(m, np.int64)
+    new_keys = np.empty(m, np.int64)
     k = 0
-    keys = np.minimum(ci, cj) * n + np.maximum(ci, cj)
     for p in range(m):
-        key = keys[p]
-        q = np.searchsorted(keys0, key)
-        if q < m0 and keys0[q] == key:
-            seen[q] = True
-        else:
+        a = ci[p]
+        b = cj[p]
+        if a > b:
+            a, b = b, a
+        key = a * n + b
+        found = False
+        for q in range(row0[a], row0[a + 1]):
+            if keys0[q] == key:
+                seen[q] = True
+                found = True
+                break
+        if not found:
             new_pos[k] = p
+            new_keys[k] = key
             k += 1
-    new_pos = new_pos[:k]
-    new_keys = keys[new_pos]
-    order = np.argsort(new_keys)
-    closed = new_keys[order]
-    where = new_pos[order]
+    order = np.argsort(new_keys[:k])
+    closed = new_keys[:k][order]
+    where = new_pos[:k][order]
     n_open = m0 - np.count_nonzero(seen)
     opened = np.empty(n_open, np.int64)
     k = 0

@@ -174,6 +174,7 @@ class _Factor:
     fresh: bool = True  # factorised at the current minimum (not yet used for a step)
     keys0: np.ndarray | None = None  # sorted keys min(i,j)·N + max(i,j) at factorisation
     normals0: np.ndarray | None = None  # their separations r_ij at factorisation
+    row0: np.ndarray | None = None  # keys0[row0[i]:row0[i+1]]: the pairs (i, j > i)
     corr_keys: np.ndarray | None = None  # keys of the corrected contacts (signed: + closed)
     w: np.ndarray | None = None  # W = M⁻¹U, one column per correction
     c_inv: np.ndarray | None = None  # C⁻¹
@@ -195,7 +196,7 @@ class _Factor:
         ``M`` alone, as before corrections existed, and its own tests decide."""
         n = self.free_index.size
         d = cd.shape[1]
-        closed, where, opened = AK.contact_changes(self.keys0, ci, cj, n)
+        closed, where, opened = AK.contact_changes(self.keys0, self.row0, ci, cj, n)
         # only contacts touching a free particle enter K
         touch = (self.free_index[closed // n] >= 0) | (self.free_index[closed % n] >= 0)
         closed, where = closed[touch], where[touch]
@@ -312,6 +313,7 @@ def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Fac
     keys = np.minimum(ci, cj) * packing.n + np.maximum(ci, cj)  # ci > cj after a re-sort
     order = np.argsort(keys)
     fac.keys0 = keys[order]
+    fac.row0 = np.searchsorted(fac.keys0, np.arange(packing.n + 1) * packing.n)
     fac.normals0 = cd[order]
     # K is symmetric, so its CSR arrays read as CSC are K itself: no conversion
     kc = sps.csc_matrix((k.data, k.indices, k.indptr), shape=k.shape)
