@@ -55,6 +55,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import pymetis
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
@@ -296,19 +297,50 @@ def _backbone_matrix(
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))
 
 
+def _nested_dissection(free: np.ndarray, ci: np.ndarray, cj: np.ndarray, n: int) -> np.ndarray:
+    """The free particles reordered by METIS nested dissection of their contact graph
+    (``pymetis``; deterministic). On this graph it leaves ~20 % less fill in the factor than
+    SuperLU's minimum-degree orderings and halves the factorisation time (docs/aqs.md)."""
+    if free.size < 16:
+        return free
+    local = np.full(n, -1, dtype=np.int64)
+    local[free] = np.arange(free.size)
+    a, b = local[ci], local[cj]
+    both = (a >= 0) & (b >= 0)
+    if not both.any():
+        return free
+    a, b = a[both], b[both]
+    graph = sps.csr_matrix(
+        (np.ones(2 * a.size), (np.concatenate([a, b]), np.concatenate([b, a]))),
+        shape=(free.size, free.size),
+    )
+    adjacency = pymetis.CSRAdjacency(
+        adj_starts=graph.indptr.astype(np.int32), adjacent=graph.indices.astype(np.int32)
+    )
+    _, iperm = pymetis.nested_dissection(adjacency=adjacency)
+    # iperm[i] is the new position of vertex i; the elimination order is its inverse
+    order = np.empty(free.size, dtype=np.int64)
+    order[np.asarray(iperm, dtype=np.int64)] = np.arange(free.size)
+    return free[order]
+
+
 def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Factor:
     """Factorise the backbone Hessian with one particle pinned; test positive definiteness.
 
-    SuperLU with ``diag_pivot_thresh=0`` and a symmetric ordering (``MMD_AT_PLUS_A``) does no row
-    pivoting on a symmetric matrix, giving ``P K Pᵀ = L U`` with ``U = D Lᵀ``; the inertia of
-    ``K`` is the signs of ``diag(U)`` (Sylvester). Any row pivoting (``perm_r ≠ perm_c``) or a
-    zero pivot is treated as "not positive definite".
+    The free particles are numbered in a nested-dissection order of their contact graph
+    (:func:`_nested_dissection`), so ``K`` is assembled already permuted and SuperLU runs in its
+    natural order. With ``diag_pivot_thresh=0`` SuperLU does no row pivoting on a symmetric
+    matrix, giving ``K = L U`` with ``U = D Lᵀ``; the inertia of ``K`` is the signs of
+    ``diag(U)`` (Sylvester). Any row pivoting (``perm_r ≠ perm_c``) or a zero pivot is treated
+    as "not positive definite".
     """
     free, free_index = _free_set(backbone)
     fac = _Factor(backbone, free, free_index, None, False)
     if free.size == 0:
         return fac
     ci, cj, cd = _contact_list(packing, nl)
+    fac.free = _nested_dissection(free, ci, cj, packing.n)
+    fac.free_index[fac.free] = np.arange(fac.free.size)
     k = _backbone_matrix(packing, nl, fac, (ci, cj, cd))
     keys = np.minimum(ci, cj) * packing.n + np.maximum(ci, cj)  # ci > cj after a re-sort
     order = np.argsort(keys)
@@ -320,7 +352,7 @@ def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Fac
     try:
         lu = spla.splu(
             kc,
-            permc_spec="MMD_AT_PLUS_A",
+            permc_spec="NATURAL" if fac.free.size >= 16 else "MMD_AT_PLUS_A",
             diag_pivot_thresh=0.0,
             options={"SymmetricMode": True},
         )
