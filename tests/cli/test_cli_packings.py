@@ -29,7 +29,8 @@ def test_prepare_jamming_and_coordination(tmp_path, capsys) -> None:
     assert a["phi_j"] == pytest.approx(packing.phi, rel=1e-14)
     assert a["n_contacts_nr"] == state.n_contacts_nr == state.n_contacts_iso
     assert a["pressure"] == pytest.approx(state.pressure, rel=1e-12)
-    assert a["param_p_target"] == 1e-7
+    assert a["param_p_target"] == 1e-7 and a["param_search"] == "window"
+    assert 0.5e-7 <= a["pressure"] <= 2e-7
     fig, csv = tmp_path / "fig1.png", tmp_path / "fig1.csv"
     code = run(
         ["coordination", str(out), "--out", str(fig), "--csv", str(csv), "--steps", "8", "--quiet"]
@@ -53,6 +54,17 @@ def test_prepare_unsat_and_errors(tmp_path, capsys) -> None:
     assert run(["prepare", "--n", "128", "--phi", "0.5", "--out", str(out)]) == 2
     assert "below jamming" in capsys.readouterr().err
     assert run(["prepare", "--n", "128", "--phi", "dense", "--out", str(out)]) == 2
+    capsys.readouterr()
+    assert run(["prepare", "--n", "128", "--search", "bisect", "--out", str(out)]) == 2
+    assert "--search must be one of window, halve" in capsys.readouterr().err
+
+
+def test_prepare_earlier_search_is_selectable(tmp_path) -> None:
+    out = tmp_path / "halve.h5"
+    args = ["prepare", "--n", "64", "--seed", "3", "--search", "halve", "--quiet"]
+    assert run([*args, "--out", str(out)]) == 0
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["param_search"] == "halve" and bool(h5.attrs["isostatic"])
 
 
 def test_prepare_failure_writes_flagged_file(tmp_path, capsys) -> None:

@@ -11,8 +11,11 @@ import pytest
 from spheres_brute import pair_terms
 
 import jamlab.spheres as sp
+from jamlab.spheres.box import box_length_for
+from jamlab.spheres.fire import minimize
 from jamlab.spheres.packing import (
     JammingError,
+    _quench_seed,
     compress_to,
     coordination_curve,
     fit_power_law,
@@ -57,12 +60,10 @@ def test_jammed_packing_is_isostatic_by_independent_count(jammed256) -> None:
         n_kept, n_c = independent_backbone(res.packing)
         assert n_c == 3 * (n_kept - 1) + 1
         assert (n_kept, n_c) == (256 - res.state.n_rattlers, res.state.n_contacts_nr)
-        # the documented stopping rule: p <= 2 p_target, and p >= p_target/2 unless
-        # excess contacts forced the search lower (then the history goes below p_target/2)
-        p = sp.pressure(res.packing)
-        assert 0 < p <= 2 * P_TARGET
-        assert p >= P_TARGET / 2 or min(h[1] for h in res.history if h[2]) < P_TARGET / 2
-        assert sp.max_force(res.packing) < 1e-12
+        # the stopping rule: isostatic and p within a factor 2 of the target
+        assert P_TARGET / 2 <= sp.pressure(res.packing) <= 2 * P_TARGET
+        # the contact count was decided on a minimum polished to ftol / 10
+        assert res.steps[-1].role == "polish" and sp.max_force(res.packing) < 1e-13
 
 
 def test_phi_j_range_3d(jammed256) -> None:
@@ -95,9 +96,8 @@ def test_tiny_n_jams_isostatic(n: int, seeds) -> None:
         assert res.ok and res.converged, (seed, res.reason)
         n_kept, n_c = independent_backbone(res.packing)
         assert n_c == 3 * (n_kept - 1) + 1, seed
-        p = sp.pressure(res.packing)
-        assert 0 < p <= 2 * P_TARGET, seed
-        assert sp.max_force(res.packing) < 1e-12
+        assert P_TARGET / 2 <= sp.pressure(res.packing) <= 2 * P_TARGET, seed
+        assert sp.max_force(res.packing) < 1e-13
         assert res.phi_j == pytest.approx(sp.packing_fraction(n, 3, res.packing.box.length))
 
 
@@ -109,6 +109,60 @@ def test_jam_is_reproducible_with_restarts() -> None:
     twin = jam(16, 3, seed)
     assert twin.n_restarts == again.n_restarts
     np.testing.assert_array_equal(twin.packing.positions, again.packing.positions)
+
+
+def test_schedule_replays_to_the_same_packing() -> None:
+    # the recorded steps (start, phi, ftol, max_iter) are the whole schedule: replaying them with
+    # the bare minimiser and a hand-made affine rescale gives the same pressures and positions
+    res = jam(128, 3, 8, p_target=1e-4)  # a seed with a restart and re-compressions
+    assert res.ok and res.n_restarts >= 1
+    assert {"recompress", "polish"} <= {s.role for s in res.steps}
+    minima: list[sp.Packing] = []
+    for k, st in enumerate(res.steps):
+        if st.start == -1:
+            start = sp.random_packing(128, 3, st.phi, _quench_seed(8, st.attempt))
+        else:
+            assert 0 <= st.start < k
+            src = minima[st.start]
+            length = box_length_for(128, 3, st.phi)
+            start = sp.Packing(src.positions * (length / src.box.length), sp.Box(length, 3))
+        r = minimize(start, ftol=st.ftol, max_iter=st.max_iter)
+        assert r.converged == st.converged and sp.pressure(r.packing) == st.pressure, k
+        minima.append(r.packing)
+    np.testing.assert_array_equal(minima[-1].positions, res.packing.positions)
+    assert res.n_minimizations == len(res.steps) == len(res.history)
+
+
+def test_recompression_finds_an_isostatic_state_in_the_window() -> None:
+    # N=128 at p_target=1e-4 (p N^2 = 1.6, like N=4000 at 1e-7): excess contacts in the window
+    # are common, so the search goes below it and re-compresses the isostatic minimum found there
+    p_t = 1e-4
+    res = jam(128, 3, 15, p_target=p_t)
+    assert res.ok and res.n_restarts == 0, res.reason
+    n_kept, n_c = independent_backbone(res.packing)
+    assert n_c == 3 * (n_kept - 1) + 1
+    assert p_t / 2 <= sp.pressure(res.packing) <= 2 * p_t
+    roles = [s.role for s in res.steps]
+    first = roles.index("recompress")
+    base = res.steps[res.steps[first].start]  # isostatic, below the window
+    assert base.excess == 0 and base.jammed and base.pressure < p_t / 2
+    # every re-compression starts from an isostatic minimum below the window
+    for s in res.steps[first:]:
+        if s.role == "recompress":
+            st = res.steps[s.start]
+            assert st.excess == 0 and st.pressure < p_t / 2
+    # the earlier protocol stops on that isostatic state below the window instead
+    old = jam(128, 3, 15, p_target=p_t, search="halve")
+    assert old.ok and old.state.pressure < p_t / 2 and old.state.isostatic
+    assert {s.role for s in old.steps} <= {"quench", "compress", "search"}
+    assert old.params["search"] == "halve" and "confirm_ftol_factor" not in old.params
+
+
+def test_jam_rejects_bad_protocol_options() -> None:
+    with pytest.raises(ValueError, match="search must be one of"):
+        jam(32, 3, 1, search="bisect")
+    with pytest.raises(ValueError, match="confirm_ftol_factor"):
+        jam(32, 3, 1, confirm_ftol_factor=0.0)
 
 
 def test_rescale_is_affine() -> None:
@@ -168,14 +222,13 @@ def test_coordination_exponents_small_n(jammed256) -> None:
 @pytest.mark.slow
 def test_jammed_n1000_ensemble() -> None:
     # the check at N=1000 on a CI budget (about 10 s CPU per seed): every packing
-    # isostatic by the independent count, p within a factor 2 of the target (or lower when excess
-    # contacts forced the search on, per the stopping rule), phi_J in [0.63, 0.65]
-    for seed in (1, 2, 3, 4, 5):
+    # isostatic by the independent count, p within a factor 2 of the target, phi_J in
+    # [0.63, 0.65]. Seeds 2 and 3 are the ones the earlier protocol left at p = 2.5e-8; seed 1
+    # (one restart, ~35 s) and the other six are in scripts/coordination_exponents.py runs.
+    for seed in (2, 3, 4, 5):
         res = jam(1000, 3, seed)
         assert res.ok, (seed, res.reason)
         n_kept, n_c = independent_backbone(res.packing)
         assert n_c == 3 * (n_kept - 1) + 1, seed
-        p = sp.pressure(res.packing)
-        assert 0 < p <= 2 * P_TARGET
-        assert p >= P_TARGET / 2 or min(h[1] for h in res.history if h[2]) < P_TARGET / 2
+        assert P_TARGET / 2 <= sp.pressure(res.packing) <= 2 * P_TARGET, seed
         assert 0.63 <= res.phi_j <= 0.65, (seed, res.phi_j)

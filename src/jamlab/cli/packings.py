@@ -54,15 +54,32 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--phi-init", help="Quench packing fraction (jamming).")
         ] = 0.66,
         ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
+        search: Annotated[
+            str,
+            typer.Option(
+                "--search",
+                help="Jamming search: 'window' (isostatic with p in [p_target/2, 2 p_target]) "
+                "or 'halve' (the earlier protocol; may end below p_target/2).",
+            ),
+        ] = "window",
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
     ) -> None:
         from jamlab.spheres.io import write_packing
-        from jamlab.spheres.packing import jam, prepare
+        from jamlab.spheres.packing import SEARCHES, jam, prepare
 
+        if search not in SEARCHES:
+            raise ValueError(f"--search must be one of {', '.join(SEARCHES)}, got {search!r}")
         if phi.strip().lower() == "jamming":
             with _status(quiet, f"jamming N={n} d={dim} seed={seed}") as progress:
                 res = jam(
-                    n, dim, seed, p_target=p_target, phi_init=phi_init, ftol=ftol, progress=progress
+                    n,
+                    dim,
+                    seed,
+                    p_target=p_target,
+                    phi_init=phi_init,
+                    ftol=ftol,
+                    progress=progress,
+                    search=search,
                 )
         else:
             try:
@@ -84,7 +101,7 @@ def register(app: typer.Typer) -> None:
             f"{out}: N={n} d={dim} phi={res.packing.phi:.10f} p={s.pressure:.4e} z={s.z:.5f} "
             f"z_nr={s.z_nr:.5f} rattlers={s.n_rattlers} N_c'={s.n_contacts_nr} "
             f"(isostatic {s.n_contacts_iso}) minimisations={res.n_minimizations} "
-            f"time={res.time:.1f}s ok={res.ok}"
+            f"restarts={res.n_restarts} time={res.time:.1f}s ok={res.ok}"
         )
         if not res.ok:
             typer.echo(f"jamlab: packing failed its stopping rule: {res.reason}", err=True)

@@ -44,6 +44,8 @@ __all__ = [
     "CoordinationCurve",
     "JAM_FIRE",
     "JammingError",
+    "MinimizationStep",
+    "SEARCHES",
     "rescale",
     "relax",
     "compress_to",
@@ -214,8 +216,10 @@ class PreparedPacking:
     the contact statistics; ``phi_j`` is ``φ_J`` (the final packing fraction of a jamming run, NaN
     for ``"direct"``). ``converged`` says the last minimisation met ``ftol``; ``ok`` says the
     packing satisfies its protocol's stopping rule; if not, ``reason`` says why. ``history`` lists
-    ``(φ, p, jammed)`` for every minimisation in order (over all attempts); ``params`` the
-    protocol parameters; ``n_restarts`` how many failed attempts :func:`jam` discarded.
+    ``(φ, p, jammed)`` for every minimisation in order (over all attempts), ``steps`` the same
+    minimisations in full (:class:`MinimizationStep`: start, tolerances, role; :func:`jam` only);
+    ``params`` the protocol parameters; ``n_restarts`` how many failed attempts :func:`jam`
+    discarded.
     """
 
     packing: Packing
@@ -231,6 +235,7 @@ class PreparedPacking:
     params: dict[str, float | int | str] = field(default_factory=dict)
     history: tuple[tuple[float, float, bool], ...] = ()
     n_restarts: int = 0
+    steps: tuple[MinimizationStep, ...] = ()
 
     def attrs(self) -> dict[str, float | int | str | bool]:
         """Flat HDF5 attributes: the state, ``phi_j``, flags, ``reason``, counts and
@@ -274,6 +279,30 @@ def _quench_seed(seed: int, attempt: int) -> int:
     return int(np.random.SeedSequence([int(seed), int(attempt)]).generate_state(1, np.uint64)[0])
 
 
+@dataclass(frozen=True)
+class MinimizationStep:
+    """One FIRE minimisation of :func:`jam`, enough to replay the schedule elsewhere (LAMMPS).
+
+    ``start`` is the index (in :attr:`PreparedPacking.steps`) of the minimum this one starts
+    from, affinely rescaled to ``phi``; ``-1`` means the random positions of ``attempt``
+    (:func:`random_packing` with seed ``_quench_seed(seed, attempt)`` at ``phi``). ``ftol`` and
+    ``max_iter`` are the minimiser's stopping rules; ``role`` says why the minimisation was run
+    (``quench``, ``compress``, ``search``, ``continue``, ``polish``, ``recompress``); ``pressure``,
+    ``excess = N_c' − N_c,iso``, ``jammed``, ``converged`` and ``iterations`` its outcome."""
+
+    attempt: int
+    role: str
+    phi: float
+    start: int
+    ftol: float
+    max_iter: int
+    pressure: float
+    excess: int
+    jammed: bool
+    converged: bool
+    iterations: int
+
+
 @dataclass
 class _Attempt:
     """Outcome of one quench + search (internal to :func:`jam`)."""
@@ -283,8 +312,139 @@ class _Attempt:
     ok: bool
     reason: str
     restartable: bool
-    history: list[tuple[float, float, bool]]
     fire_iterations: int
+
+
+@dataclass
+class _Node:
+    """A minimum reached by :func:`jam`: its index in the step list, result and statistics."""
+
+    index: int
+    r: RelaxResult
+    state: PackingState
+    jammed: bool
+
+    @property
+    def phi(self) -> float:
+        return self.r.packing.phi
+
+    @property
+    def p(self) -> float:
+        return self.r.pressure
+
+    @property
+    def excess(self) -> int:
+        return self.state.n_contacts_nr - self.state.n_contacts_iso
+
+
+class _Runner:
+    """Runs and records the minimisations of one :func:`jam` attempt."""
+
+    def __init__(
+        self,
+        steps: list[MinimizationStep],
+        attempt: int,
+        ftol: float,
+        max_iter: int,
+        p_jammed: float,
+        progress: ProgressCallback | None,
+    ) -> None:
+        self.steps = steps
+        self.attempt = attempt
+        self.ftol = ftol
+        self.max_iter = max_iter
+        self.p_jammed = p_jammed
+        self.progress = progress
+        self.fire_iterations = 0
+        self.count = 0  # minimisations of this attempt
+
+    def jammed(self, r: RelaxResult, state: PackingState) -> bool:
+        # a hypostatic backbone cannot carry a pressure: a residual p there is unrelaxed noise
+        return r.pressure > self.p_jammed and state.n_contacts_nr >= state.n_contacts_iso
+
+    def run(
+        self,
+        packing: Packing,
+        phi: float,
+        start: int,
+        role: str,
+        ftol: float | None = None,
+        max_iter: int | None = None,
+    ) -> _Node:
+        """Minimise ``packing`` (already at ``phi``: the value its box was computed from) and
+        record the step."""
+        ftol = self.ftol if ftol is None else ftol
+        max_iter = self.max_iter if max_iter is None else max_iter
+        r = relax(packing, ftol, max_iter)
+        self.fire_iterations += r.iterations
+        self.count += 1
+        state = describe(r.packing, r.energy)
+        node = _Node(len(self.steps), r, state, self.jammed(r, state))
+        self.steps.append(
+            MinimizationStep(
+                attempt=self.attempt,
+                role=role,
+                phi=float(phi),
+                start=start,
+                ftol=float(ftol),
+                max_iter=int(max_iter),
+                pressure=float(r.pressure),
+                excess=node.excess,
+                jammed=node.jammed,
+                converged=r.converged,
+                iterations=int(r.iterations),
+            )
+        )
+        if self.progress is not None:
+            self.progress(
+                f"phi={phi:.10f} p={r.pressure:.3e} excess contacts {node.excess} "
+                f"[{role}] ({len(self.steps)} minimisations)"
+            )
+        return node
+
+
+def _not_converged(node: _Node) -> str:
+    r = node.r
+    return (
+        f"minimisation at phi={r.packing.phi:.10f} did not converge "
+        f"(max force {r.max_force:.3e} >= ftol {r.ftol:.1e})"
+    )
+
+
+def _quench_and_compress(
+    run: _Runner,
+    n: int,
+    dim: int,
+    quench_seed: int,
+    phi_init: float,
+    compress_factor: float,
+    max_minimizations: int,
+    classify: Callable[[_Node], _Node],
+) -> tuple[_Node, float, str, bool]:
+    """Steps 1–2 of :func:`jam`: quench at ``φ_init`` and compress until jammed.
+
+    Returns ``(node, lo_phi, reason, restartable)``: the first jammed minimum and the highest
+    unjammed ``φ`` below it, or a failure ``reason``."""
+    node = classify(run.run(random_packing(n, dim, phi_init, quench_seed), phi_init, -1, "quench"))
+    lo_phi = -math.inf
+    step = compress_factor - 1.0
+    while True:
+        if not node.r.converged:
+            return node, lo_phi, _not_converged(node), False
+        if node.jammed:
+            return node, lo_phi, "", False
+        lo_phi = node.phi
+        nxt = lo_phi * (1.0 + step)
+        step *= 2.0
+        if nxt >= _PHI_MAX or run.count >= max_minimizations:
+            return (
+                node,
+                lo_phi,
+                f"not jammed after compressing from phi_init={phi_init} to phi={lo_phi:.6f} "
+                f"(p={node.p:.3e}, {run.count} minimisations)",
+                True,
+            )
+        node = classify(run.run(rescale(node.r.packing, nxt), nxt, node.index, "compress"))
 
 
 def _jam_attempt(
@@ -299,99 +459,78 @@ def _jam_attempt(
     max_minimizations: int,
     max_iter: int,
     progress: ProgressCallback | None,
+    steps: list[MinimizationStep],
+    attempt: int,
+    search: str,
+    confirm_ftol_factor: float,
 ) -> _Attempt:
-    """One quench from random positions at ``φ_init`` and the search of :func:`jam`."""
+    """One quench from random positions at ``φ_init`` and the search of :func:`jam`.
+
+    ``search="window"`` (default) is the protocol of ``docs/packings.md``; ``"halve"`` the
+    earlier one (no polishing, no bound on the pressure drop per step, no re-compression:
+    excess contacts in the window halve the goal pressure until the packing is isostatic,
+    possibly below ``p_target/2``)."""
     p_floor = p_target * p_floor_factor
     p_jammed = p_floor / 10.0
-    history: list[tuple[float, float, bool]] = []
-    fire_it = 0
+    lo_win, hi_win = 0.5 * p_target, 2.0 * p_target
+    window = search == "window"
+    run = _Runner(steps, attempt, ftol, max_iter, p_jammed, progress)
 
-    def out(
-        r: RelaxResult, state: PackingState, ok: bool, reason: str, restartable: bool = False
-    ) -> _Attempt:
-        return _Attempt(r, state, ok, reason, restartable, history, fire_it)
+    def out(node: _Node, ok: bool, reason: str, restartable: bool = False) -> _Attempt:
+        return _Attempt(node.r, node.state, ok, reason, restartable, run.fire_iterations)
 
-    def is_jammed(r: RelaxResult, state: PackingState) -> bool:
-        # a hypostatic backbone cannot carry a pressure: a residual p there is unrelaxed noise
-        return r.pressure > p_jammed and state.n_contacts_nr >= state.n_contacts_iso
+    def classify(node: _Node) -> _Node:
+        # near the window a single contact decides: a pair whose overlap or gap is below the
+        # position resolution of ftol is ambiguous, so the count is redone at ftol * factor
+        if window and node.r.converged and p_jammed < node.p <= hi_win and abs(node.excess) <= 1:
+            phi = run.steps[node.index].phi
+            node = run.run(node.r.packing, phi, node.index, "polish", ftol * confirm_ftol_factor)
+        return node
 
-    # 1. quench at phi_init; 2. while unjammed, compress: the excess over the last unjammed phi
-    # grows geometrically, phi_{k+1} = phi_k + (compress_factor - 1) * phi_k * 2^k
-    r = relax(random_packing(n, dim, phi_init, quench_seed), ftol, max_iter)
-    lo_phi = -math.inf
-    step = compress_factor - 1.0
-    while True:
-        fire_it += r.iterations
-        state = describe(r.packing, r.energy)
-        jammed = is_jammed(r, state)
-        history.append((r.packing.phi, r.pressure, jammed))
-        if progress is not None:
-            progress(f"phi={r.packing.phi:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
-        if not r.converged:
-            return out(
-                r,
-                state,
-                False,
-                f"minimisation at phi={r.packing.phi:.10f} did not converge "
-                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
-            )
-        if jammed:
-            break
-        lo_phi = r.packing.phi
-        nxt = lo_phi * (1.0 + step)
-        step *= 2.0
-        if nxt >= _PHI_MAX or len(history) >= max_minimizations:
-            return out(
-                r,
-                state,
-                False,
-                f"not jammed after compressing from phi_init={phi_init} to phi={lo_phi:.6f} "
-                f"(p={r.pressure:.3e}, {len(history)} minimisations)",
-                True,
-            )
-        r = compress_to(r.packing, nxt, ftol, max_iter)
+    def minimise(start: _Node, phi: float, role: str) -> _Node:
+        return classify(run.run(rescale(start.r.packing, phi), phi, start.index, role))
+
+    node, lo_phi, reason, restartable = _quench_and_compress(
+        run, n, dim, quench_seed, phi_init, compress_factor, max_minimizations, classify
+    )
+    if reason:
+        return out(node, False, reason, restartable)
 
     # 3. secant / bisection between the highest unjammed and the last jammed phi
-    hi = r
+    hi = node
     slope = 1.0
     p_goal = p_target
-    last = r
+    last = node
     max_down = math.inf  # largest decompression from hi allowed (halved after a saddle)
-    while len(history) < max_minimizations:
-        phi_hi, p_hi = hi.packing.phi, hi.pressure
+    while run.count < max_minimizations:
+        if window and hi.state.isostatic and hi.p <= hi_win:
+            if hi.p >= lo_win:
+                return out(hi, True, "")
+            break  # isostatic below the window: re-compress (step 4)
+        phi_hi, p_hi = hi.phi, hi.p
         if phi_hi - lo_phi <= 1e-13 * phi_hi and p_hi > 2 * p_target:
             # the bracket closed on a finite pressure: its lower end belongs to another branch
             # (the jammed state rearranged on decompression), so it bounds nothing here
             lo_phi = -math.inf
-        target = phi_hi + (p_goal - p_hi) / slope
+        # (window) at most a factor _MAX_DROP in pressure per decompression: larger ones set off
+        # long rearrangements near jamming
+        p_aim = max(p_goal, p_hi / _MAX_DROP) if window else p_goal
+        target = phi_hi + (p_aim - p_hi) / slope
         if not lo_phi < target:
             target = 0.5 * (lo_phi + phi_hi)
         target = max(target, phi_hi - max_down)
-        r = compress_to(hi.packing, target, ftol, max_iter)
-        fire_it += r.iterations
-        last = r
-        state = describe(r.packing, r.energy)
-        jammed = is_jammed(r, state)
-        history.append((target, r.pressure, jammed))
-        if progress is not None:
-            progress(f"phi={target:.10f} p={r.pressure:.3e} ({len(history)} minimisations)")
-        if not r.converged:
-            return out(
-                r,
-                state,
-                False,
-                f"minimisation at phi={target:.10f} did not converge "
-                f"(max force {r.max_force:.3e} >= ftol {ftol:.1e})",
-            )
-        if not jammed:
-            if r.pressure > p_jammed:
+        node = minimise(hi, target, "search")
+        last = node
+        if not node.r.converged:
+            return out(node, False, _not_converged(node))
+        if not node.jammed:
+            if node.p > p_jammed:
                 # stressed but hypostatic: a saddle reached on decompression (seen at N = 16),
                 # not an unjammed state; retry a smaller decompression from hi
                 max_down = 0.5 * (phi_hi - target)
                 if max_down < 1e-12 * phi_hi:
                     return out(
-                        r,
-                        state,
+                        node,
                         False,
                         f"every decompression from the jammed state at phi={phi_hi:.12f} "
                         f"(p={p_hi:.3e}) ends on a stressed hypostatic saddle",
@@ -401,37 +540,106 @@ def _jam_attempt(
                 lo_phi = target
             continue
         max_down = math.inf
-        if r.packing.phi != phi_hi:
-            k = (r.pressure - p_hi) / (r.packing.phi - phi_hi)
+        if node.phi != phi_hi:
+            k = (node.p - p_hi) / (node.phi - phi_hi)
             if k > 0 and math.isfinite(k):
                 slope = k
-        hi = r
-        if r.pressure <= 2 * p_target:
-            if state.isostatic and (r.pressure >= p_target / 2 or p_goal < p_target / 2):
-                # (below p_target/2 only when the search went on to remove excess contacts)
-                return out(r, state, True, "")
-            if not state.isostatic:
-                p_goal = min(p_goal, r.pressure) / 2
+        hi = node
+        if node.p <= hi_win:
+            if node.state.isostatic and (node.p >= lo_win or p_goal < lo_win):
+                # (halve: below p_target/2 only when the search went on to remove excess contacts)
+                if window and node.p < lo_win:
+                    continue  # re-compress (step 4)
+                return out(node, True, "")
+            if not node.state.isostatic:
+                if window and node.p * _SCAN_RATIO >= lo_win:
+                    # excess contacts inside the window: a smaller decompression first
+                    p_goal = node.p * _SCAN_RATIO
+                else:
+                    p_goal = min(p_goal, node.p) / 2
                 if p_goal < p_floor:
                     return out(
-                        r,
-                        state,
+                        node,
                         False,
-                        f"still {state.n_contacts_nr - state.n_contacts_iso} excess contacts at "
-                        f"p={r.pressure:.3e} (p_floor={p_floor:.1e}): hyperstatic at jamming",
+                        f"still {node.excess} excess contacts at p={node.p:.3e} "
+                        f"(p_floor={p_floor:.1e}): hyperstatic at jamming",
                         True,
                     )
+    else:
+        return out(
+            last,
+            False,
+            f"no isostatic packing with p <= 2 p_target after {max_minimizations} minimisations",
+            True,
+        )
+
+    # 4. (window) re-compress the isostatic state found below the window, along its branch:
+    # secant towards _RECOMPRESS_AIM * p_target/2, then bisection between the highest isostatic
+    # minimum below the window and the lowest one with excess contacts (or above the window)
+    base = lo = hi
+    k = 1.0
+    bad_phi = math.inf
+    why = f"none found in {_RECOMPRESS_TRIES} re-compressions"
+    for _ in range(_RECOMPRESS_TRIES):
+        if run.count >= max_minimizations:
+            why = f"{max_minimizations} minimisations used"
+            break
+        if math.isinf(bad_phi):
+            phi = lo.phi + (_RECOMPRESS_AIM * lo_win - lo.p) / k
+        else:
+            phi = 0.5 * (lo.phi + bad_phi)
+        if not lo.phi < phi < bad_phi:
+            why = "the bisection closed"
+            break
+        node = minimise(lo, phi, "recompress")
+        if not node.r.converged:
+            return out(node, False, _not_converged(node))
+        if not node.jammed:
+            why = "the branch rearranged on re-compression"
+            break
+        if node.p > lo.p:
+            k = (node.p - lo.p) / (node.phi - lo.phi)
+        if node.state.isostatic:
+            if lo_win <= node.p <= hi_win:
+                return out(node, True, "")
+            if node.p < lo_win:
+                lo = node
+            else:
+                bad_phi = phi
+            continue
+        if node.p < lo_win:
+            why = f"a contact is added at p={node.p:.3e}, below the window"
+            break
+        bad_phi = phi
     return out(
-        last,
-        describe(last.packing),
+        node,
         False,
-        f"no isostatic packing with p <= 2 p_target after {max_minimizations} minimisations",
+        f"no isostatic state with p in [{lo_win:.2e}, {hi_win:.2e}] on the branch of the "
+        f"isostatic minimum at phi={base.phi:.12f} (p={base.p:.3e}) re-compressed: {why}",
         True,
     )
 
 
 _PHI_MAX = 0.95
 """Upper bound of the compression of an unjammed quench in :func:`jam`."""
+
+_MAX_DROP = 10.0
+"""``search="window"``: a decompression aims at no less than ``1/_MAX_DROP`` of the pressure it
+starts from."""
+
+_SCAN_RATIO = 0.7
+"""``search="window"``: with excess contacts inside the window the goal pressure is lowered by
+this factor (instead of halved) while it stays in the window."""
+
+_RECOMPRESS_AIM = 1.25
+"""``search="window"``: the re-compression aims at ``_RECOMPRESS_AIM × p_target/2``, the lower
+part of the window, because contacts are added as the pressure rises; once a minimum with excess
+contacts (or above the window) is found, it bisects in ``φ``."""
+
+_RECOMPRESS_TRIES = 10
+"""``search="window"``: at most this many re-compressions per attempt."""
+
+SEARCHES = ("window", "halve")
 
 
 def jam(
@@ -448,6 +656,8 @@ def jam(
     max_iter: int = 1_000_000,
     strict: bool = False,
     progress: ProgressCallback | None = None,
+    search: str = "window",
+    confirm_ftol_factor: float = 0.1,
 ) -> PreparedPacking:
     """A packing at the jamming point by quench and decompression/compression steps.
 
@@ -462,19 +672,32 @@ def jam(
        ``p_goal`` (slope ``k`` from the last two jammed minima; ``k = 1`` at first), or by
        bisection between the last jammed and the highest unjammed ``φ`` when the secant step
        would leave that bracket. A decompression that ends on a *stressed* hypostatic minimum
-       (``p > 0`` but ``N_c' < d(N'−1)+1``: a saddle, seen at ``N = 16``) does not bound ``φ_J``:
-       the next decompression from the jammed state is halved. If the bracket closes on a finite
-       pressure its lower end came from another branch (a rearrangement) and is dropped.
+       (``p > 0`` but ``N_c' < d(N'−1)+1``: a saddle, seen at ``N = 16``), or (``search=
+       "window"``) that is still hypostatic after ``slow_iter`` FIRE steps (a slow
+       rearrangement), does not bound ``φ_J``: the next decompression from the jammed state is
+       halved. If the bracket closes on a finite pressure its lower end came from another branch
+       (a rearrangement) and is dropped. With ``search="window"`` every converged minimum with
+       ``p ≤ 2 p_target`` and ``|N_c' − N_c,iso| ≤ 1`` is first polished to
+       ``ftol × confirm_ftol_factor`` (its contact count is decided there).
     4. Stop when ``p ∈ [p_target/2, 2 p_target]`` and the backbone is isostatic,
-       ``N_c' = d(N' − 1) + 1``. Above jamming ``N_c' − N_c,iso ∝ N (φ − φ_J)^(1/2)``, so at finite
-       ``p`` a few excess contacts may remain: then ``p_goal`` is halved and the search goes on,
-       down to ``p_floor = p_target × p_floor_factor``.
+       ``N_c' = d(N' − 1) + 1``. With excess contacts inside the window, ``search="window"``
+       lowers ``p_goal`` by 0.7 while it stays in the window, then halves it; an isostatic
+       minimum found below the window is re-compressed along its branch (secant in ``φ``
+       towards ``0.625 p_target``, bisection against the first excess contact) until an
+       isostatic state inside the window is found; if the branch gains a contact below
+       ``0.525 p_target`` there is none and the attempt fails (restart). ``search="halve"`` (the
+       earlier protocol) instead accepts the isostatic minimum below the window.
     5. An attempt that fails for a structural reason — excess contacts that survive down to
-       ``p_floor`` (a non-generic, hyperstatic jammed state, e.g. local crystalline order at small
-       ``N``), only saddles below the jammed state, no jammed state below ``φ = 0.95``, or
-       ``max_minimizations`` used up — is discarded and the protocol restarts from new random
-       positions (seed derived from ``(seed, attempt)``, see :func:`_quench_seed`), at most
-       ``max_restarts`` times. The number of restarts is recorded (``n_restarts``).
+       ``p_floor = p_target × p_floor_factor`` (a non-generic, hyperstatic jammed state, e.g.
+       local crystalline order at small ``N``), only saddles or slow rearrangements below the
+       jammed state, no jammed state below ``φ = 0.95``, no isostatic state in the window on the
+       re-compressed branch, or ``max_minimizations`` used up — is discarded and the protocol
+       restarts from new random positions (seed derived from ``(seed, attempt)``, see
+       :func:`_quench_seed`), at most ``max_restarts`` times. The number of restarts is recorded
+       (``n_restarts``).
+
+    ``slow_iter`` defaults to ``max(20000, 40 N)``. Every minimisation is listed in
+    ``steps`` (:class:`MinimizationStep`), so the schedule can be replayed.
 
     Returns a :class:`PreparedPacking` with ``ok=False`` and a ``reason`` if a minimisation does
     not converge (no restart: that is a numerical failure), or if every attempt fails
@@ -493,6 +716,10 @@ def jam(
         raise ValueError(f"compress_factor must be in (1, 2), got {compress_factor!r}")
     if not (isinstance(max_restarts, int) and max_restarts >= 0):
         raise ValueError(f"max_restarts must be an integer >= 0, got {max_restarts!r}")
+    if search not in SEARCHES:
+        raise ValueError(f"search must be one of {', '.join(SEARCHES)}, got {search!r}")
+    if not (isinstance(confirm_ftol_factor, int | float) and 0 < confirm_ftol_factor <= 1):
+        raise ValueError(f"confirm_ftol_factor must be in (0, 1], got {confirm_ftol_factor!r}")
     t0 = time.perf_counter()
     params: dict[str, float | int | str] = dict(
         p_target=float(p_target),
@@ -507,8 +734,11 @@ def jam(
         n=int(n),
         dim=int(dim),
         seed=int(seed),
+        search=str(search),
     )
-    history: list[tuple[float, float, bool]] = []
+    if search == "window":
+        params.update(confirm_ftol_factor=float(confirm_ftol_factor))
+    steps: list[MinimizationStep] = []
     fire_it = 0
     reasons: list[str] = []
     for attempt in range(int(max_restarts) + 1):
@@ -524,8 +754,11 @@ def jam(
             int(max_minimizations),
             int(max_iter),
             progress,
+            steps,
+            attempt,
+            search,
+            float(confirm_ftol_factor),
         )
-        history.extend(a.history)
         fire_it += a.fire_iterations
         reason = a.reason
         if not a.ok and a.restartable:
@@ -544,12 +777,13 @@ def jam(
         converged=a.last.converged,
         ok=a.ok,
         reason=reason,
-        n_minimizations=len(history),
+        n_minimizations=len(steps),
         fire_iterations=fire_it,
         time=time.perf_counter() - t0,
         params=params,
-        history=tuple(history),
+        history=tuple((s.phi, s.pressure, s.jammed) for s in steps),
         n_restarts=attempt,
+        steps=tuple(steps),
     )
     if strict and not res.ok:
         raise JammingError(res)
