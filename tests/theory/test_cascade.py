@@ -151,6 +151,43 @@ def test_tree_contains_both_ground_states():
 
 
 @pytest.mark.parametrize(
+    "q,y,dg", [([0.0, 0.5], [0.5, 1.5], 1.0), ([0.0, 0.3, 0.6], [0.4, 1.0, 2.5], -0.6)]
+)
+def test_tree_holds_the_plain_samplers_ground_states(q, y, dg):
+    """The tree recorded for a seed holds the ground states and jump that the plain sampler
+    returns for that seed, recomputed here from the tree's nodes; with ``window=0`` it is exactly
+    the set of nodes the plain sampler drew, and a wider window only extends it."""
+    k = len(q)
+    qext = np.append(q, 1.0)
+    jumps = 0
+    for seed in range(40):
+        j = sample_cascade_jumps(q, y, dg, 1, seed=seed)
+        t0 = sample_cascade_tree(q, y, dg, seed=seed, window=0.0)
+        t = sample_cascade_tree(q, y, dg, seed=seed, window=1.0)
+        assert t0.parent.size == j.n_nodes[0]
+        assert np.count_nonzero(t0.level == k + 1) == j.n_states[0]
+        for name in ("parent", "level", "U", "Sigma"):
+            np.testing.assert_array_equal(getattr(t, name)[: t0.parent.size], getattr(t0, name))
+        states = np.nonzero(t.level == k + 1)[0]
+        old = states[np.argmin(t.U[states])]
+        new = states[np.argmin((t.U - dg * t.Sigma)[states])]
+        assert (old, new) == (t.old_gs, t.new_gs) == (t0.old_gs, t0.new_gs)
+        a, b = old, new
+        while a != b:
+            a, b = t.parent[a], t.parent[b]
+        assert qext[t.level[a] - 1] == j.q_jump[0]
+        if old == new:
+            assert j.dE[0] == 0.0 and j.dU[0] == 0.0 and j.dSigma[0] == 0.0
+        else:
+            jumps += 1
+            assert j.dU[0] == pytest.approx(t.U[new] - t.U[old], abs=1e-12)
+            assert j.dSigma[0] == pytest.approx(t.Sigma[new] - t.Sigma[old], abs=1e-12)
+            dE = (t.U[new] - dg * t.Sigma[new]) - (t.U[old] - dg * t.Sigma[old])
+            assert j.dE[0] == pytest.approx(dE, abs=1e-12) and dE < 0
+    assert jumps >= 5
+
+
+@pytest.mark.parametrize(
     "kwargs,match",
     [
         (dict(q=[0.0, 0.5], y=[1.0, 0.5]), "increasing"),

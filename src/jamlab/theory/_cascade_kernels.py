@@ -69,7 +69,7 @@ def _stress_increment(d: float, y: float, sd: float, p_neg: float) -> float:
 
 
 @njit(cache=True)
-def sample_batch(
+def _search(
     y: np.ndarray,
     sd: np.ndarray,
     T: np.ndarray,
@@ -78,13 +78,17 @@ def sample_batch(
     n: int,
     seed: int,
     max_nodes: int,
-) -> np.ndarray:
-    """Draw ``n`` independent samples; returns an ``(n, 5)`` array.
+    extra: float,
+    truncate: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """The best-first search, run for ``n`` independent samples (the one implementation).
 
-    Columns: ``ΔU``, ``ΔΣ`` (in the ``d >= 0`` frame), deepest-common-ancestor level of old and
-    new ground states (``k + 1`` when they coincide; overlap ``q[level-1]``), number of states
-    (leaves) materialised, number of nodes materialised. ``max_nodes`` bounds the tree size per
-    sample (a safety net; exceeding it raises).
+    Returns the ``(n, 5)`` per-sample output (see :func:`sample_batch`) and, of the last sample,
+    the tree it materialised: parent, level, U, Σ of every node (views of the work arrays) and the
+    indices of the old and new ground states. A sample stops once the heap top is
+    ``>= max(U*, V*) + extra`` (``extra = 0``: the exact stopping rule; ``extra > 0`` also draws
+    every state whose bound ``A`` lies below the threshold, for pictures). Reaching ``max_nodes``
+    nodes raises, or with ``truncate`` ends the sample there (the tree is then incomplete).
     """
     np.random.seed(seed)
     k = y.shape[0]
@@ -105,6 +109,9 @@ def sample_batch(
     for i in range(k - 1):
         shape[i] = 1.0 - y[i] / y[i + 1]
     p_neg = 0.5 / T
+    nn = 1
+    iu = -1
+    iv = -1
     for t in range(n):
         nn = 1
         par[0] = -1
@@ -121,13 +128,17 @@ def sample_batch(
         hm[0] = g
         best_u = np.inf
         best_v = np.inf
+        stop = np.inf  # max(best_u, best_v) + extra
         iu = -1
         iv = -1
         nstates = 0
         while hn > 0:
-            key = hkey[0]
-            if key >= best_u and key >= best_v:
+            if hkey[0] >= stop:
                 break
+            if nn >= max_nodes:
+                if truncate:
+                    break
+                raise RuntimeError("cascade sampler exceeded max_nodes")
             p = hpar[0]
             m = hm[0]
             # pop
@@ -173,8 +184,6 @@ def sample_batch(
                 nu = _grow_f(nu, nn + 1)
                 ns = _grow_f(ns, nn + 1)
                 na = _grow_f(na, nn + 1)
-            if nn >= max_nodes:
-                raise RuntimeError("cascade sampler exceeded max_nodes")
             ch = nn
             nn += 1
             par[ch] = p
@@ -200,6 +209,7 @@ def sample_batch(
                 if vv < best_v:
                     best_v = vv
                     iv = ch
+                stop = max(best_u, best_v) + extra
             lam = c[li] / y[li] * np.exp(y[li] * m) + np.random.exponential()
             m_next = np.log(lam * y[li] / c[li]) / y[li]
             for q in range(npush + 1):
@@ -225,21 +235,49 @@ def sample_batch(
                 hkey[j] = nk
                 hpar[j] = npar
                 hm[j] = nm
-        # deepest common ancestor of the two minimisers
+        # deepest common ancestor of the two minimisers (none when truncated before any state)
         a1 = iu
         a2 = iv
         while a1 != a2:
             a1 = par[a1]
             a2 = par[a2]
-        out[t, OUT_DU] = nu[iv] - nu[iu]
-        out[t, OUT_DS] = ns[iv] - ns[iu]
-        out[t, OUT_LEVEL] = lev[a1]
+        if iu >= 0:
+            out[t, OUT_DU] = nu[iv] - nu[iu]
+            out[t, OUT_DS] = ns[iv] - ns[iu]
+            out[t, OUT_LEVEL] = lev[a1]
+        else:
+            out[t, OUT_DU] = np.nan
+            out[t, OUT_DS] = np.nan
+            out[t, OUT_LEVEL] = -1
         out[t, OUT_NSTATES] = nstates
         out[t, OUT_NNODES] = nn
-    return out
+    return out, par[:nn], lev[:nn], nu[:nn], ns[:nn], iu, iv
 
 
-@njit(cache=True)
+#: node limit of :func:`sample_tree` (a picture never gets near it)
+TREE_MAX_NODES = (1 << 16) - 2
+
+
+def sample_batch(
+    y: np.ndarray,
+    sd: np.ndarray,
+    T: np.ndarray,
+    c: np.ndarray,
+    d: float,
+    n: int,
+    seed: int,
+    max_nodes: int,
+) -> np.ndarray:
+    """Draw ``n`` independent samples; returns an ``(n, 5)`` array.
+
+    Columns: ``ΔU``, ``ΔΣ`` (in the ``d >= 0`` frame), deepest-common-ancestor level of old and
+    new ground states (``k + 1`` when they coincide; overlap ``q[level-1]``), number of states
+    (leaves) materialised, number of nodes materialised. ``max_nodes`` bounds the tree size per
+    sample (a safety net; exceeding it raises).
+    """
+    return _search(y, sd, T, c, d, n, seed, max_nodes, 0.0, False)[0]
+
+
 def sample_tree(
     y: np.ndarray,
     sd: np.ndarray,
@@ -252,91 +290,9 @@ def sample_tree(
     """One sample, keeping every node whose subtree bound is below ``max(U*, V*) + extra``.
 
     Returns parent, level, U, Σ arrays of all materialised nodes, and the indices of the old and
-    new ground states. Used for drawing a cascade; exact for all states below the threshold.
+    new ground states. Used for drawing a cascade; exact for all states below the threshold. The
+    same search as :func:`sample_batch` (``n = 1``, same seed): with ``extra = 0`` it draws exactly
+    the nodes that sample does. Stops silently after :data:`TREE_MAX_NODES` nodes.
     """
-    np.random.seed(seed)
-    k = y.shape[0]
-    cap = 1 << 16
-    par = np.empty(cap, np.int64)
-    lev = np.empty(cap, np.int64)
-    nu = np.empty(cap)
-    ns = np.empty(cap)
-    na = np.empty(cap)
-    hkey = np.empty(cap)
-    hpar = np.empty(cap, np.int64)
-    hm = np.empty(cap)
-    shape = np.empty(k)
-    for i in range(k - 1):
-        shape[i] = 1.0 - y[i] / y[i + 1]
-    p_neg = 0.5 / T
-    nn = 1
-    par[0] = -1
-    lev[0] = 1
-    nu[0] = 0.0
-    ns[0] = 0.0
-    na[0] = 0.0
-    e = np.random.exponential()
-    g = np.log(e * y[0] / c[0]) / y[0]
-    hn = 1
-    hkey[0] = g
-    hpar[0] = 0
-    hm[0] = g
-    best_u = np.inf
-    best_v = np.inf
-    iu = -1
-    iv = -1
-    while hn > 0:
-        j = 0
-        for q in range(1, hn):  # linear scan: this routine is for small pictures only
-            if hkey[q] < hkey[j]:
-                j = q
-        key = hkey[j]
-        if key >= max(best_u, best_v) + extra:
-            break
-        if nn + 2 >= cap or hn + 2 >= cap:
-            break
-        p = hpar[j]
-        m = hm[j]
-        hn -= 1
-        hkey[j] = hkey[hn]
-        hpar[j] = hpar[hn]
-        hm[j] = hm[hn]
-        L = lev[p]
-        li = L - 1
-        if L < k:
-            lw = _log_gamma_variate(shape[li])
-            gchild = (lw + np.log(y[li + 1] / c[li + 1])) / y[li + 1]
-            a = m - gchild
-        else:
-            gchild = 0.0
-            a = m
-        s = _stress_increment(d, y[li], sd[li], p_neg[li])
-        du = a + d * max(s, 0.0)
-        ch = nn
-        nn += 1
-        par[ch] = p
-        lev[ch] = L + 1
-        nu[ch] = nu[p] + du
-        ns[ch] = ns[p] + s
-        na[ch] = na[p] + a
-        if L < k:
-            hkey[hn] = na[ch] + gchild
-            hpar[hn] = ch
-            hm[hn] = gchild
-            hn += 1
-        else:
-            uu = nu[ch]
-            vv = uu - d * ns[ch]
-            if uu < best_u:
-                best_u = uu
-                iu = ch
-            if vv < best_v:
-                best_v = vv
-                iv = ch
-        lam = c[li] / y[li] * np.exp(y[li] * m) + np.random.exponential()
-        m_next = np.log(lam * y[li] / c[li]) / y[li]
-        hkey[hn] = na[p] + m_next
-        hpar[hn] = p
-        hm[hn] = m_next
-        hn += 1
-    return par[:nn].copy(), lev[:nn].copy(), nu[:nn].copy(), ns[:nn].copy(), iu, iv
+    _, par, lev, nu, ns, iu, iv = _search(y, sd, T, c, d, 1, seed, TREE_MAX_NODES, extra, True)
+    return par.copy(), lev.copy(), nu.copy(), ns.copy(), int(iu), int(iv)

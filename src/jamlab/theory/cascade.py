@@ -256,7 +256,10 @@ def sample_cascade_tree(
     window: float = 1.5,
 ) -> CascadeTree:
     """One cascade with every state whose ``min(U, U - |δγ|Σ)`` lies within ``window`` of the
-    larger of the two ground-state values (plus their ancestors); for pictures."""
+    larger of the two ground-state values (plus their ancestors); for pictures.
+
+    The same search as :func:`sample_cascade_jumps`: for a given ``seed`` it draws the cascade of
+    that function's first sample (``window=0`` gives exactly the nodes that sample drew)."""
     qa, ya = _levels_from(q, y, k)
     dg = _check_dgamma(dgamma)
     if not np.isfinite(window) or window < 0:
