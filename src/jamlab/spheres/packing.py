@@ -287,7 +287,7 @@ class MinimizationStep:
     from, affinely rescaled to ``phi``; ``-1`` means the random positions of ``attempt``
     (:func:`random_packing` with seed ``_quench_seed(seed, attempt)`` at ``phi``). ``ftol`` and
     ``max_iter`` are the minimiser's stopping rules; ``role`` says why the minimisation was run
-    (``quench``, ``compress``, ``search``, ``continue``, ``polish``, ``recompress``); ``pressure``,
+    (``quench``, ``compress``, ``search``, ``polish``, ``recompress``); ``pressure``,
     ``excess = N_c' − N_c,iso``, ``jammed``, ``converged`` and ``iterations`` its outcome."""
 
     attempt: int
@@ -669,35 +669,36 @@ def jam(
     3. Every later minimisation starts from the last *jammed* minimum (``p > p_target ×
        p_floor_factor / 10`` and a backbone that is not hypostatic), affinely rescaled to the next
        ``φ``, chosen by a secant step on ``p(φ) ≈ k (φ − φ_J)`` towards the goal pressure
-       ``p_goal`` (slope ``k`` from the last two jammed minima; ``k = 1`` at first), or by
+       ``p_goal`` (slope ``k`` from the last two jammed minima; ``k = 1`` at first; with
+       ``search="window"`` aiming at no less than a tenth of the current pressure), or by
        bisection between the last jammed and the highest unjammed ``φ`` when the secant step
        would leave that bracket. A decompression that ends on a *stressed* hypostatic minimum
-       (``p > 0`` but ``N_c' < d(N'−1)+1``: a saddle, seen at ``N = 16``), or (``search=
-       "window"``) that is still hypostatic after ``slow_iter`` FIRE steps (a slow
-       rearrangement), does not bound ``φ_J``: the next decompression from the jammed state is
-       halved. If the bracket closes on a finite pressure its lower end came from another branch
-       (a rearrangement) and is dropped. With ``search="window"`` every converged minimum with
-       ``p ≤ 2 p_target`` and ``|N_c' − N_c,iso| ≤ 1`` is first polished to
-       ``ftol × confirm_ftol_factor`` (its contact count is decided there).
+       (``p > 0`` but ``N_c' < d(N'−1)+1``: a saddle, seen at ``N = 16``) does not bound
+       ``φ_J``: the next decompression from the jammed state is halved. If the bracket closes on
+       a finite pressure its lower end came from another branch (a rearrangement) and is
+       dropped. With ``search="window"`` every converged minimum with ``p ≤ 2 p_target`` and
+       ``|N_c' − N_c,iso| ≤ 1`` is first polished to ``ftol × confirm_ftol_factor`` (its
+       contact count is decided there).
     4. Stop when ``p ∈ [p_target/2, 2 p_target]`` and the backbone is isostatic,
        ``N_c' = d(N' − 1) + 1``. With excess contacts inside the window, ``search="window"``
        lowers ``p_goal`` by 0.7 while it stays in the window, then halves it; an isostatic
        minimum found below the window is re-compressed along its branch (secant in ``φ``
-       towards ``0.625 p_target``, bisection against the first excess contact) until an
-       isostatic state inside the window is found; if the branch gains a contact below
-       ``0.525 p_target`` there is none and the attempt fails (restart). ``search="halve"`` (the
-       earlier protocol) instead accepts the isostatic minimum below the window.
+       towards ``0.625 p_target``, then bisection between the highest isostatic minimum below
+       the window and the lowest one with excess contacts) until an isostatic state inside the
+       window is found; if a contact is added below ``p_target/2`` there is none and the
+       attempt fails (restart). ``search="halve"`` (the earlier protocol) instead accepts the
+       isostatic minimum below the window.
     5. An attempt that fails for a structural reason — excess contacts that survive down to
        ``p_floor = p_target × p_floor_factor`` (a non-generic, hyperstatic jammed state, e.g.
-       local crystalline order at small ``N``), only saddles or slow rearrangements below the
-       jammed state, no jammed state below ``φ = 0.95``, no isostatic state in the window on the
-       re-compressed branch, or ``max_minimizations`` used up — is discarded and the protocol
+       local crystalline order at small ``N``), only saddles below the jammed state, no jammed
+       state below ``φ = 0.95``, no isostatic state in the window on the re-compressed branch,
+       or ``max_minimizations`` used up — is discarded and the protocol
        restarts from new random positions (seed derived from ``(seed, attempt)``, see
        :func:`_quench_seed`), at most ``max_restarts`` times. The number of restarts is recorded
        (``n_restarts``).
 
-    ``slow_iter`` defaults to ``max(20000, 40 N)``. Every minimisation is listed in
-    ``steps`` (:class:`MinimizationStep`), so the schedule can be replayed.
+    Every minimisation is listed in ``steps`` (:class:`MinimizationStep`), so the schedule can
+    be replayed exactly.
 
     Returns a :class:`PreparedPacking` with ``ok=False`` and a ``reason`` if a minimisation does
     not converge (no restart: that is a numerical failure), or if every attempt fails
