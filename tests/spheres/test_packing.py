@@ -19,6 +19,7 @@ from jamlab.spheres.packing import (
     compress_to,
     coordination_curve,
     fit_power_law,
+    fit_power_law_corrected,
     jam,
     prepare,
     rescale,
@@ -198,6 +199,21 @@ def test_fit_power_law_recovers_known_exponent() -> None:
     assert a == pytest.approx(0.5, abs=1e-12) and c == pytest.approx(3.0, rel=1e-10)
     with pytest.raises(ValueError):
         fit_power_law(x, -x)
+
+
+def test_corrected_fit_recovers_exponent_and_correction() -> None:
+    # y = A x^b (1 + c x): the plain fit over [1e-4, 1e-1] is biased (b = 1.024 here), the fit
+    # with the correction term is not
+    x = np.geomspace(1e-6, 0.3, 30)
+    y = 2.0 * x * (1.0 + 3.0 * x)
+    assert fit_power_law(x, y)[0] == pytest.approx(1.0245, abs=1e-3)
+    b, sb, a, c, sc = fit_power_law_corrected(x, y)
+    assert b == pytest.approx(1.0, abs=1e-8) and c == pytest.approx(3.0, rel=1e-6)
+    assert a == pytest.approx(2.0, rel=1e-8) and sb < 1e-8
+    b, _, _, c, _ = fit_power_law_corrected(x, 3.0 * x**0.5 * (1.0 - 0.5 * x))
+    assert b == pytest.approx(0.5, abs=1e-10) and c == pytest.approx(-0.5, rel=1e-8)
+    with pytest.raises(ValueError, match="at least 4 points"):
+        fit_power_law_corrected(x[:5], y[:5])
 
 
 @pytest.mark.slow

@@ -56,6 +56,7 @@ __all__ = [
     "prepare",
     "coordination_curve",
     "fit_power_law",
+    "fit_power_law_corrected",
 ]
 
 
@@ -930,3 +931,42 @@ def fit_power_law(
     s2 = float(resid @ resid) / max(len(lx) - 2, 1)
     sa = math.sqrt(s2 / float(((lx - lx.mean()) ** 2).sum()))
     return float(a), sa, float(math.exp(b))
+
+
+def fit_power_law_corrected(
+    x: np.ndarray, y: np.ndarray, xmin: float = 1e-4, xmax: float = 1e-1
+) -> tuple[float, float, float, float, float]:
+    """Least-squares fit with the leading correction to scaling, ``y = A x^b (1 + c x)``, in
+    log space (``log y = log A + b log x + log(1 + c x)``) over ``xmin <= x <= xmax``.
+
+    Returns ``(b, σ_b, A, c, σ_c)``; the standard errors come from the Jacobian at the optimum
+    and the residual scatter (as :func:`scipy.optimize.curve_fit`). Starts from the plain fit
+    (:func:`fit_power_law`) and ``c = 0``; ``ValueError`` with fewer than 4 points or if the fit
+    does not converge.
+    """
+    from scipy.optimize import curve_fit
+
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    sel = (x >= xmin) & (x <= xmax) & (y > 0) & np.isfinite(y)
+    if sel.sum() < 4:
+        raise ValueError(f"need at least 4 points with y > 0 in [{xmin}, {xmax}], got {sel.sum()}")
+    lx, ly = np.log(x[sel]), np.log(y[sel])
+    b0, _, a0 = fit_power_law(x, y, xmin, xmax)
+
+    def model(lx: np.ndarray, log_a: float, b: float, c: float) -> np.ndarray:
+        return log_a + b * lx + np.log1p(c * np.exp(lx))
+
+    c_min = -0.999 / float(np.exp(lx.max()))  # keeps 1 + c x > 0 over the range
+    try:
+        popt, pcov = curve_fit(
+            model,
+            lx,
+            ly,
+            p0=(math.log(a0), b0, 0.0),
+            bounds=((-np.inf, -np.inf, c_min), (np.inf, np.inf, np.inf)),
+        )
+    except (RuntimeError, ValueError) as exc:
+        raise ValueError(f"corrected power-law fit failed: {exc}") from None
+    err = np.sqrt(np.clip(np.diag(pcov), 0.0, None))
+    return float(popt[1]), float(err[1]), float(math.exp(popt[0])), float(popt[2]), float(err[2])
