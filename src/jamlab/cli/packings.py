@@ -123,7 +123,7 @@ def register(app: typer.Typer) -> None:
 
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
-        from jamlab.spheres.packing import coordination_curve
+        from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected
 
         packing = read_packing(config)
         with h5py.File(config, "r") as h5:
@@ -148,8 +148,20 @@ def register(app: typer.Typer) -> None:
                 comments="",
                 fmt="%.17g",
             )
+        series = {
+            "z_nr - 2d": curve.z_nr - 2 * curve.dim,
+            "z_nr - z_iso": curve.z_nr - curve.z_iso,
+            "p": curve.pressure,
+        }
         for name, (a, sa, _) in fits.items():
-            typer.echo(f"{name} ~ (phi - phi_J)^{a:.4f} ± {sa:.4f}  (fit over [1e-4, 1e-1])")
+            line = f"{name} ~ (phi - phi_J)^{a:.4f} ± {sa:.4f}  (fit over [1e-4, 1e-1])"
+            try:
+                b, sb, _, c, sc = fit_power_law_corrected(curve.dphi, series[name])
+                line += f"; with correction (1 + c dphi): {b:.4f} ± {sb:.4f}, "
+                line += f"c = {c:.2f} ± {sc:.2f}"
+            except ValueError:
+                pass
+            typer.echo(line)
         typer.echo(f"wrote {out}" + (f" and {csv}" if csv else ""))
         if not curve.converged.all():
             typer.echo("jamlab: some minimisations did not converge (see CSV)", err=True)
