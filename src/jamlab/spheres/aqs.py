@@ -7,10 +7,12 @@ Protocol (``SPEC.md`` §3): from a minimum at strain ``γ_n``, shear affinely ``
 Fast elastic steps (``minimizer="linear"``). Let ``H`` be the Hessian at the minimum ``x_n``
 restricted to the *backbone* (rattlers removed, :func:`~jamlab.spheres.potential.remove_rattlers`)
 with one backbone particle pinned (removing the ``d`` global translations), ``K = H[b,b]``,
-factorised once per step with SuperLU in symmetric mode (no row pivoting, symmetric fill-reducing
-order), so that ``K = P (L D Lᵀ) Pᵀ`` and the pivots ``D`` have the signs of the eigenvalues of
-``K`` (Sylvester's law of inertia): all pivots ``> 0`` ⇔ ``K`` positive definite. The step is the
-chord-Newton iteration
+factorised with SuperLU in symmetric mode (no row pivoting, METIS nested-dissection order), so
+that ``K = L D Lᵀ`` and the pivots ``D`` have the signs of the eigenvalues of ``K`` (Sylvester's
+law of inertia): all pivots ``> 0`` ⇔ ``K`` positive definite. The factorisation is reused over
+many steps; contacts that open or close since are added to it as rank-one (Woodbury)
+corrections (:class:`_Factor`), and it is redone after plastic steps, backbone changes, failures
+and periodically (``docs/aqs.md``). The step is the chord-Newton iteration
 
     x⁰ = x_n + δγ y e_x (affine),      x^{k+1} = x^k + K⁻¹ F_b(x^k),
 
