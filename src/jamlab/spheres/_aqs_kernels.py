@@ -124,3 +124,108 @@ def contact_changes(keys0, row0, ci, cj, n):
             opened[k] = keys0[q]
             k += 1
     return closed, where, opened
+
+
+@njit(cache=True)
+def forces_virial_flags(pos, start, nbr, shift, forces, virial, flags, write):
+    """One pass over the neighbour list: ``E``, forces, the virial ``S_ab`` (as
+    ``_kernels.energy_forces_virial``) and the contact state of every list slot.
+
+    ``flags[k]`` is 1 if slot ``k`` (pair ``i``, ``nbr[k]``) is a contact (``r < 1``). With
+    ``write`` the states are stored in ``flags``; otherwise they are compared with it. Returns
+    ``(E, N_c, mismatches)``: ``mismatches`` counts slots whose state differs from ``flags``
+    (0 when writing).
+    """
+    if pos.shape[1] == 3:
+        return _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write)
+    n, d = pos.shape
+    forces[:, :] = 0.0
+    virial[:, :] = 0.0
+    e = 0.0
+    n_c = 0
+    mism = 0
+    dr = np.empty(d, np.float64)
+    for i in range(n):
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            r2 = 0.0
+            for a in range(d):
+                t = pos[i, a] - pos[j, a] + shift[k, a]
+                dr[a] = t
+                r2 += t * t
+            c_now = 1 if r2 < 1.0 else 0
+            if write:
+                flags[k] = c_now
+            elif c_now != flags[k]:
+                mism += 1
+            if c_now:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                n_c += 1
+                c = 2.0 * h / r
+                for a in range(d):
+                    forces[i, a] += c * dr[a]
+                    forces[j, a] -= c * dr[a]
+                    for b in range(d):
+                        virial[a, b] -= c * dr[a] * dr[b]
+    return e, n_c, mism
+
+
+@njit(cache=True)
+def _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write):
+    n = pos.shape[0]
+    forces[:, :] = 0.0
+    e = 0.0
+    n_c = 0
+    mism = 0
+    sxx = sxy = sxz = syy = syz = szz = 0.0
+    for i in range(n):
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        zi = pos[i, 2]
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        for k in range(start[i], start[i + 1]):
+            j = nbr[k]
+            dx = xi - pos[j, 0] + shift[k, 0]
+            dy = yi - pos[j, 1] + shift[k, 1]
+            dz = zi - pos[j, 2] + shift[k, 2]
+            r2 = dx * dx + dy * dy + dz * dz
+            c_now = 1 if r2 < 1.0 else 0
+            if write:
+                flags[k] = c_now
+            elif c_now != flags[k]:
+                mism += 1
+            if c_now:
+                r = np.sqrt(r2)
+                h = 1.0 - r
+                e += h * h
+                n_c += 1
+                c = 2.0 * h / r
+                fx += c * dx
+                fy += c * dy
+                fz += c * dz
+                forces[j, 0] -= c * dx
+                forces[j, 1] -= c * dy
+                forces[j, 2] -= c * dz
+                sxx -= c * dx * dx
+                sxy -= c * dx * dy
+                sxz -= c * dx * dz
+                syy -= c * dy * dy
+                syz -= c * dy * dz
+                szz -= c * dz * dz
+        forces[i, 0] += fx
+        forces[i, 1] += fy
+        forces[i, 2] += fz
+    virial[0, 0] = sxx
+    virial[0, 1] = sxy
+    virial[0, 2] = sxz
+    virial[1, 0] = sxy
+    virial[1, 1] = syy
+    virial[1, 2] = syz
+    virial[2, 0] = sxz
+    virial[2, 1] = syz
+    virial[2, 2] = szz
+    return e, n_c, mism

@@ -116,6 +116,9 @@ class AQSParameters:
     match_tol: float = 1e-3
     energy_match: float = 1e-13
     max_fire_iter: int = 2_000_000
+    path_depth: int = 6
+    path_degree: int = 3
+    path_floor: float = 1e-14
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
@@ -184,6 +187,7 @@ class _Factor:
     c_inv: np.ndarray | None = None  # C⁻¹
     corrected_pd: bool = True
     cache: dict | None = None  # signed key -> (dof indices, values, column of W)
+    free_sorted: np.ndarray | None = None  # ``free`` in the neighbour list's order
 
     def solve(self, r: np.ndarray) -> np.ndarray:
         """``P⁻¹ r`` (``M⁻¹ r`` without corrections)."""
@@ -502,14 +506,167 @@ def _newton(
     return _Newton(current, False, it, cg_total)
 
 
-def _extrapolate(history: list[np.ndarray]) -> np.ndarray:
-    """Polynomial extrapolation of the non-affine displacement one step ahead from the last
-    (newest first) one, two or three steps: ``u₀``, ``2u₀ − u₁``, ``3u₀ − 3u₁ + u₂``."""
-    if len(history) == 1:
-        return history[0]
-    if len(history) == 2:
-        return 2.0 * history[0] - history[1]
-    return 3.0 * (history[0] - history[1]) + history[2]
+class _Path:
+    """The minima of the current smooth piece of the branch, for the predictor of the next step.
+
+    ``z`` (newest first, at most ``depth``): cumulative non-affine displacements of the minima
+    since the piece began (a plastic step or a contact change), ``noise`` their residual forces.
+    The predicted non-affine displacement of the next step is ``ẑ(+1) − z₀`` with ``ẑ`` the
+    polynomial of degree ``≤ degree`` fitted to ``z`` by least squares weighted with
+    ``1/max(noise, floor)²``, in the step index: the fit averages the residual noise of the
+    minima instead of amplifying it as exact interpolation does (``4, −6, 4, −1`` for a cubic
+    through four points), and the recorded minima with the larger residuals count less. After a
+    contact change the first prediction is the step that contained it (``straddle``).
+    """
+
+    def __init__(self, depth: int, degree: int, floor: float) -> None:
+        self.depth, self.degree, self.floor = depth, degree, floor
+        self.z: list[np.ndarray] = []
+        self.noise: list[float] = []
+        self.straddle: np.ndarray | None = None
+
+    def reset(self) -> None:
+        self.z, self.noise, self.straddle = [], [], None
+
+    def add(self, u: np.ndarray, noise: float, kinked: bool) -> None:
+        if kinked or not self.z:
+            self.z, self.noise = [np.zeros_like(u)], [noise]
+            self.straddle = u if kinked else None
+            return
+        self.z = [self.z[0] + u] + self.z[: self.depth - 1]
+        self.noise = [noise] + self.noise[: self.depth - 1]
+        self.straddle = None
+
+    def predict(self) -> np.ndarray | None:
+        m = len(self.z)
+        if m == 1:
+            return self.straddle
+        degree = min(self.degree, m - 1)
+        t = -np.arange(m, dtype=np.float64)
+        v = np.vander(t, degree + 1, increasing=True)
+        w = 1.0 / np.maximum(np.asarray(self.noise), self.floor) ** 2
+        # coefficients c with ẑ(+1) = Σ c_k z_k for the weighted fit
+        c = np.linalg.solve(v.T @ (w[:, None] * v), v.T * w).T @ np.ones(degree + 1)
+        z0 = self.z[0]
+        out = np.zeros_like(z0)
+        for ck, zk in zip(c[1:], self.z[1:], strict=True):
+            out += ck * (zk - z0)
+        return out
+
+
+def _contact_keys(packing: Packing, nl: NeighborList) -> np.ndarray:
+    """Sorted keys ``min(i, j)·N + max(i, j)`` of the contacts."""
+    ci, cj, _ = _contact_list(packing, nl)
+    return np.sort(np.minimum(ci, cj) * packing.n + np.maximum(ci, cj))
+
+
+def _consistent_flags(
+    packing: Packing, nl: NeighborList, fac: _Factor, params: AQSParameters
+) -> tuple[np.ndarray | None, int]:
+    """Contact state of every neighbour-list slot at the minimum ``packing`` and the list's build
+    number, once ``fac`` has been corrected for the contacts changed since its factorisation;
+    ``(None, -1)`` when the corrected factor does not hold them (too many changes, or the
+    corrected matrix not positive definite) or there is nothing to factorise."""
+    if fac.lu is None or fac.free.size == 0:
+        return None, -1
+    fac.update(*_contact_list(packing, nl), params.max_corrections)
+    if fac.corr_keys is not None and fac.corr_keys.size and fac.w is None:
+        return None, -1
+    pos = nl.sorted(packing.positions)
+    d = pos.shape[1]
+    flags = np.empty(nl.nbr.size, dtype=np.uint8)
+    AK.forces_virial_flags(
+        pos, nl.start, nl.nbr, nl.shift, np.empty_like(pos), np.empty((d, d)), flags, True
+    )
+    return flags, nl.n_builds
+
+
+def _lean_step(
+    cur: Packing,
+    target: float,
+    predictor: np.ndarray | None,
+    nl: NeighborList,
+    fac: _Factor,
+    flags: np.ndarray,
+    prev: dict[str, float],
+    ftol: float,
+    params: AQSParameters,
+) -> tuple[Packing, dict[str, float], int] | None:
+    """The common elastic step in as few passes over the pairs as possible, or ``None``.
+
+    The chord iteration of :func:`_newton` (each step cutting ``max|F_b|`` by
+    ``chord_contraction``, at most ``max_chord`` steps), run in the neighbour list's particle
+    order with one fused kernel per iterate (forces, virial and the contact state of every list
+    slot). It applies only while nothing changes: ``flags`` are the contacts of the minimum
+    ``cur``, with which ``fac`` (including its corrections) is consistent; any iterate where a
+    contact opens or closes, a neighbour-list rebuild, a force left on a rattler, a trapezoid
+    residual above ``energy_tol δγ²`` or a chord step that does not contract returns ``None``
+    and the general continuation (:func:`_continue_branch`) takes the step instead. When it
+    succeeds the contact set, hence the backbone and ``z_nr``, are those of ``cur``.
+    """
+    affine = _affine_to(cur, target)
+    pos = affine.positions if predictor is None else affine.positions + predictor
+    builds = nl.n_builds
+    nl.update(pos, target)
+    if nl.n_builds != builds:
+        return None
+    if fac.free_sorted is None:
+        fac.free_sorted = nl.inverse[fac.free]
+    free_s = fac.free_sorted
+    ps = nl.sorted(pos)
+    d = ps.shape[1]
+    f = np.empty_like(ps)
+    s = np.empty((d, d))
+    e, n_c, changed = AK.forces_virial_flags(ps, nl.start, nl.nbr, nl.shift, f, s, flags, False)
+    if changed:
+        return None
+    fb = f[free_s]
+    fmax = _max_norm(fb)
+    its = 0
+    while not fmax < ftol:
+        if its == params.max_chord:
+            return None
+        trial = ps.copy()
+        trial[free_s] += fac.solve(fb.ravel()).reshape(free_s.size, d)
+        ft = np.empty_like(ps)
+        st = np.empty((d, d))
+        et, n_ct, changed = AK.forces_virial_flags(
+            trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
+        )
+        if changed:
+            return None
+        tb = ft[free_s]
+        tmax = _max_norm(tb)
+        its += 1
+        if not (
+            tmax < params.chord_contraction * fmax
+            or (tmax < ftol and tmax < params.contraction * fmax)
+        ):
+            return None
+        ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
+    positions = nl.unsorted(ps)
+    nl.update(positions, target)  # the list must still hold every pair at the final positions
+    if nl.n_builds != builds:
+        return None
+    max_force = _max_norm(f)
+    if not max_force < ftol:  # a rattler (or the pinned particle) to relax: general path
+        return None
+    n = cur.n
+    row = {
+        "energy": float(e),
+        "shear_stress": float(s[0, 1]),
+        "pressure": float(-np.trace(s) / (d * cur.box.volume)),
+        "z": 2.0 * n_c / n,
+        "z_nr": prev["z_nr"],
+        "max_force": max_force,
+    }
+    r = row["energy"] - prev["energy"] - 0.5 * (target - prev["gamma"]) * (
+        prev["shear_stress"] + row["shear_stress"]
+    )
+    if abs(r) > params.energy_tol * (target - prev["gamma"]) ** 2:
+        return None
+    fac.fresh = False
+    return affine.with_positions(positions), row, its
 
 
 def _affine_to(packing: Packing, strain: float) -> Packing:
@@ -747,11 +904,22 @@ def shear(
         "jamlab_version": _version(),
         "source": "" if source is None else str(source),
     }
-    counters = {"n_fallback": 0, "n_substepped": 0, "n_cleanup": 0, "n_factorisations": 1}
+    counters = {
+        "n_fallback": 0,
+        "n_substepped": 0,
+        "n_cleanup": 0,
+        "n_factorisations": 1,
+        "n_lean": 0,
+    }
     fac = _factorise(cur, nl, backbone)
     age = 0
     predictor: np.ndarray | None = None
-    history: list[np.ndarray] = []  # non-affine displacements of the last elastic steps
+    path = _Path(params.path_depth, params.path_degree, params.path_floor)
+    prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in _ROW_KEYS if k != "gamma"}}
+    cur_keys = _contact_keys(cur, nl) if minimizer == "linear" else None
+    flags, flags_build = (
+        _consistent_flags(cur, nl, fac, params) if minimizer == "linear" else (None, -1)
+    )
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -760,10 +928,19 @@ def shear(
         plastic = False
         branch: _Branch | None = None
         observed: tuple[Packing, dict[str, float], np.ndarray] | None = None
+        lean = None
+        if minimizer == "linear" and flags is not None and nl.n_builds != flags_build:
+            flags, flags_build = _consistent_flags(cur, nl, fac, params)
         if fac.free.size == 0:
             # no rigid backbone (unjammed): E ≈ 0, nothing can jump; FIRE just removes overlaps
             res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             new, iterations = res.packing, res.iterations
+        elif minimizer == "linear" and flags is not None and nl.n_builds == flags_build and (
+            lean := _lean_step(cur, target, predictor, nl, fac, flags, prev, ftol, params)
+        ):
+            new, lean_row, iterations = lean
+            observed = (new, lean_row, backbone)
+            counters["n_lean"] += 1
         elif minimizer == "linear":
             branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
@@ -815,13 +992,20 @@ def shear(
             row, backbone = _observe(new, nl)
         _append(rows, target, row, iterations, plastic)
         predictor = None
+        kinked = True
+        if minimizer == "linear" and lean is None:
+            # did a contact open or close in this step? then u(γ) has a kink inside it
+            new_keys = _contact_keys(new, nl)
+            kinked = cur_keys is None or not np.array_equal(new_keys, cur_keys)
+            cur_keys = new_keys
+        elif minimizer == "linear":
+            kinked = False
         if minimizer == "linear" and not plastic and not cleaned:
             u = new.box.minimum_image(new.positions - affine.positions)
-            history = [u] + history[:2]
-            # u(γ) is smooth on a branch: extrapolate it from the last three steps
-            predictor = _extrapolate(history)
+            path.add(u, row["max_force"], kinked)
+            predictor = path.predict()
         else:
-            history = []
+            path.reset()
         cur = new
         age += 1
         if branch is not None and branch.factor is not None and not plastic:
@@ -842,6 +1026,10 @@ def shear(
             fac = _factorise(cur, nl, backbone)
             counters["n_factorisations"] += 1
             age = 0
+        prev = {"gamma": target, **row}
+        if minimizer == "linear" and (lean is None or stale):
+            # contacts of the new minimum, per neighbour-list slot, for the next lean step
+            flags, flags_build = _consistent_flags(cur, nl, fac, params)
         if progress is not None:
             progress(n, total)
         if out is not None and save_every is not None and n % save_every == 0 and n < total:
