@@ -116,6 +116,7 @@ class AQSParameters:
     match_tol: float = 1e-3
     energy_match: float = 1e-13
     max_fire_iter: int = 2_000_000
+    max_lean_changes: int = 2
     path_depth: int = 6
     path_degree: int = 3
     path_floor: float = 1e-14
@@ -591,18 +592,23 @@ def _lean_step(
     prev: dict[str, float],
     ftol: float,
     params: AQSParameters,
-) -> tuple[Packing, dict[str, float], int] | None:
+) -> tuple[Packing, dict[str, float], int, tuple | None] | None:
     """The common elastic step in as few passes over the pairs as possible, or ``None``.
 
     The chord iteration of :func:`_newton` (each step cutting ``max|F_b|`` by
     ``chord_contraction``, at most ``max_chord`` steps), run in the neighbour list's particle
     order with one fused kernel per iterate (forces, virial and the contact state of every list
-    slot). It applies only while nothing changes: ``flags`` are the contacts of the minimum
-    ``cur``, with which ``fac`` (including its corrections) is consistent; any iterate where a
-    contact opens or closes, a neighbour-list rebuild, a force left on a rattler, a trapezoid
-    residual above ``energy_tol δγ²`` or a chord step that does not contract returns ``None``
-    and the general continuation (:func:`_continue_branch`) takes the step instead. When it
-    succeeds the contact set, hence the backbone and ``z_nr``, are those of ``cur``.
+    slot, compared with ``flags``: the contacts of the minimum ``cur``, with which ``fac`` and
+    its corrections are consistent). When a contact opens or closes at an iterate, the
+    correction of ``fac`` is updated there (as :func:`_newton` does) and the iteration goes on,
+    provided the backbone stays the same and the corrected factor is positive definite (at most
+    ``max_lean_changes`` times per step). A neighbour-list rebuild, a force left on a rattler,
+    a trapezoid residual above ``energy_tol δγ²``, a chord step that does not contract, or a
+    change of the backbone returns ``None``, and the general continuation
+    (:func:`_continue_branch`) takes the step instead.
+
+    Returns ``(minimum, row, chord steps, change)``; ``change`` is ``None`` when the contact
+    set is that of ``cur``, else ``(flags, contact keys)`` of the new contact set.
     """
     affine = _affine_to(cur, target)
     pos = affine.positions if predictor is None else affine.positions + predictor
@@ -613,12 +619,41 @@ def _lean_step(
     if fac.free_sorted is None:
         fac.free_sorted = nl.inverse[fac.free]
     free_s = fac.free_sorted
+    n = cur.n
+    d = pos.shape[1]
+    z_nr = prev["z_nr"]
+    change = None
+    n_changes = 0
+
+    def adopt(ps: np.ndarray) -> bool:
+        # contacts opened or closed at this iterate: correct the factor for them
+        nonlocal flags, change, z_nr, n_changes
+        n_changes += 1
+        if n_changes > params.max_lean_changes:
+            return False
+        ci, cj, cd = _contact_list(affine.with_positions(nl.unsorted(ps)), nl)
+        if nl.n_builds != builds:
+            return False
+        keep = _backbone_mask(ci, cj, n, d)
+        if not np.array_equal(keep, fac.backbone):
+            return False
+        fac.update(ci, cj, cd, params.max_corrections)
+        if fac.corr_keys is not None and fac.corr_keys.size and fac.w is None:
+            return False
+        flags = np.empty_like(flags)
+        AK.forces_virial_flags(
+            ps, nl.start, nl.nbr, nl.shift, np.empty_like(ps), np.empty((d, d)), flags, True
+        )
+        n_kept = int(keep.sum())
+        z_nr = 2.0 * int((keep[ci] & keep[cj]).sum()) / n_kept
+        change = (flags, np.sort(np.minimum(ci, cj) * n + np.maximum(ci, cj)))
+        return True
+
     ps = nl.sorted(pos)
-    d = ps.shape[1]
     f = np.empty_like(ps)
     s = np.empty((d, d))
     e, n_c, changed = AK.forces_virial_flags(ps, nl.start, nl.nbr, nl.shift, f, s, flags, False)
-    if changed:
+    if changed and not adopt(ps):
         return None
     fb = f[free_s]
     fmax = _max_norm(fb)
@@ -633,8 +668,6 @@ def _lean_step(
         et, n_ct, changed = AK.forces_virial_flags(
             trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
         )
-        if changed:
-            return None
         tb = ft[free_s]
         tmax = _max_norm(tb)
         its += 1
@@ -642,6 +675,8 @@ def _lean_step(
             tmax < params.chord_contraction * fmax
             or (tmax < ftol and tmax < params.contraction * fmax)
         ):
+            return None
+        if changed and not adopt(trial):
             return None
         ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
     positions = nl.unsorted(ps)
@@ -651,13 +686,12 @@ def _lean_step(
     max_force = _max_norm(f)
     if not max_force < ftol:  # a rattler (or the pinned particle) to relax: general path
         return None
-    n = cur.n
     row = {
         "energy": float(e),
         "shear_stress": float(s[0, 1]),
         "pressure": float(-np.trace(s) / (d * cur.box.volume)),
         "z": 2.0 * n_c / n,
-        "z_nr": prev["z_nr"],
+        "z_nr": z_nr,
         "max_force": max_force,
     }
     r = row["energy"] - prev["energy"] - 0.5 * (target - prev["gamma"]) * (
@@ -666,7 +700,7 @@ def _lean_step(
     if abs(r) > params.energy_tol * (target - prev["gamma"]) ** 2:
         return None
     fac.fresh = False
-    return affine.with_positions(positions), row, its
+    return affine.with_positions(positions), row, its, change
 
 
 def _affine_to(packing: Packing, strain: float) -> Packing:
@@ -928,7 +962,7 @@ def shear(
         plastic = False
         branch: _Branch | None = None
         observed: tuple[Packing, dict[str, float], np.ndarray] | None = None
-        lean = None
+        lean = lean_change = None
         if minimizer == "linear" and flags is not None and nl.n_builds != flags_build:
             flags, flags_build = _consistent_flags(cur, nl, fac, params)
         if fac.free.size == 0:
@@ -938,9 +972,11 @@ def shear(
         elif minimizer == "linear" and flags is not None and nl.n_builds == flags_build and (
             lean := _lean_step(cur, target, predictor, nl, fac, flags, prev, ftol, params)
         ):
-            new, lean_row, iterations = lean
+            new, lean_row, iterations, lean_change = lean
             observed = (new, lean_row, backbone)
             counters["n_lean"] += 1
+            if lean_change is not None:
+                flags = lean_change[0]
         elif minimizer == "linear":
             branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
@@ -993,13 +1029,15 @@ def shear(
         _append(rows, target, row, iterations, plastic)
         predictor = None
         kinked = True
+        old_keys = cur_keys
         if minimizer == "linear" and lean is None:
             # did a contact open or close in this step? then u(γ) has a kink inside it
-            new_keys = _contact_keys(new, nl)
-            kinked = cur_keys is None or not np.array_equal(new_keys, cur_keys)
-            cur_keys = new_keys
+            cur_keys = _contact_keys(new, nl)
+            kinked = old_keys is None or not np.array_equal(cur_keys, old_keys)
         elif minimizer == "linear":
-            kinked = False
+            kinked = lean_change is not None
+            if kinked:
+                cur_keys = lean_change[1]
         if minimizer == "linear" and not plastic and not cleaned:
             u = new.box.minimum_image(new.positions - affine.positions)
             path.add(u, row["max_force"], kinked)
