@@ -117,8 +117,10 @@ class AQSParameters:
     energy_match: float = 1e-13
     max_fire_iter: int = 2_000_000
     max_lean_changes: int = 2
-    path_depth: int = 6
-    path_degree: int = 3
+    secant_depth: int = 16
+    secant_reach: float = 10.0
+    path_depth: int = 16
+    path_degree: int = 4
     path_floor: float = 1e-14
 
     def __post_init__(self) -> None:
@@ -510,49 +512,110 @@ def _newton(
 class _Path:
     """The minima of the current smooth piece of the branch, for the predictor of the next step.
 
-    ``z`` (newest first, at most ``depth``): cumulative non-affine displacements of the minima
-    since the piece began (a plastic step or a contact change), ``noise`` their residual forces.
-    The predicted non-affine displacement of the next step is ``ẑ(+1) − z₀`` with ``ẑ`` the
-    polynomial of degree ``≤ degree`` fitted to ``z`` by least squares weighted with
-    ``1/max(noise, floor)²``, in the step index: the fit averages the residual noise of the
+    Holds (at most ``depth``) cumulative non-affine displacements ``z_k`` of the minima since the
+    piece began (a plastic step or a contact change) and their residual forces ``noise_k``. The
+    predicted non-affine displacement of the next step is ``ẑ(+1) − z₀`` with ``ẑ`` the
+    polynomial of degree ``≤ degree`` fitted to the ``z_k`` by least squares weighted with
+    ``1/max(noise_k, floor)²``, in the step index: the fit averages the residual noise of the
     minima instead of amplifying it as exact interpolation does (``4, −6, 4, −1`` for a cubic
-    through four points), and the recorded minima with the larger residuals count less. After a
+    through four points), and minima recorded with larger residuals count less. After a
     contact change the first prediction is the step that contained it (``straddle``).
+    Stored as a ring buffer: one matrix-vector product per prediction.
     """
 
     def __init__(self, depth: int, degree: int, floor: float) -> None:
         self.depth, self.degree, self.floor = depth, degree, floor
-        self.z: list[np.ndarray] = []
-        self.noise: list[float] = []
+        self.buf: np.ndarray | None = None
+        self.noise = np.zeros(depth)
+        self.head = -1
+        self.count = 0
         self.straddle: np.ndarray | None = None
 
     def reset(self) -> None:
-        self.z, self.noise, self.straddle = [], [], None
+        self.count, self.straddle = 0, None
 
     def add(self, u: np.ndarray, noise: float, kinked: bool) -> None:
-        if kinked or not self.z:
-            self.z, self.noise = [np.zeros_like(u)], [noise]
+        flat = u.ravel()
+        self.shape = u.shape
+        if self.buf is None or self.buf.shape[1] != flat.size:
+            self.buf, self.count = np.zeros((self.depth, flat.size)), 0
+        if kinked or self.count == 0:
+            self.head, self.count = 0, 1
+            self.buf[0] = 0.0
+            self.noise[0] = noise
             self.straddle = u if kinked else None
             return
-        self.z = [self.z[0] + u] + self.z[: self.depth - 1]
-        self.noise = [noise] + self.noise[: self.depth - 1]
+        new = (self.head + 1) % self.depth
+        np.add(self.buf[self.head], flat, out=self.buf[new])
+        self.head = new
+        self.noise[new] = noise
+        self.count = min(self.count + 1, self.depth)
         self.straddle = None
 
     def predict(self) -> np.ndarray | None:
-        m = len(self.z)
+        m = self.count
+        if m == 0:
+            return None
         if m == 1:
             return self.straddle
         degree = min(self.degree, m - 1)
+        idx = (self.head - np.arange(m)) % self.depth  # newest first
         t = -np.arange(m, dtype=np.float64)
         v = np.vander(t, degree + 1, increasing=True)
-        w = 1.0 / np.maximum(np.asarray(self.noise), self.floor) ** 2
-        # coefficients c with ẑ(+1) = Σ c_k z_k for the weighted fit
+        w = 1.0 / np.maximum(self.noise[idx], self.floor) ** 2
+        # coefficients c with ẑ(+1) = Σ c_k z_k for the weighted fit (Σ c_k = 1)
         c = np.linalg.solve(v.T @ (w[:, None] * v), v.T * w).T @ np.ones(degree + 1)
-        z0 = self.z[0]
-        out = np.zeros_like(z0)
-        for ck, zk in zip(c[1:], self.z[1:], strict=True):
-            out += ck * (zk - z0)
-        return out
+        full = np.zeros(self.depth)
+        full[idx] = c
+        full[self.head] -= 1.0  # ẑ(+1) − z₀
+        return (full @ self.buf).reshape(self.shape)
+
+
+class _Secants:
+    """Recent chord steps ``s_k = P⁻¹ r_k`` and the force changes ``y_k = r_k − r'_k ≈ K s_k``
+    they produced (free coordinates, neighbour-list order), for a correction without a solve:
+    a residual ``r`` close to their span is removed by ``dx = S a``, ``a = argmin ‖r − Y a‖``
+    (a multisecant step); the force at the corrected point decides whether it is kept. Ring
+    buffers with the Gram matrix ``YᵀY`` kept up to date."""
+
+    def __init__(self, depth: int) -> None:
+        self.depth = depth
+        self.s: np.ndarray | None = None
+        self.y: np.ndarray | None = None
+        self.gram = np.zeros((depth, depth))
+        self.head = -1
+        self.count = 0
+
+    def clear(self) -> None:
+        self.count = 0
+
+    def push(self, s: np.ndarray, y: np.ndarray) -> None:
+        s, y = s.ravel(), y.ravel()
+        if self.s is None or self.s.shape[1] != s.size:
+            self.s, self.y = np.zeros((self.depth, s.size)), np.zeros((self.depth, s.size))
+            self.count = 0
+        self.head = (self.head + 1) % self.depth
+        self.s[self.head] = s
+        self.y[self.head] = y
+        self.count = min(self.count + 1, self.depth)
+        row = self.y @ y  # (rows not filled yet are never read)
+        self.gram[self.head, :] = row
+        self.gram[:, self.head] = row
+
+    def correction(self, r: np.ndarray) -> np.ndarray | None:
+        m = self.count
+        if m == 0:
+            return None
+        idx = (self.head - np.arange(m)) % self.depth
+        b = (self.y @ r.ravel())[idx]
+        g = self.gram[np.ix_(idx, idx)]
+        try:
+            a = np.linalg.solve(g + 1e-14 * np.trace(g) * np.eye(m), b)
+        except np.linalg.LinAlgError:
+            return None
+        full = np.zeros(self.depth)
+        full[idx] = a
+        return (full @ self.s).reshape(r.shape)
 
 
 def _contact_keys(packing: Packing, nl: NeighborList) -> np.ndarray:
@@ -592,6 +655,7 @@ def _lean_step(
     prev: dict[str, float],
     ftol: float,
     params: AQSParameters,
+    secants: _Secants | None = None,
 ) -> tuple[Packing, dict[str, float], int, tuple | None] | None:
     """The common elastic step in as few passes over the pairs as possible, or ``None``.
 
@@ -659,10 +723,30 @@ def _lean_step(
     fmax = _max_norm(fb)
     its = 0
     while not fmax < ftol:
+        if (
+            secants is not None
+            and fmax < params.secant_reach * ftol
+            and (dx := secants.correction(fb)) is not None
+        ):
+            # first without a solve: the part of the residual the recent chord steps explain
+            trial = ps.copy()
+            trial[free_s] += dx
+            ft = np.empty_like(ps)
+            st = np.empty((d, d))
+            et, n_ct, changed = AK.forces_virial_flags(
+                trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
+            )
+            tb = ft[free_s]
+            tmax = _max_norm(tb)
+            if not changed and tmax < params.contraction * fmax:
+                ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
+                if fmax < ftol:
+                    break
         if its == params.max_chord:
             return None
         trial = ps.copy()
-        trial[free_s] += fac.solve(fb.ravel()).reshape(free_s.size, d)
+        dx = fac.solve(fb.ravel()).reshape(free_s.size, d)
+        trial[free_s] += dx
         ft = np.empty_like(ps)
         st = np.empty((d, d))
         et, n_ct, changed = AK.forces_virial_flags(
@@ -678,6 +762,8 @@ def _lean_step(
             return None
         if changed and not adopt(trial):
             return None
+        if secants is not None:
+            secants.push(dx, fb - tb)
         ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
     positions = nl.unsorted(ps)
     nl.update(positions, target)  # the list must still hold every pair at the final positions
@@ -949,6 +1035,7 @@ def shear(
     age = 0
     predictor: np.ndarray | None = None
     path = _Path(params.path_depth, params.path_degree, params.path_floor)
+    secants = _Secants(params.secant_depth) if params.secant_depth else None
     prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in _ROW_KEYS if k != "gamma"}}
     cur_keys = _contact_keys(cur, nl) if minimizer == "linear" else None
     flags, flags_build = (
@@ -970,7 +1057,9 @@ def shear(
             res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             new, iterations = res.packing, res.iterations
         elif minimizer == "linear" and flags is not None and nl.n_builds == flags_build and (
-            lean := _lean_step(cur, target, predictor, nl, fac, flags, prev, ftol, params)
+            lean := _lean_step(
+                cur, target, predictor, nl, fac, flags, prev, ftol, params, secants
+            )
         ):
             new, lean_row, iterations, lean_change = lean
             observed = (new, lean_row, backbone)
