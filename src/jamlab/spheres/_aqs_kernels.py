@@ -229,3 +229,40 @@ def _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write
     virial[2, 1] = syz
     virial[2, 2] = szz
     return e, n_c, mism
+
+
+@njit(cache=True)
+def rows_max_norm(f, rows):
+    """``max_k |f[rows[k]]|`` (all rows if ``rows`` is empty is not supported: pass them)."""
+    best = 0.0
+    d = f.shape[1]
+    for k in range(rows.size):
+        i = rows[k]
+        s = 0.0
+        for a in range(d):
+            s += f[i, a] * f[i, a]
+        if s > best:
+            best = s
+    return np.sqrt(best)
+
+
+@njit(cache=True)
+def gather_rows(f, rows):
+    """``f[rows]`` as a new C-contiguous array."""
+    d = f.shape[1]
+    out = np.empty((rows.size, d))
+    for k in range(rows.size):
+        for a in range(d):
+            out[k, a] = f[rows[k], a]
+    return out
+
+
+@njit(cache=True)
+def moved(pos, rows, dx):
+    """A copy of ``pos`` with ``dx[k]`` added to row ``rows[k]``."""
+    out = pos.copy()
+    d = pos.shape[1]
+    for k in range(rows.size):
+        for a in range(d):
+            out[rows[k], a] += dx[k, a]
+    return out

@@ -656,6 +656,7 @@ def _lean_step(
     ftol: float,
     params: AQSParameters,
     secants: _Secants | None = None,
+    affine: Packing | None = None,
 ) -> tuple[Packing, dict[str, float], int, tuple | None] | None:
     """The common elastic step in as few passes over the pairs as possible, or ``None``.
 
@@ -674,7 +675,8 @@ def _lean_step(
     Returns ``(minimum, row, chord steps, change)``; ``change`` is ``None`` when the contact
     set is that of ``cur``, else ``(flags, contact keys)`` of the new contact set.
     """
-    affine = _affine_to(cur, target)
+    if affine is None:
+        affine = _affine_to(cur, target)
     pos = affine.positions if predictor is None else affine.positions + predictor
     builds = nl.n_builds
     nl.update(pos, target)
@@ -719,8 +721,8 @@ def _lean_step(
     e, n_c, changed = AK.forces_virial_flags(ps, nl.start, nl.nbr, nl.shift, f, s, flags, False)
     if changed and not adopt(ps):
         return None
-    fb = f[free_s]
-    fmax = _max_norm(fb)
+    fb = AK.gather_rows(f, free_s)
+    fmax = AK.rows_max_norm(f, free_s)
     its = 0
     while not fmax < ftol:
         if (
@@ -729,31 +731,29 @@ def _lean_step(
             and (dx := secants.correction(fb)) is not None
         ):
             # first without a solve: the part of the residual the recent chord steps explain
-            trial = ps.copy()
-            trial[free_s] += dx
+            trial = AK.moved(ps, free_s, dx)
             ft = np.empty_like(ps)
             st = np.empty((d, d))
             et, n_ct, changed = AK.forces_virial_flags(
                 trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
             )
-            tb = ft[free_s]
-            tmax = _max_norm(tb)
+            tmax = AK.rows_max_norm(ft, free_s)
+            tb = AK.gather_rows(ft, free_s)
             if not changed and tmax < params.contraction * fmax:
                 ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
                 if fmax < ftol:
                     break
         if its == params.max_chord:
             return None
-        trial = ps.copy()
         dx = fac.solve(fb.ravel()).reshape(free_s.size, d)
-        trial[free_s] += dx
+        trial = AK.moved(ps, free_s, dx)
         ft = np.empty_like(ps)
         st = np.empty((d, d))
         et, n_ct, changed = AK.forces_virial_flags(
             trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
         )
-        tb = ft[free_s]
-        tmax = _max_norm(tb)
+        tmax = AK.rows_max_norm(ft, free_s)
+        tb = AK.gather_rows(ft, free_s)
         its += 1
         if not (
             tmax < params.chord_contraction * fmax
@@ -765,11 +765,12 @@ def _lean_step(
         if secants is not None:
             secants.push(dx, fb - tb)
         ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
-    positions = nl.unsorted(ps)
-    nl.update(positions, target)  # the list must still hold every pair at the final positions
-    if nl.n_builds != builds:
+    # the list must still hold every pair at the final positions (NeighborList.update's test)
+    dg = target - nl.ref_strain
+    if not 2.0 * K.max_nonaffine_displacement(ps, nl.ref, dg) < nl.skin - abs(dg) * nl.cutoff:
         return None
-    max_force = _max_norm(f)
+    positions = nl.unsorted(ps)
+    max_force = float(K.max_force(f))
     if not max_force < ftol:  # a rattler (or the pinned particle) to relax: general path
         return None
     row = {
@@ -1058,7 +1059,7 @@ def shear(
             new, iterations = res.packing, res.iterations
         elif minimizer == "linear" and flags is not None and nl.n_builds == flags_build and (
             lean := _lean_step(
-                cur, target, predictor, nl, fac, flags, prev, ftol, params, secants
+                cur, target, predictor, nl, fac, flags, prev, ftol, params, secants, affine
             )
         ):
             new, lean_row, iterations, lean_change = lean
