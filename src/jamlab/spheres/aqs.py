@@ -1101,9 +1101,15 @@ def shear(
             if classify:
                 branch = _continue_branch(cur, fac, target, nl, ftol, params)
                 counters["n_factorisations"] += branch.refactorised
-                plastic = branch.packing is None or not _same_minimum(
-                    new, branch.packing, nl, params
-                )
+                continued = branch.packing
+                if continued is not None and _observe(continued, nl)[0]["max_force"] >= ftol:
+                    # the continuation holds rattlers where the affine step put them; relax
+                    # them as the fast path does before recording, or their overlaps alone
+                    # make the energies differ
+                    continued = minimize(
+                        continued, ftol, params.max_fire_iter, fire_params, neighbors=nl
+                    ).packing
+                plastic = continued is None or not _same_minimum(new, continued, nl, params)
         if observed is not None and observed[0] is new:
             row, backbone = observed[1], observed[2]
         else:
