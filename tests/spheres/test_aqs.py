@@ -328,3 +328,81 @@ def test_corrected_preconditioner_is_the_inverse_of_the_updated_matrix(kick, exp
     if fac.corrected_pd:
         r = rng.standard_normal(m_dense.shape[0])
         np.testing.assert_allclose(fac.solve(r), np.linalg.solve(p_dense, r), rtol=1e-9, atol=1e-9)
+
+
+# ------------------------------------------------------------------------------------------------
+# the pieces of the lean step, against independent computations
+
+
+def test_fused_kernel_equals_the_separate_passes():
+    """forces_virial_flags against energy_forces_virial and contact_pairs, and its contact-state
+    comparison against a count from two contact lists."""
+    from jamlab.spheres import _aqs_kernels as AK
+    from jamlab.spheres import _kernels as KK
+    from jamlab.spheres.potential import NeighborList
+
+    pk = random_packing(200, 3, 0.7, 5)
+    nl = NeighborList(pk)
+    pos = nl.sorted(pk.positions)
+    f1, s1 = np.empty_like(pos), np.empty((3, 3))
+    e1, n1 = KK.energy_forces_virial(pos, nl.start, nl.nbr, nl.shift, f1, s1)
+    flags = np.empty(nl.nbr.size, dtype=np.uint8)
+    f2, s2 = np.empty_like(pos), np.empty((3, 3))
+    e2, n2, m = AK.forces_virial_flags(pos, nl.start, nl.nbr, nl.shift, f2, s2, flags, True)
+    assert m == 0 and n2 == n1 and int(flags.sum()) == n1
+    np.testing.assert_allclose(e2, e1, rtol=1e-13)
+    np.testing.assert_allclose(f2, f1, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(s2, s1, rtol=1e-13, atol=1e-13)
+    # move some particles: the mismatches are the symmetric difference of the contact sets
+    moved = pos + 0.05 * np.random.default_rng(1).standard_normal(pos.shape)
+    c0i, c0j, _ = KK.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    before = {tuple(sorted(p)) for p in zip(c0i.tolist(), c0j.tolist(), strict=True)}
+    ci, cj, _ = KK.contact_pairs(moved, nl.start, nl.nbr, nl.shift)
+    after = {tuple(sorted(p)) for p in zip(ci.tolist(), cj.tolist(), strict=True)}
+    _, _, m = AK.forces_virial_flags(
+        moved, nl.start, nl.nbr, nl.shift, np.empty_like(pos), np.empty((3, 3)), flags, False
+    )
+    assert m == len(before ^ after) > 0
+
+
+def test_path_predictor_is_exact_on_a_polynomial_branch():
+    """The weighted least-squares predictor reproduces a path that is a polynomial of its
+    degree in the step (exact to rounding), whatever the weights; for a smooth non-polynomial
+    path its error falls with the degree."""
+    rng = np.random.default_rng(3)
+    a = rng.standard_normal((5, 10, 3))
+    for degree in (2, 3, 4):
+        path = aqs._Path(depth=16, degree=degree, floor=1e-14)
+
+        def z(t, degree=degree):
+            return sum(a[k] * t**k for k in range(degree + 1))
+
+        for t in range(12):
+            u = z(t) - z(t - 1) if t else z(0)
+            noise = 10.0 ** rng.uniform(-14, -12)
+            path.add(u, noise, kinked=False)
+            if t >= degree:
+                pred = path.predict()
+                scale = np.max(np.abs(z(t + 1)))  # the predictor works with cumulative z
+                np.testing.assert_allclose(pred, z(t + 1) - z(t), rtol=0, atol=1e-12 * scale)
+    # a contact change restarts the piece: the first prediction is the step that contained it
+    path.add(np.ones((10, 3)), 1e-14, kinked=True)
+    np.testing.assert_array_equal(path.predict(), np.ones((10, 3)))
+
+
+def test_multisecant_correction_is_the_least_squares_combination():
+    """_Secants.correction against numpy's least squares on the same stored pairs."""
+    rng = np.random.default_rng(4)
+    sec = aqs._Secants(depth=5)
+    pairs = [(rng.standard_normal((30, 3)), rng.standard_normal((30, 3))) for _ in range(8)]
+    for s_k, y_k in pairs:
+        sec.push(s_k, y_k)
+    kept = pairs[-5:]  # the ring buffer holds the newest five
+    y = np.stack([p[1].ravel() for p in kept], axis=1)
+    s = np.stack([p[0].ravel() for p in kept], axis=1)
+    r = rng.standard_normal((30, 3))
+    coef = np.linalg.lstsq(y, r.ravel(), rcond=None)[0]
+    np.testing.assert_allclose(sec.correction(r).ravel(), s @ coef, rtol=1e-8, atol=1e-10)
+    # a residual in the span of the y's is removed exactly: r = Y c gives dx = S c
+    c = rng.standard_normal(5)
+    np.testing.assert_allclose(sec.correction((y @ c).reshape(30, 3)).ravel(), s @ c, atol=1e-8)

@@ -29,6 +29,13 @@ there (it only moves rattlers in practice). The step is accepted as *elastic* wh
    at most ``linear_basin`` (0.5) times the linear prediction ``max_i |u_i|``;
 3. the backbone Hessian at the new minimum is positive definite (all LDLᵀ pivots ``> 0``).
 
+The common step is taken by :func:`_lean_step`: the same chord iteration in the neighbour
+list's order with one fused kernel per iterate (forces, virial, contact state per list slot),
+a weighted least-squares predictor over the minima of the current smooth piece of the branch
+(:class:`_Path`) and a multisecant correction from the recent chord steps before each solve
+(:class:`_Secants`); anything unusual hands the step to the general continuation below, so the
+classification does not depend on which path took it.
+
 If any test fails, the step is subdivided (``δγ/2, δγ/4, …`` down to ``δγ · min_substep``; the
 substep doubles again after each success), each substep with a fresh factorisation: this is
 pseudo-arclength-free natural continuation of the branch ``x(γ)``. If the branch can be continued
@@ -560,11 +567,14 @@ class _Path:
             return self.straddle
         degree = min(self.degree, m - 1)
         idx = (self.head - np.arange(m)) % self.depth  # newest first
-        t = -np.arange(m, dtype=np.float64)
+        t = -np.arange(m, dtype=np.float64) / (m - 1)  # steps scaled to [-1, 0]: conditioning
         v = np.vander(t, degree + 1, increasing=True)
-        w = 1.0 / np.maximum(self.noise[idx], self.floor) ** 2
-        # coefficients c with ẑ(+1) = Σ c_k z_k for the weighted fit (Σ c_k = 1)
-        c = np.linalg.solve(v.T @ (w[:, None] * v), v.T * w).T @ np.ones(degree + 1)
+        sw = 1.0 / np.maximum(self.noise[idx], self.floor)
+        # coefficients c with ẑ(t₊) = Σ c_k z_k for the weighted fit (Σ c_k = 1), by QR of
+        # √W V = Q R: c = √W Q R⁻ᵀ e(t₊), e(t₊) the monomials at the next step t₊ = 1/(m−1)
+        q, r = np.linalg.qr(sw[:, None] * v)
+        e = (1.0 / (m - 1)) ** np.arange(degree + 1)
+        c = sw * (q @ np.linalg.solve(r.T, e))
         full = np.zeros(self.depth)
         full[idx] = c
         full[self.head] -= 1.0  # ẑ(+1) − z₀
