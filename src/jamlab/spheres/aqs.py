@@ -725,56 +725,48 @@ def _lean_step(
         change = (flags, np.sort(np.minimum(ci, cj) * n + np.maximum(ci, cj)))
         return True
 
-    ps = nl.sorted(pos)
-    f = np.empty_like(ps)
-    s = np.empty((d, d))
-    e, n_c, changed = AK.forces_virial_flags(ps, nl.start, nl.nbr, nl.shift, f, s, flags, False)
-    if changed and not adopt(ps):
+    def at(x: np.ndarray) -> tuple[tuple, int]:
+        # one pass: (x, F, S, E, N_c, F on the free particles, its max) and the contact changes
+        fx = np.empty_like(x)
+        sx = np.empty((d, d))
+        ex, ncx, ch = AK.forces_virial_flags(x, nl.start, nl.nbr, nl.shift, fx, sx, flags, False)
+        return (x, fx, sx, ex, ncx, AK.gather_rows(fx, free_s), AK.rows_max_norm(fx, free_s)), ch
+
+    state, changed = at(nl.sorted(pos))
+    if changed and not adopt(state[0]):
         return None
-    fb = AK.gather_rows(f, free_s)
-    fmax = AK.rows_max_norm(f, free_s)
     its = 0
-    while not fmax < ftol:
+    while not state[6] < ftol:
+        ps, fb, fmax = state[0], state[5], state[6]
         if (
             secants is not None
             and fmax < params.secant_reach * ftol
             and (dx := secants.correction(fb)) is not None
         ):
             # first without a solve: the part of the residual the recent chord steps explain
-            trial = AK.moved(ps, free_s, dx)
-            ft = np.empty_like(ps)
-            st = np.empty((d, d))
-            et, n_ct, changed = AK.forces_virial_flags(
-                trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
-            )
-            tmax = AK.rows_max_norm(ft, free_s)
-            tb = AK.gather_rows(ft, free_s)
-            if not changed and tmax < params.contraction * fmax:
-                ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
-                if fmax < ftol:
+            trial, changed = at(AK.moved(ps, free_s, dx))
+            if not changed and trial[6] < params.contraction * fmax:
+                state = trial
+                if trial[6] < ftol:
                     break
+                ps, fb, fmax = state[0], state[5], state[6]
         if its == params.max_chord:
             return None
         dx = fac.solve(fb.ravel()).reshape(free_s.size, d)
-        trial = AK.moved(ps, free_s, dx)
-        ft = np.empty_like(ps)
-        st = np.empty((d, d))
-        et, n_ct, changed = AK.forces_virial_flags(
-            trial, nl.start, nl.nbr, nl.shift, ft, st, flags, False
-        )
-        tmax = AK.rows_max_norm(ft, free_s)
-        tb = AK.gather_rows(ft, free_s)
+        trial, changed = at(AK.moved(ps, free_s, dx))
         its += 1
+        tmax = trial[6]
         if not (
             tmax < params.chord_contraction * fmax
             or (tmax < ftol and tmax < params.contraction * fmax)
         ):
             return None
-        if changed and not adopt(trial):
+        if changed and not adopt(trial[0]):
             return None
         if secants is not None:
-            secants.push(dx, fb - tb)
-        ps, f, s, e, n_c, fb, fmax = trial, ft, st, et, n_ct, tb, tmax
+            secants.push(dx, fb - trial[5])
+        state = trial
+    ps, f, s, e, n_c = state[:5]
     # the list must still hold every pair at the final positions (NeighborList.update's test)
     dg = target - nl.ref_strain
     if not 2.0 * K.max_nonaffine_displacement(ps, nl.ref, dg) < nl.skin - abs(dg) * nl.cutoff:
