@@ -129,6 +129,9 @@ class AQSParameters:
     path_depth: int = 16
     path_degree: int = 4
     path_floor: float = 1e-14
+    continuation: str = "network"
+    event_tol: float = 1e-4
+    max_events: int = 1000
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
@@ -137,7 +140,11 @@ class AQSParameters:
             v = getattr(self, name)
             if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
                 raise ValueError(f"{name} must be in (0, 1), got {v!r}")
-        for name in ("energy_tol", "match_tol", "energy_match"):
+        if self.continuation not in ("network", "substep"):
+            raise ValueError(
+                f"continuation must be 'network' or 'substep', got {self.continuation!r}"
+            )
+        for name in ("energy_tol", "match_tol", "energy_match", "event_tol"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {v!r}")
@@ -342,7 +349,9 @@ def _nested_dissection(free: np.ndarray, ci: np.ndarray, cj: np.ndarray, n: int)
     return free[np.asarray(perm, dtype=np.int64)]
 
 
-def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Factor:
+def _factorise(
+    packing: Packing, nl: NeighborList, backbone: np.ndarray, contacts: tuple | None = None
+) -> _Factor:
     """Factorise the backbone Hessian with one particle pinned; test positive definiteness.
 
     The free particles are numbered in a nested-dissection order of their contact graph
@@ -356,7 +365,7 @@ def _factorise(packing: Packing, nl: NeighborList, backbone: np.ndarray) -> _Fac
     fac = _Factor(backbone, free, free_index, None, False)
     if free.size == 0:
         return fac
-    ci, cj, cd = _contact_list(packing, nl)
+    ci, cj, cd = _contact_list(packing, nl) if contacts is None else contacts
     fac.free = _nested_dissection(free, ci, cj, packing.n)
     fac.free_index[fac.free] = np.arange(fac.free.size)
     k = _backbone_matrix(packing, nl, fac, (ci, cj, cd))
@@ -806,6 +815,7 @@ class _Branch:
     cg_iterations: int
     substeps: int
     refactorised: int
+    events: int = 0  # contact-set switches (event-driven continuation)
 
 
 def _continue_branch(
@@ -868,6 +878,297 @@ def _continue_branch(
         if s < params.min_substep:
             return _Branch(None, None, its, cg, substeps, refac)
     return _Branch(cur, fac, its, cg, substeps, refac)
+
+
+# ------------------------------------------------------------------------------------------------
+# event-driven continuation on the contact network
+
+
+def _network_forces(packing: Packing, ci: np.ndarray, cj: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Forces of the contact network ``E_C = Σ_{c ∈ C} (1 − r_c)²`` (every pair of ``C`` a
+    harmonic spring of rest length 1, in tension too) and the pairs' separations and lengths."""
+    pos = packing.positions
+    dr = packing.box.minimum_image(pos[ci] - pos[cj])
+    r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+    fp = (2.0 * (1.0 - r) / r)[:, None] * dr  # force on i
+    n, d = pos.shape
+    f = np.empty((n, d))
+    for a in range(d):
+        f[:, a] = np.bincount(ci, fp[:, a], minlength=n) - np.bincount(cj, fp[:, a], minlength=n)
+    return f, dr, r
+
+
+def _network_newton(
+    start: Packing,
+    ci: np.ndarray,
+    cj: np.ndarray,
+    fac: _Factor,
+    ftol: float,
+    params: AQSParameters,
+) -> tuple[Packing | None, int, int]:
+    """Newton on the smooth network energy ``E_C`` from ``start`` (affinely sheared), each solve
+    PCG preconditioned by ``fac``, with the damping, contraction and linear-basin tests of
+    :func:`_newton`. Returns ``(minimum or None, iterations, CG iterations)``."""
+    free, d = fac.free, start.dim
+    pos = np.array(start.positions)
+    cur = start
+    f, dr, _ = _network_forces(cur, ci, cj)
+    fb = f[free]
+    fmax = _max_norm(fb)
+    linear = 0.0
+    correction = np.zeros((free.size, d))
+    cg_total = strikes = 0
+    prev = math.inf
+    for it in range(params.max_newton + 1):
+        if fmax < ftol:
+            return cur, it, cg_total
+        if it == params.max_newton:
+            break
+        if it >= 2 and fmax > params.contraction * prev:
+            strikes += 1
+            if strikes > params.max_strikes:
+                break
+        prev = fmax
+        data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, free.size)
+        size = free.size * d
+        k = sps.csr_matrix((data, indices, indptr), shape=(size, size))
+        atol = max(0.25 * ftol, 1e-9 * fmax)
+        dx, ok, cg_its = _pcg(k, fb.ravel(), fac.solve, atol, params.max_cg, d)
+        cg_total += cg_its
+        if not ok:
+            break
+        dx = dx.reshape(free.size, d)
+        for alpha in (1.0, 0.5, 0.25, 0.125):
+            trial_pos = pos.copy()
+            trial_pos[free] += alpha * dx
+            trial = start.with_positions(trial_pos)
+            f_t, dr_t, _ = _network_forces(trial, ci, cj)
+            fmax_t = _max_norm(f_t[free])
+            if fmax_t < fmax:
+                break
+        else:
+            break
+        if it == 0:
+            linear = float(np.max(np.abs(alpha * dx)))
+        else:
+            correction += alpha * dx
+            if float(np.max(np.abs(correction))) > params.linear_basin * linear + 1e-12:
+                break
+        pos, cur, fb, dr, fmax = trial_pos, trial, f_t[free], dr_t, fmax_t
+    return None, it, cg_total
+
+
+def _pair_keys(ci: np.ndarray, cj: np.ndarray, n: int) -> np.ndarray:
+    return np.minimum(ci, cj) * n + np.maximum(ci, cj)
+
+
+def _switch_keeps_pd(
+    cur: Packing,
+    ci: np.ndarray,
+    cj: np.ndarray,
+    fac: _Factor,
+    pi: np.ndarray,
+    pj: np.ndarray,
+    signs: np.ndarray,
+    params: AQSParameters,
+) -> tuple[bool, int]:
+    """Whether ``K' = K + U S Uᵀ`` is positive definite, ``K`` the network Hessian of the pairs
+    ``(ci, cj)`` at ``cur``, ``U`` the columns ``b`` (``+n`` on ``i``, ``−n`` on ``j``, free
+    particles only) of the switched pairs ``(pi, pj)``, ``S = diag(2 · signs)``.
+
+    With ``K`` positive definite (PCG meeting no negative curvature), ``K'`` is iff the
+    capacitance ``C = S⁻¹ + Uᵀ K⁻¹ U`` has as many positive eigenvalues as pairs added (Haynsworth
+    inertia additivity, as in :class:`_Factor`); ``K⁻¹ U`` by PCG preconditioned by ``fac`` to a
+    relative residual ``1e-12``. Returns ``(positive definite, CG iterations)``."""
+    d = cur.dim
+    free_index, n_free = fac.free_index, fac.free.size
+    _, dr, _ = _network_forces(cur, ci, cj)
+    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, free_index, n_free)
+    k = sps.csr_matrix((data, indices, indptr), shape=(n_free * d, n_free * d))
+    sep = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
+    sep /= np.sqrt(np.einsum("ij,ij->i", sep, sep))[:, None]
+    u = np.zeros((n_free * d, pi.size))
+    for c in range(pi.size):
+        for particle, sign in ((pi[c], 1.0), (pj[c], -1.0)):
+            f = free_index[particle]
+            if f >= 0:
+                u[d * f : d * f + d, c] = sign * sep[c]
+    z = np.empty_like(u)
+    cg = 0
+    for c in range(pi.size):
+        scale = float(np.max(np.abs(u[:, c])))
+        if scale == 0.0:  # both ends held: the pair does not enter K
+            z[:, c] = 0.0
+            continue
+        x, ok, its = _pcg(k, u[:, c], fac.solve, 1e-12 * scale, 10 * params.max_cg, d)
+        cg += its
+        if not ok:
+            return False, cg
+        z[:, c] = x
+    c_mat = np.diag(0.5 / signs) + u.T @ z
+    eig = np.linalg.eigvalsh(0.5 * (c_mat + c_mat.T))
+    n_added = int(np.count_nonzero(signs > 0))
+    pd = np.count_nonzero(eig > 0) == n_added and np.min(np.abs(eig)) > 1e-10 * np.max(np.abs(eig))
+    return bool(pd), cg
+
+
+def _continue_network(
+    start: Packing,
+    fac: _Factor | None,
+    strain: float,
+    nl: NeighborList,
+    ftol: float,
+    params: AQSParameters,
+    first_substep: float = 1.0,
+    predictor: np.ndarray | None = None,
+) -> _Branch:
+    """Follow the minimum ``start`` to ``strain`` event by event (``docs/aqs.md``).
+
+    Between contact changes the branch is the minimum of the smooth network energy ``E_C`` of
+    the current contact set ``C`` (backbone pairs; rattlers are ghosts, relaxed by the caller).
+    A substep whose end is consistent (every pair of ``C`` still compressed, no new overlap
+    between backbone particles) is accepted; otherwise the first crossing inside it is located
+    by interpolating the overlaps linearly in ``γ`` and stepping there, and once it is within
+    ``event_tol · δγ`` the set is switched (pairs removed or added at zero force), the backbone
+    recomputed (a particle left with ``d`` contacts is a rattler) and the network Hessian
+    refactorised. The branch ends when that factorisation is not positive definite, or when
+    Newton fails even at substeps below ``min_substep`` of the step.
+    """
+    n, dim = start.n, start.dim
+    its = cg = substeps = refac = events = calls = 0
+    ci, cj, cd = _contact_list(start, nl)
+    backbone = _backbone_mask(ci, cj, n, dim)
+    live = backbone[ci] & backbone[cj]
+    ci, cj = ci[live], cj[live]
+
+    def factorise(packing: Packing) -> _Factor | None:
+        nonlocal refac
+        _, dr, _ = _network_forces(packing, ci, cj)
+        refac += 1
+        fac = _factorise(packing, nl, backbone, (ci, cj, dr))
+        return fac if fac.lu is not None and fac.positive_definite else None
+
+    def ended() -> _Branch:
+        return _Branch(None, None, its, cg, substeps, refac, events)
+
+    if (
+        fac is None
+        or fac.lu is None
+        or not fac.positive_definite
+        or not np.array_equal(fac.backbone, backbone)
+    ):
+        fac = factorise(start)
+        if fac is None:
+            return ended()
+    # else: the caller's factorisation (same backbone, positive definite at a nearby minimum)
+    # preconditions the solves until the first event
+    g0 = start.strain
+    total = strain - g0
+    cur = start
+    h = first_substep * total
+    while True:
+        g = cur.strain
+        last = g + h >= strain - 1e-9 * abs(total)
+        target = strain if last else g + h
+        trial = _affine_to(cur, target)
+        if predictor is not None and g == g0 and last:
+            trial = trial.with_positions(trial.positions + predictor)
+        new, it_n, cg_n = _network_newton(trial, ci, cj, fac, ftol, params)
+        calls += 1
+        its += it_n
+        cg += cg_n
+        if new is None:
+            h *= 0.5
+            if h < params.min_substep * abs(total):
+                return ended()
+            continue
+        # consistency at the new point: pairs of C compressed, no new backbone overlaps
+        _, _, r_new = _network_forces(new, ci, cj)
+        opening = np.flatnonzero(r_new >= 1.0)
+        ai, aj, _ = _contact_list(new, nl)
+        both = backbone[ai] & backbone[aj]
+        ai, aj = ai[both], aj[both]
+        keys_c = np.sort(_pair_keys(ci, cj, n))
+        keys_a = _pair_keys(ai, aj, n)
+        fresh_pairs = ~np.isin(keys_a, keys_c, assume_unique=False)
+        ai, aj = ai[fresh_pairs], aj[fresh_pairs]
+        if opening.size == 0 and ai.size == 0:
+            cur = new
+            substeps += 1
+            if last:
+                return _Branch(cur, fac, its, cg, substeps, refac, events)
+            h = min(2.0 * h, strain - cur.strain)
+            continue
+        # an event inside (g, target]: overlaps o = 1 − r at both ends, crossing by interpolation
+        pi = np.concatenate([ci[opening], ai])
+        pj = np.concatenate([cj[opening], aj])
+        dr_a = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
+        dr_b = new.box.minimum_image(new.positions[pi] - new.positions[pj])
+        o_a = 1.0 - np.sqrt(np.einsum("ij,ij->i", dr_a, dr_a))
+        o_b = 1.0 - np.sqrt(np.einsum("ij,ij->i", dr_b, dr_b))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            theta = np.nan_to_num(np.clip(o_a / (o_a - o_b), 0.0, 1.0), nan=0.0)
+        span = target - g
+        tol = params.event_tol * abs(total)
+        first = float(theta.min())
+        if first * span <= tol:
+            now = theta * span <= tol  # crossing at cur: switch there
+        elif np.all((1.0 - theta) * span <= tol):
+            cur = new  # every crossing at the end of the substep: accept it, switch there
+            substeps += 1
+            now = np.ones(theta.size, dtype=bool)
+        else:
+            h = first * span  # step to (about) the first crossing
+            continue
+        events += 1
+        if events > params.max_events or calls > 10 * params.max_events:
+            # pathological (events piling up): the substep continuation takes the whole step
+            fac = _factorise(start, nl, _backbone(start, nl))
+            b = _continue_branch(start, fac, strain, nl, ftol, params)
+            return replace(
+                b, iterations=b.iterations + its, refactorised=b.refactorised + refac + 1
+            )
+        # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
+        n_open = opening.size
+        drop = set(_pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n).tolist())
+        keep = ~np.isin(_pair_keys(ci, cj, n), list(drop)) if drop else np.ones(ci.size, bool)
+        old_ci, old_cj, old_backbone = ci, cj, backbone
+        ci = np.concatenate([ci[keep], pi[n_open:][now[n_open:]]])
+        cj = np.concatenate([cj[keep], pj[n_open:][now[n_open:]]])
+        backbone = _backbone_mask(ci, cj, n, dim)
+        live = backbone[ci] & backbone[cj]
+        ci, cj = ci[live], cj[live]
+        if not backbone.any():
+            return ended()
+        if fac.free.size >= _ND_MIN_FREE and np.array_equal(backbone, old_backbone):
+            # same free set (and a large one: small ones are refactorised, which is cheaper): K changes by ±2 b bᵀ per switched pair (zero force at the switch);
+            # its positive definiteness follows from the old K at cur by inertia additivity
+            signs = np.where(np.arange(pi.size) < n_open, -1.0, 1.0)[now]
+            pd, _ = _switch_keeps_pd(cur, old_ci, old_cj, fac, pi[now], pj[now], signs, params)
+            if not pd:
+                return ended()  # the network lost positive definiteness at the event: unstable
+        else:
+            fac = factorise(cur)  # the free set changed (a particle became a rattler or not)
+            if fac is None:
+                return ended()
+        h = strain - cur.strain  # (0 at the end: re-converge there with the new set)
+
+
+def _continue(
+    start: Packing,
+    fac: _Factor,
+    strain: float,
+    nl: NeighborList,
+    ftol: float,
+    params: AQSParameters,
+    first_substep: float = 1.0,
+    predictor: np.ndarray | None = None,
+) -> _Branch:
+    """The continuation chosen by ``params.continuation``: ``"network"`` (event-driven,
+    :func:`_continue_network`) or ``"substep"`` (:func:`_continue_branch`)."""
+    if params.continuation == "network":
+        return _continue_network(start, fac, strain, nl, ftol, params, first_substep, predictor)
+    return _continue_branch(start, fac, strain, nl, ftol, params, first_substep, predictor)
 
 
 def _same_minimum(a: Packing, b: Packing, nl: NeighborList, params: AQSParameters) -> bool:
@@ -1070,7 +1371,7 @@ def shear(
             if lean_change is not None:
                 flags = lean_change[0]
         elif minimizer == "linear":
-            branch = _continue_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
+            branch = _continue(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
                 # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
                 observed = (branch.packing, *_observe(branch.packing, nl))
@@ -1084,7 +1385,7 @@ def shear(
                 if abs(r) > params.energy_tol * dgamma**2:
                     counters["n_factorisations"] += branch.refactorised
                     iterations += branch.iterations
-                    branch = _continue_branch(
+                    branch = _continue(
                         cur, branch.factor, target, nl, ftol, params, first_substep=0.125
                     )
             iterations += branch.iterations
@@ -1101,7 +1402,7 @@ def shear(
             res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             new, iterations = res.packing, res.iterations
             if classify:
-                branch = _continue_branch(cur, fac, target, nl, ftol, params)
+                branch = _continue(cur, fac, target, nl, ftol, params)
                 counters["n_factorisations"] += branch.refactorised
                 continued = branch.packing
                 if continued is not None and _observe(continued, nl)[0]["max_force"] >= ftol:
