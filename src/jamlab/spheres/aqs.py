@@ -1012,6 +1012,50 @@ def _switch_keeps_pd(
     return bool(pd), cg
 
 
+def _relax_rattlers(
+    packing: Packing, nl: NeighborList, backbone: np.ndarray, ftol: float, max_iter: int = 100
+) -> Packing | None:
+    """Move the rattlers (``~backbone``) out of their overlaps, the backbone held.
+
+    The event-driven continuation treats rattlers as ghosts, so at its end they may overlap the
+    backbone by ~δγ. Each iteration moves every rattler by the mean over its contacts of
+    ``(1 − r) n`` (the displacement that empties one contact; half of it for a pair of
+    rattlers). Done when no contact touches a rattler (their forces, and theirs on the
+    backbone, are then exactly zero) or all such forces are below ``ftol``; ``None`` if not
+    within ``max_iter`` (a caged "rattler": the caller's FIRE then relaxes everything).
+    """
+    rattler = ~backbone
+    if not rattler.any():
+        return packing
+    pos = np.array(packing.positions)
+    n, d = pos.shape
+    for _ in range(max_iter):
+        cur = packing.with_positions(pos)
+        ci, cj, _ = _contact_list(cur, nl)
+        touch = rattler[ci] | rattler[cj]
+        if not touch.any():
+            return cur
+        ci, cj = ci[touch], cj[touch]
+        dr = cur.box.minimum_image(pos[ci] - pos[cj])
+        r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+        push = ((1.0 - r) / r)[:, None] * dr  # on i; −push on j
+        if 2.0 * float(np.max(np.sqrt(np.einsum("ij,ij->i", push, push)))) < ftol:
+            return cur
+        both = rattler[ci] & rattler[cj]
+        share = np.where(both, 0.5, 1.0)[:, None] * push
+        move = np.zeros((n, d))
+        count = np.bincount(ci[rattler[ci]], minlength=n) + np.bincount(
+            cj[rattler[cj]], minlength=n
+        )
+        for a in range(d):
+            move[:, a] = np.bincount(ci, share[:, a] * rattler[ci], minlength=n) - np.bincount(
+                cj, share[:, a] * rattler[cj], minlength=n
+            )
+        moving = count > 0
+        pos[moving] += move[moving] / count[moving, None]
+    return None
+
+
 def _continue_network(
     start: Packing,
     fac: _Factor | None,
@@ -1096,7 +1140,10 @@ def _continue_network(
             cur = new
             substeps += 1
             if last:
-                return _Branch(cur, fac, its, cg, substeps, refac, events)
+                relaxed = _relax_rattlers(cur, nl, backbone, ftol)
+                return _Branch(
+                    cur if relaxed is None else relaxed, fac, its, cg, substeps, refac, events
+                )
             h = min(2.0 * h, strain - cur.strain)
             continue
         # an event inside (g, target]: overlaps o = 1 − r at both ends, crossing by interpolation
@@ -1141,8 +1188,9 @@ def _continue_network(
         if not backbone.any():
             return ended()
         if fac.free.size >= _ND_MIN_FREE and np.array_equal(backbone, old_backbone):
-            # same free set (and a large one: small ones are refactorised, which is cheaper): K changes by ±2 b bᵀ per switched pair (zero force at the switch);
-            # its positive definiteness follows from the old K at cur by inertia additivity
+            # same free set: K changes by ±2 b bᵀ per switched pair (zero force at the switch),
+            # and its positive definiteness follows from the old K's by inertia additivity
+            # (small free sets are refactorised instead: cheaper there)
             signs = np.where(np.arange(pi.size) < n_open, -1.0, 1.0)[now]
             pd, _ = _switch_keeps_pd(cur, old_ci, old_cj, fac, pi[now], pj[now], signs, params)
             if not pd:
