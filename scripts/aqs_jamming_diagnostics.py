@@ -1,8 +1,10 @@
-"""Why the continuation (the elastic/plastic classification) is slow near jamming (issue 6).
+"""Why the substep continuation was slow near jamming (issue 6; the default is now the
+event-driven one, see docs/aqs.md).
 
     python scripts/aqs_jamming_diagnostics.py [--n 128] [--p 1e-5] [--seed 1] [--steps 10]
 
-Shears ``jam(n, 3, seed, p_target=p)`` with the fast path and instruments the continuation
+Shears ``jam(n, 3, seed, p_target=p)`` with the fast path and
+``AQSParameters(continuation="substep")`` and instruments that continuation
 (``aqs._continue_branch``) from outside, without changing it. Printed:
 
 1. contact changes between consecutive accepted substeps (rattler contacts / backbone-backbone);
@@ -105,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
 
     aqs._newton, aqs._pcg, aqs._continue_branch = newton_counting, pcg_counting, continue_tracking
     try:
-        out = aqs.shear(start, args.dgamma, n_steps=args.steps)
+        params = aqs.AQSParameters(continuation="substep")
+        out = aqs.shear(start, args.dgamma, n_steps=args.steps, params=params)
     finally:
         aqs._newton, aqs._pcg, aqs._continue_branch = newton, pcg, cont
     print(

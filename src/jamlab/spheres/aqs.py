@@ -36,13 +36,24 @@ a weighted least-squares predictor over the minima of the current smooth piece o
 (:class:`_Secants`); anything unusual hands the step to the general continuation below, so the
 classification does not depend on which path took it.
 
-If any test fails, the step is subdivided (``δγ/2, δγ/4, …`` down to ``δγ · min_substep``; the
-substep doubles again after each success), each substep with a fresh factorisation: this is
-pseudo-arclength-free natural continuation of the branch ``x(γ)``. If the branch can be continued
-to ``γ_{n+1}`` the step is elastic and the continued minimum is recorded; if it cannot (the
-Hessian loses positive definiteness or Newton fails even at the smallest substep), the branch of
-``x_n`` ends inside the step: the step is *plastic* and FIRE minimises from the affinely sheared
-``x_n``, carrying the avalanche.
+If any test fails, the step goes to the general continuation of the branch ``x(γ)``
+(``AQSParameters.continuation``). The default, ``"network"`` (:func:`_continue_network`), is
+event-driven: between contact changes the branch is the minimum of the smooth energy of the
+current contact network (every backbone contact a harmonic spring, in tension too), followed by
+Newton; a substep whose end shows a contact of the set in tension or a new overlap between
+backbone particles is cut back to the first crossing (linear interpolation of the overlaps in
+``γ``), the set is switched there at zero force, the backbone recomputed (a particle left with
+``d`` contacts is a rattler: all its forces vanished together) and positive definiteness
+re-tested (refactorisation, or inertia additivity of the rank-one changes). Rattlers are ghosts
+on the way and are moved out of their overlaps at the end. ``"substep"``
+(:func:`_continue_branch`, the only one before the fourth session) halves the step
+(``δγ/2, δγ/4, …``, doubling again after each success) with a fresh factorisation each time; near
+jamming it is slow and its verdicts are wrong on some steps (``docs/aqs.md``). If the branch can
+be continued to ``γ_{n+1}`` the step is elastic and the continued minimum is recorded; if it
+cannot (the Hessian loses positive definiteness, at an event or inside a smooth piece, or Newton
+fails even at substeps below ``δγ · min_substep``), the branch of ``x_n`` ends inside the step:
+the step is *plastic* and FIRE minimises from the affinely sheared ``x_n``, carrying the
+avalanche.
 
 With ``minimizer="fire"`` every step is plain FIRE from the affinely sheared ``x_n``; the same
 continuation (when ``classify=True``) then decides whether FIRE's minimum is the continuation of
@@ -105,7 +116,11 @@ class AQSParameters:
     step gives ``≲ ΔG L^d δγ²/8``) is redone in 8 substeps as a safety check; ``match_tol``,
     ``energy_match``: largest displacement and relative energy difference between FIRE's minimum
     and the continued branch for them to count as the same minimum (:func:`_same_minimum`);
-    ``max_fire_iter``: FIRE iteration cap.
+    ``max_fire_iter``: FIRE iteration cap. ``continuation``: ``"network"`` (event-driven, the
+    default) or ``"substep"`` (the earlier natural continuation); ``event_tol``: a contact
+    crossing closer than ``event_tol · δγ`` to the current point is switched there;
+    ``max_events``: contact switches per step before the step is handed to the substep
+    continuation.
     """
 
     max_newton: int = 30
