@@ -695,7 +695,8 @@ def _lean_step(
     """The common elastic step in as few passes over the pairs as possible, or ``None``.
 
     The chord iteration of :func:`_newton` (each step cutting ``max|F_b|`` by
-    ``chord_contraction``, at most ``max_chord`` steps), run in the neighbour list's particle
+    ``chord_contraction``, by ``contraction`` once a contact has changed in the step; at most
+    ``max_chord`` steps), run in the neighbour list's particle
     order with one fused kernel per iterate (forces, virial and the contact state of every list
     slot, compared with ``flags``: the contacts of the minimum ``cur``, with which ``fac`` and
     its corrections are consistent). When a contact opens or closes at an iterate, the
@@ -704,7 +705,7 @@ def _lean_step(
     ``max_lean_changes`` times per step). A neighbour-list rebuild, a force left on a rattler,
     a trapezoid residual above ``energy_tol δγ²``, a chord step that does not contract, or a
     change of the backbone returns ``None``, and the general continuation
-    (:func:`_continue_branch`) takes the step instead.
+    (:func:`_continue`) takes the step instead.
 
     Returns ``(minimum, row, chord steps, change)``; ``change`` is ``None`` when the contact
     set is that of ``cur``, else ``(flags, contact keys)`` of the new contact set.
@@ -780,10 +781,10 @@ def _lean_step(
         trial, changed = at(AK.moved(ps, free_s, dx))
         its += 1
         tmax = trial[6]
-        if not (
-            tmax < params.chord_contraction * fmax
-            or (tmax < ftol and tmax < params.contraction * fmax)
-        ):
+        # after a contact change in this step the rank-one correction is exact only at zero
+        # overlap and the new contact stiffens as it closes: contraction by `contraction` then
+        required = params.contraction if n_changes else params.chord_contraction
+        if not (tmax < required * fmax or (tmax < ftol and tmax < params.contraction * fmax)):
             return None
         if changed and not adopt(trial[0]):
             return None
