@@ -145,7 +145,7 @@ class AQSParameters:
     path_degree: int = 4
     path_floor: float = 1e-14
     continuation: str = "network"
-    event_tol: float = 1e-4
+    event_tol: float = 1e-3
     max_events: int = 1000
 
     def __post_init__(self) -> None:
