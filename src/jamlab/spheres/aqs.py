@@ -1085,14 +1085,16 @@ def _continue_network(
     """Follow the minimum ``start`` to ``strain`` event by event (``docs/aqs.md``).
 
     Between contact changes the branch is the minimum of the smooth network energy ``E_C`` of
-    the current contact set ``C`` (backbone pairs; rattlers are ghosts, relaxed by the caller).
-    A substep whose end is consistent (every pair of ``C`` still compressed, no new overlap
-    between backbone particles) is accepted; otherwise the first crossing inside it is located
-    by interpolating the overlaps linearly in ``γ`` and stepping there, and once it is within
-    ``event_tol · δγ`` the set is switched (pairs removed or added at zero force), the backbone
-    recomputed (a particle left with ``d`` contacts is a rattler) and the network Hessian
-    refactorised. The branch ends when that factorisation is not positive definite, or when
-    Newton fails even at substeps below ``min_substep`` of the step.
+    the current contact set ``C`` (backbone pairs; rattlers are ghosts, moved out of their
+    overlaps at the end by :func:`_relax_rattlers`). A substep whose end is consistent (every
+    pair of ``C`` still compressed, no new overlap between backbone particles) is accepted;
+    otherwise the first crossing inside it is located by interpolating the overlaps linearly in
+    ``γ`` and stepping there, and once it is within ``event_tol · δγ`` the set is switched
+    (pairs removed or added at zero force) and the backbone recomputed (a particle left with
+    ``d`` contacts is a rattler). The branch ends when the network Hessian after a switch is not
+    positive definite (a fresh factorisation if the free set changed or is small, else
+    :func:`_switch_keeps_pd`), or when Newton fails even at substeps below ``min_substep`` of
+    the step. ``fac`` (may be ``None``) preconditions the solves if it has the same backbone.
     """
     n, dim = start.n, start.dim
     its = cg = substeps = refac = events = calls = 0
