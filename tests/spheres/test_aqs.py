@@ -462,3 +462,57 @@ def test_network_continuation_near_jamming_against_fire_and_the_residual():
         cur = fire
     assert plastic_r and events >= 5
     assert max(plastic_r) < -10 * np.max(np.abs(elastic_r))
+
+
+def test_switch_positive_definiteness_against_dense_eigenvalues():
+    """The inertia test of a contact switch (``K + U S Uᵀ`` positive definite?) against the
+    lowest eigenvalue of that matrix built densely, for single removals (both outcomes: a
+    particle left with ``d`` contacts is floppy) and an addition."""
+    p = _packing_at(128, 0.66, 4)
+    nl = sp.NeighborList(p)
+    ci, cj, _ = aqs._contact_list(p, nl)
+    backbone = aqs._backbone_mask(ci, cj, p.n, p.dim)
+    live = backbone[ci] & backbone[cj]
+    ci, cj = ci[live], cj[live]
+    _, dr, _ = aqs._network_forces(p, ci, cj)
+    fac = aqs._factorise(p, nl, backbone, (ci, cj, dr))
+    assert fac.positive_definite
+    d, n_free = p.dim, fac.free.size
+    data, indices, indptr = aqs.AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, n_free)
+    k = np.zeros((n_free * d, n_free * d))
+    k[np.repeat(np.arange(n_free * d), np.diff(indptr)), indices] += data
+
+    def dense_pd(pi, pj, signs):
+        m = k.copy()
+        for a, b, s in zip(pi, pj, signs, strict=True):
+            sep = p.box.minimum_image(p.positions[a] - p.positions[b])
+            u = np.zeros(n_free * d)
+            for particle, sign in ((a, 1.0), (b, -1.0)):
+                f = fac.free_index[particle]
+                if f >= 0:
+                    u[d * f : d * f + d] = sign * sep / np.linalg.norm(sep)
+            m += 2.0 * s * np.outer(u, u)
+        return np.linalg.eigvalsh(m)[0] > 0
+
+    count = np.bincount(ci, minlength=p.n) + np.bincount(cj, minlength=p.n)
+    params = aqs.AQSParameters()
+    outcomes = []
+    for c in range(ci.size):
+        weak = min(count[ci[c]], count[cj[c]]) == d + 1
+        if c % 7 and not weak:
+            continue  # every isostatic-end contact, and a sample of the rest
+        pi, pj, signs = ci[c : c + 1], cj[c : c + 1], np.array([-1.0])
+        verdict, _ = aqs._switch_keeps_pd(p, ci, cj, fac, pi, pj, signs, params)
+        assert verdict == dense_pd(pi, pj, signs)
+        outcomes.append(verdict)
+    assert True in outcomes and False in outcomes
+    # adding a spring to a positive-definite K keeps it so (a pair of neighbours not in contact)
+    bb = np.flatnonzero(backbone)
+    sep = p.box.minimum_image(p.positions[bb, None] - p.positions[None, bb])
+    gaps = np.linalg.norm(sep, axis=2)
+    a, b = np.argwhere((gaps > 1.0) & (gaps < 1.3))[0]
+    far = (bb[a], bb[b])
+    verdict, _ = aqs._switch_keeps_pd(
+        p, ci, cj, fac, np.array([far[0]]), np.array([far[1]]), np.array([1.0]), params
+    )
+    assert verdict and dense_pd([far[0]], [far[1]], [1.0])
