@@ -309,6 +309,11 @@ def _contact_list(
     return nl.order[ci], nl.order[cj], cd
 
 
+def _pair_keys(ci: np.ndarray, cj: np.ndarray, n: int) -> np.ndarray:
+    """Order-free key ``min(i, j)·N + max(i, j)`` of each pair."""
+    return np.minimum(ci, cj) * n + np.maximum(ci, cj)
+
+
 def _backbone_mask(ci: np.ndarray, cj: np.ndarray, n: int, dim: int) -> np.ndarray:
     """Non-rattlers: repeatedly drop particles with fewer than ``dim + 1`` contacts among the
     kept ones (as :func:`~jamlab.spheres.potential.remove_rattlers`)."""
@@ -384,7 +389,7 @@ def _factorise(
     fac.free = _nested_dissection(free, ci, cj, packing.n)
     fac.free_index[fac.free] = np.arange(fac.free.size)
     k = _backbone_matrix(packing, nl, fac, (ci, cj, cd))
-    keys = np.minimum(ci, cj) * packing.n + np.maximum(ci, cj)  # ci > cj after a re-sort
+    keys = _pair_keys(ci, cj, packing.n)  # ci > cj after a re-sort
     order = np.argsort(keys)
     fac.keys0 = keys[order]
     fac.row0 = np.searchsorted(fac.keys0, np.arange(packing.n + 1) * packing.n)
@@ -655,7 +660,7 @@ class _Secants:
 def _contact_keys(packing: Packing, nl: NeighborList) -> np.ndarray:
     """Sorted keys ``min(i, j)·N + max(i, j)`` of the contacts."""
     ci, cj, _ = _contact_list(packing, nl)
-    return np.sort(np.minimum(ci, cj) * packing.n + np.maximum(ci, cj))
+    return np.sort(_pair_keys(ci, cj, packing.n))
 
 
 def _consistent_flags(
@@ -747,7 +752,7 @@ def _lean_step(
         )
         n_kept = int(keep.sum())
         z_nr = 2.0 * int((keep[ci] & keep[cj]).sum()) / n_kept
-        change = (flags, np.sort(np.minimum(ci, cj) * n + np.maximum(ci, cj)))
+        change = (flags, np.sort(_pair_keys(ci, cj, n)))
         return True
 
     def at(x: np.ndarray) -> tuple[tuple, int]:
@@ -974,10 +979,6 @@ def _network_newton(
     return None, it, cg_total
 
 
-def _pair_keys(ci: np.ndarray, cj: np.ndarray, n: int) -> np.ndarray:
-    return np.minimum(ci, cj) * n + np.maximum(ci, cj)
-
-
 def _switch_keeps_pd(
     cur: Packing,
     ci: np.ndarray,
@@ -1195,8 +1196,8 @@ def _continue_network(
             )
         # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
         n_open = opening.size
-        drop = set(_pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n).tolist())
-        keep = ~np.isin(_pair_keys(ci, cj, n), list(drop)) if drop else np.ones(ci.size, bool)
+        drop = _pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n)
+        keep = ~np.isin(_pair_keys(ci, cj, n), drop)
         old_ci, old_cj, old_backbone = ci, cj, backbone
         ci = np.concatenate([ci[keep], pi[n_open:][now[n_open:]]])
         cj = np.concatenate([cj[keep], pj[n_open:][now[n_open:]]])
