@@ -1,8 +1,9 @@
-"""Independent brute force for harmonic spheres: every pair, every periodic image, plain numpy.
+"""Independent brute force for soft spheres: every pair, every periodic image, plain numpy.
 
 It never uses jamlab's minimum-image code: the images ``r_j + n_x L e_x + n_y (γ L e_x + L e_y)
 + Σ_k n_k L e_k`` are enumerated explicitly over a range wide enough for positions in
-``[0, L)^d`` and the given strain, and every image closer than 1 contributes.
+``[0, L)^d`` and the given strain, and every image closer than ``σ_ij`` contributes. The pair law
+``V = (1 − r/σ_ij)^α`` (``SPEC.md`` §5) is written out here by hand, not taken from jamlab.
 """
 
 from __future__ import annotations
@@ -24,28 +25,40 @@ def image_shifts(L: float, dim: int, gamma: float) -> np.ndarray:
     return np.array(shifts)
 
 
-def pair_terms(pos: np.ndarray, L: float, gamma: float):
+def pair_terms(pos: np.ndarray, L: float, gamma: float, diameters: np.ndarray | None = None):
     """Every interacting (i, j, image) with i < j: arrays i, j and r_ij = r_i − (r_j + t)."""
     n, dim = pos.shape
+    diam = np.ones(n) if diameters is None else np.asarray(diameters, dtype=float)
     ii, jj = np.triu_indices(n, k=1)
+    sig = (diam[ii] + diam[jj]) / 2
     out_i, out_j, out_d = [], [], []
     for t in image_shifts(L, dim, gamma):
         dr = pos[ii] - (pos[jj] + t)
         r = np.sqrt((dr * dr).sum(axis=1))
-        m = r < 1.0
+        m = r < sig
         out_i.append(ii[m])
         out_j.append(jj[m])
         out_d.append(dr[m])
     return np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_d)
 
 
-def brute_force(pos: np.ndarray, L: float, gamma: float) -> dict:
+def brute_force(
+    pos: np.ndarray,
+    L: float,
+    gamma: float,
+    diameters: np.ndarray | None = None,
+    alpha: float = 2.0,
+) -> dict:
     """E, F, S_ab (extensive virial), Σ, p and the dense Hessian, by the SPEC.md formulas."""
     n, dim = pos.shape
-    i, j, dr = pair_terms(pos, L, gamma)
+    diam = np.ones(n) if diameters is None else np.asarray(diameters, dtype=float)
+    i, j, dr = pair_terms(pos, L, gamma, diam)
     r = np.sqrt((dr * dr).sum(axis=1))
-    vprime = -2.0 * (1.0 - r)
-    e_terms = (1.0 - r) ** 2
+    sig = (diam[i] + diam[j]) / 2
+    h = 1.0 - r / sig
+    vprime = -alpha / sig * h ** (alpha - 1)
+    v2 = alpha * (alpha - 1) / sig**2 * h ** (alpha - 2)
+    e_terms = h**alpha
     fvec = -(vprime / r)[:, None] * dr
     forces = np.zeros((n, dim))
     np.add.at(forces, i, fvec)
@@ -53,15 +66,18 @@ def brute_force(pos: np.ndarray, L: float, gamma: float) -> dict:
     s_terms = (vprime / r)[:, None, None] * dr[:, :, None] * dr[:, None, :]
     S = s_terms.sum(axis=0)
     H = np.zeros((n * dim, n * dim))
+    xi = np.zeros((n, dim))  # ∂F/∂γ at fixed reduced coordinates: −Σ_j B_ij e_x y_ij
     eye = np.eye(dim)
     for p in range(len(r)):
         nn = np.outer(dr[p], dr[p]) / r[p] ** 2
-        B = 2.0 * nn + (vprime[p] / r[p]) * (eye - nn)
+        B = v2[p] * nn + (vprime[p] / r[p]) * (eye - nn)
         a, b = i[p] * dim, j[p] * dim
         H[a : a + dim, a : a + dim] += B
         H[b : b + dim, b : b + dim] += B
         H[a : a + dim, b : b + dim] -= B
         H[b : b + dim, a : a + dim] -= B
+        xi[i[p]] -= B[:, 0] * dr[p, 1]
+        xi[j[p]] += B[:, 0] * dr[p, 1]
     return {
         "energy": e_terms.sum(),
         "energy_scale": e_terms.sum(),
@@ -72,6 +88,7 @@ def brute_force(pos: np.ndarray, L: float, gamma: float) -> dict:
         "shear_stress": S[0, 1],
         "pressure": -np.trace(S) / (dim * L**dim),
         "hessian": H,
+        "dforce_dstrain": xi,
         "n_contacts": len(r),
         "pairs": (i, j),
     }

@@ -345,22 +345,25 @@ def test_fused_kernel_equals_the_separate_passes():
     nl = NeighborList(pk)
     pos = nl.sorted(pk.positions)
     f1, s1 = np.empty_like(pos), np.empty((3, 3))
-    e1, n1 = KK.energy_forces_virial(pos, nl.start, nl.nbr, nl.shift, f1, s1)
+    e1, n1 = KK.energy_forces_virial(pos, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0, f1, s1)
     flags = np.empty(nl.nbr.size, dtype=np.uint8)
     f2, s2 = np.empty_like(pos), np.empty((3, 3))
-    e2, n2, m = AK.forces_virial_flags(pos, nl.start, nl.nbr, nl.shift, f2, s2, flags, True)
+    e2, n2, m = AK.forces_virial_flags(
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0, f2, s2, flags, True
+    )
     assert m == 0 and n2 == n1 and int(flags.sum()) == n1
     np.testing.assert_allclose(e2, e1, rtol=1e-13)
     np.testing.assert_allclose(f2, f1, rtol=0, atol=1e-13)
     np.testing.assert_allclose(s2, s1, rtol=1e-13, atol=1e-13)
     # move some particles: the mismatches are the symmetric difference of the contact sets
     moved = pos + 0.05 * np.random.default_rng(1).standard_normal(pos.shape)
-    c0i, c0j, _ = KK.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    c0i, c0j, _ = KK.contact_pairs(pos, nl.start, nl.nbr, nl.shift, nl.diameters)
     before = {tuple(sorted(p)) for p in zip(c0i.tolist(), c0j.tolist(), strict=True)}
-    ci, cj, _ = KK.contact_pairs(moved, nl.start, nl.nbr, nl.shift)
+    ci, cj, _ = KK.contact_pairs(moved, nl.start, nl.nbr, nl.shift, nl.diameters)
     after = {tuple(sorted(p)) for p in zip(ci.tolist(), cj.tolist(), strict=True)}
     _, _, m = AK.forces_virial_flags(
-        moved, nl.start, nl.nbr, nl.shift, np.empty_like(pos), np.empty((3, 3)), flags, False
+        moved, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0,
+        np.empty_like(pos), np.empty((3, 3)), flags, False,
     )
     assert m == len(before ^ after) > 0
 
@@ -478,7 +481,9 @@ def test_switch_positive_definiteness_against_dense_eigenvalues():
     fac = aqs._factorise(p, nl, backbone, (ci, cj, dr))
     assert fac.positive_definite
     d, n_free = p.dim, fac.free.size
-    data, indices, indptr = aqs.AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, n_free)
+    data, indices, indptr = aqs.AK.backbone_hessian_csr(
+        ci, cj, dr, p.diameters, p.alpha, fac.free_index, n_free
+    )
     k = np.zeros((n_free * d, n_free * d))
     k[np.repeat(np.arange(n_free * d), np.diff(indptr)), indices] += data
 

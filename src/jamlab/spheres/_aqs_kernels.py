@@ -6,16 +6,18 @@ import numpy as np
 from numba import njit
 
 from jamlab.spheres._kernels import pair_stiffness
+from jamlab.spheres.pair import pair_sigma, pair_terms
 
 
 @njit(cache=True)
-def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
+def backbone_hessian_csr(ci, cj, cd, diam, alpha, free_index, n_free):
     """CSR arrays ``(data, indices, indptr)`` of ``K = H[b, b]`` (``d·n_free`` square).
 
     ``free_index[i]`` is the row block of particle ``i`` in ``K`` or ``−1`` (pinned particle,
     rattler: held fixed). From the contact pairs ``(i, j, r_ij)`` and the pair block
     ``B = 2 n nᵀ + (V'(r)/r)(1 − n nᵀ)``: ``K_ii = Σ_{j in contact} B_ij`` over *all* contacts
-    (a held particle acts as a fixed spring end), ``K_ij = −B_ij`` between free particles.
+    (a held particle acts as a fixed spring end), ``K_ij = −B_ij`` between free particles
+    (``diam`` in the numbering of ``ci, cj``).
     Column indices inside a row are not sorted; the matrix is symmetric.
     """
     m, d = cd.shape
@@ -41,7 +43,7 @@ def backbone_hessian_csr(ci, cj, cd, free_index, n_free):
         fj = free_index[cj[p]]
         if fi < 0 and fj < 0:
             continue
-        pair_stiffness(cd[p], B)
+        pair_stiffness(cd[p], pair_sigma(diam, ci[p], cj[p]), alpha, B)
         si = -1
         sj = -1
         if fi >= 0 and fj >= 0:
@@ -127,17 +129,19 @@ def contact_changes(keys0, row0, ci, cj, n):
 
 
 @njit(cache=True)
-def forces_virial_flags(pos, start, nbr, shift, forces, virial, flags, write):
+def forces_virial_flags(pos, start, nbr, shift, diam, alpha, forces, virial, flags, write):
     """One pass over the neighbour list: ``E``, forces, the virial ``S_ab`` (as
     ``_kernels.energy_forces_virial``) and the contact state of every list slot.
 
-    ``flags[k]`` is 1 if slot ``k`` (pair ``i``, ``nbr[k]``) is a contact (``r < 1``). With
+    ``flags[k]`` is 1 if slot ``k`` (pair ``i``, ``nbr[k]``) is a contact (``r < σ_ij``). With
     ``write`` the states are stored in ``flags``; otherwise they are compared with it. Returns
     ``(E, N_c, mismatches)``: ``mismatches`` counts slots whose state differs from ``flags``
     (0 when writing).
     """
     if pos.shape[1] == 3:
-        return _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write)
+        return _forces_virial_flags_3d(
+            pos, start, nbr, shift, diam, alpha, forces, virial, flags, write
+        )
     n, d = pos.shape
     forces[:, :] = 0.0
     virial[:, :] = 0.0
@@ -148,22 +152,23 @@ def forces_virial_flags(pos, start, nbr, shift, forces, virial, flags, write):
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 dr[a] = t
                 r2 += t * t
-            c_now = 1 if r2 < 1.0 else 0
+            c_now = 1 if r2 < s * s else 0
             if write:
                 flags[k] = c_now
             elif c_now != flags[k]:
                 mism += 1
             if c_now:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
                 n_c += 1
-                c = 2.0 * h / r
+                c = -dv / r
                 for a in range(d):
                     forces[i, a] += c * dr[a]
                     forces[j, a] -= c * dr[a]
@@ -173,7 +178,7 @@ def forces_virial_flags(pos, start, nbr, shift, forces, virial, flags, write):
 
 
 @njit(cache=True)
-def _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write):
+def _forces_virial_flags_3d(pos, start, nbr, shift, diam, alpha, forces, virial, flags, write):
     n = pos.shape[0]
     forces[:, :] = 0.0
     e = 0.0
@@ -193,17 +198,18 @@ def _forces_virial_flags_3d(pos, start, nbr, shift, forces, virial, flags, write
             dy = yi - pos[j, 1] + shift[k, 1]
             dz = zi - pos[j, 2] + shift[k, 2]
             r2 = dx * dx + dy * dy + dz * dz
-            c_now = 1 if r2 < 1.0 else 0
+            s = pair_sigma(diam, i, j)
+            c_now = 1 if r2 < s * s else 0
             if write:
                 flags[k] = c_now
             elif c_now != flags[k]:
                 mism += 1
             if c_now:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
                 n_c += 1
-                c = 2.0 * h / r
+                c = -dv / r
                 fx += c * dx
                 fy += c * dy
                 fz += c * dz

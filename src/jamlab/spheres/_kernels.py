@@ -32,6 +32,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from jamlab.spheres.pair import pair_sigma, pair_terms
+
 # ------------------------------------------------------------------------------------------------
 # periodic geometry
 
@@ -307,26 +309,27 @@ def max_nonaffine_displacement(pos, ref, dgamma):
 
 
 @njit(cache=True)
-def energy(pos, start, nbr, shift):
-    """``E = Σ_{i<j} (1 − r_ij)² θ(1 − r_ij)``."""
+def energy(pos, start, nbr, shift, diam, alpha):
+    """``E = Σ_{i<j} V(r_ij)`` (pair law: :mod:`jamlab.spheres.pair`)."""
     n, d = pos.shape
     e = 0.0
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 r2 += t * t
-            if r2 < 1.0:
-                h = 1.0 - np.sqrt(r2)
-                e += h * h
+            if r2 < s * s:
+                v, _, _ = pair_terms(np.sqrt(r2), s, alpha)
+                e += v
     return e
 
 
 @njit(cache=True)
-def energy_forces(pos, start, nbr, shift, forces):
-    """Total energy; writes ``F_i = −∂E/∂r_i = Σ_j 2(1 − r_ij) r_ij/r_ij`` into ``forces``."""
+def energy_forces(pos, start, nbr, shift, diam, alpha, forces):
+    """Total energy; writes ``F_i = −∂E/∂r_i = −Σ_j V'(r_ij) r_ij/r_ij`` into ``forces``."""
     n, d = pos.shape
     forces[:, :] = 0.0
     e = 0.0
@@ -334,16 +337,17 @@ def energy_forces(pos, start, nbr, shift, forces):
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 dr[a] = t
                 r2 += t * t
-            if r2 < 1.0:
+            if r2 < s * s:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
-                c = 2.0 * h / r
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
+                c = -dv / r
                 for a in range(d):
                     forces[i, a] += c * dr[a]
                     forces[j, a] -= c * dr[a]
@@ -351,7 +355,7 @@ def energy_forces(pos, start, nbr, shift, forces):
 
 
 @njit(cache=True)
-def energy_forces_3d(pos, start, nbr, shift, forces):
+def energy_forces_3d(pos, start, nbr, shift, diam, alpha, forces):
     """``energy_forces`` unrolled for ``d = 3`` (same formula)."""
     n = pos.shape[0]
     forces[:, :] = 0.0
@@ -369,11 +373,12 @@ def energy_forces_3d(pos, start, nbr, shift, forces):
             dy = yi - pos[j, 1] + shift[k, 1]
             dz = zi - pos[j, 2] + shift[k, 2]
             r2 = dx * dx + dy * dy + dz * dz
-            if r2 < 1.0:
+            s = pair_sigma(diam, i, j)
+            if r2 < s * s:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
-                c = 2.0 * h / r
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
+                c = -dv / r
                 fx += c * dx
                 fy += c * dy
                 fz += c * dz
@@ -387,7 +392,7 @@ def energy_forces_3d(pos, start, nbr, shift, forces):
 
 
 @njit(cache=True)
-def energy_forces_2d(pos, start, nbr, shift, forces):
+def energy_forces_2d(pos, start, nbr, shift, diam, alpha, forces):
     """``energy_forces`` unrolled for ``d = 2`` (same formula)."""
     n = pos.shape[0]
     forces[:, :] = 0.0
@@ -402,11 +407,12 @@ def energy_forces_2d(pos, start, nbr, shift, forces):
             dx = xi - pos[j, 0] + shift[k, 0]
             dy = yi - pos[j, 1] + shift[k, 1]
             r2 = dx * dx + dy * dy
-            if r2 < 1.0:
+            s = pair_sigma(diam, i, j)
+            if r2 < s * s:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
-                c = 2.0 * h / r
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
+                c = -dv / r
                 fx += c * dx
                 fy += c * dy
                 forces[j, 0] -= c * dx
@@ -417,44 +423,46 @@ def energy_forces_2d(pos, start, nbr, shift, forces):
 
 
 @njit(cache=True)
-def energy_forces_any(pos, start, nbr, shift, forces):
+def energy_forces_any(pos, start, nbr, shift, diam, alpha, forces):
     """Dispatch to the unrolled ``d = 2, 3`` kernels, the generic one otherwise."""
     d = pos.shape[1]
     if d == 3:
-        return energy_forces_3d(pos, start, nbr, shift, forces)
+        return energy_forces_3d(pos, start, nbr, shift, diam, alpha, forces)
     if d == 2:
-        return energy_forces_2d(pos, start, nbr, shift, forces)
-    return energy_forces(pos, start, nbr, shift, forces)
+        return energy_forces_2d(pos, start, nbr, shift, diam, alpha, forces)
+    return energy_forces(pos, start, nbr, shift, diam, alpha, forces)
 
 
 @njit(cache=True)
-def virial_tensor(pos, start, nbr, shift):
-    """Extensive ``S_ab = Σ_{i<j} V'(r) r_a r_b / r`` with ``V'(r) = −2(1 − r)``.
+def virial_tensor(pos, start, nbr, shift, diam, alpha):
+    """Extensive ``S_ab = Σ_{i<j} V'(r) r_a r_b / r``.
 
     ``Σ = S_xy = ∂E/∂γ`` and ``p = −tr S / (d L^d)``.
     """
     n, d = pos.shape
-    s = np.zeros((d, d), np.float64)
+    st = np.zeros((d, d), np.float64)
     dr = np.empty(d, np.float64)
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 dr[a] = t
                 r2 += t * t
-            if r2 < 1.0:
+            if r2 < s * s:
                 r = np.sqrt(r2)
-                c = -2.0 * (1.0 - r) / r
+                _, dv, _ = pair_terms(r, s, alpha)
+                c = dv / r
                 for a in range(d):
                     for b in range(d):
-                        s[a, b] += c * dr[a] * dr[b]
-    return s
+                        st[a, b] += c * dr[a] * dr[b]
+    return st
 
 
 @njit(cache=True)
-def energy_forces_virial(pos, start, nbr, shift, forces, virial):
+def energy_forces_virial(pos, start, nbr, shift, diam, alpha, forces, virial):
     """One pass: returns ``E``, writes ``F`` into ``forces`` and ``S_ab`` (see
     ``virial_tensor``) into ``virial``; also returns the number of contacts ``N_c``."""
     n, d = pos.shape
@@ -466,17 +474,18 @@ def energy_forces_virial(pos, start, nbr, shift, forces, virial):
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 dr[a] = t
                 r2 += t * t
-            if r2 < 1.0:
+            if r2 < s * s:
                 r = np.sqrt(r2)
-                h = 1.0 - r
-                e += h * h
+                v, dv, _ = pair_terms(r, s, alpha)
+                e += v
                 n_c += 1
-                c = 2.0 * h / r
+                c = -dv / r
                 for a in range(d):
                     forces[i, a] += c * dr[a]
                     forces[j, a] -= c * dr[a]
@@ -486,18 +495,19 @@ def energy_forces_virial(pos, start, nbr, shift, forces, virial):
 
 
 @njit(cache=True)
-def contact_pairs(pos, start, nbr, shift):
-    """Pairs in contact (``r_ij < 1``): arrays ``i``, ``j`` (``i < j``) and the separations."""
+def contact_pairs(pos, start, nbr, shift, diam):
+    """Pairs in contact (``r_ij < σ_ij``): arrays ``i``, ``j`` (``i < j``) and the separations."""
     n, d = pos.shape
     m = 0
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 r2 += t * t
-            if r2 < 1.0:
+            if r2 < s * s:
                 m += 1
     ci = np.empty(m, np.int64)
     cj = np.empty(m, np.int64)
@@ -506,11 +516,12 @@ def contact_pairs(pos, start, nbr, shift):
     for i in range(n):
         for k in range(start[i], start[i + 1]):
             j = nbr[k]
+            s = pair_sigma(diam, i, j)
             r2 = 0.0
             for a in range(d):
                 t = pos[i, a] - pos[j, a] + shift[k, a]
                 r2 += t * t
-            if r2 < 1.0:
+            if r2 < s * s:
                 sign = 1.0
                 if i < j:
                     ci[m] = i
@@ -526,26 +537,47 @@ def contact_pairs(pos, start, nbr, shift):
 
 
 @njit(cache=True)
-def pair_stiffness(dr, out):
-    """``B = ∂²V/∂r∂r = V'' n nᵀ + (V'/r)(1 − n nᵀ)`` with ``V'' = 2``, ``V' = −2(1 − r)``."""
+def pair_force_factors(cd, ci, cj, diam, alpha):
+    """``(−V'(r)/r, r)`` of each pair ``(ci, cj)`` at separation ``cd`` (no cut-off applied: a
+    network spring in tension too, :func:`jamlab.spheres.pair.pair_terms`); the force on ``i``
+    is ``−V'(r)/r · r_ij``."""
+    m, d = cd.shape
+    c = np.empty(m, np.float64)
+    rr = np.empty(m, np.float64)
+    for p in range(m):
+        r2 = 0.0
+        for a in range(d):
+            r2 += cd[p, a] * cd[p, a]
+        r = np.sqrt(r2)
+        _, dv, _ = pair_terms(r, pair_sigma(diam, ci[p], cj[p]), alpha)
+        c[p] = -dv / r
+        rr[p] = r
+    return c, rr
+
+
+@njit(cache=True)
+def pair_stiffness(dr, sigma, alpha, out):
+    """``B = ∂²V/∂r∂r = V'' n nᵀ + (V'/r)(1 − n nᵀ)`` at separation ``dr`` (``|dr| < σ``)."""
     d = dr.shape[0]
     r2 = 0.0
     for a in range(d):
         r2 += dr[a] * dr[a]
     r = np.sqrt(r2)
-    t = -2.0 * (1.0 - r) / r
+    _, dv, d2v = pair_terms(r, sigma, alpha)
+    t = dv / r
     for a in range(d):
         for b in range(d):
             nn = dr[a] * dr[b] / r2
-            out[a, b] = 2.0 * nn + t * ((1.0 if a == b else 0.0) - nn)
+            out[a, b] = d2v * nn + t * ((1.0 if a == b else 0.0) - nn)
 
 
 @njit(cache=True)
-def hessian_coo(ci, cj, cd):
+def hessian_coo(ci, cj, cd, diam, alpha):
     """COO triplets of ``H = ∂²E/∂r∂r`` (dN×dN, index ``d·i + a``), from contact pairs.
 
-    ``H_ii += B_ij``, ``H_jj += B_ij``, ``H_ij = H_ji = −B_ij`` with ``B`` from ``pair_stiffness``;
-    duplicates are to be summed (as ``scipy.sparse`` does).
+    ``H_ii += B_ij``, ``H_jj += B_ij``, ``H_ij = H_ji = −B_ij`` with ``B`` from ``pair_stiffness``
+    (``diam`` in the numbering of ``ci, cj``); duplicates are to be summed (as ``scipy.sparse``
+    does).
     """
     m, d = cd.shape
     nnz = 4 * m * d * d
@@ -555,9 +587,9 @@ def hessian_coo(ci, cj, cd):
     B = np.empty((d, d), np.float64)
     q = 0
     for p in range(m):
-        pair_stiffness(cd[p], B)
         i = ci[p]
         j = cj[p]
+        pair_stiffness(cd[p], pair_sigma(diam, i, j), alpha, B)
         for a in range(d):
             for b in range(d):
                 v = B[a, b]
@@ -578,7 +610,7 @@ def hessian_coo(ci, cj, cd):
 
 
 @njit(cache=True)
-def dforce_dstrain(n, ci, cj, cd):
+def dforce_dstrain(n, ci, cj, cd, diam, alpha):
     """``Ξ_i = ∂F_i/∂γ`` at fixed reduced coordinates (affine ``∂r_ij/∂γ = y_ij e_x``).
 
     ``F_i = −Σ_j V'(r_ij) n_ij`` so ``Ξ_i = −Σ_j B_ij e_x y_ij`` and ``Ξ_j`` the opposite.
@@ -587,7 +619,7 @@ def dforce_dstrain(n, ci, cj, cd):
     xi = np.zeros((n, d), np.float64)
     B = np.empty((d, d), np.float64)
     for p in range(m):
-        pair_stiffness(cd[p], B)
+        pair_stiffness(cd[p], pair_sigma(diam, ci[p], cj[p]), alpha, B)
         y = cd[p, 1]
         for a in range(d):
             v = B[a, 0] * y
@@ -638,12 +670,15 @@ def fire(
     L,
     gamma,
     skin,
+    sigma_max,
     budget,
     start,
     nbr,
     shift,
     img_y,
     ref,
+    diam,
+    pair_alpha,
     ftol,
     max_iter,
     dt0,
@@ -677,13 +712,16 @@ def fire(
     img_y``, valid while ``2 max|r − ref| < budget``, ``budget = skin − |Δγ| rc`` after strain
     steps since its build) is rebuilt, with ``budget = skin``, as soon as that fails.
 
+    The pair law is ``diam`` (list order) and ``pair_alpha`` (:mod:`jamlab.spheres.pair`); the
+    list holds pairs closer than ``rc = sigma_max + skin``.
+
     Returns ``(iterations, max_force, converged, energy, n_rebuilds, start, nbr, shift, img_y,
     ref)``.
     """
     n, d = pos.shape
     f = np.empty((n, d), np.float64)
     v = np.zeros((n, d), np.float64)
-    e = energy_forces_any(pos, start, nbr, shift, f)
+    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f)
     fmax2, ff, p = _force_stats(f, v)
     ftol2 = ftol * ftol
     dt = dt0
@@ -692,7 +730,7 @@ def fire(
     n_neg = 0
     it = 0
     n_rebuild = 0
-    rc = 1.0 + skin
+    rc = sigma_max + skin
     half_budget2 = 0.25 * budget * budget
     # three passes over the particles per step (velocity, mix-and-move, forces + statistics)
     while fmax2 >= ftol2 and it < max_iter:
@@ -759,7 +797,7 @@ def fire(
             ref[:, :] = pos
             n_rebuild += 1
             half_budget2 = 0.25 * skin * skin
-        e = energy_forces_any(pos, start, nbr, shift, f)
+        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f)
         fmax2, ff, p = _force_stats(f, v)
     fmax = np.sqrt(fmax2)
     return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref

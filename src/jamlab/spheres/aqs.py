@@ -82,10 +82,11 @@ import scipy.sparse.linalg as spla
 from jamlab.spheres import _aqs_kernels as AK
 from jamlab.spheres import _kernels as K
 from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.neighbors import list_positions
+from jamlab.spheres.pair import pair_sigmas
 from jamlab.spheres.potential import (
     NeighborList,
     Packing,
-    _neighbors,
     energy_and_forces,
     evaluate,
 )
@@ -304,8 +305,8 @@ def _contact_list(
     which costs ten times the search itself; the pair block of the Hessian is even in
     ``r_ij``, and the rattler count does not depend on the order either.
     """
-    pos, nl = _neighbors(packing, nl)
-    ci, cj, cd = K.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    pos, nl = list_positions(packing, nl)
+    ci, cj, cd = K.contact_pairs(pos, nl.start, nl.nbr, nl.shift, nl.diameters)
     return nl.order[ci], nl.order[cj], cd
 
 
@@ -336,7 +337,9 @@ def _backbone_matrix(
     packing: Packing, nl: NeighborList, fac: _Factor, contacts: tuple | None = None
 ) -> sps.csr_matrix:
     ci, cj, cd = _contact_list(packing, nl) if contacts is None else contacts
-    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, cd, fac.free_index, fac.free.size)
+    data, indices, indptr = AK.backbone_hessian_csr(
+        ci, cj, cd, packing.diameters, packing.alpha, fac.free_index, fac.free.size
+    )
     size = fac.free.size * packing.dim
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))
 
@@ -679,7 +682,8 @@ def _consistent_flags(
     d = pos.shape[1]
     flags = np.empty(nl.nbr.size, dtype=np.uint8)
     AK.forces_virial_flags(
-        pos, nl.start, nl.nbr, nl.shift, np.empty_like(pos), np.empty((d, d)), flags, True
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha,
+        np.empty_like(pos), np.empty((d, d)), flags, True,
     )
     return flags, nl.n_builds
 
@@ -748,7 +752,8 @@ def _lean_step(
             return False
         flags = np.empty_like(flags)
         AK.forces_virial_flags(
-            ps, nl.start, nl.nbr, nl.shift, np.empty_like(ps), np.empty((d, d)), flags, True
+            ps, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha,
+            np.empty_like(ps), np.empty((d, d)), flags, True,
         )
         n_kept = int(keep.sum())
         z_nr = 2.0 * int((keep[ci] & keep[cj]).sum()) / n_kept
@@ -759,7 +764,9 @@ def _lean_step(
         # one pass: (x, F, S, E, N_c, F on the free particles, its max) and the contact changes
         fx = np.empty_like(x)
         sx = np.empty((d, d))
-        ex, ncx, ch = AK.forces_virial_flags(x, nl.start, nl.nbr, nl.shift, fx, sx, flags, False)
+        ex, ncx, ch = AK.forces_virial_flags(
+            x, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, fx, sx, flags, False
+        )
         return (x, fx, sx, ex, ncx, AK.gather_rows(fx, free_s), AK.rows_max_norm(fx, free_s)), ch
 
     state, changed = at(nl.sorted(pos))
@@ -910,8 +917,8 @@ def _network_forces(packing: Packing, ci: np.ndarray, cj: np.ndarray) -> tuple[n
     harmonic spring of rest length 1, in tension too) and the pairs' separations and lengths."""
     pos = packing.positions
     dr = packing.box.minimum_image(pos[ci] - pos[cj])
-    r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
-    fp = (2.0 * (1.0 - r) / r)[:, None] * dr  # force on i
+    c, r = K.pair_force_factors(dr, ci, cj, packing.diameters, packing.alpha)
+    fp = c[:, None] * dr  # force on i
     n, d = pos.shape
     f = np.empty((n, d))
     for a in range(d):
@@ -950,7 +957,9 @@ def _network_newton(
             if strikes > params.max_strikes:
                 break
         prev = fmax
-        data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, free.size)
+        data, indices, indptr = AK.backbone_hessian_csr(
+            ci, cj, dr, start.diameters, start.alpha, fac.free_index, free.size
+        )
         size = free.size * d
         k = sps.csr_matrix((data, indices, indptr), shape=(size, size))
         atol = max(0.25 * ftol, 1e-9 * fmax)
@@ -1000,7 +1009,9 @@ def _switch_keeps_pd(
     d = cur.dim
     free_index, n_free = fac.free_index, fac.free.size
     _, dr, _ = _network_forces(cur, ci, cj)
-    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, free_index, n_free)
+    data, indices, indptr = AK.backbone_hessian_csr(
+        ci, cj, dr, cur.diameters, cur.alpha, free_index, n_free
+    )
     k = sps.csr_matrix((data, indices, indptr), shape=(n_free * d, n_free * d))
     sep = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
     sep /= np.sqrt(np.einsum("ij,ij->i", sep, sep))[:, None]
@@ -1055,7 +1066,7 @@ def _relax_rattlers(
         ci, cj = ci[touch], cj[touch]
         dr = cur.box.minimum_image(pos[ci] - pos[cj])
         r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
-        push = ((1.0 - r) / r)[:, None] * dr  # on i; −push on j
+        push = ((pair_sigmas(cur.diameters, ci, cj) - r) / r)[:, None] * dr  # on i; −push on j
         if 2.0 * float(np.max(np.sqrt(np.einsum("ij,ij->i", push, push)))) < ftol:
             return cur
         both = rattler[ci] & rattler[cj]

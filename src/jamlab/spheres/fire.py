@@ -9,13 +9,14 @@ Default parameters are the papers' standard ones, in units of the time step ``Δ
 for the LAMMPS reference data (``timestep 0.1``): ``Δt_min = 0.02 Δt₀``, ``N_delay = 20``,
 ``f_inc = 1.1``, ``f_dec = 0.5``, ``α₀ = 0.25``, ``f_α = 0.99``, ``N⁻_max = 2000``, and a cap
 ``dmax = 0.1`` on any particle's displacement per step (as LAMMPS) — except ``Δt_max = 3 Δt₀ = 0.3``
-(the papers and LAMMPS use ``10 Δt₀``). For ``V = (1 − r)²`` the pair stiffness is ``V'' = 2``, so
-the largest Hessian eigenvalue is at most ``2·2·z_max`` (Gershgorin) and ``ω_max ≤ 2√z_max ≈ 6.9``
-in 3D (``z_max = 12``); in practice ``ω_max ≈ 5–6``. Semi-implicit Euler is stable for
-``Δt < 2/ω_max ≈ 0.3–0.4``: with ``Δt_max = 1`` FIRE runs unstable and relies on its ``P ≤ 0``
-restarts, which near jamming stalls (measured in ``docs/spheres.md``: N = 1000 near jamming, no
-convergence to 1e-12 in 2e5 steps with ``Δt_max = 1``, 1.3e4–1e5 steps with 0.3; at φ = 0.8,
-2.9× fewer steps). In ``d ≥ 4`` (``z_max = 24`` → ``2/ω_max ≈ 0.2``) a smaller ``dt_max`` may pay.
+(the papers and LAMMPS use ``10 Δt₀``). For ``V = (1 − r)²`` (the default pair law) the pair
+stiffness is ``V'' = 2``, so the largest Hessian eigenvalue is at most ``2·2·z_max`` (Gershgorin)
+and ``ω_max ≤ 2√z_max ≈ 6.9`` in 3D (``z_max = 12``); in practice ``ω_max ≈ 5–6``. Semi-implicit
+Euler is stable for ``Δt < 2/ω_max ≈ 0.3–0.4``: with ``Δt_max = 1`` FIRE runs unstable and relies
+on its ``P ≤ 0`` restarts, which near jamming stalls (measured in ``docs/spheres.md``: N = 1000
+near jamming, no convergence to 1e-12 in 2e5 steps with ``Δt_max = 1``, 1.3e4–1e5 steps with 0.3;
+at φ = 0.8, 2.9× fewer steps). In ``d ≥ 4`` (``z_max = 24`` → ``2/ω_max ≈ 0.2``) a smaller
+``dt_max`` may pay.
 
 Converged when the largest per-particle force ``max_i |F_i| < ftol`` (a maximum, not a norm).
 """
@@ -29,7 +30,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from jamlab.spheres import _kernels as K
-from jamlab.spheres.potential import DEFAULT_SKIN, NeighborList, Packing
+from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList
+from jamlab.spheres.state import Packing
 
 __all__ = ["FireParameters", "MinimizeResult", "minimize"]
 
@@ -116,8 +118,10 @@ def minimize(
         K.wrap_positions(pos, box.length, box.strain)
         neighbors = NeighborList(packing.with_positions(pos), skin=skin)
     else:
-        if neighbors.box.length != box.length or neighbors.ref.shape != pos.shape:
-            raise ValueError("neighbour list belongs to a different box or particle number")
+        if not neighbors.matches(packing):
+            raise ValueError(
+                "neighbour list belongs to a different box, particle number or pair law"
+            )
         neighbors.update(pos, box.strain)
     pos = neighbors.sorted(pos)
     budget = neighbors.budget(box.strain)
@@ -127,12 +131,15 @@ def minimize(
         float(box.length),
         float(box.strain),
         float(neighbors.skin),
+        float(neighbors.sigma_max),
         float(budget),
         neighbors.start,
         neighbors.nbr,
         neighbors.shift,
         neighbors.img_y,
         ref,
+        neighbors.diameters,
+        float(neighbors.alpha),
         float(ftol),
         int(max_iter),
         float(params.dt),
@@ -149,7 +156,7 @@ def minimize(
     )
     iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
     if n_rebuild > 0:
-        neighbors._adopt(start, nbr, shift, img_y, ref, box.strain)
+        neighbors.adopt(start, nbr, shift, img_y, ref, box.strain)
         neighbors.n_builds += int(n_rebuild) - 1
     elapsed = time.perf_counter() - t0
     final = replace(packing, positions=neighbors.unsorted(pos))

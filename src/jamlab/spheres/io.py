@@ -4,9 +4,12 @@ HDF5 configuration file, root group:
 
 - dataset ``positions``: float64 ``(N, d)``, Cartesian, in the sheared (Lees–Edwards) frame;
 - attributes ``box_length`` (float), ``strain`` (accumulated γ, float), ``dim`` (int),
-  ``phi`` (``N v_d(1/2)/L^d``, float, redundant and checked on reading), ``seed`` (int, ``-1`` when
-  unknown), ``jamlab_version`` (str), ``format`` = ``"jamlab-configuration"`` and
-  ``format_version`` = 1.
+  ``phi`` (``Σ_i v_d(D_i/2)/L^d``, float, redundant and checked on reading), ``seed`` (int, ``-1``
+  when unknown), ``jamlab_version`` (str), ``format`` = ``"jamlab-configuration"`` and
+  ``format_version`` = 1;
+- the pair law (``SPEC.md`` §5): dataset ``diameters`` (float64 ``(N,)``) and attribute ``alpha``
+  (float). Both are written always; a file without them (older jamlab) reads as monodisperse
+  (``D = 1``) harmonic (``α = 2``).
 
 Writes are atomic: a temporary file in the destination directory is written, flushed, fsync'ed
 and renamed over the destination with ``os.replace``.
@@ -23,7 +26,7 @@ import numpy as np
 
 from jamlab._atomic import atomic_write
 from jamlab.spheres.box import Box
-from jamlab.spheres.potential import Packing
+from jamlab.spheres.state import Packing
 
 __all__ = ["write_packing", "read_packing", "read_lammps_positions"]
 
@@ -39,6 +42,8 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
     def write(tmp: str) -> None:
         with h5py.File(tmp, "w") as h5:
             h5.create_dataset("positions", data=np.asarray(packing.positions, dtype=np.float64))
+            h5.create_dataset("diameters", data=np.asarray(packing.diameters, dtype=np.float64))
+            h5.attrs["alpha"] = float(packing.alpha)
             h5.attrs["box_length"] = float(packing.box.length)
             h5.attrs["strain"] = float(packing.box.strain)
             h5.attrs["dim"] = int(packing.dim)
@@ -74,9 +79,19 @@ def read_packing(path: str | os.PathLike) -> Packing:
         dim = int(h5.attrs["dim"])
         seed = int(h5.attrs["seed"]) if "seed" in h5.attrs else -1
         phi = float(h5.attrs["phi"]) if "phi" in h5.attrs else None
-    packing = Packing(positions, Box(length, dim, strain), seed=None if seed < 0 else seed)
+        diameters = np.asarray(h5["diameters"][()], np.float64) if "diameters" in h5 else None
+        alpha = float(h5.attrs["alpha"]) if "alpha" in h5.attrs else 2.0
+    packing = Packing(
+        positions,
+        Box(length, dim, strain),
+        seed=None if seed < 0 else seed,
+        diameters=diameters,
+        alpha=alpha,
+    )
     if phi is not None and not np.isclose(phi, packing.phi, rtol=1e-10, atol=0):
-        raise ValueError(f"inconsistent file {path}: phi={phi} but N v_d(1/2)/L^d = {packing.phi}")
+        raise ValueError(
+            f"inconsistent file {path}: phi={phi} but sum v_d(D_i/2)/L^d = {packing.phi}"
+        )
     return packing
 
 
