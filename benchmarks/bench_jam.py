@@ -35,7 +35,8 @@ from pathlib import Path
 from jamlab.spheres import Packing, random_packing
 from jamlab.spheres.box import box_length_for
 from jamlab.spheres.fire import minimize
-from jamlab.spheres.packing import PreparedPacking, _quench_seed, jam, relax, rescale
+from jamlab.spheres.jam_search import quench_seed
+from jamlab.spheres.packing import PreparedPacking, jam, relax, rescale
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
@@ -107,7 +108,7 @@ def start_configurations(res: PreparedPacking) -> list[Packing]:
     minima: list[Packing] = []
     for s in res.steps:
         if s.start == -1:
-            start = random_packing(n, dim, s.phi, _quench_seed(seed, s.attempt))
+            start = random_packing(n, dim, s.phi, quench_seed(seed, s.attempt))
         else:
             start = rescale(minima[s.start], s.phi)
         r = relax(start, s.ftol, s.max_iter)
@@ -151,7 +152,7 @@ def run_lammps(lmp: tuple[str, dict[str, str]], res: PreparedPacking, tmax: floa
     loop, wall, iters, rows = 0.0, 0.0, 0, []
     for attempt in sorted({s.attempt for s in res.steps}):
         first = next(s for s in res.steps if s.attempt == attempt)
-        seed = _quench_seed(int(res.params["seed"]), attempt)
+        seed = quench_seed(int(res.params["seed"]), attempt)
         start = random_packing(int(res.params["n"]), int(res.params["dim"]), first.phi, seed)
         with tempfile.TemporaryDirectory() as tmp:
             work = Path(tmp)

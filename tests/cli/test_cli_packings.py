@@ -55,16 +55,20 @@ def test_prepare_unsat_and_errors(tmp_path, capsys) -> None:
     assert "below jamming" in capsys.readouterr().err
     assert run(["prepare", "--n", "128", "--phi", "dense", "--out", str(out)]) == 2
     capsys.readouterr()
-    assert run(["prepare", "--n", "128", "--search", "bisect", "--out", str(out)]) == 2
-    assert "--search must be one of window, halve" in capsys.readouterr().err
+    assert run(["prepare", "--n", "128", "--sizes", "tri", "--out", str(out)]) == 2
+    assert "sizes must be mono, bidisperse or polydisperse" in capsys.readouterr().err
+    assert run(["prepare", "--n", "128", "--alpha", "1", "--out", str(out)]) == 2
+    assert "alpha must be finite and > 1" in capsys.readouterr().err
 
 
-def test_prepare_earlier_search_is_selectable(tmp_path) -> None:
-    out = tmp_path / "halve.h5"
-    args = ["prepare", "--n", "64", "--seed", "3", "--search", "halve", "--quiet"]
-    assert run([*args, "--out", str(out)]) == 0
+def test_prepare_bidisperse_2d_hertzian(tmp_path) -> None:
+    out = tmp_path / "bi.h5"
+    args = ["prepare", "--n", "64", "--dim", "2", "--seed", "3", "--sizes", "bidisperse"]
+    assert run([*args, "--alpha", "2.5", "--quiet", "--out", str(out)]) == 0
+    pk = read_packing(out)
+    assert pk.alpha == 2.5 and sorted(set(pk.diameters.tolist())) == [1.0, 1.4]
     with h5py.File(out, "r") as h5:
-        assert h5.attrs["param_search"] == "halve" and bool(h5.attrs["isostatic"])
+        assert bool(h5.attrs["isostatic"]) and h5.attrs["param_sizes"] == "bidisperse"
 
 
 def test_prepare_failure_writes_flagged_file(tmp_path, capsys) -> None:

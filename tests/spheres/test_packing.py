@@ -13,9 +13,9 @@ from spheres_brute import pair_terms
 import jamlab.spheres as sp
 from jamlab.spheres.box import box_length_for
 from jamlab.spheres.fire import minimize
+from jamlab.spheres.jam_search import quench_seed
 from jamlab.spheres.packing import (
     JammingError,
-    _quench_seed,
     compress_to,
     coordination_curve,
     fit_power_law,
@@ -121,7 +121,7 @@ def test_schedule_replays_to_the_same_packing() -> None:
     minima: list[sp.Packing] = []
     for k, st in enumerate(res.steps):
         if st.start == -1:
-            start = sp.random_packing(128, 3, st.phi, _quench_seed(8, st.attempt))
+            start = sp.random_packing(128, 3, st.phi, quench_seed(8, st.attempt))
         else:
             assert 0 <= st.start < k
             src = minima[st.start]
@@ -152,16 +152,13 @@ def test_recompression_finds_an_isostatic_state_in_the_window() -> None:
         if s.role == "recompress":
             st = res.steps[s.start]
             assert st.excess == 0 and st.pressure < p_t / 2
-    # the earlier protocol stops on that isostatic state below the window instead
-    old = jam(128, 3, 15, p_target=p_t, search="halve")
-    assert old.ok and old.state.pressure < p_t / 2 and old.state.isostatic
-    assert {s.role for s in old.steps} <= {"quench", "compress", "search"}
-    assert old.params["search"] == "halve" and "confirm_ftol_factor" not in old.params
 
 
 def test_jam_rejects_bad_protocol_options() -> None:
-    with pytest.raises(ValueError, match="search must be one of"):
-        jam(32, 3, 1, search="bisect")
+    with pytest.raises(ValueError, match="sizes"):
+        jam(32, 3, 1, sizes="tridisperse")
+    with pytest.raises(ValueError, match="alpha"):
+        jam(32, 3, 1, alpha=1.0)
     with pytest.raises(ValueError, match="confirm_ftol_factor"):
         jam(32, 3, 1, confirm_ftol_factor=0.0)
 

@@ -54,21 +54,26 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--phi-init", help="Quench packing fraction (jamming).")
         ] = 0.66,
         ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
-        search: Annotated[
+        sizes: Annotated[
             str,
             typer.Option(
-                "--search",
-                help="Jamming search: 'window' (isostatic with p in [p_target/2, 2 p_target]) "
-                "or 'halve' (the earlier protocol; may end below p_target/2).",
+                "--sizes",
+                help="Diameters: mono (D=1), bidisperse (50:50, 1:1.4) or "
+                "polydisperse[:w] (uniform, mean 1, relative sd w, default 0.1).",
             ),
-        ] = "window",
+        ] = "mono",
+        alpha: Annotated[
+            float, typer.Option("--alpha", help="Pair exponent: V = (1 - r/sigma)^alpha, > 1.")
+        ] = 2.0,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
     ) -> None:
         from jamlab.spheres.io import write_packing
-        from jamlab.spheres.packing import SEARCHES, jam, prepare
+        from jamlab.spheres.packing import jam, prepare
+        from jamlab.spheres.pair import check_alpha
+        from jamlab.spheres.state import parse_sizes
 
-        if search not in SEARCHES:
-            raise ValueError(f"--search must be one of {', '.join(SEARCHES)}, got {search!r}")
+        parse_sizes(sizes)
+        check_alpha(alpha)
         if phi.strip().lower() == "jamming":
             with _status(quiet, f"jamming N={n} d={dim} seed={seed}") as progress:
                 res = jam(
@@ -79,7 +84,8 @@ def register(app: typer.Typer) -> None:
                     phi_init=phi_init,
                     ftol=ftol,
                     progress=progress,
-                    search=search,
+                    sizes=sizes,
+                    alpha=alpha,
                 )
         else:
             try:
@@ -94,7 +100,7 @@ def register(app: typer.Typer) -> None:
                     f"or a value >= {PHI_CLEARLY_UNJAMMED_3D}"
                 )
             with _status(quiet, f"minimising N={n} d={dim} phi={value}"):
-                res = prepare(n, dim, value, seed, ftol=ftol)
+                res = prepare(n, dim, value, seed, ftol=ftol, sizes=sizes, alpha=alpha)
         write_packing(out, res.packing, **res.attrs())
         s = res.state
         typer.echo(

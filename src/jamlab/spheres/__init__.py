@@ -1,17 +1,19 @@
-"""Soft spheres: Lees–Edwards box, cell lists, harmonic potential, FIRE, packings, AQS shear."""
+"""Soft spheres: Lees–Edwards box, state (diameters, pair law), neighbour lists, potential,
+contacts, FIRE, packings, AQS shear.
+
+Layers (each module imports only from the ones above it): ``box`` → ``pair`` → ``state`` →
+``neighbors`` → ``contacts`` → ``potential`` → ``fire`` → ``relax`` → ``describe`` →
+``jam_search`` → ``coordination`` → ``packing``; ``io`` and ``trace`` (files); ``aqs`` (shear).
+"""
 
 from jamlab.spheres.box import Box, box_length_for, packing_fraction, sphere_volume
+from jamlab.spheres.contacts import RattlerResult, contacts, coordination, remove_rattlers
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.io import read_lammps_positions, read_packing, write_packing
+from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList
+from jamlab.spheres.pair import HARMONIC, HERTZIAN
 from jamlab.spheres.potential import (
-    DEFAULT_SKIN,
     Evaluation,
-    NeighborList,
-    Packing,
-    RattlerResult,
-    affine_shear,
-    contacts,
-    coordination,
     dforce_dstrain,
     energy,
     energy_and_forces,
@@ -20,10 +22,15 @@ from jamlab.spheres.potential import (
     hessian,
     max_force,
     pressure,
-    random_packing,
-    remove_rattlers,
     shear_stress,
     stress_tensor,
+)
+from jamlab.spheres.state import (
+    Packing,
+    affine_shear,
+    parse_sizes,
+    random_packing,
+    size_distribution,
 )
 
 __all__ = [
@@ -31,6 +38,8 @@ __all__ = [
     "DEFAULT_SKIN",
     "Evaluation",
     "FireParameters",
+    "HARMONIC",
+    "HERTZIAN",
     "MinimizeResult",
     "NeighborList",
     "Packing",
@@ -48,12 +57,14 @@ __all__ = [
     "max_force",
     "minimize",
     "packing_fraction",
+    "parse_sizes",
     "pressure",
     "random_packing",
     "read_lammps_positions",
     "read_packing",
     "remove_rattlers",
     "shear_stress",
+    "size_distribution",
     "sphere_volume",
     "stress_tensor",
     "write_packing",

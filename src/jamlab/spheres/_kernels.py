@@ -537,22 +537,16 @@ def contact_pairs(pos, start, nbr, shift, diam):
 
 
 @njit(cache=True)
-def pair_force_factors(cd, ci, cj, diam, alpha):
-    """``(−V'(r)/r, r)`` of each pair ``(ci, cj)`` at separation ``cd`` (no cut-off applied: a
-    network spring in tension too, :func:`jamlab.spheres.pair.pair_terms`); the force on ``i``
-    is ``−V'(r)/r · r_ij``."""
-    m, d = cd.shape
+def pair_force_factors(r, ci, cj, diam, alpha):
+    """``−V'(r)/r`` of each pair ``(ci, cj)`` at distance ``r`` (no cut-off applied: a network
+    spring in tension too, :func:`jamlab.spheres.pair.pair_terms`); the force on ``i`` is
+    ``−V'(r)/r · r_ij``."""
+    m = r.shape[0]
     c = np.empty(m, np.float64)
-    rr = np.empty(m, np.float64)
     for p in range(m):
-        r2 = 0.0
-        for a in range(d):
-            r2 += cd[p, a] * cd[p, a]
-        r = np.sqrt(r2)
-        _, dv, _ = pair_terms(r, pair_sigma(diam, ci[p], cj[p]), alpha)
-        c[p] = -dv / r
-        rr[p] = r
-    return c, rr
+        _, dv, _ = pair_terms(r[p], pair_sigma(diam, ci[p], cj[p]), alpha)
+        c[p] = -dv / r[p]
+    return c
 
 
 @njit(cache=True)

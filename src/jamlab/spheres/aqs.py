@@ -917,8 +917,8 @@ def _network_forces(packing: Packing, ci: np.ndarray, cj: np.ndarray) -> tuple[n
     harmonic spring of rest length 1, in tension too) and the pairs' separations and lengths."""
     pos = packing.positions
     dr = packing.box.minimum_image(pos[ci] - pos[cj])
-    c, r = K.pair_force_factors(dr, ci, cj, packing.diameters, packing.alpha)
-    fp = c[:, None] * dr  # force on i
+    r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+    fp = K.pair_force_factors(r, ci, cj, packing.diameters, packing.alpha)[:, None] * dr  # on i
     n, d = pos.shape
     f = np.empty((n, d))
     for a in range(d):
