@@ -158,8 +158,8 @@ class Packing:
         sigma_max = float(diam.max())
         if not self.box.length > 2.0 * sigma_max:
             raise ValueError(
-                f"box length must exceed twice the largest diameter ({2.0 * sigma_max:.4g}) for a "
-                f"unique interacting image, got L={self.box.length} (N={n}, d={d}, "
+                f"box length must exceed 2 max(D) = {2.0 * sigma_max:.4g} (twice the cut-off) for "
+                f"a unique interacting image, got L={self.box.length} (N={n}, d={d}, "
                 f"phi={solid_volume(diam, d) / self.box.volume:.4g}); use more particles"
             )
         if self.seed is not None:
