@@ -221,6 +221,8 @@ class _Factor:
     corrected_pd: bool = True
     cache: dict | None = None  # signed key -> (dof indices, values, column of W)
     free_sorted: np.ndarray | None = None  # ``free`` in the neighbour list's order
+    diameters: np.ndarray | None = None  # the pair law of the factorised packing
+    alpha: float = 2.0
 
     def solve(self, r: np.ndarray) -> np.ndarray:
         """``P⁻¹ r`` (``M⁻¹ r`` without corrections)."""
@@ -246,7 +248,9 @@ class _Factor:
         if self.corr_keys is not None and np.array_equal(signed, self.corr_keys):
             return
         self.corr_keys, self.w, self.c_inv, self.corrected_pd = signed, None, None, True
-        if signed.size == 0 or signed.size > max_rank:
+        if signed.size == 0 or signed.size > max_rank or self.alpha != 2.0:
+            # (α ≠ 2: the stiffness V''(σ⁻) of a contact at zero overlap is 0 for α > 2 —
+            # nothing to correct — and infinite for α < 2; M alone preconditions)
             return
         cache = self.cache if self.cache is not None else {}
         self.cache = cache
@@ -275,7 +279,10 @@ class _Factor:
             idxs.append(idx_a)
             vals.append(val_a)
         w = np.column_stack(cols)
-        c = np.diag(np.where(signed > 0, 0.5, -0.5))
+        # S⁻¹ = diag(±1/V''(σ⁻)) with V''(σ⁻) = 2/σ_ij² for the harmonic law
+        pairs = np.abs(signed) - 1
+        sig = pair_sigmas(self.diameters, pairs // n, pairs % n)
+        c = np.diag(np.where(signed > 0, 1.0, -1.0) * (0.5 * sig * sig))
         for a in range(signed.size):
             c[a, :] += vals[a] @ w[idxs[a], :]
         c = 0.5 * (c + c.T)
@@ -386,6 +393,7 @@ def _factorise(
     """
     free, free_index = _free_set(backbone)
     fac = _Factor(backbone, free, free_index, None, False)
+    fac.diameters, fac.alpha = packing.diameters, packing.alpha
     if free.size == 0:
         return fac
     ci, cj, cd = _contact_list(packing, nl) if contacts is None else contacts
@@ -1000,7 +1008,8 @@ def _switch_keeps_pd(
 ) -> tuple[bool, int]:
     """Whether ``K' = K + U S Uᵀ`` is positive definite, ``K`` the network Hessian of the pairs
     ``(ci, cj)`` at ``cur``, ``U`` the columns ``b`` (``+n`` on ``i``, ``−n`` on ``j``, free
-    particles only) of the switched pairs ``(pi, pj)``, ``S = diag(2 · signs)``.
+    particles only) of the switched pairs ``(pi, pj)``, ``S = diag(2 · signs / σ²)`` (the
+    harmonic contact stiffness at zero overlap; the caller uses this only for ``α = 2``).
 
     With ``K`` positive definite (PCG meeting no negative curvature), ``K'`` is iff the
     capacitance ``C = S⁻¹ + Uᵀ K⁻¹ U`` has as many positive eigenvalues as pairs added (Haynsworth
@@ -1033,7 +1042,8 @@ def _switch_keeps_pd(
         if not ok:
             return False, cg
         z[:, c] = x
-    c_mat = np.diag(0.5 / signs) + u.T @ z
+    sig = pair_sigmas(cur.diameters, pi, pj)
+    c_mat = np.diag(0.5 * (sig * sig) / signs) + u.T @ z
     eig = np.linalg.eigvalsh(0.5 * (c_mat + c_mat.T))
     n_added = int(np.count_nonzero(signs > 0))
     pd = np.count_nonzero(eig > 0) == n_added and np.min(np.abs(eig)) > 1e-10 * np.max(np.abs(eig))
@@ -1158,7 +1168,7 @@ def _continue_network(
             continue
         # consistency at the new point: pairs of C compressed, no new backbone overlaps
         _, _, r_new = _network_forces(new, ci, cj)
-        opening = np.flatnonzero(r_new >= 1.0)
+        opening = np.flatnonzero(r_new >= pair_sigmas(new.diameters, ci, cj))
         ai, aj, _ = _contact_list(new, nl)
         both = backbone[ai] & backbone[aj]
         ai, aj = ai[both], aj[both]
@@ -1176,13 +1186,14 @@ def _continue_network(
                 )
             h = min(2.0 * h, strain - cur.strain)
             continue
-        # an event inside (g, target]: overlaps o = 1 − r at both ends, crossing by interpolation
+        # an event inside (g, target]: overlaps o = σ − r at both ends, crossing by interpolation
         pi = np.concatenate([ci[opening], ai])
         pj = np.concatenate([cj[opening], aj])
+        sig = pair_sigmas(cur.diameters, pi, pj)
         dr_a = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
         dr_b = new.box.minimum_image(new.positions[pi] - new.positions[pj])
-        o_a = 1.0 - np.sqrt(np.einsum("ij,ij->i", dr_a, dr_a))
-        o_b = 1.0 - np.sqrt(np.einsum("ij,ij->i", dr_b, dr_b))
+        o_a = sig - np.sqrt(np.einsum("ij,ij->i", dr_a, dr_a))
+        o_b = sig - np.sqrt(np.einsum("ij,ij->i", dr_b, dr_b))
         with np.errstate(divide="ignore", invalid="ignore"):
             theta = np.nan_to_num(np.clip(o_a / (o_a - o_b), 0.0, 1.0), nan=0.0)
         span = target - g
@@ -1217,7 +1228,11 @@ def _continue_network(
         ci, cj = ci[live], cj[live]
         if not backbone.any():
             return ended()
-        if fac.free.size >= _ND_MIN_FREE and np.array_equal(backbone, old_backbone):
+        if (
+            fac.free.size >= _ND_MIN_FREE
+            and cur.alpha == 2.0
+            and np.array_equal(backbone, old_backbone)
+        ):
             # same free set: K changes by ±2 b bᵀ per switched pair (zero force at the switch),
             # and its positive definiteness follows from the old K's by inertia additivity
             # (small free sets are refactorised instead: cheaper there)
