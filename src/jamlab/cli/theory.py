@@ -36,9 +36,10 @@ class _TheoryCommand(TyperCommand):
 
 def theory(
     out: Annotated[Path, typer.Option("--out", help="Output figure (PNG, PDF, SVG).")],
-    mu: Annotated[float, typer.Option("--mu", help="Exponent μ of y'(q) ~ (1-q)^(-μ-1).")] = (
-        0.706346
-    ),
+    mu: Annotated[
+        float | None,
+        typer.Option("--mu", help="Exponent μ of y'(q) ~ (1-q)^(-μ-1) (default μ_J: jamming)."),
+    ] = None,
     dgamma: Annotated[
         list[float] | None,
         typer.Option("--dgamma", help="Strain steps δγ (several values: --dgamma 1e-2 1e-3)."),
@@ -52,8 +53,9 @@ def theory(
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
     from jamlab.plots.theory import plot_jump_distributions
-    from jamlab.theory import ParisiFunction
+    from jamlab.theory import ParisiFunction, mu_jamming
 
+    mu = mu_jamming() if mu is None else mu
     dgammas = list(dgamma) if dgamma else [1e-2, 1e-3, 1e-4]
     for dg in dgammas:
         if not math.isfinite(dg) or dg == 0.0:

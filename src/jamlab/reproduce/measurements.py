@@ -1,0 +1,231 @@
+"""The numbers measured on the ensembles, as typed results (no rendering here).
+
+Rules (``docs/reproduce.md``; each re-derived independently in ``tests/test_reproduce.py``):
+
+- avalanches: for every finished sample, the steps flagged ``plastic`` by the AQS runner with
+  ``ΔE < 0`` (:func:`jamlab.analysis.avalanche_sizes`, ``threshold=None``); ``S = −ΔE`` (total);
+- ``τ``: :func:`jamlab.analysis.fit_power_law` on the sizes pooled over ``N`` at one φ, truncated
+  model with ``x_max`` = the largest size (τ may be ≤ 1 above jamming), ``x_min`` by the KS rule
+  (tail ≥ ``min_tail``), 95 % percentile bootstrap with ``n_boot`` resamples and seed
+  ``scale.seed``; our σ = (CI width)/(2·1.96);
+- ``φ_J``: mean and standard error of ``phi_actual`` over the finished jamming samples (all N);
+- moduli: :func:`jamlab.analysis.moduli_from_trace` on the intensive stress ``Σ/L³`` of each
+  finished sample (overlapping differences at the lags ``moduli_lags``, i.e. subsampling one fine
+  trace per sample, no separate runs); slope of ``log⟨μ_1²⟩`` vs ``log δγ`` by
+  :func:`jamlab.analysis.fit_log_slope` over the lags ``≤ moduli_fit_max_lag``, at the largest N.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from jamlab.reproduce.ensembles import avalanche_sizes_of, finished, intensive_stress
+from jamlab.reproduce.scales import UNSAT_PHI, Scale
+
+__all__ = [
+    "MODULI_LABELS",
+    "TAU_LABELS",
+    "ModuliResult",
+    "OneTrace",
+    "PhiJEstimate",
+    "StressStrain",
+    "TauEstimate",
+    "fit_tau",
+    "moduli",
+    "one_trace",
+    "phi_j_estimate",
+    "predicted_tau",
+    "stress_strain",
+    "tau_estimates",
+    "tau_sigma",
+]
+
+TAU_LABELS = ("jamming",) + tuple(repr(p) for p in UNSAT_PHI)
+"""The φ labels with a τ fit, in report order (``"jamming"``, ``"0.75"``, ``"0.8"``)."""
+MODULI_LABELS = ("jamming", "0.75")
+"""The φ labels with moduli moments, in report order."""
+
+_Z_95 = 1.959963984540054  # the two-sided 95 % standard-normal quantile
+
+
+def predicted_tau(label: str) -> float:
+    """The theory's τ: ``τ_J`` (:func:`jamlab.theory.tau_jamming`) at jamming, 1 above."""
+    from jamlab.theory import tau_jamming
+
+    return tau_jamming() if label == "jamming" else 1.0
+
+
+def fit_tau(sizes: np.ndarray, scale: Scale) -> Any:
+    """The τ fit of the module rule, or None when there are fewer than ``min_tail`` sizes."""
+    from jamlab.analysis import fit_power_law
+
+    if sizes.size < scale.min_tail:
+        return None
+    return fit_power_law(sizes, x_max=float(np.max(sizes)), min_tail=scale.min_tail,
+                         n_boot=scale.n_boot, seed=scale.seed)
+
+
+def tau_sigma(fit: Any) -> float:
+    """Our 1σ of a τ fit: half the 95 % bootstrap interval over 1.96 (the asymptotic standard
+    error without a bootstrap interval; NaN without a fit)."""
+    if fit is None:
+        return math.nan
+    if math.isfinite(fit.ci_low) and math.isfinite(fit.ci_high):
+        return (fit.ci_high - fit.ci_low) / (2 * _Z_95)
+    return fit.tau_stderr
+
+
+@dataclass(frozen=True)
+class TauEstimate:
+    """τ at one φ label: the fit (None with too few sizes) and its σ, the counts it rests on, and
+    the size histograms per N and pooled (``P(S)`` per AQS step)."""
+
+    label: str
+    fit: Any
+    sigma: float
+    n_avalanches: int
+    steps: int
+    samples: int
+    per_n: dict[int, Any]
+    pooled: Any
+
+
+def tau_estimates(jamming: Any, unsat: Any, scale: Scale) -> dict[str, TauEstimate]:
+    """:class:`TauEstimate` for each of :data:`TAU_LABELS`, from the ``jamming`` and ``unsat``
+    run datasets."""
+    from jamlab.analysis import log_histogram
+
+    sources = [("jamming", jamming, scale.jamming_n)] + [
+        (repr(p), unsat, scale.unsat_n) for p in UNSAT_PHI]
+    out: dict[str, TauEstimate] = {}
+    for label, ds, ns in sources:
+        all_sizes, steps, samples = [], 0, 0
+        per_n = {}
+        for n in ns:
+            s, st, sa = avalanche_sizes_of(ds, label, n)
+            all_sizes.append(s)
+            steps += st
+            samples += sa
+            if s.size:
+                per_n[n] = log_histogram(s, scale.bins_per_decade, n_total=max(st, 1))
+        sizes = np.concatenate(all_sizes)
+        pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
+            if sizes.size else log_histogram(np.array([1.0]), scale.bins_per_decade, n_total=1)
+        fit = fit_tau(sizes, scale)
+        out[label] = TauEstimate(label, fit, tau_sigma(fit), int(sizes.size), steps, samples,
+                                 per_n, pooled)
+    return out
+
+
+@dataclass(frozen=True)
+class PhiJEstimate:
+    """φ_J over the finished jamming samples: mean, standard error, count, and mean per N."""
+
+    mean: float
+    sem: float
+    n: int
+    per_n: dict[int, float]
+
+
+def phi_j_estimate(jamming: Any, scale: Scale) -> PhiJEstimate:
+    """The φ_J rule of the module docstring on the ``jamming`` run dataset."""
+    done = jamming.status.values == "done"
+    phis = np.asarray(jamming.phi_actual.values)[done]
+    mean = float(phis.mean()) if phis.size else math.nan
+    sem = float(phis.std(ddof=1) / math.sqrt(phis.size)) if phis.size > 1 else math.nan
+    per_n = {}
+    for n in scale.jamming_n:
+        mask = finished(jamming, "jamming", n)
+        if mask.any():
+            values = jamming.phi_actual.sel(phi="jamming", N=n).values
+            per_n[n] = float(np.nanmean(np.where(mask, values, np.nan)))
+    return PhiJEstimate(mean, sem, int(phis.size), per_n)
+
+
+@dataclass(frozen=True)
+class ModuliResult:
+    """Moments of the shear modulus per label and N, and per label the slope fit of
+    ``log⟨μ_1²⟩`` as ``(N, fit, largest δγ fitted)`` at the largest N (None without one)."""
+
+    moments: dict[str, dict[int, Any]]
+    slopes: dict[str, tuple[int, Any, float] | None]
+
+
+def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
+    """The moduli rule of the module docstring at :data:`MODULI_LABELS`."""
+    from jamlab.analysis import fit_log_slope, moduli_from_trace
+
+    moments: dict[str, dict[int, Any]] = {}
+    slopes: dict[str, tuple[int, Any, float] | None] = {}
+    for label, ds, ns in (("jamming", jamming, scale.jamming_n), ("0.75", unsat, scale.unsat_n)):
+        moments[label] = {}
+        for n in ns:
+            st = intensive_stress(ds, label, n)
+            if st.shape[0] >= 2:
+                moments[label][n] = moduli_from_trace(st, scale.dgamma, scale.moduli_lags)
+        slopes[label] = None
+        if moments[label]:
+            n_big = max(moments[label])
+            m = moments[label][n_big]
+            sel = m.strain_step <= scale.moduli_fit_max_lag * scale.dgamma * (1 + 1e-9)
+            if sel.sum() >= 2 and np.all(m.mu1_sq_err[sel] > 0):
+                sf = fit_log_slope(m.strain_step[sel], m.mu1_sq[sel], m.mu1_sq_err[sel])
+                slopes[label] = (n_big, sf, scale.moduli_fit_max_lag * scale.dgamma)
+    return ModuliResult(moments, slopes)
+
+
+@dataclass(frozen=True)
+class OneTrace:
+    """One jammed sample's trace: ``E/N`` (ε), ``Σ/L³`` (ε/σ³) and plastic flags against γ."""
+
+    n: int
+    sample: int
+    phi_j: float
+    gamma: np.ndarray
+    energy_per_particle: np.ndarray
+    stress: np.ndarray
+    plastic: np.ndarray
+
+
+def one_trace(jamming: Any, scale: Scale) -> OneTrace | None:
+    """The first finished sample of the largest jamming ensemble (None if there is none)."""
+    n = max(scale.jamming_n)
+    done = np.flatnonzero(finished(jamming, "jamming", n))
+    if not done.size:
+        return None
+    i = int(done[0])
+    sel = dict(phi="jamming", N=n, sample=i)
+    length = float(jamming.box_length.sel(**sel))
+    return OneTrace(n=n, sample=i, phi_j=float(jamming.phi_actual.sel(**sel)),
+                    gamma=jamming.gamma.sel(**sel).values,
+                    energy_per_particle=jamming.energy.sel(**sel).values / n,
+                    stress=jamming.shear_stress.sel(**sel).values / length**3,
+                    plastic=jamming.plastic.sel(**sel).values > 0.5)
+
+
+@dataclass(frozen=True)
+class StressStrain:
+    """The stress–strain ensemble: the strain grid and ``Σ/L³`` per finished sample."""
+
+    gamma: np.ndarray
+    stress: np.ndarray
+
+    @property
+    def samples(self) -> int:
+        """Number of finished samples."""
+        return int(self.stress.shape[0])
+
+
+def stress_strain(ds: Any, scale: Scale) -> StressStrain | None:
+    """The ``stress-strain`` run dataset at ``stress_phi`` (None without a finished sample)."""
+    label = repr(float(scale.stress_phi))
+    stress = intensive_stress(ds, label, scale.stress_n)
+    if not stress.shape[0]:
+        return None
+    gamma = np.asarray(ds.gamma.sel(phi=label, N=scale.stress_n).values)[
+        finished(ds, label, scale.stress_n)][0]
+    return StressStrain(gamma, stress)

@@ -1,0 +1,297 @@
+"""The reproduction pipeline: run the ensembles, compute each part, render the table and figures.
+
+The analysis is split into parts (:data:`PARTS`, in report order of their rows). Each part
+computes one typed result (:mod:`jamlab.reproduce.measurements`,
+:mod:`jamlab.reproduce.coordination`, :mod:`jamlab.reproduce.theory_checks`), which
+:mod:`jamlab.reproduce.table` renders as rows and JSON data and :mod:`jamlab.reproduce.figures`
+as figures (:data:`FIGURE_PART` says which part each figure needs).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from jamlab.report import Figure, ReportMeta, Row, write_report
+from jamlab.reproduce import figures, table
+from jamlab.reproduce.coordination import coordination
+from jamlab.reproduce.ensembles import RunSet
+from jamlab.reproduce.measurements import (
+    moduli,
+    one_trace,
+    phi_j_estimate,
+    stress_strain,
+    tau_estimates,
+)
+from jamlab.reproduce.scales import Scale, get_scale, studies
+from jamlab.reproduce.theory_checks import theory_checks
+
+__all__ = ["FIGURE_PART", "PARTS", "Part", "ReproduceResult", "make_figure", "reproduce"]
+
+TITLE = "jamlab: reproduction of Franz & Spigler, Mean-field avalanches in jammed spheres"
+
+
+@dataclass
+class ReproduceResult:
+    """What :func:`reproduce` produced: the report files, table rows, figures and wall time."""
+
+    out: Path
+    paths: dict[str, Path]
+    rows: list[Row]
+    figures: list[Figure]
+    seconds: float
+    data: dict[str, Any]
+
+
+class _Analysis:
+    """What the parts share: scale, run directories, output places, and each part's result
+    (computed once, on first use)."""
+
+    def __init__(self, scale: Scale, runs: Path, out: Path, figdir: Path,
+                 log: Callable[[str], None]) -> None:
+        self.scale, self.runs, self.out, self.figdir, self.log = (
+            scale, RunSet(runs), out, figdir, log)
+        self._results: dict[str, Any] = {}
+
+    def result(self, part: str) -> Any:
+        """The typed result of ``part``."""
+        if part not in self._results:
+            self._results[part] = PARTS[part].compute(self)
+        return self._results[part]
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the analysis: ``compute`` its typed result; ``render`` it as table rows and
+    JSON data (None: the part only feeds figures)."""
+
+    compute: Callable[[_Analysis], Any]
+    render: Callable[[Any, Scale], tuple[list[Row], dict[str, Any]]] | None
+
+
+def _avalanches(c: _Analysis) -> Any:
+    est = tau_estimates(c.runs["jamming"], c.runs["unsat"], c.scale)
+    for label, e in est.items():
+        c.log(f"τ at {label}: {table.fit_text(e.fit, e.sigma)}, {e.n_avalanches} avalanches")
+    return est
+
+
+def _stress_strain_data(s: Any, scale: Scale) -> tuple[list[Row], dict[str, Any]]:
+    return [], ({} if s is None else {"stress_strain": dict(samples=s.samples)})
+
+
+PARTS: dict[str, Part] = {
+    "avalanches": Part(_avalanches, lambda r, s: (table.tau_rows(r), table.tau_data(r))),
+    "phi_j": Part(lambda c: phi_j_estimate(c.runs["jamming"], c.scale),
+                  lambda r, s: ([table.phi_j_row(r)], table.phi_j_data(r))),
+    "moduli": Part(lambda c: moduli(c.runs["jamming"], c.runs["unsat"], c.scale),
+                   lambda r, s: (table.moduli_rows(r, s), table.moduli_data(r))),
+    "trace": Part(lambda c: one_trace(c.runs["jamming"], c.scale), None),
+    "stress_strain": Part(lambda c: stress_strain(c.runs["stress-strain"], c.scale),
+                          _stress_strain_data),
+    "coordination": Part(lambda c: coordination(c.scale, c.out / "data", c.log),
+                         lambda r, s: (table.coordination_rows(r, s),
+                                       table.coordination_data(r))),
+    "theory": Part(lambda c: theory_checks(c.scale),
+                   lambda r, s: (table.theory_rows(r, s), table.theory_data(r))),
+}
+"""The analysis in independent parts, in report order of their rows."""
+
+FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory", "fig4": "trace",
+               "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
+               "theory_vs_cascade": "theory"}
+"""Which part makes which figure."""
+
+_DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
+    "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir),
+    "fig2": lambda c: figures.fig2(c.scale, c.figdir),
+    "fig3": lambda c: figures.fig3(c.figdir),
+    "fig4": lambda c: figures.fig4(c.result("trace"), c.scale, c.figdir),
+    "fig5": lambda c: figures.fig5(c.result("avalanches"), c.scale, c.figdir),
+    "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir),
+    "fig7": lambda c: figures.fig7(c.result("moduli"), c.scale, c.figdir),
+    "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir),
+}
+
+
+def _analyse(c: _Analysis) -> tuple[list[Row], dict[str, Any], list[Figure]]:
+    """Every part's rows and data, and every figure that has data, in report order."""
+    rows: list[Row] = []
+    data: dict[str, Any] = {}
+    files: dict[str, Path] = {}
+    for name, part in PARTS.items():
+        result = c.result(name)
+        if part.render is not None:
+            part_rows, part_data = part.render(result, c.scale)
+            rows += part_rows
+            data.update(part_data)
+        for key in (k for k, p in FIGURE_PART.items() if p == name):
+            path = _DRAW[key](c)
+            if path is not None:
+                files[key] = path
+    caps = figures.captions(c.scale, c.result("coordination"), c.result("avalanches"),
+                            c.result("theory"))
+    figs = [Figure(key, figures.TITLES[key], files[key].relative_to(c.out).as_posix(), caps[key])
+            for key in figures.TITLES if key in files]
+    return rows, data, figs
+
+
+def _run_all(scale: Scale, runs: Path, execution: Any, log: Callable[[str], None]) -> dict:
+    from jamlab.runs import RunSummary, run_study
+
+    summaries: dict[str, RunSummary] = {}
+    for name, study in studies(scale).items():
+        t = time.perf_counter()
+        summaries[name] = run_study(study, runs / name, execution, log=log)
+        s = summaries[name]
+        log(f"{name}: {s.done} computed, {s.skipped} reused, {s.failed} failed "
+            f"({time.perf_counter() - t:.0f} s)")
+    return summaries
+
+
+def _check_writable(path: Path) -> None:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot create output directory {path}: {exc.strerror}") from None
+    if not path.is_dir() or not os.access(path, os.W_OK | os.X_OK):
+        raise ValueError(f"output directory {path} is not writable")
+
+
+def reproduce(
+    scale: Scale | str,
+    out: str | os.PathLike,
+    *,
+    runs: str | os.PathLike | None = None,
+    execution: Any = None,
+    log: Callable[[str], None] | None = None,
+) -> ReproduceResult:
+    """Run (or resume) the ensembles of ``scale`` and write the report into ``out``.
+
+    The ensembles are run through :func:`jamlab.runs.run_study` (a second call reuses every
+    finished sample); the numbers follow the rules of ``docs/reproduce.md``; the report is
+    ``out/report.md``, ``out/index.html`` and ``out/results.json`` with the figures in
+    ``out/figures`` (:func:`jamlab.report.write_report`).
+
+    Parameters
+    ----------
+    scale : Scale or str
+        A :class:`~jamlab.reproduce.Scale` or the name of one in
+        :data:`~jamlab.reproduce.SCALES` (``"tiny"``, ``"quick"``, ``"paper"``).
+    out : path
+        The report directory (created if missing).
+    runs : path, optional
+        Where the run directories ``jamming``, ``unsat`` and ``stress-strain`` live (default
+        ``out/runs``).
+    execution : jamlab.runs.Execution, optional
+        Where the samples run (default: all local cores).
+    log : callable, optional
+        Called with one progress message at a time (default: silent).
+
+    Returns
+    -------
+    ReproduceResult
+        The report's paths (``"markdown"``, ``"html"``, ``"json"``), its rows and figures, the
+        wall time of this call in seconds and the machine-readable numbers (``data``, also in
+        ``results.json``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown scale or an output directory that cannot be written, before running
+        anything.
+
+    Examples
+    --------
+    A scale is checked before anything runs:
+
+    >>> from jamlab.reproduce import SCALES, reproduce
+    >>> sorted(SCALES)
+    ['paper', 'quick', 'tiny']
+    >>> reproduce("huge", "report")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown scale 'huge': valid scales are tiny, quick, paper
+
+    The ``tiny`` scale (about a minute on one core) writes a complete report::
+
+        from jamlab.runs import Execution
+        result = reproduce("tiny", "report", execution=Execution(workers=0))
+        result.paths["markdown"]        # report/report.md
+    """
+    t0 = time.perf_counter()
+    scale = get_scale(scale)
+    log = log or (lambda msg: None)
+    out = Path(out)
+    _check_writable(out)
+    runs_dir = Path(runs) if runs is not None else out / "runs"
+    _check_writable(runs_dir)
+    figdir = out / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+
+    summaries = _run_all(scale, runs_dir, execution, log)
+    log("analysis and figures")
+    rows, data, figs = _analyse(_Analysis(scale, runs_dir, out, figdir, log))
+    data["runs"] = {k: asdict(v) | {"failures": [str(f) for f in v.failures]}
+                    for k, v in summaries.items()}
+    seconds = time.perf_counter() - t0
+    meta = ReportMeta(
+        title=TITLE,
+        scale=scale.name,
+        seconds=seconds,
+        parameters={"this invocation": (
+            f"{sum(v.done for v in summaries.values())} samples computed, "
+            f"{sum(v.skipped for v in summaries.values())} reused from earlier runs, "
+            f"{sum(v.failed for v in summaries.values())} failed "
+            f"(the wall time covers only this invocation)")} | table.parameters(scale, runs_dir),
+        notes=table.notes(scale),
+    )
+    paths = write_report(out, rows, figs, meta, extra=data)
+    log(f"report written: {paths['html']} ({seconds:.0f} s)")
+    return ReproduceResult(out, paths, rows, figs, seconds, data)
+
+
+def make_figure(
+    name: str,
+    scale: Scale | str,
+    runs: str | os.PathLike,
+    out_file: str | os.PathLike,
+    work: str | os.PathLike | None = None,
+) -> Path:
+    """Make one figure of the report (``fig1`` … ``fig7``, ``theory_vs_cascade``) from existing
+    run directories under ``runs`` (those of ``jamlab reproduce``; nothing is run except the
+    coordination curve and the theory, which need no ensemble) and copy it to ``out_file``.
+
+    ``work`` keeps the intermediate files (default: a temporary directory); the coordination
+    curves are cached in ``work/data``.
+    """
+    import shutil
+    import tempfile
+
+    if name not in FIGURE_PART:
+        raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
+    scale = get_scale(scale)
+    runs = Path(runs)
+    part = FIGURE_PART[name]
+    needs = {"avalanches": ("jamming", "unsat"), "moduli": ("jamming", "unsat"),
+             "trace": ("jamming",), "stress_strain": ("stress-strain",)}.get(part, ())
+    for run in needs:
+        if not (runs / run / "manifest.json").is_file():
+            raise ValueError(f"{runs / run} is not a run directory: run `jamlab reproduce "
+                             f"--scale {scale.name}` first (or give --runs)")
+    out_file = Path(out_file)
+    if not out_file.parent.is_dir():
+        raise FileNotFoundError(f"output directory does not exist: {out_file.parent}")
+    with tempfile.TemporaryDirectory() as tmp:
+        base = Path(work) if work is not None else Path(tmp)
+        figdir = base / "figures"
+        figdir.mkdir(parents=True, exist_ok=True)
+        path = _DRAW[name](_Analysis(scale, runs, base, figdir, lambda msg: None))
+        if path is None:
+            raise ValueError(f"no data for {name} in {runs} (no finished samples)")
+        shutil.copyfile(path, out_file)
+    return out_file

@@ -1,0 +1,173 @@
+"""The scales of a reproduction: ensemble sizes, sample counts, fit settings and expected cost.
+
+A :class:`Scale` fixes everything that sets the size of ``jamlab reproduce`` (all seeds derive
+from ``Scale.seed``); :data:`SCALES` holds the named ones (``tiny`` for tests, ``quick`` for a
+laptop, ``paper`` for a cluster) and :func:`studies` turns a scale into the three
+:class:`jamlab.runs.Study` it runs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+__all__ = ["SCALES", "UNSAT_PHI", "Scale", "get_scale", "studies", "with_seed"]
+
+UNSAT_PHI = (0.75, 0.8)
+"""The packing fractions above jamming (the paper's UNSAT ensembles)."""
+
+
+@dataclass(frozen=True)
+class Scale:
+    """Everything that sets the size of a reproduction (all seeds derive from ``seed``)."""
+
+    name: str
+    jamming_n: tuple[int, ...]
+    jamming_samples: int
+    unsat_n: tuple[int, ...]
+    unsat_samples: int
+    dgamma: float
+    gamma_max: float
+    jamming_gamma_max: float
+    stress_phi: float
+    stress_n: int
+    stress_samples: int
+    stress_dgamma: float
+    stress_gamma_max: float
+    coord_n: int
+    coord_samples: int
+    coord_steps: int
+    moduli_lags: tuple[int, ...]
+    moduli_fit_max_lag: int
+    min_tail: int
+    n_boot: int
+    cascade_k: int
+    cascade_samples: int
+    cascade_dgammas: tuple[float, ...]
+    cascade_check_dgamma: float
+    seed: int = 0
+    bins_per_decade: int = 5
+    expected: str = ""
+
+    def __post_init__(self) -> None:
+        steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
+        if not (self.moduli_lags and max(self.moduli_lags) < steps):
+            raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")
+        if self.cascade_check_dgamma not in self.cascade_dgammas:
+            raise ValueError("cascade_check_dgamma must be one of cascade_dgammas")
+
+
+SCALES: dict[str, Scale] = {
+    "tiny": Scale(
+        name="tiny",
+        jamming_n=(32,),
+        jamming_samples=3,
+        unsat_n=(32,),
+        unsat_samples=3,
+        dgamma=1e-3,
+        gamma_max=0.02,
+        jamming_gamma_max=0.02,
+        stress_phi=0.75,
+        stress_n=32,
+        stress_samples=3,
+        stress_dgamma=1e-2,
+        stress_gamma_max=0.15,
+        coord_n=32,
+        coord_samples=1,
+        coord_steps=8,
+        moduli_lags=(1, 2, 4, 8),
+        moduli_fit_max_lag=8,
+        min_tail=5,
+        n_boot=20,
+        cascade_k=4,
+        cascade_samples=2000,
+        cascade_dgammas=(0.1, 0.3),
+        cascade_check_dgamma=0.3,
+        expected="about 1 minute on one core (tests)",
+    ),
+    "quick": Scale(
+        name="quick",
+        jamming_n=(64, 128),
+        jamming_samples=30,
+        unsat_n=(128, 256),
+        unsat_samples=120,
+        dgamma=1e-4,
+        gamma_max=0.02,
+        jamming_gamma_max=0.01,
+        stress_phi=0.75,
+        stress_n=128,
+        stress_samples=32,
+        stress_dgamma=1e-4,
+        stress_gamma_max=0.15,
+        coord_n=256,
+        coord_samples=3,
+        coord_steps=30,
+        moduli_lags=(1, 2, 3, 5, 10, 20, 30, 50),
+        moduli_fit_max_lag=10,
+        min_tail=50,
+        n_boot=200,
+        cascade_k=16,
+        cascade_samples=40_000,
+        cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
+        cascade_check_dgamma=0.3,
+        expected="≈ 10 minutes on 2 idle cores (measured; budget 30 minutes)",
+    ),
+    "paper": Scale(
+        name="paper",
+        jamming_n=(500, 1000, 2000, 4000),
+        jamming_samples=300,
+        unsat_n=(500, 1000, 2000, 4000),
+        unsat_samples=1000,
+        dgamma=1e-5,
+        gamma_max=0.01,
+        jamming_gamma_max=0.01,
+        stress_phi=0.75,
+        stress_n=256,
+        stress_samples=200,
+        stress_dgamma=1e-4,
+        stress_gamma_max=0.15,
+        coord_n=1000,
+        coord_samples=8,
+        coord_steps=40,
+        moduli_lags=(1, 2, 5, 10, 20, 50, 100, 200, 500),
+        moduli_fit_max_lag=100,
+        min_tail=50,
+        n_boot=500,
+        cascade_k=64,
+        cascade_samples=200_000,
+        cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
+        cascade_check_dgamma=0.3,
+        expected="10³–10⁴ CPU hours, extrapolated (jamming samples dominate): a Dask cluster",
+    ),
+}
+
+
+def studies(scale: Scale) -> dict[str, Any]:
+    """The three :class:`jamlab.runs.Study` of a scale, by run-directory name."""
+    from jamlab.runs import Study
+
+    return {
+        "jamming": Study(phi=("jamming",), n=scale.jamming_n, samples=scale.jamming_samples,
+                         dgamma=scale.dgamma, gamma_max=scale.jamming_gamma_max,
+                         seed=scale.seed),
+        "unsat": Study(phi=UNSAT_PHI, n=scale.unsat_n, samples=scale.unsat_samples,
+                       dgamma=scale.dgamma, gamma_max=scale.gamma_max, seed=scale.seed),
+        "stress-strain": Study(phi=(scale.stress_phi,), n=(scale.stress_n,),
+                               samples=scale.stress_samples, dgamma=scale.stress_dgamma,
+                               gamma_max=scale.stress_gamma_max, seed=scale.seed),
+    }
+
+
+def get_scale(scale: Scale | str) -> Scale:
+    """``scale`` itself, or the named scale of :data:`SCALES` (``ValueError`` for an unknown
+    name)."""
+    if isinstance(scale, str):
+        if scale not in SCALES:
+            raise ValueError(f"unknown scale {scale!r}: valid scales are {', '.join(SCALES)}")
+        return SCALES[scale]
+    return scale
+
+
+def with_seed(scale: Scale, seed: int) -> Scale:
+    """The same scale with another master seed."""
+    return replace(scale, seed=int(seed))
