@@ -18,6 +18,8 @@ import pytest
 ENTRY_POINTS = [
     "jamlab.analysis.powerlaw.fit_power_law",
     "jamlab.reproduce.reproduce",
+    "jamlab.spheres.packing.jam",
+    "jamlab.spheres.packing.prepare",
 ]
 
 SECTIONS = ("Parameters", "Returns", "Examples")

@@ -196,9 +196,52 @@ def jam(
     Every minimisation is listed in ``steps`` (:class:`MinimizationStep`), so the schedule can
     be replayed exactly.
 
-    Returns a :class:`PreparedPacking` with ``ok=False`` and a ``reason`` if a minimisation does
-    not converge (no restart: that is a numerical failure), or if every attempt fails
-    (``strict=True`` raises :class:`JammingError` instead).
+    Parameters
+    ----------
+    n, dim : int
+        Number of particles (``>= 2``) and dimension (``>= 2``).
+    seed : int
+        Seed of the random start (``>= 0``); restarts derive theirs from it.
+    p_target : float
+        Goal pressure; the packing ends with ``p ∈ [p_target/2, 2 p_target]``.
+    phi_init : float
+        Packing fraction of the quench.
+    ftol : float
+        Convergence of every minimisation: ``max_i |F_i| < ftol``.
+    p_floor_factor, compress_factor, max_minimizations, max_restarts, max_iter, \
+confirm_ftol_factor
+        Protocol limits (steps 2–5 above).
+    strict : bool
+        Raise :class:`JammingError` instead of returning ``ok=False``.
+    progress : callable, optional
+        Called with a one-line message after each minimisation.
+    sizes : str
+        Diameters: ``"mono"`` (``D = 1``), ``"bidisperse"`` (1 : 1.4) or
+        ``"polydisperse[:w]"`` (:mod:`jamlab.spheres.state`).
+    alpha : float
+        Pair exponent, ``V = (1 − r/σ_ij)^α`` (2: harmonic, 2.5: Hertzian).
+
+    Returns
+    -------
+    PreparedPacking
+        The packing, its contact statistics (``state``), ``phi_j`` and the schedule; ``ok=False``
+        with a ``reason`` if a minimisation does not converge (no restart: that is a numerical
+        failure) or if every attempt fails.
+
+    Examples
+    --------
+    >>> from jamlab.spheres import jam
+    >>> r = jam(64, 3, seed=1, p_target=1e-4)
+    >>> r.ok, r.state.isostatic, 0.5e-4 <= r.state.pressure <= 2e-4
+    (True, True, True)
+    >>> round(r.phi_j, 4)
+    0.6262
+
+    A 2D bidisperse glass former (O'Hern et al. 2003: ``φ_J ≈ 0.842`` for large ``N``):
+
+    >>> r = jam(128, 2, seed=2, p_target=1e-4, sizes="bidisperse")
+    >>> r.ok, r.state.isostatic, round(r.phi_j, 3)
+    (True, True, 0.843)
     """
     _check_common(n, dim, seed, ftol, sizes, alpha)
     if not (isinstance(p_target, int | float) and math.isfinite(p_target) and p_target > 0):
@@ -297,9 +340,38 @@ def prepare(
     sizes: str = "mono",
     alpha: float = HARMONIC,
 ) -> PreparedPacking:
-    """An UNSAT packing: uniformly random positions at ``φ`` (:func:`random_packing` with
-    ``seed``, diameters ``sizes``, pair exponent ``alpha``) minimised directly there. ``ok`` iff
-    FIRE converged and the packing is jammed (``p > 0`` with a non-empty backbone)."""
+    """An UNSAT packing: uniformly random positions at ``φ`` minimised directly there.
+
+    Parameters
+    ----------
+    n, dim : int
+        Number of particles (``>= 2``) and dimension (``>= 2``).
+    phi : float
+        Packing fraction ``Σ_i v_d(D_i/2)/L^d``, in ``(0, 1)``.
+    seed : int
+        Seed of the random positions (:func:`~jamlab.spheres.state.random_packing`).
+    ftol, max_iter : float, int
+        FIRE stops when ``max_i |F_i| < ftol`` or after ``max_iter`` iterations.
+    sizes : str
+        Diameters: ``"mono"``, ``"bidisperse"`` or ``"polydisperse[:w]"``.
+    alpha : float
+        Pair exponent, ``V = (1 − r/σ_ij)^α``.
+
+    Returns
+    -------
+    PreparedPacking
+        ``ok`` iff FIRE converged and the packing is jammed (``p > 0`` with a non-empty
+        backbone); otherwise ``reason`` says why.
+
+    Examples
+    --------
+    >>> from jamlab.spheres import prepare
+    >>> u = prepare(128, 3, 0.8, seed=1)
+    >>> u.ok, round(u.packing.phi, 12), u.state.z_nr > 6
+    (True, 0.8, True)
+    >>> prepare(128, 3, 0.7, seed=1, alpha=2.5).packing.alpha
+    2.5
+    """
     _check_common(n, dim, seed, ftol, sizes, alpha)
     if not (isinstance(phi, int | float | np.floating) and 0 < phi < 1):
         raise ValueError(f"packing fraction must be in (0, 1), got phi={phi!r}")
