@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.spheres import aqs
-from jamlab.spheres.aqs import _affine_to, _backbone, checkpoint_paths
+from jamlab.spheres.aqs import checkpoint_paths
+from jamlab.spheres.aqs.network import affine_to, find_backbone
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.newton import HybridParameters, minimize_hybrid
@@ -78,9 +79,9 @@ def run_setting(n: int, p_target: float, max_steps: int, args) -> dict:
         chosen = range(1, min(args.steps, max_steps) + 1) if args.all_steps else plastic
         for step in list(chosen)[: args.steps]:
             prev = cur if step == 1 else read_packing(configs / f"step_{step - 1:08d}.h5")
-            starts.append((step, _affine_to(prev, float(sh.trace.gamma[step]))))
+            starts.append((step, affine_to(prev, float(sh.trace.gamma[step]))))
     # warm both (compiled kernels, SuperLU) outside the timings
-    minimize_hybrid(_affine_to(cur, cur.strain + args.dgamma), FTOL, switch=args.switch)
+    minimize_hybrid(affine_to(cur, cur.strain + args.dgamma), FTOL, switch=args.switch)
     header = (
         "step   FIRE its      ms |  hybrid FIRE+Newton (fact)      ms  ok cl |  ratio |"
         "  rel dE     |dE|   |dr|_bb"
@@ -101,7 +102,7 @@ def run_setting(n: int, p_target: float, max_steps: int, args) -> dict:
             t_h.append(time.perf_counter() - t)
         if not fire.converged:
             raise RuntimeError(f"FIRE did not converge at step {step}")
-        bb = _backbone(fire.packing, nl)
+        bb = find_backbone(fire.packing, nl)
         dr = fire.packing.box.minimum_image(hyb.packing.positions - fire.packing.positions)
         dr_bb = float(np.max(np.abs(dr[bb] - dr[bb].mean(axis=0)))) if bb.any() else 0.0
         d_e = hyb.energy - fire.energy

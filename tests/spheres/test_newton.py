@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jamlab.spheres import random_packing
-from jamlab.spheres.aqs import _affine_to, _backbone
+from jamlab.spheres.aqs.network import affine_to, find_backbone
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.newton import HybridParameters, minimize_hybrid
 from jamlab.spheres.packing import jam
@@ -33,7 +33,7 @@ def _compare(fire, hybrid, nl) -> None:
     # (abs: an unjammed minimum has E ~ N ftol², i.e. zero)
     n = fire.packing.n
     assert hybrid.energy == pytest.approx(fire.energy, rel=1e-12, abs=n * FTOL**2)
-    bb = _backbone(fire.packing, nl)
+    bb = find_backbone(fire.packing, nl)
     if not bb.any():
         return
     dr = fire.packing.box.minimum_image(hybrid.packing.positions - fire.packing.positions)
@@ -58,7 +58,7 @@ def test_hybrid_reaches_fires_minimum_on_aqs_steps(jammed, index):
     used_newton = 0
     for dgamma in (1e-5, 1e-4, 1e-3):  # elastic to plastic
         for _ in range(2):
-            affine = _affine_to(cur, cur.strain + dgamma)
+            affine = affine_to(cur, cur.strain + dgamma)
             fire = minimize(affine, FTOL, 2_000_000, neighbors=nl)
             hybrid = minimize_hybrid(affine, FTOL, switch=1e-8, neighbors=nl)
             _compare(fire, hybrid, nl)
@@ -72,7 +72,7 @@ def test_hybrid_from_a_loose_switch_still_same_minimum(jammed):
     # from max|F| < 1e-6 Newton may fail or need cleanup; the minimum must not change
     cur = jammed[2]
     nl = NeighborList(cur)
-    affine = _affine_to(cur, cur.strain + 1e-4)
+    affine = affine_to(cur, cur.strain + 1e-4)
     fire = minimize(affine, FTOL, 2_000_000, neighbors=nl)
     hybrid = minimize_hybrid(affine, FTOL, switch=1e-6, neighbors=nl)
     _compare(fire, hybrid, nl)
@@ -92,7 +92,7 @@ def test_unjammed_falls_back_to_fire():
 
 def test_no_attempts_is_plain_fire(jammed):
     cur = jammed[0]
-    affine = _affine_to(cur, cur.strain + 1e-4)
+    affine = affine_to(cur, cur.strain + 1e-4)
     fire = minimize(affine, FTOL, 2_000_000)
     hybrid = minimize_hybrid(affine, FTOL, params=HybridParameters(max_attempts=0))
     assert hybrid.n_attempts == 0 and not hybrid.newton_ok
@@ -102,7 +102,7 @@ def test_no_attempts_is_plain_fire(jammed):
 
 def test_budget_exhaustion_is_reported(jammed):
     cur = jammed[1]
-    affine = _affine_to(cur, cur.strain + 1e-3)
+    affine = affine_to(cur, cur.strain + 1e-3)
     hybrid = minimize_hybrid(affine, FTOL, max_iter=5)
     assert not hybrid.converged
     assert hybrid.max_force >= FTOL

@@ -61,7 +61,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jamlab.spheres.aqs import _backbone_mask, _contact_list, _factorise, _max_norm
+from jamlab.spheres.aqs.linalg import factorise as _factorise
+from jamlab.spheres.aqs.linalg import max_norm as _max_norm
+from jamlab.spheres.aqs.network import backbone_mask as _backbone_mask
+from jamlab.spheres.aqs.network import contact_list as _contact_list
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing, energy_and_forces
 
