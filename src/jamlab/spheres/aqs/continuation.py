@@ -6,10 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.sparse as sps
 
-from jamlab.spheres import _aqs_kernels as AK
-from jamlab.spheres.aqs.linalg import ND_MIN_FREE, Factor, factorise, pcg
+from jamlab.spheres.aqs.linalg import ND_MIN_FREE, Factor, factorise, hessian_matrix, pcg
 from jamlab.spheres.aqs.network import (
     affine_to,
     backbone_mask,
@@ -18,7 +16,7 @@ from jamlab.spheres.aqs.network import (
     network_forces,
     pair_keys,
 )
-from jamlab.spheres.aqs.newton import network_newton, newton
+from jamlab.spheres.aqs.newton import NetworkModel, damped_newton, newton
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.potential import NeighborList, Packing
 
@@ -121,8 +119,7 @@ def switch_keeps_pd(
     d = cur.dim
     free_index, n_free = fac.free_index, fac.free.size
     _, dr, _ = network_forces(cur, ci, cj)
-    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, free_index, n_free)
-    k = sps.csr_matrix((data, indices, indptr), shape=(n_free * d, n_free * d))
+    k = hessian_matrix(ci, cj, dr, fac)
     sep = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
     sep /= np.sqrt(np.einsum("ij,ij->i", sep, sep))[:, None]
     u = np.zeros((n_free * d, pi.size))
@@ -257,7 +254,8 @@ def continue_network(
         trial = affine_to(cur, target)
         if predictor is not None and g == g0 and last:
             trial = trial.with_positions(trial.positions + predictor)
-        new, it_n, cg_n = network_newton(trial, ci, cj, fac, ftol, params)
+        res = damped_newton(trial, fac.free, NetworkModel(ci, cj, fac), fac.solve, ftol, params)
+        new, it_n, cg_n = res.packing if res.ok else None, res.iterations, res.cg_iterations
         calls += 1
         its += it_n
         cg += cg_n

@@ -127,13 +127,20 @@ def free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return free, free_index
 
 
+def hessian_matrix(ci: np.ndarray, cj: np.ndarray, dr: np.ndarray, fac: Factor) -> sps.csr_matrix:
+    """The pinned backbone Hessian ``K`` (CSR, rows in ``fac``'s order of the free particles) of
+    the pairs ``(ci, cj)`` with separations ``dr``, each a harmonic spring of rest length 1."""
+    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, fac.free.size)
+    size = fac.free.size * dr.shape[1]
+    return sps.csr_matrix((data, indices, indptr), shape=(size, size))
+
+
 def backbone_matrix(
     packing: Packing, nl: NeighborList, fac: Factor, contacts: tuple | None = None
 ) -> sps.csr_matrix:
+    """:func:`hessian_matrix` of the contacts of ``packing`` (or of ``contacts``)."""
     ci, cj, cd = contact_list(packing, nl) if contacts is None else contacts
-    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, cd, fac.free_index, fac.free.size)
-    size = fac.free.size * packing.dim
-    return sps.csr_matrix((data, indices, indptr), shape=(size, size))
+    return hessian_matrix(ci, cj, cd, fac)
 
 
 ND_MIN_FREE = 400  # fewer free particles: SuperLU's minimum-degree order (as fast there)
