@@ -7,7 +7,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from jamlab.spheres.aqs.linalg import ND_MIN_FREE, Factor, factorise, hessian_matrix, pcg
+from jamlab.spheres.aqs.linalg import (
+    ND_MIN_FREE,
+    Factor,
+    capacitance_keeps_pd,
+    factorise,
+    hessian_matrix,
+    pcg,
+)
 from jamlab.spheres.aqs.network import (
     affine_to,
     backbone_mask,
@@ -141,10 +148,7 @@ def switch_keeps_pd(
             return False, cg
         z[:, c] = x
     c_mat = np.diag(0.5 / signs) + u.T @ z
-    eig = np.linalg.eigvalsh(0.5 * (c_mat + c_mat.T))
-    n_added = int(np.count_nonzero(signs > 0))
-    pd = np.count_nonzero(eig > 0) == n_added and np.min(np.abs(eig)) > 1e-10 * np.max(np.abs(eig))
-    return bool(pd), cg
+    return capacitance_keeps_pd(c_mat, int(np.count_nonzero(signs > 0))), cg
 
 
 def relax_rattlers(

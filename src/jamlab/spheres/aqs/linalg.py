@@ -110,13 +110,30 @@ class Factor:
         for a in range(signed.size):
             c[a, :] += vals[a] @ w[idxs[a], :]
         c = 0.5 * (c + c.T)
-        eig = np.linalg.eigvalsh(c)
-        self.corrected_pd = bool(
-            np.count_nonzero(eig > 0) == np.count_nonzero(signed > 0)
-            and np.min(np.abs(eig)) > 1e-12 * np.max(np.abs(eig))
-        )
+        self.corrected_pd = capacitance_keeps_pd(c, int(np.count_nonzero(signed > 0)))
         if self.corrected_pd:
             self.w, self.c_inv = w, np.linalg.inv(c)
+
+
+# smallest |λ| / max |λ| of a capacitance matrix counted as nonzero (capacitance_keeps_pd)
+INERTIA_CUTOFF = 1e-10
+
+
+def capacitance_keeps_pd(c: np.ndarray, n_added: int) -> bool:
+    """Whether ``K + U S Uᵀ`` is positive definite, given ``K`` positive definite and the
+    capacitance matrix ``C = S⁻¹ + Uᵀ K⁻¹ U`` (``S`` diagonal, ``n_added`` positive entries).
+
+    Haynsworth inertia additivity on ``[[K, U], [Uᵀ, −S⁻¹]]``: the corrected matrix is positive
+    definite iff ``C`` has exactly ``n_added`` positive eigenvalues and none zero. An
+    eigenvalue with ``|λ| ≤ INERTIA_CUTOFF · max |λ|`` counts as zero (its sign is not
+    resolved: the columns of ``K⁻¹ U`` are computed to a relative residual of ~1e-12, by PCG
+    in the contact-switch test), so the answer is then "not positive definite".
+    """
+    eig = np.linalg.eigvalsh(0.5 * (c + c.T))
+    return bool(
+        np.count_nonzero(eig > 0) == n_added
+        and np.min(np.abs(eig)) > INERTIA_CUTOFF * np.max(np.abs(eig))
+    )
 
 
 def free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
