@@ -78,7 +78,20 @@ def start_packing(spec: str, cache: dict):
     return p
 
 
-def run(out: Path, names: list[str], quick: bool) -> None:
+def count_calls(names: list[str]) -> dict[str, int]:
+    """Count calls of the Python functions with these names from now on (``sys.setprofile``:
+    instrumentation from outside, the code under test unchanged)."""
+    counts = dict.fromkeys(names, 0)
+
+    def profile(frame, event, arg):
+        if event == "call" and frame.f_code.co_name in counts:
+            counts[frame.f_code.co_name] += 1
+
+    sys.setprofile(profile)
+    return counts
+
+
+def run(out: Path, names: list[str], quick: bool, count: list[str] | None = None) -> None:
     import jamlab
     from jamlab.spheres.aqs import shear
 
@@ -91,7 +104,10 @@ def run(out: Path, names: list[str], quick: bool) -> None:
         start = start_packing(spec, cache)
         t1 = time.perf_counter()
         n = quick_steps if quick else steps
+        counts = count_calls(count) if count else None
         res = shear(start, DGAMMA, n_steps=n, minimizer=minimizer, classify=classify)
+        if counts is not None:
+            sys.setprofile(None)
         tr = res.trace
         data = {k: np.asarray(getattr(tr, k)) for k in FLOAT_COLUMNS + EXACT_COLUMNS}
         data.update({k: np.asarray(tr.attrs.get(k, -1)) for k in COUNTERS})
@@ -103,6 +119,8 @@ def run(out: Path, names: list[str], quick: bool) -> None:
             f"{t1 - t0:6.1f} s  shear {res.time:6.1f} s",
             flush=True,
         )
+        if counts is not None:
+            print(f"    calls: {counts}", flush=True)
 
 
 def _rel(a: np.ndarray, b: np.ndarray) -> float:
@@ -160,6 +178,12 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--src", help="source tree to put first on PYTHONPATH (runs a subprocess)")
     r.add_argument("--cases", nargs="*", choices=sorted(CASES), default=list(CASES))
     r.add_argument("--quick", action="store_true", help="fewer steps per case")
+    r.add_argument(
+        "--count-calls",
+        nargs="*",
+        default=None,
+        help="count calls of these functions (by name) in each case (slower: a profiler)",
+    )
     c = sub.add_parser("compare", help="compare two saved runs")
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
@@ -172,8 +196,10 @@ def main(argv: list[str] | None = None) -> int:
         cmd = [sys.executable, __file__, "run", "--out", str(args.out), "--cases", *args.cases]
         if args.quick:
             cmd.append("--quick")
+        if args.count_calls:
+            cmd += ["--count-calls", *args.count_calls]
         return subprocess.call(cmd, env=env)
-    run(args.out, args.cases, args.quick)
+    run(args.out, args.cases, args.quick, args.count_calls)
     return 0
 
 

@@ -56,15 +56,16 @@ def test_prepare_unsat_and_errors(tmp_path, capsys) -> None:
     assert run(["prepare", "--n", "128", "--phi", "dense", "--out", str(out)]) == 2
     capsys.readouterr()
     assert run(["prepare", "--n", "128", "--search", "bisect", "--out", str(out)]) == 2
-    assert "--search must be one of window, halve" in capsys.readouterr().err
+    assert "--search must be one of window" in capsys.readouterr().err
 
 
-def test_prepare_earlier_search_is_selectable(tmp_path) -> None:
+def test_prepare_removed_search_is_rejected(tmp_path, capsys) -> None:
+    # search="halve" was removed in issue 14: a one-line error, exit 2, no file written
     out = tmp_path / "halve.h5"
     args = ["prepare", "--n", "64", "--seed", "3", "--search", "halve", "--quiet"]
-    assert run([*args, "--out", str(out)]) == 0
-    with h5py.File(out, "r") as h5:
-        assert h5.attrs["param_search"] == "halve" and bool(h5.attrs["isostatic"])
+    assert run([*args, "--out", str(out)]) == 2
+    assert "--search must be one of window" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_prepare_failure_writes_flagged_file(tmp_path, capsys) -> None:

@@ -58,8 +58,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 "--search",
-                help="Jamming search: 'window' (isostatic with p in [p_target/2, 2 p_target]) "
-                "or 'halve' (the earlier protocol; may end below p_target/2).",
+                help="Jamming search: 'window' (isostatic with p in [p_target/2, 2 p_target]; "
+                "the only one).",
             ),
         ] = "window",
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,

@@ -39,7 +39,6 @@ from jamlab.spheres.potential import (
 __all__ = [
     "RelaxResult",
     "PackingState",
-    "JamResult",
     "PreparedPacking",
     "CoordinationCurve",
     "JAM_FIRE",
@@ -258,9 +257,6 @@ class PreparedPacking:
         return out
 
 
-JamResult = PreparedPacking
-
-
 def _check_common(n: int, dim: int, seed: int, ftol: float) -> None:
     if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2):
         raise ValueError(f"number of particles must be an integer >= 2, got n={n!r}")
@@ -467,10 +463,8 @@ def _jam_attempt(
 ) -> _Attempt:
     """One quench from random positions at ``φ_init`` and the search of :func:`jam`.
 
-    ``search="window"`` (default) is the protocol of ``docs/packings.md``; ``"halve"`` the
-    earlier one (no polishing, no bound on the pressure drop per step, no re-compression:
-    excess contacts in the window halve the goal pressure until the packing is isostatic,
-    possibly below ``p_target/2``)."""
+    ``search="window"`` (the only one; ``"halve"`` was removed in issue 14) is the protocol of
+    ``docs/packings.md``."""
     p_floor = p_target * p_floor_factor
     p_jammed = p_floor / 10.0
     lo_win, hi_win = 0.5 * p_target, 2.0 * p_target
@@ -640,7 +634,7 @@ contacts (or above the window) is found, it bisects in ``φ``."""
 _RECOMPRESS_TRIES = 10
 """``search="window"``: at most this many re-compressions per attempt."""
 
-SEARCHES = ("window", "halve")
+SEARCHES = ("window",)
 
 
 def jam(
@@ -687,8 +681,7 @@ def jam(
        towards ``0.625 p_target``, then bisection between the highest isostatic minimum below
        the window and the lowest one with excess contacts) until an isostatic state inside the
        window is found; if a contact is added below ``p_target/2`` there is none and the
-       attempt fails (restart). ``search="halve"`` (the earlier protocol) instead accepts the
-       isostatic minimum below the window.
+       attempt fails (restart).
     5. An attempt that fails for a structural reason — excess contacts that survive down to
        ``p_floor = p_target × p_floor_factor`` (a non-generic, hyperstatic jammed state, e.g.
        local crystalline order at small ``N``), only saddles below the jammed state, no jammed

@@ -1,9 +1,10 @@
-"""Continuation of the branch of a minimum through a strain step: event-driven on the contact
-network (:func:`continue_network`, the default) or by substeps (:func:`continue_substep`)."""
+"""Continuation of the branch of a minimum through a strain step, event-driven on the contact
+network (:func:`continue_network`), with its positive-definiteness test at a contact switch
+(:func:`switch_keeps_pd`) and the relaxation of the rattlers at the end (:func:`relax_rattlers`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,11 +20,10 @@ from jamlab.spheres.aqs.network import (
     affine_to,
     backbone_mask,
     contact_list,
-    find_backbone,
     network_forces,
     pair_keys,
 )
-from jamlab.spheres.aqs.newton import NetworkModel, damped_newton, newton
+from jamlab.spheres.aqs.newton import NetworkModel, damped_newton
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.potential import NeighborList, Packing
 
@@ -36,69 +36,7 @@ class Branch:
     cg_iterations: int
     substeps: int
     refactorised: int
-    events: int = 0  # contact-set switches (event-driven continuation)
-
-
-def continue_substep(
-    start: Packing,
-    fac: Factor,
-    strain: float,
-    nl: NeighborList,
-    ftol: float,
-    params: AQSParameters,
-    first_substep: float = 1.0,
-    predictor: np.ndarray | None = None,
-) -> Branch:
-    """Follow the minimum ``start`` to ``strain`` by natural continuation (module docstring).
-
-    A failed (sub)step with a factorisation from an earlier configuration is retried after
-    refactorising at the current point; with a fresh one the substep is halved. The branch ends
-    when the fresh factorisation is not positive definite or the substep falls below
-    ``min_substep``.
-    """
-    its = cg = substeps = refac = 0
-    g0 = start.strain
-    total = strain - g0
-    cur = start
-    t = 0.0
-    s = first_substep
-    while t < 1.0:
-        if fac.lu is None or not fac.positive_definite:
-            if fac.fresh:
-                return Branch(None, None, its, cg, substeps, refac)
-            fac = factorise(cur, nl, find_backbone(cur, nl))
-            refac += 1
-            continue
-        last = s >= 1.0 - t
-        t_new = 1.0 if last else t + s
-        target = strain if last else g0 + t_new * total
-        trial = affine_to(cur, target)
-        if predictor is not None and t == 0.0 and last:
-            # extrapolated non-affine displacement of the previous elastic steps
-            trial = trial.with_positions(trial.positions + predictor)
-        res = newton(trial, nl, fac, ftol, params)
-        its += res.iterations
-        cg += res.cg_iterations
-        if res.ok:
-            cur, t = res.packing, t_new
-            substeps += 1
-            s = min(2.0 * s, 1.0)
-            fac.fresh = False
-            if t >= 1.0:
-                break  # the caller compares the backbone at the end of the step
-            backbone = find_backbone(cur, nl)
-            if not np.array_equal(backbone, fac.backbone):
-                fac = factorise(cur, nl, backbone)
-                refac += 1
-            continue
-        if not fac.fresh:
-            fac = factorise(cur, nl, find_backbone(cur, nl))
-            refac += 1
-            continue
-        s *= 0.5
-        if s < params.min_substep:
-            return Branch(None, None, its, cg, substeps, refac)
-    return Branch(cur, fac, its, cg, substeps, refac)
+    events: int = 0  # contact-set switches
 
 
 # ------------------------------------------------------------------------------------------------
@@ -311,12 +249,9 @@ def continue_network(
             continue
         events += 1
         if events > params.max_events or calls > 10 * params.max_events:
-            # pathological (events piling up): the substep continuation takes the whole step
-            fac = factorise(start, nl, find_backbone(start, nl))
-            b = continue_substep(start, fac, strain, nl, ftol, params)
-            return replace(
-                b, iterations=b.iterations + its, refactorised=b.refactorised + refac + 1
-            )
+            # pathological (events piling up, never seen in practice): the branch is declared
+            # ended and FIRE takes the step (the substep continuation did it until issue 14)
+            return ended()
         # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
         n_open = opening.size
         drop = pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n)
@@ -342,20 +277,3 @@ def continue_network(
             if fac is None:
                 return ended()
         h = strain - cur.strain  # (0 at the end: re-converge there with the new set)
-
-
-def follow_branch(
-    start: Packing,
-    fac: Factor,
-    strain: float,
-    nl: NeighborList,
-    ftol: float,
-    params: AQSParameters,
-    first_substep: float = 1.0,
-    predictor: np.ndarray | None = None,
-) -> Branch:
-    """The continuation chosen by ``params.continuation``: ``"network"`` (event-driven,
-    :func:`continue_network`) or ``"substep"`` (:func:`continue_substep`)."""
-    if params.continuation == "network":
-        return continue_network(start, fac, strain, nl, ftol, params, first_substep, predictor)
-    return continue_substep(start, fac, strain, nl, ftol, params, first_substep, predictor)

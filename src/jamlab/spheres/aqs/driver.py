@@ -13,7 +13,7 @@ import numpy as np
 
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, jamlab_version, save_checkpoint
 from jamlab.spheres.aqs.classify import same_minimum
-from jamlab.spheres.aqs.continuation import Branch, follow_branch
+from jamlab.spheres.aqs.continuation import Branch, continue_network
 from jamlab.spheres.aqs.lean import consistent_flags, lean_step
 from jamlab.spheres.aqs.linalg import factorise
 from jamlab.spheres.aqs.network import affine_to, contact_keys
@@ -199,7 +199,7 @@ def shear(
             if lean_change is not None:
                 flags = lean_change[0]
         elif minimizer == "linear":
-            branch = follow_branch(cur, fac, target, nl, ftol, params, predictor=predictor)
+            branch = continue_network(cur, fac, target, nl, ftol, params, predictor=predictor)
             if branch.packing is not None and branch.substeps == 1:
                 # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
                 observed = (branch.packing, *observe(branch.packing, nl))
@@ -213,7 +213,7 @@ def shear(
                 if abs(r) > params.energy_tol * dgamma**2:
                     counters["n_factorisations"] += branch.refactorised
                     iterations += branch.iterations
-                    branch = follow_branch(
+                    branch = continue_network(
                         cur, branch.factor, target, nl, ftol, params, first_substep=0.125
                     )
             iterations += branch.iterations
@@ -230,7 +230,7 @@ def shear(
             res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             new, iterations = res.packing, res.iterations
             if classify:
-                branch = follow_branch(cur, fac, target, nl, ftol, params)
+                branch = continue_network(cur, fac, target, nl, ftol, params)
                 counters["n_factorisations"] += branch.refactorised
                 continued = branch.packing
                 if continued is not None and observe(continued, nl)[0]["max_force"] >= ftol:

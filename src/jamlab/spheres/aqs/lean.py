@@ -61,7 +61,7 @@ def lean_step(
     ``max_lean_changes`` times per step). A neighbour-list rebuild, a force left on a rattler,
     a trapezoid residual above ``energy_tol δγ²``, a chord step that does not contract, or a
     change of the backbone returns ``None``, and the general continuation
-    (:func:`follow_branch`) takes the step instead.
+    (:func:`~jamlab.spheres.aqs.continuation.continue_network`) takes the step instead.
 
     Returns ``(minimum, row, chord steps, change)``; ``change`` is ``None`` when the contact
     set is that of ``cur``, else ``(flags, contact keys)`` of the new contact set.

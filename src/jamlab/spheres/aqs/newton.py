@@ -3,9 +3,10 @@
 :func:`damped_newton` is the iteration; what it minimises comes from a *force model* with two
 methods: ``forces(packing) -> (F_b, state)`` (the forces on the free backbone particles, and
 whatever the Hessian can reuse) and ``hessian(packing, state) -> K`` (the pinned backbone
-Hessian, CSR). Two models: :class:`PotentialModel` (the pair potential itself, contacts free to
-open and close; the factor's rank-one corrections follow them) and :class:`NetworkModel` (the
-smooth energy of a fixed contact set, used by the event-driven continuation).
+Hessian, CSR). The model of the event-driven continuation is :class:`NetworkModel`, the smooth
+energy of a fixed contact set. (Until issue 14 a second copy of this iteration ran on the pair
+potential itself for the substep continuation, and a third polished FIRE's minima in
+``spheres/newton.py``; both were removed, ``docs/aqs.md``.)
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ import numpy as np
 import scipy.sparse as sps
 
 from jamlab.spheres.aqs.linalg import Factor, hessian_matrix, max_norm, pcg
-from jamlab.spheres.aqs.network import contact_list, network_forces
+from jamlab.spheres.aqs.network import network_forces
 from jamlab.spheres.aqs.parameters import AQSParameters
-from jamlab.spheres.potential import NeighborList, Packing, energy_and_forces
+from jamlab.spheres.potential import Packing
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,24 +42,6 @@ class ForceModel(Protocol):
     def forces(self, packing: Packing) -> tuple[np.ndarray, object]: ...
 
     def hessian(self, packing: Packing, state: object) -> sps.csr_matrix: ...
-
-
-class PotentialModel:
-    """The pair potential: forces from :func:`~jamlab.spheres.potential.energy_and_forces`,
-    Hessian of the current contacts; each Hessian also updates the factor's rank-one
-    corrections to those contacts (``max_corrections`` at most)."""
-
-    def __init__(self, nl: NeighborList, fac: Factor, max_corrections: int) -> None:
-        self.nl, self.fac, self.max_corrections = nl, fac, max_corrections
-
-    def forces(self, packing: Packing) -> tuple[np.ndarray, None]:
-        return energy_and_forces(packing, self.nl)[1][self.fac.free], None
-
-    def hessian(self, packing: Packing, state: None) -> sps.csr_matrix:
-        ci, cj, cd = contact_list(packing, self.nl)
-        k = hessian_matrix(ci, cj, cd, self.fac)
-        self.fac.update(ci, cj, cd, self.max_corrections)
-        return k
 
 
 class NetworkModel:
@@ -144,46 +127,3 @@ def damped_newton(
                 break
         pos, current, f, state, fmax = trial_pos, trial, f_trial, state_trial, f_trial_max
     return NewtonResult(current, False, it, cg_total)
-
-
-def newton(
-    start: Packing, nl: NeighborList, fac: Factor, ftol: float, params: AQSParameters
-) -> NewtonResult:
-    """Chord steps with the stored factorisation first, then :func:`damped_newton` on the pair
-    potential (:class:`PotentialModel`), from ``start``."""
-    pos = np.array(start.positions)
-    free = fac.free
-    d = start.dim
-    f = energy_and_forces(start.with_positions(pos), nl)[1][free]
-    fmax = max_norm(f)
-    # cheap first: chord steps x ← x + M⁻¹ F_b with the stored factorisation M ≈ K; accepted only
-    # while each contracts the force by the factor chord_contraction (M⁻¹K ≈ 1 on the excited
-    # modes, i.e. the branch is as stable as where M was taken), else full Newton below
-    chord_pos, chord_f, chord_fmax = pos, f, fmax
-    for chord in range(params.max_chord):
-        if chord_fmax < ftol:
-            return NewtonResult(start.with_positions(chord_pos), True, chord, 0)
-        # the preconditioner follows the contacts that opened or closed since it was factorised
-        fac.update(*contact_list(start.with_positions(chord_pos), nl), params.max_corrections)
-        trial_pos = chord_pos.copy()
-        trial_pos[free] += fac.solve(chord_f.ravel()).reshape(free.size, d)
-        trial_f = energy_and_forces(start.with_positions(trial_pos), nl)[1][free]
-        trial_fmax = max_norm(trial_f)
-        if not trial_fmax < params.chord_contraction * chord_fmax:
-            if trial_fmax < ftol and trial_fmax < params.contraction * chord_fmax:
-                # converged, though M⁻¹K is only roughly 1 here (a contact changed in the step)
-                return NewtonResult(start.with_positions(trial_pos), True, chord + 1, 0)
-            break
-        chord_pos, chord_f, chord_fmax = trial_pos, trial_f, trial_fmax
-    else:
-        if chord_fmax < ftol:
-            return NewtonResult(start.with_positions(chord_pos), True, params.max_chord, 0)
-    return damped_newton(
-        start,
-        free,
-        PotentialModel(nl, fac, params.max_corrections),
-        fac.solve,
-        ftol,
-        params,
-        initial=(f, None),
-    )

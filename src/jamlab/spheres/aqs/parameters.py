@@ -8,23 +8,23 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class AQSParameters:
-    """Tolerances of the fast path and of the classification (see the module docstring).
+    """Tolerances of the fast path and of the classification (method: :mod:`jamlab.spheres.aqs`).
 
     ``max_newton``: Newton iterations per (sub)step; ``max_chord``, ``chord_contraction``: chord
-    steps with the stored factorisation tried first, each required to cut the force by that
-    factor; ``contraction``: required reduction
-    factor of ``max |F_b|`` per iteration; ``linear_basin``: allowed Newton correction relative to
-    the linear prediction; ``min_substep``: smallest substep as a fraction of ``δγ`` before the
-    branch is declared ended; ``energy_tol``: a one-substep step whose trapezoid residual
+    steps of the lean step with the stored factorisation, each required to cut the force by
+    that factor; ``contraction``: required reduction factor of ``max |F_b|`` per iteration;
+    ``linear_basin``: allowed Newton correction relative to the linear prediction;
+    ``min_substep``: smallest substep as a fraction of ``δγ`` before the branch is declared
+    ended; ``energy_tol``: a one-substep step whose trapezoid residual
     ``|ΔE − ½ δγ ΔΣ|`` exceeds ``energy_tol · δγ²`` (energy units; a contact change inside the
     step gives ``≲ ΔG L^d δγ²/8``) is redone in 8 substeps as a safety check; ``match_tol``,
     ``energy_match``: largest displacement and relative energy difference between FIRE's minimum
-    and the continued branch for them to count as the same minimum (:func:`same_minimum`);
-    ``max_fire_iter``: FIRE iteration cap. ``continuation``: ``"network"`` (event-driven, the
-    default) or ``"substep"`` (the earlier natural continuation); ``event_tol``: a contact
-    crossing closer than ``event_tol · δγ`` to the current point is switched there;
-    ``max_events``: contact switches per step before the step is handed to the substep
-    continuation.
+    and the continued branch for them to count as the same minimum
+    (:func:`~jamlab.spheres.aqs.classify.same_minimum`);
+    ``max_fire_iter``: FIRE iteration cap. ``event_tol``: a contact crossing closer than
+    ``event_tol · δγ`` to the current point is switched there; ``max_events``: contact
+    switches per step (and ten times as many Newton solves) before the branch is declared
+    ended (pathological; FIRE then takes the step).
     """
 
     max_newton: int = 30
@@ -48,7 +48,6 @@ class AQSParameters:
     path_depth: int = 16
     path_degree: int = 4
     path_floor: float = 1e-14
-    continuation: str = "network"
     event_tol: float = 1e-3
     max_events: int = 1000
 
@@ -59,10 +58,6 @@ class AQSParameters:
             v = getattr(self, name)
             if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
                 raise ValueError(f"{name} must be in (0, 1), got {v!r}")
-        if self.continuation not in ("network", "substep"):
-            raise ValueError(
-                f"continuation must be 'network' or 'substep', got {self.continuation!r}"
-            )
         for name in ("energy_tol", "match_tol", "energy_match", "event_tol"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
