@@ -1,5 +1,6 @@
-"""The AQS driver: :func:`shear` steps the strain and hands each step to the fast path, the
-branch continuation or FIRE (the method: :mod:`jamlab.spheres.aqs`)."""
+"""The AQS driver: :func:`shear` steps the strain and hands each step to a strategy of
+:class:`~jamlab.spheres.aqs.steps.Stepper` (the lean step, the branch continuation, FIRE; the
+method: :mod:`jamlab.spheres.aqs`)."""
 
 from __future__ import annotations
 
@@ -12,14 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, jamlab_version, save_checkpoint
-from jamlab.spheres.aqs.classify import same_minimum
-from jamlab.spheres.aqs.continuation import Branch, continue_network
-from jamlab.spheres.aqs.lean import consistent_flags, lean_step
-from jamlab.spheres.aqs.linalg import factorise
-from jamlab.spheres.aqs.network import affine_to, contact_keys
 from jamlab.spheres.aqs.parameters import AQSParameters
-from jamlab.spheres.aqs.predictor import BranchPath, Secants
 from jamlab.spheres.aqs.record import ROW_KEYS, append_row, make_trace, observe
+from jamlab.spheres.aqs.steps import Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
 from jamlab.spheres.trace import Trace
@@ -158,143 +154,17 @@ def shear(
         "n_factorisations": 1,
         "n_lean": 0,
     }
-    fac = factorise(cur, nl, backbone)
-    age = 0
-    predictor: np.ndarray | None = None
-    path = BranchPath(params.path_depth, params.path_degree, params.path_floor)
-    secants = Secants(params.secant_depth) if params.secant_depth else None
     prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
-    cur_keys = contact_keys(cur, nl) if minimizer == "linear" else None
-    flags, flags_build = (
-        consistent_flags(cur, nl, fac, params) if minimizer == "linear" else (None, -1)
+    stepper = Stepper(
+        cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params, counters
     )
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
-        affine = affine_to(cur, target)
-        iterations = 0
-        plastic = False
-        branch: Branch | None = None
-        observed: tuple[Packing, dict[str, float], np.ndarray] | None = None
-        lean = lean_change = None
-        if minimizer == "linear" and flags is not None and nl.n_builds != flags_build:
-            flags, flags_build = consistent_flags(cur, nl, fac, params)
-        if fac.free.size == 0:
-            # no rigid backbone (unjammed): E ≈ 0, nothing can jump; FIRE just removes overlaps
-            res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
-            new, iterations = res.packing, res.iterations
-        elif (
-            minimizer == "linear"
-            and flags is not None
-            and nl.n_builds == flags_build
-            and (
-                lean := lean_step(
-                    cur, target, predictor, nl, fac, flags, prev, ftol, params, secants, affine
-                )
-            )
-        ):
-            new, lean_row, iterations, lean_change = lean
-            observed = (new, lean_row, backbone)
-            counters["n_lean"] += 1
-            if lean_change is not None:
-                flags = lean_change[0]
-        elif minimizer == "linear":
-            branch = continue_network(cur, fac, target, nl, ftol, params, predictor=predictor)
-            if branch.packing is not None and branch.substeps == 1:
-                # a contact opening or closing inside the step makes E(γ) a kink, not a parabola
-                observed = (branch.packing, *observe(branch.packing, nl))
-                r = (
-                    observed[1]["energy"]
-                    - rows["energy"][-1]
-                    - 0.5
-                    * (target - rows["gamma"][-1])
-                    * (rows["shear_stress"][-1] + observed[1]["shear_stress"])
-                )
-                if abs(r) > params.energy_tol * dgamma**2:
-                    counters["n_factorisations"] += branch.refactorised
-                    iterations += branch.iterations
-                    branch = continue_network(
-                        cur, branch.factor, target, nl, ftol, params, first_substep=0.125
-                    )
-            iterations += branch.iterations
-            counters["n_factorisations"] += branch.refactorised
-            new = branch.packing
-            if new is not None and branch.substeps > 1:
-                counters["n_substepped"] += 1
-            if new is None:
-                counters["n_fallback"] += 1
-                plastic = True
-                res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
-                new, iterations = res.packing, iterations + res.iterations
-        else:
-            res = minimize(affine, ftol, params.max_fire_iter, fire_params, neighbors=nl)
-            new, iterations = res.packing, res.iterations
-            if classify:
-                branch = continue_network(cur, fac, target, nl, ftol, params)
-                counters["n_factorisations"] += branch.refactorised
-                continued = branch.packing
-                if continued is not None and observe(continued, nl)[0]["max_force"] >= ftol:
-                    # the continuation holds rattlers where the affine step put them; relax
-                    # them as the fast path does before recording, or their overlaps alone
-                    # make the energies differ
-                    continued = minimize(
-                        continued, ftol, params.max_fire_iter, fire_params, neighbors=nl
-                    ).packing
-                plastic = continued is None or not same_minimum(new, continued, nl, params)
-        if observed is not None and observed[0] is new:
-            row, backbone = observed[1], observed[2]
-        else:
-            row, backbone = observe(new, nl)
-        cleaned = False
-        if row["max_force"] >= ftol:
-            # Newton relaxed the backbone with rattlers held; let FIRE relax the rest
-            counters["n_cleanup"] += 1
-            cleaned = True
-            res = minimize(new, ftol, params.max_fire_iter, fire_params, neighbors=nl)
-            new, iterations = res.packing, iterations + res.iterations
-            row, backbone = observe(new, nl)
-        append_row(rows, target, row, iterations, plastic)
-        predictor = None
-        kinked = True
-        old_keys = cur_keys
-        if minimizer == "linear" and lean is None:
-            # did a contact open or close in this step? then u(γ) has a kink inside it
-            cur_keys = contact_keys(new, nl)
-            kinked = old_keys is None or not np.array_equal(cur_keys, old_keys)
-        elif minimizer == "linear":
-            kinked = lean_change is not None
-            if kinked:
-                cur_keys = lean_change[1]
-        if minimizer == "linear" and not plastic and not cleaned:
-            u = new.box.minimum_image(new.positions - affine.positions)
-            path.add(u, row["max_force"], kinked)
-            predictor = path.predict()
-        else:
-            path.reset()
-        cur = new
-        age += 1
-        if branch is not None and branch.factor is not None and not plastic:
-            if branch.refactorised:
-                age = 0
-            fac = branch.factor
-        stale = (
-            plastic
-            or (cleaned and minimizer == "linear")
-            or fac.lu is None
-            or not np.array_equal(fac.backbone, backbone)
-            or age >= params.refactor_every
-            or (branch is not None and branch.cg_iterations > params.stale_cg)
-        )
-        if stale and n < total:  # (after the last step nothing would use it)
-            # the previous preconditioner is useless after an avalanche, and the regular
-            # refactorisation re-checks positive definiteness exactly (LDLᵀ pivots)
-            fac = factorise(cur, nl, backbone)
-            counters["n_factorisations"] += 1
-            age = 0
-        prev = {"gamma": target, **row}
-        if minimizer == "linear" and (lean is None or stale):
-            # contacts of the new minimum, per neighbour-list slot, for the next lean step
-            flags, flags_build = consistent_flags(cur, nl, fac, params)
+        step = stepper.take(cur, target)
+        cur, row, backbone, iterations, cleaned = stepper.settle(step)
+        append_row(rows, target, row, iterations, step.plastic)
+        stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total)
         if progress is not None:
             progress(n, total)
         if out is not None and save_every is not None and n % save_every == 0 and n < total:
