@@ -18,10 +18,9 @@ import pytest
 
 import jamlab.spheres as sp
 from jamlab.analysis.avalanches import branch_residual, jumps_from_trace, noise_floor
-from jamlab.spheres import _aqs_kernels as AK
 from jamlab.spheres import aqs, random_packing
 from jamlab.spheres.aqs.continuation import continue_network, switch_keeps_pd
-from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
+from jamlab.spheres.aqs.linalg import backbone_matrix, factorise, hessian_matrix
 from jamlab.spheres.aqs.network import (
     affine_to,
     backbone_mask,
@@ -348,6 +347,8 @@ def test_corrected_preconditioner_is_the_inverse_of_the_updated_matrix(kick, exp
 def test_fused_kernel_equals_the_separate_passes():
     """forces_virial_flags against energy_forces_virial and contact_pairs, and its contact-state
     comparison against a count from two contact lists."""
+    # (the kernels themselves: a test of the private kernel modules of jamlab.spheres)
+    from jamlab.spheres import _aqs_kernels as AK
     from jamlab.spheres import _kernels as KK
     from jamlab.spheres.potential import NeighborList
 
@@ -488,9 +489,8 @@ def test_switch_positive_definiteness_against_dense_eigenvalues():
     fac = factorise(p, nl, backbone, (ci, cj, dr))
     assert fac.positive_definite
     d, n_free = p.dim, fac.free.size
-    data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, n_free)
-    k = np.zeros((n_free * d, n_free * d))
-    k[np.repeat(np.arange(n_free * d), np.diff(indptr)), indices] += data
+    k = hessian_matrix(ci, cj, dr, fac).toarray()
+    assert k.shape == (n_free * d, n_free * d)
 
     def dense_pd(pi, pj, signs):
         m = k.copy()

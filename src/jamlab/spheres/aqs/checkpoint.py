@@ -10,7 +10,7 @@ from jamlab.spheres.trace import write_trace
 
 
 def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
-    """``(last, snapshots)``: where :func:`shear` saves the last configuration
+    """``(last, snapshots)``: where :func:`~jamlab.spheres.aqs.shear` saves the last configuration
     (``<stem>.last.h5``) and every ``save_every``-th one (``<stem>.configs/step_XXXXXXXX.h5``)."""
     out = Path(out)
     stem = out.name[: -len(out.suffix)] if out.suffix else out.name
@@ -26,6 +26,8 @@ def save_checkpoint(
     step: int,
     snapshot: bool,
 ) -> None:
+    """Write the configuration ``packing`` after ``step`` (also as a snapshot if ``snapshot``)
+    and then the trace so far, each atomically (:func:`checkpoint_paths`)."""
     from jamlab.spheres.io import write_packing
 
     last, snapshots = checkpoint_paths(out)
@@ -35,9 +37,3 @@ def save_checkpoint(
     # configuration first: a trace never refers to a configuration that is not on disk
     write_packing(last, packing, aqs_step=int(step))
     write_trace(out, make_trace(rows, attrs, counters))
-
-
-def jamlab_version() -> str:
-    from jamlab import __version__
-
-    return str(__version__)

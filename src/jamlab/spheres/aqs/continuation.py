@@ -30,6 +30,10 @@ from jamlab.spheres.potential import NeighborList, Packing
 
 @dataclass(frozen=True, eq=False)
 class Branch:
+    """Outcome of :func:`continue_network`: the continued minimum (``None``: the branch ends
+    inside the step), the factorisation it ended with, Newton and CG iterations, accepted
+    substeps, factorisations made and contact-set switches."""
+
     packing: Packing | None  # None: the branch ends inside the step
     factor: Factor | None
     iterations: int
@@ -37,10 +41,6 @@ class Branch:
     substeps: int
     refactorised: int
     events: int = 0  # contact-set switches
-
-
-# ------------------------------------------------------------------------------------------------
-# event-driven continuation on the contact network
 
 
 def switch_keeps_pd(

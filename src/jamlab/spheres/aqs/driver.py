@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.spheres.aqs.checkpoint import checkpoint_paths, jamlab_version, save_checkpoint
+from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
-from jamlab.spheres.aqs.record import ROW_KEYS, append_row, make_trace, observe
+from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
 from jamlab.spheres.aqs.steps import Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing

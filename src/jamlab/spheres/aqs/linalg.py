@@ -16,9 +16,6 @@ from jamlab.spheres import _aqs_kernels as AK
 from jamlab.spheres.aqs.network import contact_list, pair_keys
 from jamlab.spheres.potential import NeighborList, Packing
 
-# ------------------------------------------------------------------------------------------------
-# linear algebra on the backbone
-
 
 @dataclass(eq=False)
 class Factor:
@@ -32,9 +29,10 @@ class Factor:
     ``P⁻¹ = M⁻¹ − W C⁻¹ Wᵀ``, ``W = M⁻¹U``, ``C = S⁻¹ + UᵀW``; each new column of ``W`` costs
     one triangular solve, cached per contact. ``P`` is positive definite iff the number of
     positive eigenvalues of ``C`` equals the number of closed contacts (Haynsworth inertia
-    additivity on ``[[M, U], [Uᵀ, −S⁻¹]]``, ``M`` positive definite): an exact test of the
-    corrected matrix; where it fails the corrections are dropped and ``M`` alone preconditions
-    (the iteration's own tests and a fresh factorisation then decide).
+    additivity on ``[[M, U], [Uᵀ, −S⁻¹]]``, ``M`` positive definite;
+    :func:`capacitance_keeps_pd`): an exact test of the corrected matrix; where it fails the
+    corrections are dropped and ``M`` alone preconditions (the iteration's own tests and a fresh
+    factorisation then decide).
     """
 
     backbone: np.ndarray  # bool mask of backbone particles (incl. the pinned one)
@@ -146,7 +144,8 @@ def free_set(backbone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def hessian_matrix(ci: np.ndarray, cj: np.ndarray, dr: np.ndarray, fac: Factor) -> sps.csr_matrix:
     """The pinned backbone Hessian ``K`` (CSR, rows in ``fac``'s order of the free particles) of
-    the pairs ``(ci, cj)`` with separations ``dr``, each a harmonic spring of rest length 1."""
+    the pairs ``(ci, cj)`` with separations ``dr``: pair block ``2 n nᵀ + (V'(r)/r)(1 − n nᵀ)``
+    of ``V = (1 − r)²``, a held particle (pinned, rattler) a fixed spring end."""
     data, indices, indptr = AK.backbone_hessian_csr(ci, cj, dr, fac.free_index, fac.free.size)
     size = fac.free.size * dr.shape[1]
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 
 from jamlab.spheres import _kernels as K
-from jamlab.spheres.potential import NeighborList, Packing, _neighbors
+from jamlab.spheres.potential import NeighborList, Packing
 
 
 def contact_list(packing: Packing, nl: NeighborList) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -18,8 +18,8 @@ def contact_list(packing: Packing, nl: NeighborList) -> tuple[np.ndarray, np.nda
     which costs ten times the search itself; the pair block of the Hessian is even in
     ``r_ij``, and the rattler count does not depend on the order either.
     """
-    pos, nl = _neighbors(packing, nl)
-    ci, cj, cd = K.contact_pairs(pos, nl.start, nl.nbr, nl.shift)
+    nl.update(packing.positions, packing.strain)
+    ci, cj, cd = K.contact_pairs(nl.sorted(packing.positions), nl.start, nl.nbr, nl.shift)
     return nl.order[ci], nl.order[cj], cd
 
 
@@ -42,6 +42,7 @@ def backbone_mask(ci: np.ndarray, cj: np.ndarray, n: int, dim: int) -> np.ndarra
 
 
 def find_backbone(packing: Packing, nl: NeighborList) -> np.ndarray:
+    """:func:`backbone_mask` of the contacts of ``packing``."""
     ci, cj, _ = contact_list(packing, nl)
     return backbone_mask(ci, cj, packing.n, packing.dim)
 
@@ -53,6 +54,7 @@ def contact_keys(packing: Packing, nl: NeighborList) -> np.ndarray:
 
 
 def affine_to(packing: Packing, strain: float) -> Packing:
+    """``packing`` sheared affinely to ``strain``: ``x_i += (γ − γ_packing) y_i``."""
     pos = np.array(packing.positions)
     pos[:, 0] += (strain - packing.strain) * pos[:, 1]
     return replace(packing, positions=pos, box=packing.box.with_strain(strain))

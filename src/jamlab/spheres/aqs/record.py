@@ -37,6 +37,7 @@ ROW_KEYS = tuple(c for c in TRACE_COLUMNS if c not in ("energy_jump", "stress_ju
 def append_row(
     rows: dict[str, list], gamma: float, row: dict, iterations: int, plastic: bool
 ) -> None:
+    """Append the row of the minimum at strain ``gamma`` (columns :data:`ROW_KEYS`)."""
     rows["gamma"].append(float(gamma))
     for k in ("energy", "shear_stress", "pressure", "z", "z_nr", "max_force"):
         rows[k].append(row[k])
@@ -45,7 +46,16 @@ def append_row(
 
 
 def make_trace(rows: dict[str, list], attrs: dict, counters: dict) -> Trace:
+    """The :class:`~jamlab.spheres.trace.Trace` of the rows, with the run's attributes and
+    counters."""
     trace = Trace.from_rows(rows, attrs=dict(attrs))
     trace.attrs.update(counters)
     trace.attrs["n_plastic"] = int(np.count_nonzero(trace.plastic))
     return trace
+
+
+def jamlab_version() -> str:
+    """The version recorded in the trace's attributes."""
+    from jamlab import __version__
+
+    return str(__version__)
