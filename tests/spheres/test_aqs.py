@@ -19,6 +19,16 @@ import pytest
 import jamlab.spheres as sp
 from jamlab.analysis.avalanches import branch_residual, jumps_from_trace, noise_floor
 from jamlab.spheres import aqs, random_packing
+from jamlab.spheres.aqs.continuation import continue_network, switch_keeps_pd
+from jamlab.spheres.aqs.linalg import backbone_matrix, factorise, hessian_matrix
+from jamlab.spheres.aqs.network import (
+    affine_to,
+    backbone_mask,
+    contact_list,
+    find_backbone,
+    network_forces,
+)
+from jamlab.spheres.aqs.predictor import BranchPath, Secants
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_lammps_positions
 from jamlab.spheres.trace import TRACE_COLUMNS, Trace, read_trace, write_trace
@@ -297,9 +307,9 @@ def test_corrected_preconditioner_is_the_inverse_of_the_updated_matrix(kick, exp
 
     start = _packing_at(64, 0.7, 3)
     nl = NeighborList(start)
-    fac = aqs._factorise(start, nl, aqs._backbone(start, nl))
+    fac = factorise(start, nl, find_backbone(start, nl))
     assert fac.positive_definite
-    m_dense = aqs._backbone_matrix(start, nl, fac).toarray()
+    m_dense = backbone_matrix(start, nl, fac).toarray()
     c0 = contacts(start)
     before = {(int(i), int(j)) for i, j in zip(c0[0], c0[1], strict=True)}
     rng = np.random.default_rng(0)
@@ -321,7 +331,7 @@ def test_corrected_preconditioner_is_the_inverse_of_the_updated_matrix(kick, exp
             if f >= 0:
                 b[3 * f : 3 * f + 3] = sign * nrm
         p_dense += s * np.outer(b, b)
-    ci, cj, cd = aqs._contact_list(moved, NeighborList(moved))
+    ci, cj, cd = contact_list(moved, NeighborList(moved))
     fac.update(ci, cj, cd, max_rank=100)
     assert fac.corr_keys.size == len(changed)
     assert fac.corrected_pd == bool(np.all(np.linalg.eigvalsh(p_dense) > 0)) == expect_pd
@@ -337,8 +347,9 @@ def test_corrected_preconditioner_is_the_inverse_of_the_updated_matrix(kick, exp
 def test_fused_kernel_equals_the_separate_passes():
     """forces_virial_flags against energy_forces_virial and contact_pairs, and its contact-state
     comparison against a count from two contact lists."""
-    from jamlab.spheres import _aqs_kernels as AK
-    from jamlab.spheres import _kernels as KK
+    # (the kernels themselves: a test of the private kernel modules of jamlab.spheres)
+    from jamlab.spheres import kernels as AK
+    from jamlab.spheres import kernels as KK
     from jamlab.spheres.potential import NeighborList
 
     pk = random_packing(200, 3, 0.7, 5)
@@ -375,7 +386,7 @@ def test_path_predictor_is_exact_on_a_polynomial_branch():
     rng = np.random.default_rng(3)
     a = rng.standard_normal((5, 10, 3))
     for degree in (2, 3, 4):
-        path = aqs._Path(depth=16, degree=degree, floor=1e-14)
+        path = BranchPath(depth=16, degree=degree, floor=1e-14)
 
         def z(t, degree=degree):
             return sum(a[k] * t**k for k in range(degree + 1))
@@ -394,9 +405,9 @@ def test_path_predictor_is_exact_on_a_polynomial_branch():
 
 
 def test_multisecant_correction_is_the_least_squares_combination():
-    """_Secants.correction against numpy's least squares on the same stored pairs."""
+    """Secants.correction against numpy's least squares on the same stored pairs."""
     rng = np.random.default_rng(4)
-    sec = aqs._Secants(depth=5)
+    sec = Secants(depth=5)
     pairs = [(rng.standard_normal((30, 3)), rng.standard_normal((30, 3))) for _ in range(8)]
     for s_k, y_k in pairs:
         sec.push(s_k, y_k)
@@ -414,16 +425,16 @@ def test_multisecant_correction_is_the_least_squares_combination():
 def test_network_forces_equal_the_pair_forces_on_the_contact_set():
     """With ``C`` the contacts of a configuration (random, sheared: forces of order one), the
     network forces are the real ones; a pair of ``C`` pulled apart pulls back (tension)."""
-    p = aqs._affine_to(random_packing(64, 3, 0.75, 3), 0.3)
+    p = affine_to(random_packing(64, 3, 0.75, 3), 0.3)
     nl = sp.NeighborList(p)
-    ci, cj, cd = aqs._contact_list(p, nl)
-    f_net, _, r = aqs._network_forces(p, ci, cj)
+    ci, cj, cd = contact_list(p, nl)
+    f_net, _, r = network_forces(p, ci, cj)
     np.testing.assert_array_less(r, 1.0)
     f_ref = sp.energy_and_forces(p)[1]
     np.testing.assert_allclose(f_net, f_ref, rtol=0, atol=1e-13 * np.abs(f_ref).max())
     # two spheres at distance 1.2 joined by the network: force 2 (1 − r) n on i, i.e. attraction
     q = sp.Packing(np.array([[1.0, 1.0, 1.0], [2.2, 1.0, 1.0]]), sp.Box(5.0, 3, 0.0))
-    f, _, r = aqs._network_forces(q, np.array([0]), np.array([1]))
+    f, _, r = network_forces(q, np.array([0]), np.array([1]))
     np.testing.assert_allclose(r, [1.2])
     np.testing.assert_allclose(f, [[0.4, 0, 0], [-0.4, 0, 0]], atol=1e-15)
 
@@ -447,8 +458,8 @@ def test_network_continuation_near_jamming_against_fire_and_the_residual():
     for _ in range(30):
         nl = sp.NeighborList(cur)
         target = cur.strain + DGAMMA
-        branch = aqs._continue_network(cur, None, target, nl, 1e-12, params)
-        fire = minimize(aqs._affine_to(cur, target), 1e-12, neighbors=nl).packing
+        branch = continue_network(cur, None, target, nl, 1e-12, params)
+        fire = minimize(affine_to(cur, target), 1e-12, neighbors=nl).packing
         e0, e1 = sp.evaluate(cur, nl), sp.evaluate(fire, nl)
         r = e1.energy - e0.energy - 0.5 * DGAMMA * (e0.shear_stress + e1.shear_stress)
         if branch.packing is None:
@@ -460,7 +471,7 @@ def test_network_continuation_near_jamming_against_fire_and_the_residual():
             e2 = sp.evaluate(relaxed, nl)
             assert abs(e2.energy - e1.energy) < 1e-10 * e1.energy
             dr = relaxed.box.minimum_image(relaxed.positions - fire.positions)
-            keep = aqs._backbone(relaxed, nl)
+            keep = find_backbone(relaxed, nl)
             assert np.max(np.abs(dr[keep] - dr[keep].mean(axis=0))) < 1e-6
         cur = fire
     assert plastic_r and events >= 5
@@ -473,19 +484,16 @@ def test_switch_positive_definiteness_against_dense_eigenvalues():
     particle left with ``d`` contacts is floppy) and an addition."""
     p = _packing_at(128, 0.66, 4)
     nl = sp.NeighborList(p)
-    ci, cj, _ = aqs._contact_list(p, nl)
-    backbone = aqs._backbone_mask(ci, cj, p.n, p.dim)
+    ci, cj, _ = contact_list(p, nl)
+    backbone = backbone_mask(ci, cj, p.n, p.dim)
     live = backbone[ci] & backbone[cj]
     ci, cj = ci[live], cj[live]
-    _, dr, _ = aqs._network_forces(p, ci, cj)
-    fac = aqs._factorise(p, nl, backbone, (ci, cj, dr))
+    _, dr, _ = network_forces(p, ci, cj)
+    fac = factorise(p, nl, backbone, (ci, cj, dr))
     assert fac.positive_definite
     d, n_free = p.dim, fac.free.size
-    data, indices, indptr = aqs.AK.backbone_hessian_csr(
-        ci, cj, dr, p.diameters, p.alpha, fac.free_index, n_free
-    )
-    k = np.zeros((n_free * d, n_free * d))
-    k[np.repeat(np.arange(n_free * d), np.diff(indptr)), indices] += data
+    k = hessian_matrix(ci, cj, dr, fac).toarray()
+    assert k.shape == (n_free * d, n_free * d)
 
     def dense_pd(pi, pj, signs):
         m = k.copy()
@@ -507,7 +515,7 @@ def test_switch_positive_definiteness_against_dense_eigenvalues():
         if c % 7 and not weak:
             continue  # every isostatic-end contact, and a sample of the rest
         pi, pj, signs = ci[c : c + 1], cj[c : c + 1], np.array([-1.0])
-        verdict, _ = aqs._switch_keeps_pd(p, ci, cj, fac, pi, pj, signs, params)
+        verdict, _ = switch_keeps_pd(p, ci, cj, fac, pi, pj, signs, params)
         assert verdict == dense_pd(pi, pj, signs)
         outcomes.append(verdict)
     assert True in outcomes and False in outcomes
@@ -517,7 +525,7 @@ def test_switch_positive_definiteness_against_dense_eigenvalues():
     gaps = np.linalg.norm(sep, axis=2)
     a, b = np.argwhere((gaps > 1.0) & (gaps < 1.3))[0]
     far = (bb[a], bb[b])
-    verdict, _ = aqs._switch_keeps_pd(
+    verdict, _ = switch_keeps_pd(
         p, ci, cj, fac, np.array([far[0]]), np.array([far[1]]), np.array([1.0]), params
     )
     assert verdict and dense_pd([far[0]], [far[1]], [1.0])

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from jamlab.spheres import _kernels as K
+from jamlab.spheres import kernels as K
 from jamlab.spheres.neighbors import NeighborList, list_positions
 from jamlab.spheres.state import Packing
 

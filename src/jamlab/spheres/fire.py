@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from jamlab.spheres import _kernels as K
+from jamlab.spheres import kernels as K
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList
 from jamlab.spheres.state import Packing
 

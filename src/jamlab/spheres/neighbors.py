@@ -1,4 +1,5 @@
-"""Verlet neighbour lists under Lees–Edwards shear (cell search in :mod:`jamlab.spheres._kernels`).
+"""Verlet neighbour lists under Lees–Edwards shear (cell search:
+:mod:`jamlab.spheres.kernels.geometry`).
 
 A :class:`NeighborList` holds every pair closer than ``rc = σ_max + skin`` (``σ_max`` the largest
 diameter) in a half list in CSR form, and the pair law of its packing (diameters in list order and
@@ -11,7 +12,7 @@ import math
 
 import numpy as np
 
-from jamlab.spheres import _kernels as K
+from jamlab.spheres import kernels as K
 from jamlab.spheres.box import Box
 from jamlab.spheres.state import Packing
 
@@ -52,7 +53,7 @@ class NeighborList:
 
     Kept valid across affine strain steps: :meth:`update` moves the stored image shifts with the
     strain and rebuilds only when ``2 max_i |u_i| + |Δγ| rc ≥ skin``, where ``u_i`` is the
-    non-affine displacement since the last build (see :mod:`jamlab.spheres._kernels`).
+    non-affine displacement since the last build (see :mod:`jamlab.spheres.kernels.geometry`).
 
     For memory locality the list works on the particles permuted by ``order`` (fixed at
     creation, :func:`spatial_order`): index ``k`` of the list is particle ``order[k]``. The

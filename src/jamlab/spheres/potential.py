@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse
 
-from jamlab.spheres import _kernels as K
+from jamlab.spheres import kernels as K
 from jamlab.spheres.contacts import RattlerResult, contacts, coordination, remove_rattlers
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList, list_positions, spatial_order
 from jamlab.spheres.state import Packing, affine_shear, random_packing

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from jamlab.spheres._kernels import pair_stiffness
+from jamlab.spheres.kernels.pairs import pair_stiffness
 from jamlab.spheres.pair import pair_sigma, pair_terms
 
 
@@ -131,7 +131,7 @@ def contact_changes(keys0, row0, ci, cj, n):
 @njit(cache=True)
 def forces_virial_flags(pos, start, nbr, shift, diam, alpha, forces, virial, flags, write):
     """One pass over the neighbour list: ``E``, forces, the virial ``S_ab`` (as
-    ``_kernels.energy_forces_virial``) and the contact state of every list slot.
+    ``pairs.energy_forces_virial``) and the contact state of every list slot.
 
     ``flags[k]`` is 1 if slot ``k`` (pair ``i``, ``nbr[k]``) is a contact (``r < σ_ij``). With
     ``write`` the states are stored in ``flags``; otherwise they are compared with it. Returns

@@ -1,0 +1,105 @@
+"""AQS speed of two source trees, timed alternately in one run (before/after a refactor).
+
+Runs the jamlab part of ``bench_aqs.py`` (φ = 0.8: N = 1000 from the LAMMPS start of
+``shared/reference/lammps-aqs-n1000-phi0.80``, δγ = 1e-5, fast path and plain FIRE; near
+jamming: ``jam(128, seed=1, p_target=1e-5)``, fast path and FIRE with classification) in
+subprocesses with ``PYTHONPATH`` set to each tree in turn, ``--repeat`` rounds ``A B A B …``
+(the machine is shared: alternating spreads the disturbance over both), and prints per case the
+best time per step of each tree and their ratio, and the ratio of every round. Compiled kernels
+are warmed before timing in every subprocess. Asserts nothing about time.
+
+Run: ``python benchmarks/bench_refactor.py --compare-src /work/wt-base/src [--src src]
+[--repeat 5] [--steps 200] [--no-jamming]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve()
+REFERENCE = HERE.parents[2] / "shared" / "reference"
+START = REFERENCE / "lammps-aqs-n1000-phi0.80"
+
+# the child: time each case with the jamlab found on PYTHONPATH; prints one JSON line
+CHILD = r"""
+import json, sys
+import jamlab
+from jamlab.spheres.aqs import shear
+from jamlab.spheres.io import read_lammps_positions
+from jamlab.spheres.packing import jam
+
+start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+meta = json.load(open(start_dir + "/meta.json"))
+start = read_lammps_positions(start_dir + "/positions.txt", box_length=meta["box_length"])
+shear(start, 1e-5, n_steps=2)  # compile outside the timings
+out = {"jamlab": jamlab.__file__}
+r = shear(start, 1e-5, n_steps=steps)
+out["phi0.8 fast path"] = (r.time / steps, int(r.trace.plastic.sum()))
+r = shear(start, 1e-5, n_steps=steps, minimizer="fire", classify=False)
+out["phi0.8 plain FIRE"] = (r.time / steps, int(r.trace.plastic.sum()))
+if jamming == "1":
+    jammed = jam(128, 3, seed=1, p_target=1e-5).packing
+    shear(jammed, 1e-5, n_steps=1)
+    r = shear(jammed, 1e-5, n_steps=jam_steps)
+    out["jamming N=128 fast path"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
+    r = shear(jammed, 1e-5, n_steps=jam_steps, minimizer="fire", classify=True)
+    out["jamming N=128 FIRE+classify"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
+print("RESULT " + json.dumps(out))
+"""
+
+
+def run_child(src: str, args) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(Path(src).resolve()))
+    cmd = [
+        sys.executable,
+        "-c",
+        CHILD,
+        str(START),
+        str(args.steps),
+        str(args.jam_steps),
+        "0" if args.no_jamming else "1",
+    ]
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
+    line = next(x for x in res.stdout.splitlines() if x.startswith("RESULT "))
+    return json.loads(line[len("RESULT ") :])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--compare-src", required=True, help="the 'before' source tree (A)")
+    ap.add_argument("--src", default=str(HERE.parents[1] / "src"), help="the 'after' tree (B)")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--jam-steps", type=int, default=30)
+    ap.add_argument("--no-jamming", action="store_true")
+    args = ap.parse_args(argv)
+    if not START.is_dir():
+        print(f"reference start not found at {START}")
+        return 0
+    runs: dict[str, list[dict]] = {"A": [], "B": []}
+    for k in range(args.repeat):
+        for label, src in (("A", args.compare_src), ("B", args.src)):
+            runs[label].append(run_child(src, args))
+        print(f"round {k + 1}/{args.repeat} done", flush=True)
+    print(f"A (before) = {runs['A'][0]['jamlab']}\nB (after)  = {runs['B'][0]['jamlab']}")
+    cases = [c for c in runs["A"][0] if c != "jamlab"]
+    print(f"{'case':30s} {'A ms/step':>10s} {'B ms/step':>10s} {'B/A best':>9s}  B/A per round")
+    for case in cases:
+        a = [r[case][0] for r in runs["A"]]
+        b = [r[case][0] for r in runs["B"]]
+        plastic = {r[case][1] for r in runs["A"] + runs["B"]}
+        rounds = " ".join(f"{y / x:.2f}" for x, y in zip(a, b, strict=True))
+        print(
+            f"{case:30s} {1e3 * min(a):10.2f} {1e3 * min(b):10.2f} {min(b) / min(a):9.3f}  "
+            f"{rounds}  (plastic: {sorted(plastic)})"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,39 @@
+"""Checkpoints of an AQS run: where the configurations go and how the run is saved."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from jamlab.spheres.aqs.record import make_trace
+from jamlab.spheres.potential import Packing
+from jamlab.spheres.trace import write_trace
+
+
+def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
+    """``(last, snapshots)``: where :func:`~jamlab.spheres.aqs.shear` saves the last configuration
+    (``<stem>.last.h5``) and every ``save_every``-th one (``<stem>.configs/step_XXXXXXXX.h5``)."""
+    out = Path(out)
+    stem = out.name[: -len(out.suffix)] if out.suffix else out.name
+    return out.with_name(f"{stem}.last.h5"), out.with_name(f"{stem}.configs")
+
+
+def save_checkpoint(
+    out: str | Path,
+    rows: dict[str, list],
+    attrs: dict,
+    counters: dict,
+    packing: Packing,
+    step: int,
+    snapshot: bool,
+) -> None:
+    """Write the configuration ``packing`` after ``step`` (also as a snapshot if ``snapshot``)
+    and then the trace so far, each atomically (:func:`checkpoint_paths`)."""
+    from jamlab.spheres.io import write_packing
+
+    last, snapshots = checkpoint_paths(out)
+    if snapshot:
+        snapshots.mkdir(exist_ok=True)
+        write_packing(snapshots / f"step_{step:08d}.h5", packing, aqs_step=int(step))
+    # configuration first: a trace never refers to a configuration that is not on disk
+    write_packing(last, packing, aqs_step=int(step))
+    write_trace(out, make_trace(rows, attrs, counters))

@@ -1,0 +1,184 @@
+"""The AQS driver: :func:`shear` steps the strain and hands each step to a strategy of
+:class:`~jamlab.spheres.aqs.steps.Stepper` (the lean step, the branch continuation, FIRE; the
+method: :mod:`jamlab.spheres.aqs`)."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
+from jamlab.spheres.aqs.parameters import AQSParameters
+from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
+from jamlab.spheres.aqs.steps import Stepper
+from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.potential import NeighborList, Packing
+from jamlab.spheres.trace import Trace
+
+__all__ = ["MINIMIZERS", "ShearResult", "checkpoint_paths", "n_steps_for", "shear"]
+
+MINIMIZERS = ("linear", "fire")
+
+
+@dataclass(frozen=True, eq=False)
+class ShearResult:
+    """Outcome of :func:`shear`: the ``trace``, the final minimum ``packing`` and counters.
+
+    ``n_fallback``: steps where continuation failed and FIRE carried the step; ``n_substepped``:
+    steps the fast path had to subdivide; ``n_cleanup``: steps where FIRE relaxed rattler forces
+    after Newton; ``n_not_converged``: recorded minima with ``max_force ≥ ftol``; ``time``: wall
+    clock seconds of the stepping loop.
+    """
+
+    trace: Trace
+    packing: Packing
+    n_fallback: int
+    n_substepped: int
+    n_cleanup: int
+    n_not_converged: int
+    time: float
+
+
+def n_steps_for(dgamma: float, gamma_max: float) -> int:
+    """``M = round(γ_max / δγ)`` strain steps; validates ``0 < δγ < γ_max``."""
+    if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+        raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+    if not (isinstance(gamma_max, int | float) and math.isfinite(gamma_max)):
+        raise ValueError(f"gamma_max must be finite, got gamma_max={gamma_max!r}")
+    if not gamma_max > dgamma:
+        raise ValueError(f"need dgamma < gamma_max, got dgamma={dgamma!r}, gamma_max={gamma_max!r}")
+    return int(round(gamma_max / dgamma))
+
+
+def shear(
+    packing: Packing,
+    dgamma: float,
+    gamma_max: float | None = None,
+    *,
+    n_steps: int | None = None,
+    minimizer: str = "linear",
+    ftol: float = 1e-12,
+    classify: bool = True,
+    params: AQSParameters | None = None,
+    fire_params: FireParameters | None = None,
+    save_every: int | None = None,
+    out: str | Path | None = None,
+    previous: Trace | None = None,
+    source: str | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ShearResult:
+    """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
+
+    Strains are ``γ_n = γ_0 + n δγ`` (no accumulated rounding), ``γ_0`` the strain of the input
+    (or of row 0 of ``previous``). The input is first minimised with FIRE if its largest force is
+    ``≥ ftol``. ``minimizer``: ``"linear"`` (linear response + chord Newton, FIRE fallback) or
+    ``"fire"`` (plain FIRE every step; ``classify=False`` skips the continuation test and leaves
+    ``plastic`` all False). See the module docstring for the elastic/plastic rule.
+
+    ``out``: trace file to write (atomically) at the end and every ``save_every`` steps, together
+    with the configuration (:func:`checkpoint_paths`). ``previous``: a trace to continue (resume);
+    ``packing`` must then be the configuration at ``previous.gamma[-1]``.
+    """
+    if minimizer not in MINIMIZERS:
+        raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    if (gamma_max is None) == (n_steps is None):
+        raise ValueError("give exactly one of gamma_max and n_steps")
+    if n_steps is None:
+        total = n_steps_for(dgamma, gamma_max)
+    else:
+        if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+            raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+        if not (isinstance(n_steps, int) and n_steps >= 1):
+            raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
+        total = n_steps
+    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if save_every is not None and out is None:
+        raise ValueError("save_every needs an output path (out=...)")
+    params = AQSParameters() if params is None else params
+    fire_params = FireParameters() if fire_params is None else fire_params
+
+    nl = NeighborList(packing)
+    rows: dict[str, list] = {k: [] for k in ROW_KEYS}
+    if previous is None:
+        gamma0 = packing.strain
+        start_iterations = 0
+        cur = packing
+        row, backbone = observe(cur, nl)
+        if row["max_force"] >= ftol:
+            res = minimize(cur, ftol, params.max_fire_iter, fire_params, neighbors=nl)
+            cur, start_iterations = res.packing, res.iterations
+            row, backbone = observe(cur, nl)
+        append_row(rows, cur.strain, row, start_iterations, False)
+        first = 1
+    else:
+        gamma0 = float(previous.gamma[0])
+        if not math.isclose(packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15):
+            raise ValueError(
+                f"configuration strain {packing.strain} does not match the trace's last strain "
+                f"{previous.gamma[-1]}"
+            )
+        for k in ROW_KEYS:
+            rows[k] = list(getattr(previous, k))
+        cur = packing
+        _, backbone = observe(cur, nl)
+        first = previous.n_steps + 1
+    if first > total:
+        raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
+
+    attrs = {
+        "dgamma": float(dgamma),
+        "gamma_max": float(gamma0 + total * dgamma),
+        "n_steps": int(total),
+        "ftol": float(ftol),
+        "minimizer": minimizer,
+        "N": int(packing.n),
+        "dim": int(packing.dim),
+        "phi": float(packing.phi),
+        "box_length": float(packing.box.length),
+        "seed": int(-1 if packing.seed is None else packing.seed),
+        "jamlab_version": jamlab_version(),
+        "source": "" if source is None else str(source),
+    }
+    counters = {
+        "n_fallback": 0,
+        "n_substepped": 0,
+        "n_cleanup": 0,
+        "n_factorisations": 1,
+        "n_lean": 0,
+    }
+    prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
+    stepper = Stepper(
+        cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params, counters
+    )
+    t0 = time.perf_counter()
+    for n in range(first, total + 1):
+        target = gamma0 + n * dgamma
+        step = stepper.take(cur, target)
+        cur, row, backbone, iterations, cleaned = stepper.settle(step)
+        append_row(rows, target, row, iterations, step.plastic)
+        stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total)
+        if progress is not None:
+            progress(n, total)
+        if out is not None and save_every is not None and n % save_every == 0 and n < total:
+            save_checkpoint(out, rows, attrs, counters, cur, n, snapshot=True)
+    elapsed = time.perf_counter() - t0
+    trace = make_trace(rows, attrs, counters)
+    if out is not None:
+        save_checkpoint(out, rows, attrs, counters, cur, total, snapshot=save_every is not None)
+    return ShearResult(
+        trace=trace,
+        packing=cur,
+        n_fallback=counters["n_fallback"],
+        n_substepped=counters["n_substepped"],
+        n_cleanup=counters["n_cleanup"],
+        n_not_converged=int(np.count_nonzero(trace.max_force >= ftol)),
+        time=elapsed,
+    )

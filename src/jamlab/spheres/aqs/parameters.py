@@ -1,0 +1,64 @@
+"""Parameters of the AQS fast path and of the step classification (:class:`AQSParameters`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class AQSParameters:
+    """Tolerances of the fast path and of the classification (method: :mod:`jamlab.spheres.aqs`).
+
+    ``max_newton``: Newton iterations per (sub)step; ``max_chord``, ``chord_contraction``: chord
+    steps of the lean step with the stored factorisation, each required to cut the force by
+    that factor; ``contraction``: required reduction factor of ``max |F_b|`` per iteration;
+    ``linear_basin``: allowed Newton correction relative to the linear prediction;
+    ``min_substep``: smallest substep as a fraction of ``δγ`` before the branch is declared
+    ended; ``energy_tol``: a one-substep step whose trapezoid residual
+    ``|ΔE − ½ δγ ΔΣ|`` exceeds ``energy_tol · δγ²`` (energy units; a contact change inside the
+    step gives ``≲ ΔG L^d δγ²/8``) is redone in 8 substeps as a safety check; ``match_tol``,
+    ``energy_match``: largest displacement and relative energy difference between FIRE's minimum
+    and the continued branch for them to count as the same minimum
+    (:func:`~jamlab.spheres.aqs.classify.same_minimum`);
+    ``max_fire_iter``: FIRE iteration cap. ``event_tol``: a contact crossing closer than
+    ``event_tol · δγ`` to the current point is switched there; ``max_events``: contact
+    switches per step (and ten times as many Newton solves) before the branch is declared
+    ended (pathological; FIRE then takes the step).
+    """
+
+    max_newton: int = 30
+    max_chord: int = 8
+    chord_contraction: float = 0.2
+    max_strikes: int = 3
+    max_cg: int = 60
+    max_corrections: int = 48
+    refactor_every: int = 250
+    stale_cg: int = 24
+    contraction: float = 0.5
+    linear_basin: float = 1.0
+    min_substep: float = 1.0 / 1024
+    energy_tol: float = 100.0
+    match_tol: float = 1e-3
+    energy_match: float = 1e-13
+    max_fire_iter: int = 2_000_000
+    max_lean_changes: int = 2
+    secant_depth: int = 16
+    secant_reach: float = 10.0
+    path_depth: int = 16
+    path_degree: int = 4
+    path_floor: float = 1e-14
+    event_tol: float = 1e-3
+    max_events: int = 1000
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
+            raise ValueError(f"max_newton must be an integer >= 1, got {self.max_newton!r}")
+        for name in ("contraction", "linear_basin", "min_substep"):
+            v = getattr(self, name)
+            if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
+                raise ValueError(f"{name} must be in (0, 1), got {v!r}")
+        for name in ("energy_tol", "match_tol", "energy_match", "event_tol"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {v!r}")
