@@ -1,7 +1,7 @@
 """AQS shear: jamlab's time per step (fast path and plain FIRE) against LAMMPS FIRE, in one run.
 
 Setting (issue 6): N = 1000, φ = 0.8, δγ = 1e-5, 200 steps, from the LAMMPS-minimised start of
-``shared/reference/lammps-aqs-n1000-phi0.80`` (strain 0). jamlab minimises to
+``tests/data/reference/lammps-aqs-n1000-phi0.80`` (strain 0). jamlab minimises to
 ``max_i |F_i| < 1e-12``; LAMMPS (serial, ``min_style fire``, ``min_modify norm max``,
 ``timestep 0.1``) to ``1e-10`` after ``change_box all xy delta δγ·L remap units box``; its time
 per step is the sum of the minimisations' "Loop time". LAMMPS runs twice: with its default
@@ -37,7 +37,7 @@ from jamlab.spheres import aqs
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_lammps_positions
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "reference"
 START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

@@ -4,7 +4,7 @@
                                               [--which phi080 jamming] [--json out.json]
 
 Two settings, N = 500, δγ = 1e-5: φ = 0.8 from the LAMMPS-minimised start of
-``shared/reference/lammps-aqs-n500-phi0.80-1000steps`` (random packing minimised at φ = 0.8 if
+``tests/data/reference/lammps-aqs-n500-phi0.80-1000steps`` (random packing minimised at φ = 0.8 if
 absent), and a jammed packing from ``jamlab.spheres.packing.jam(500, 3, seed)`` (p ≈ 1e-7).
 Each is sheared with the fast path (``minimizer="linear"``) and with plain FIRE
 (``minimizer="fire"``, which classifies by running the same continuation beside FIRE), both to
@@ -33,7 +33,7 @@ from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_lammps_positions
 from jamlab.spheres.packing import jam
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "reference"
 N500 = REFERENCE / "lammps-aqs-n500-phi0.80-1000steps"
 DGAMMA = 1e-5
 

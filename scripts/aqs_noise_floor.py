@@ -3,7 +3,7 @@
     python scripts/aqs_noise_floor.py [--steps 1000]
 
 Shears the N = 500, φ = 0.8 LAMMPS-minimised start of
-``shared/reference/lammps-aqs-n500-phi0.80-1000steps`` (a random packing minimised at φ = 0.8
+``tests/data/reference/lammps-aqs-n500-phi0.80-1000steps`` (a random packing minimised at φ = 0.8
 if absent) with the fast path, δγ = 1e-5, and prints: the plastic rows, the robust spread
 ``σ_r`` of the trapezoid residual ``r_n = ΔE_n − ½ δγ ΔΣ_n`` over the elastic steps
 (:func:`jamlab.analysis.avalanches.noise_floor`), the elastic term ``½ G L^d δγ²``, their
@@ -26,8 +26,9 @@ from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_lammps_positions
 
 N500 = (
-    Path(__file__).resolve().parents[2]
-    / "shared"
+    Path(__file__).resolve().parents[1]
+    / "tests"
+    / "data"
     / "reference"
     / "lammps-aqs-n500-phi0.80-1000steps"
 )

@@ -1,7 +1,5 @@
 """Avalanche classification on synthetic traces with known jumps, and on the LAMMPS reference."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -12,14 +10,9 @@ from jamlab.analysis import (
     jumps_from_trace,
     noise_floor,
 )
+from reference_data import N500
 
-REFERENCE = (
-    Path(__file__).resolve().parents[3]
-    / "shared"
-    / "reference"
-    / "lammps-aqs-n500-phi0.80-1000steps"
-    / "trace.csv"
-)
+REFERENCE = N500 / "trace.csv"
 
 
 def _synthetic_trace(rng, noise):
@@ -100,7 +93,6 @@ def test_noise_floor_global_modulus_is_upper_bound(rng):
     assert glob.sigma >= local.sigma
 
 
-@pytest.mark.skipif(not REFERENCE.exists(), reason="reference data not available")
 def test_reference_trace_continuous_branch_not_counted():
     data = np.genfromtxt(REFERENCE, delimiter=",", names=True)
     de, ds, dg = jumps_from_trace(data["strain"], data["energy"], data["shear_stress"])

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,10 +10,10 @@ import pytest
 import jamlab.spheres as sp
 from cli_helpers import jamlab, one_line_error
 from jamlab.spheres.io import read_packing, write_packing
+from reference_data import REFERENCE
 
 KEYS = {"energy", "shear_stress", "pressure", "z", "z_nr", "n_rattlers", "n_contacts_nr"}
 KEYS |= {"max_force", "n", "dim", "phi", "strain"}
-REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 
 
 def test_inspect_json_keys_and_values(tmp_path):
@@ -61,8 +60,6 @@ def test_random_then_minimize(tmp_path):
 
 def test_import_reference_positions(tmp_path):
     src = REFERENCE / "lammps-aqs-n500-phi0.80-1000steps" / "positions.txt"
-    if not src.is_file():
-        pytest.skip("reference data absent")
     out = tmp_path / "ref.h5"
     r = jamlab("import-xyz", str(src), "--out", str(out))
     assert r.returncode == 0, r.stderr

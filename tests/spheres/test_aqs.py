@@ -32,10 +32,8 @@ from jamlab.spheres.aqs.predictor import BranchPath, Secants
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import read_lammps_positions
 from jamlab.spheres.trace import TRACE_COLUMNS, Trace, read_trace, write_trace
+from reference_data import N500, N1000
 
-REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
-N1000 = REFERENCE / "lammps-aqs-n1000-phi0.80"
-N500 = REFERENCE / "lammps-aqs-n500-phi0.80-1000steps"
 DGAMMA = 1e-5
 
 
@@ -78,12 +76,10 @@ def _compare_with_reference(folder: Path, n_steps: int) -> None:
     assert np.all(tr.max_force < 1e-12)
 
 
-@pytest.mark.skipif(not N1000.is_dir(), reason="LAMMPS reference data not found")
 def test_lammps_reference_n1000_100_steps():
     _compare_with_reference(N1000, 100)
 
 
-@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
 def test_lammps_reference_n500_first_plastic_event():
     # the first avalanche of this trace is at step 43 -> 44; 60 steps cover it
     _, ref, _ = _reference(N500)
@@ -92,7 +88,6 @@ def test_lammps_reference_n500_first_plastic_event():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
 def test_lammps_reference_n500_1000_steps_events():
     """All 1000 steps. An avalanche in LAMMPS's trace is a step with ``−r > 100 δγ²``: its
     events have ``−r`` from 5.6e-7 to 0.22, its elastic steps ``|r| ≤ 2.8e-9`` (kinks where a
@@ -120,7 +115,6 @@ def _short_trace(minimizer: str, n_steps: int = 40, ftol: float = 1e-12) -> Trac
     return aqs.shear(start, DGAMMA, n_steps=n_steps, minimizer=minimizer, ftol=ftol).trace
 
 
-@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
 def test_elastic_steps_follow_the_trapezoid_rule():
     tr = _short_trace("linear")
     elastic = ~tr.plastic[1:]
@@ -132,7 +126,6 @@ def test_elastic_steps_follow_the_trapezoid_rule():
     assert np.max(np.abs(de - trapezoid)) < 1e-4 * np.min(np.abs(de))
 
 
-@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
 def test_fast_path_equals_plain_fire():
     # FIRE's stress at max|F| < 1e-12 is only good to ~3e-10 relative here (soft modes of
     # stiffness ~2e-3 turn a 1e-12 force into a 5e-10 displacement); 1e-13 resolves 1e-10
@@ -172,7 +165,6 @@ def _events_fast_vs_fire(start, n_steps: int, residual_checks: bool = True) -> t
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not N500.is_dir(), reason="LAMMPS reference data not found")
 def test_events_fast_vs_fire_phi080():
     """φ = 0.8, N = 500, the issue's 300 steps (avalanches at rows 44, 215 and 235 when this
     was written; after the first one the runs may part from LAMMPS's trace: chaos)."""

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,8 +11,7 @@ from spheres_brute import brute_force
 import jamlab.spheres as sp
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.io import read_lammps_positions
-
-REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
+from reference_data import REFERENCE
 
 
 def test_fire_reaches_1e12_from_random_start_n1000_3d():
@@ -80,7 +78,6 @@ def test_neighbor_list_reuse_across_strain_steps():
         p = r.packing
 
 
-@pytest.mark.skipif(not REFERENCE.is_dir(), reason="reference data absent")
 def test_returns_to_lammps_minimum_after_small_kick():
     folder = REFERENCE / "lammps-aqs-n500-phi0.80-1000steps"
     p = read_lammps_positions(folder / "positions.txt")

@@ -4,19 +4,17 @@ from __future__ import annotations
 
 import csv
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import jamlab.spheres as sp
 from jamlab.spheres.io import read_lammps_positions
+from reference_data import REFERENCE
 
-REFERENCE = Path(__file__).resolve().parents[3] / "shared" / "reference"
 FOLDERS = sorted(p for p in REFERENCE.glob("lammps-aqs-*") if p.is_dir())
 
 
-@pytest.mark.skipif(not FOLDERS, reason=f"reference data not found at {REFERENCE}")
 @pytest.mark.parametrize("folder", FOLDERS, ids=lambda p: p.name)
 def test_row0_of_lammps_trace(folder):
     meta = json.loads((folder / "meta.json").read_text())

@@ -9,7 +9,8 @@ Backends (:class:`Execution`):
 - ``scheduler="tcp://HOST:8786"``: an existing ``dask.distributed`` cluster;
 - ``cluster="slurm"``: a ``dask_jobqueue.SLURMCluster`` started for the run (``slurm`` options:
   ``jobs``, ``cores``, ``processes``, ``memory``, ``walltime``, ``queue``, ``account``,
-  ``job_extra_directives``, ``local_directory``), closed at the end.
+  ``job_extra_directives``, ``local_directory``, ``log_directory``), closed at the end; the jobs'
+  logs go to ``log_directory`` (default: ``slurm-logs/`` in the run directory).
 
 Whatever the backend, only the driving process writes files, one sample at a time, as results
 arrive; a worker's exception becomes a failure record, never an aborted run.
@@ -18,6 +19,7 @@ arrive; a worker's exception becomes a failure record, never an aborted run.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import multiprocessing
 import os
 import time
@@ -45,6 +47,7 @@ _SLURM_KEYS = {
     "job_extra_directives",
     "local_directory",
     "interface",
+    "log_directory",
 }
 
 
@@ -117,7 +120,7 @@ def slurm_cluster_kwargs(options: dict[str, Any]) -> tuple[dict[str, Any], int]:
         "memory": str(opts.pop("memory", "2GiB")),
         "walltime": str(opts.pop("walltime", "01:00:00")),
     }
-    for name in ("queue", "account", "local_directory", "interface"):
+    for name in ("queue", "account", "local_directory", "interface", "log_directory"):
         if opts.get(name) is not None:
             kwargs[name] = opts.pop(name)
     extra = opts.pop("job_extra_directives", None)
@@ -251,6 +254,10 @@ def run_study(
         items = [(key, sample_seed(study.seed, key)) for key in todo]
         seeds = dict(items)
         callback = progress(len(todo), summary.skipped) if progress is not None else None
+        if execution.cluster == "slurm" and "log_directory" not in execution.slurm:
+            # the SLURM jobs' logs (dask-worker-JOBID.out/.err) go to the run directory
+            slurm = {**execution.slurm, "log_directory": str(run.path.resolve() / "slurm-logs")}
+            execution = dataclasses.replace(execution, slurm=slurm)
         for key, outcome in _outcomes(items, study, execution, task):
             if isinstance(outcome, SampleResult):
                 run.write_sample(key, outcome, seeds[key], study)
