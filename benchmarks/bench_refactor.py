@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve()
-REFERENCE = HERE.parents[2] / "shared" / "reference"
+REFERENCE = HERE.parents[1] / "tests" / "data" / "reference"
 START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 # the child: time each case with the jamlab found on PYTHONPATH; prints one JSON line

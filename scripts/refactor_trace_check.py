@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-REFERENCE = Path(__file__).resolve().parents[2] / "shared" / "reference"
+REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "reference"
 FLOAT_COLUMNS = ("gamma", "energy", "shear_stress", "pressure", "z", "z_nr", "max_force")
 EXACT_COLUMNS = ("plastic", "iterations")
 COUNTERS = ("n_fallback", "n_substepped", "n_cleanup", "n_factorisations", "n_lean", "n_plastic")

@@ -27,7 +27,6 @@ that need them raise ``ImportError`` naming the extra.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import re
 from dataclasses import dataclass, field
@@ -101,13 +100,12 @@ def format_from_suffix(path: str | os.PathLike) -> str:
 
 
 def diameters_of(packing: Packing) -> np.ndarray:
-    """The particle diameters (all 1 for a packing without per-particle diameters)."""
-    d = getattr(packing, "diameters", None)
-    return np.ones(packing.n) if d is None else np.asarray(d, dtype=np.float64)
+    """The particle diameters ``D_i``."""
+    return np.asarray(packing.diameters, dtype=np.float64)
 
 
 def _alpha_of(packing: Packing) -> float:
-    return float(getattr(packing, "alpha", 2.0))
+    return float(packing.alpha)
 
 
 def make_packing(
@@ -118,27 +116,19 @@ def make_packing(
     alpha: float | None = None,
     seed: int | None = None,
 ) -> Packing:
-    """A :class:`Packing` from exchanged data; ``ValueError`` if this jamlab cannot represent it
-    (diameters other than 1, or a pair exponent other than 2, without per-particle support)."""
+    """A :class:`Packing` from exchanged data (diameters default to 1, ``alpha`` to 2);
+    ``ValueError`` naming what is wrong."""
     positions = np.asarray(positions, dtype=np.float64)
     if positions.ndim != 2 or positions.shape[1] < 2:
         raise ValueError(f"positions must be an (N, d >= 2) array, got shape {positions.shape}")
-    names = {f.name for f in dataclasses.fields(Packing)}
-    kwargs: dict[str, object] = {}
     if diameters is not None:
         diameters = np.asarray(diameters, dtype=np.float64)
         if diameters.shape != (positions.shape[0],):
             raise ValueError(f"{diameters.size} diameters for {positions.shape[0]} particles")
-        if "diameters" in names:
-            kwargs["diameters"] = diameters
-        elif not np.all(diameters == 1.0):
-            raise ValueError("diameters other than 1 need a jamlab with per-particle diameters")
-    if alpha is not None and float(alpha) != 2.0:
-        if "alpha" not in names:
-            raise ValueError(f"pair exponent alpha={alpha} needs a jamlab with the alpha field")
-        kwargs["alpha"] = float(alpha)
     box = Box(float(length), positions.shape[1], float(strain))
-    return Packing(positions, box, seed=seed, **kwargs)
+    return Packing(
+        positions, box, seed=seed, diameters=diameters, alpha=2.0 if alpha is None else alpha
+    )
 
 
 # --- jamlab side: configurations and traces as frames -------------------------------------------
