@@ -2,12 +2,14 @@
 
 Each module in this package defines ``register(app)`` adding its commands; they are discovered
 automatically so that command groups can grow independently. Errors a user can cause (bad
-arguments, ``ValueError`` from the library, missing files) are printed as one line
+arguments, ``ValueError`` from the library, missing files) and errors of the environment
+(``OSError``: a full disk, a read-only file system) are printed as one line
 ``jamlab: error: ...`` on stderr with exit code 2 and no traceback.
 """
 
 from __future__ import annotations
 
+import errno
 import importlib
 import pkgutil
 import sys
@@ -27,6 +29,9 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode=None,
 )
+
+
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG}
 
 
 class UserError(Exception):
@@ -67,6 +72,14 @@ def fail(message: str) -> None:
     raise SystemExit(2)
 
 
+def describe_os_error(exc: OSError) -> str:
+    """One line for an ``OSError``: ``cannot write PATH: No space left on device``."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    where = f" {exc.filename}" if exc.filename else ""
+    verb = "write" if exc.errno in _WRITE_ERRNOS else "access"
+    return f"cannot {verb}{where}: {reason}".replace("\n", " ")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
     try:
@@ -84,4 +97,7 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(exc.exit_code) from None
     except (UserError, ValueError, FileNotFoundError, FileExistsError, PermissionError) as exc:
         fail(str(exc).replace("\n", " "))
+    except OSError as exc:
+        # the environment, not a bug: a full disk, a read-only file system, an I/O error
+        fail(describe_os_error(exc))
     raise SystemExit(rv if isinstance(rv, int) else 0)

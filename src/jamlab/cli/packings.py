@@ -64,9 +64,16 @@ def register(app: typer.Typer) -> None:
         ] = "window",
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
     ) -> None:
+        from jamlab import validation
+        from jamlab._atomic import check_outputs
         from jamlab.spheres.io import write_packing
         from jamlab.spheres.packing import SEARCHES, jam, prepare
 
+        validation.integer("--n", n, minimum=2)
+        validation.integer("--dim", dim, minimum=2)
+        validation.seed("--seed", seed)
+        validation.positive("--ftol", ftol)
+        check_outputs({"--out": out})
         if search not in SEARCHES:
             raise ValueError(f"--search must be one of {', '.join(SEARCHES)}, got {search!r}")
         if phi.strip().lower() == "jamming":
@@ -86,8 +93,7 @@ def register(app: typer.Typer) -> None:
                 value = float(phi)
             except ValueError:
                 raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
-            if not (math.isfinite(value) and 0 < value < 1):
-                raise ValueError(f"--phi must be in (0, 1), got {value}")
+            value = validation.packing_fraction("--phi", value)
             if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
                 raise ValueError(
                     f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
@@ -121,10 +127,17 @@ def register(app: typer.Typer) -> None:
         import h5py
         import numpy as np
 
+        from jamlab import validation
+        from jamlab._atomic import check_outputs
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected
 
+        validation.integer("--steps", steps, minimum=2)
+        validation.positive("--ftol", ftol)
+        if not config.is_file():
+            raise FileNotFoundError(f"no such configuration file: {config}")
+        check_outputs({"--out": out, "--csv": csv}, {"configuration": config})
         packing = read_packing(config)
         with h5py.File(config, "r") as h5:
             ok = bool(h5.attrs.get("ok", True))

@@ -29,7 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from jamlab._atomic import atomic_write
+from jamlab._atomic import atomic_write_hdf5
 
 __all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace"]
 
@@ -138,17 +138,15 @@ def write_trace(path: str | os.PathLike, trace: Trace) -> Path:
     """Write ``trace`` atomically to HDF5: one 1-D dataset per column (names ``TRACE_COLUMNS``),
     ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``."""
 
-    def write(tmp: str) -> None:
-        with h5py.File(tmp, "w") as h5:
-            for name in TRACE_COLUMNS:
-                h5.create_dataset(name, data=getattr(trace, name))
-            for key, value in trace.attrs.items():
-                h5.attrs[key] = _attr_value(value)
-            h5.attrs["format"] = FORMAT
-            h5.attrs["format_version"] = FORMAT_VERSION
-            h5.flush()
+    def fill(h5: h5py.File) -> None:
+        for name in TRACE_COLUMNS:
+            h5.create_dataset(name, data=getattr(trace, name))
+        for key, value in trace.attrs.items():
+            h5.attrs[key] = _attr_value(value)
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
 
-    return atomic_write(path, write)
+    return atomic_write_hdf5(path, fill)
 
 
 def read_trace(path: str | os.PathLike) -> Trace:
@@ -164,7 +162,13 @@ def read_trace(path: str | os.PathLike) -> Trace:
         missing = [name for name in TRACE_COLUMNS if name not in h5]
         if missing:
             raise ValueError(f"not a jamlab AQS trace (missing {', '.join(missing)}): {path}")
-        cols = {name: h5[name][()] for name in TRACE_COLUMNS}
+        cols = {}
+        for name in TRACE_COLUMNS:
+            item = h5[name]
+            numeric = isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"
+            if not numeric or item.ndim != 1:
+                raise ValueError(f"not a jamlab AQS trace ({name}: not 1-D numeric): {path}")
+            cols[name] = item[()]
         attrs = {}
         for key, value in h5.attrs.items():
             if key in ("format", "format_version"):
@@ -174,4 +178,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
             elif isinstance(value, np.generic):
                 value = value.item()
             attrs[key] = value
-    return Trace(**cols, attrs=attrs)
+    try:
+        return Trace(**cols, attrs=attrs)
+    except ValueError as exc:
+        raise ValueError(f"invalid AQS trace {path}: {exc}") from None
