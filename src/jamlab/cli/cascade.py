@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
         """Sample jumps of the k-level cascade (SPEC §2) at strain δγ; histogram |ΔE| (log bins)
         beside the printed theory and the exact recursion; print p_no_jump sampled vs theory."""
         from jamlab import validation
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
         from jamlab.theory.cascade import sample_cascade_jumps, sample_cascade_tree, validate_levels
         from jamlab.theory.exact import exact_jump_R

@@ -65,7 +65,7 @@ def register(app: typer.Typer) -> None:
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
     ) -> None:
         from jamlab import validation
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import write_packing
         from jamlab.spheres.packing import SEARCHES, jam, prepare
 
@@ -128,7 +128,7 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from jamlab import validation
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected

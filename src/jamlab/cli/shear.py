@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         from jamlab import validation
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.spheres.aqs import checkpoint_paths, shear
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace

@@ -88,7 +88,7 @@ def register(app: typer.Typer) -> None:
             int, typer.Option("--max-iter", help="Largest number of steps.")
         ] = 1_000_000,
     ) -> None:
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.spheres.fire import minimize
         from jamlab.spheres.io import read_packing, write_packing
 
@@ -124,7 +124,7 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option("--seed", help="Seed of numpy.random.default_rng.")] = 0,
     ) -> None:
         import jamlab.spheres as sp
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import write_packing
 
         validation.integer("--n", n, minimum=2)
@@ -152,7 +152,7 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--strain", help="Accumulated strain of the positions.")
         ] = 0.0,
     ) -> None:
-        from jamlab._atomic import check_outputs
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import read_lammps_positions, write_packing
 
         if box_length is not None:

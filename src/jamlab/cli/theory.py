@@ -54,7 +54,7 @@ def theory(
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
     from jamlab import validation
-    from jamlab._atomic import check_outputs
+    from jamlab.files import check_outputs
     from jamlab.plots.theory import plot_jump_distributions
     from jamlab.theory import ParisiFunction
 

@@ -39,7 +39,7 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab._atomic import atomic_write, atomic_write_hdf5
+from jamlab.files import atomic_write, atomic_write_hdf5
 from jamlab.runs.results import TRACE_FIELDS, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study, phi_label
 

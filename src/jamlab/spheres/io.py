@@ -8,7 +8,7 @@ HDF5 configuration file, root group:
   unknown), ``jamlab_version`` (str), ``format`` = ``"jamlab-configuration"`` and
   ``format_version`` = 1.
 
-Writes are atomic (:func:`jamlab._atomic.atomic_write_hdf5`: built in memory, written to a
+Writes are atomic (:func:`jamlab.files.atomic_write_hdf5`: built in memory, written to a
 temporary file in the destination directory, fsync'ed, renamed with ``os.replace``). Reading checks
 every item: ``positions`` a numeric ``(N, d)`` dataset with ``d = dim``, finite, a valid box, a
 finite strain ``|γ| <= 1e6`` (:mod:`jamlab.validation`), ``phi`` consistent.
@@ -24,7 +24,7 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab._atomic import atomic_write_hdf5
+from jamlab.files import atomic_write_hdf5
 from jamlab.spheres.box import Box
 from jamlab.spheres.potential import Packing
 

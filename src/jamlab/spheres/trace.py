@@ -29,7 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from jamlab._atomic import atomic_write_hdf5
+from jamlab.files import atomic_write_hdf5
 
 __all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace"]
 
