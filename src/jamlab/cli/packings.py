@@ -73,6 +73,8 @@ def register(app: typer.Typer) -> None:
         validation.integer("--dim", dim, minimum=2)
         validation.seed("--seed", seed)
         validation.positive("--ftol", ftol)
+        validation.positive("--p-target", p_target)
+        validation.packing_fraction("--phi-init", phi_init)
         check_outputs({"--out": out})
         if search not in SEARCHES:
             raise ValueError(f"--search must be one of {', '.join(SEARCHES)}, got {search!r}")
