@@ -412,3 +412,65 @@ def test_killing_the_driver_kills_its_workers(tmp_path):
     finally:
         if driver.poll() is None:
             driver.kill()
+
+
+def test_resume_from_the_configuration_stored_in_the_trace(good, checkpointed, tmp_path):
+    """A trace that carries its last configuration resumes with neither ``w.last.h5`` nor a
+    snapshot (the state a SIGKILL can leave once the checkpoint is one file)."""
+    whole = read_trace(checkpointed / "w.h5")
+    at25 = sp.read_packing(checkpointed / "w.configs" / "step_00000025.h5")
+    write_trace(tmp_path / "w.h5", whole.head(26), configuration=at25)
+    r = jamlab("shear", good, "--dgamma", "1e-3", "--gamma-max", "0.03", "--resume",
+               "--out", tmp_path / "w.h5")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    resumed = read_trace(tmp_path / "w.h5")
+    assert resumed.n_steps == 30
+    np.testing.assert_array_equal(resumed.energy[:26], whole.energy[:26])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="aqs._save writes the trace without its configuration: patch in "
+    "/work/briefs/patch-15-aqs.md (item 2), to be applied by the lead",
+)
+def test_the_checkpoint_trace_carries_its_configuration(checkpointed):
+    from jamlab.spheres.trace import read_trace_configuration
+
+    stored = read_trace_configuration(checkpointed / "w.h5")
+    assert stored is not None and stored["step"] == 30
+    last = sp.read_packing(checkpointed / "w.last.h5")
+    assert np.array_equal(stored["positions"], last.positions)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="aqs.shear starts its counters at 0 on resume: patch in /work/briefs/patch-15-aqs.md "
+    "(item 3), to be applied by the lead",
+)
+def test_resumed_counters_cover_the_whole_trace(good, checkpointed, tmp_path):
+    shutil.copyfile(checkpointed / "w.h5", tmp_path / "w.h5")
+    shutil.copyfile(checkpointed / "w.last.h5", tmp_path / "w.last.h5")
+    first = read_trace(tmp_path / "w.h5").attrs
+    r = jamlab("shear", good, "--dgamma", "1e-3", "--gamma-max", "0.031", "--resume",
+               "--out", tmp_path / "w.h5")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    after = read_trace(tmp_path / "w.h5").attrs
+    # one more step can only add factorisations to the 30 steps' count
+    assert after["n_factorisations"] >= first["n_factorisations"]
+    assert after["n_lean"] >= first["n_lean"] > 0
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="aqs.shear validates dgamma/gamma_max itself (n_steps_for): patch in "
+    "/work/briefs/patch-15-aqs.md (item 1), to be applied by the lead",
+)
+def test_python_api_shear_uses_the_validation_layer(good):
+    from jamlab.spheres.aqs import shear
+
+    packing = sp.read_packing(good)
+    far = sp.Packing(packing.positions, sp.Box(packing.box.length, 3, 1e5))
+    with pytest.raises(ValueError, match="resolution"):
+        shear(far, 1e-12, 1e-10)
+    with pytest.raises(ValueError, match="steps"):
+        shear(packing, 1e-3, n_steps=10**9)

@@ -10,9 +10,11 @@ arguments, ``ValueError`` from the library, missing files) and errors of the env
 from __future__ import annotations
 
 import errno
+import functools
 import importlib
 import pkgutil
 import sys
+from typing import Any
 
 import typer
 
@@ -72,6 +74,12 @@ def fail(message: str) -> None:
     raise SystemExit(2)
 
 
+@functools.cache
+def _command() -> Any:
+    """The click command of ``app``, built once per process (typer rebuilds it on every call)."""
+    return typer.main.get_command(app)
+
+
 def describe_os_error(exc: OSError) -> str:
     """One line for an ``OSError``: ``cannot write PATH: No space left on device``."""
     reason = exc.strerror or str(exc) or type(exc).__name__
@@ -83,7 +91,7 @@ def describe_os_error(exc: OSError) -> str:
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
     try:
-        rv = app(args=argv, prog_name="jamlab", standalone_mode=False)
+        rv = _command().main(args=argv, prog_name="jamlab", standalone_mode=False)
     except NoArgsIsHelpError as exc:
         print(exc.format_message())
         raise SystemExit(0) from None

@@ -55,14 +55,24 @@ def check_resume(
 
 
 def resume_configuration(out: Path, previous: Any) -> Any:
-    """The saved configuration at the strain of the trace's last row: ``<stem>.last.h5`` or, if
-    the run was killed between writing it and the trace, the snapshot of the same step."""
+    """The saved configuration at the strain of the trace's last row: the one stored in the
+    trace file itself (written with it by one rename), else ``<stem>.last.h5`` or, if the run was
+    killed between writing that and the trace, the snapshot of the same step."""
     from jamlab.spheres.aqs import checkpoint_paths
+    from jamlab.spheres.box import Box
     from jamlab.spheres.io import read_packing
+    from jamlab.spheres.potential import Packing
+    from jamlab.spheres.trace import read_trace_configuration
 
     last, snapshots = checkpoint_paths(out)
     step = previous.n_steps
     strain = float(previous.gamma[-1])
+    stored = read_trace_configuration(out)
+    if stored is not None and stored["step"] == step:
+        seed = int(stored["seed"])
+        positions = stored["positions"]
+        box = Box(float(stored["box_length"]), positions.shape[1], float(stored["strain"]))
+        return Packing(positions, box, seed=None if seed < 0 else seed)
     tried = []
     for candidate in (last, snapshots / f"step_{step:08d}.h5"):
         if not candidate.is_file():
