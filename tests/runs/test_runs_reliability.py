@@ -129,8 +129,9 @@ def _imports(path: Path) -> list[tuple[str, list[str]]]:
     return out
 
 
-def test_runs_imports_have_no_cycle_and_no_private_names():
-    modules = {p.stem: p for p in RUNS.glob("*.py") if p.stem != "__init__"}
+def test_runs_imports_have_no_cycle_and_no_private_names(runs: Path = RUNS):
+    modules = {p.stem: p for p in runs.glob("*.py") if p.stem != "__init__"}
+    assert {"execute", "storage", "tasks", "study"} <= set(modules), runs
     graph: dict[str, set[str]] = {m: set() for m in modules}
     for name, path in modules.items():
         for module, names in _imports(path):

@@ -82,7 +82,7 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     for key in study.keys():
         idx = (study.phi.index(key.phi), study.n.index(key.n), key.index)
         seeds[idx] = sample_seed(study.seed, key)
-        state = run.state(key)
+        state = run.state(key, study)
         status[idx] = state
         if state != "done":
             continue
