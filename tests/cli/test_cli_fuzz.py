@@ -15,6 +15,8 @@ import contextlib
 import hashlib
 import io
 import json
+import os
+import warnings
 from pathlib import Path
 
 import h5py
@@ -30,7 +32,7 @@ from jamlab.cli import main  # noqa: E402
 from jamlab.spheres.fire import minimize  # noqa: E402
 from jamlab.spheres.io import write_packing  # noqa: E402
 
-EXAMPLES = 50
+EXAMPLES = int(os.environ.get("JAMLAB_FUZZ_EXAMPLES", "50"))  # ~50 per command in CI
 
 # -- the fixture directory: good inputs and malformed files -----------------------------------
 
@@ -107,13 +109,20 @@ def run_bad(root: Path, argv: list[str]) -> None:
     """Run ``jamlab argv`` in ``root``: exit 2, one line, no traceback, no file changed."""
     before = _snapshot(root)
     err, out = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+    with (
+        contextlib.redirect_stderr(err),
+        contextlib.redirect_stdout(out),
+        warnings.catch_warnings(record=True) as caught,
+    ):
+        warnings.simplefilter("always")
         try:
             main(argv)
             code = 0
         except SystemExit as exc:
             code = exc.code
+    # a warning would be printed on stderr: one more line
     lines = [line for line in err.getvalue().splitlines() if line.strip()]
+    lines += [f"warning: {w.message}" for w in caught]
     assert code == 2, (argv, code, err.getvalue(), out.getvalue())
     assert len(lines) == 1 and lines[0].startswith("jamlab: error: "), (argv, err.getvalue())
     assert "Traceback" not in err.getvalue()

@@ -137,6 +137,8 @@ def register(app: typer.Typer) -> None:
 
         validation.integer("--steps", steps, minimum=2)
         validation.positive("--ftol", ftol)
+        validation.positive("--dphi-min", dphi_min)
+        validation.positive("--dphi-max", dphi_max, maximum=1.0)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
         check_outputs({"--out": out, "--csv": csv}, {"configuration": config})

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from pathlib import Path
 
 import h5py
@@ -124,9 +125,13 @@ def read_lammps_positions(
     else:
         box_length = validation.positive("box_length", box_length)
     try:
-        positions = np.loadtxt(path, comments="#", dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "input contained no data": refused just below
+            positions = np.loadtxt(path, comments="#", dtype=np.float64, ndmin=2)
     except (ValueError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot parse positions file {path}: {exc}") from None
+    if positions.size == 0:
+        raise ValueError(f"no positions in {path}")
     if positions.shape[1] < 2:
         raise ValueError(f"positions file {path} has {positions.shape[1]} column(s), need d >= 2")
     try:
