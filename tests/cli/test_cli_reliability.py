@@ -386,7 +386,7 @@ def test_a_refused_run_never_writes_the_manifest(tmp_path):
 
 
 def test_killing_the_driver_kills_its_workers(tmp_path):
-    import psutil
+    psutil = pytest.importorskip("psutil")  # installed with dask.distributed
 
     env = dict(os.environ, JAMLAB_TOY_DELAY="60")
     cmd = [sys.executable, "-m", "jamlab", "run", "--phi", "0.8", "--n", "32", "--samples", "2",
