@@ -90,8 +90,8 @@ def test_shear_resume_matches_one_run(start, tmp_path):
     [
         (("--dgamma", "0", "--gamma-max", "0.01"), "dgamma"),
         (("--dgamma", "-1e-5", "--gamma-max", "0.01"), "dgamma"),
-        (("--dgamma", "0.02", "--gamma-max", "0.01"), "gamma_max"),
-        (("--dgamma", "1e-5", "--gamma-max", "1e-5"), "gamma_max"),
+        (("--dgamma", "0.02", "--gamma-max", "0.01"), "gamma-max"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-5"), "gamma-max"),
         (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--minimizer", "cg"), "minimizer"),
     ],
 )

@@ -30,37 +30,41 @@ def test_order_does_not_change_results(tmp_path):
             assert stored["trace"][name].tobytes() == np.asarray(values).tobytes()
 
 
-def _ragged(study, key, seed):
-    """Traces whose length depends on the sample; index 2 at N=16 fails."""
+def _partial(study, key, seed):
+    """The toy task, except: index 2 at N=16 raises; index 1 at N=8 returns a trace one row
+    short (not a whole sample of the study)."""
     if key.index == 2 and key.n == 16:
         raise RuntimeError("no")
-    length = 2 + key.index
-    rng = np.random.default_rng(seed)
-    traces = {"gamma": np.arange(length) * study.dgamma, "energy": rng.random(length),
-              "plastic": rng.random(length) < 0.5}  # fmt: skip
-    return SampleResult(traces, {"phi_actual": 0.7 + key.index})
+    result = toy_task(study, key, seed)
+    result.attrs["phi_actual"] = 0.7 + key.index
+    if key.index == 1 and key.n == 8:
+        result.traces = {k: v[:-1] for k, v in result.traces.items()}
+    return result
 
 
-def test_open_run_matches_the_files_and_pads_with_nan(tmp_path):
+def test_open_run_matches_the_files_and_fills_failures_with_nan(tmp_path):
     run = tmp_path / "run"
-    run_study(STUDY, run, Execution(workers=0), task=_ragged)
+    summary = run_study(STUDY, run, Execution(workers=0), task=_partial)
+    # a short trace is recorded as a failure (never written as a finished sample)
+    assert summary.failed == 2 + 2 and summary.done == STUDY.n_samples - 4
     ds = open_run(run, fields=("gamma", "energy", "plastic"))
-    assert ds.sizes == {"phi": 2, "N": 2, "sample": 3, "step": 4}
+    rows = round(STUDY.gamma_max / STUDY.dgamma) + 1
+    assert ds.sizes == {"phi": 2, "N": 2, "sample": 3, "step": rows}
     assert list(ds.phi.values) == ["jamming", "0.75"]
     rd = RunDir(run)
     for key in STUDY.keys():
         cell = ds.sel(phi=key.phi_label, N=key.n, sample=key.index)
         assert int(cell.seed) == sample_seed(STUDY.seed, key)
-        if key.index == 2 and key.n == 16:
+        if (key.index, key.n) in ((2, 16), (1, 8)):
             assert str(cell.status.values) == "failed"
             assert np.isnan(cell.energy.values).all() and int(cell.n_steps) == 0
+            if key.n == 8:
+                assert rd.read_failure(key)["error_type"] == "InvalidResult"
             continue
         stored = read_sample(rd.sample_path(key))
-        length = len(stored["trace"]["energy"])
-        assert int(cell.n_steps) == length == 2 + key.index
-        np.testing.assert_array_equal(cell.energy.values[:length], stored["trace"]["energy"])
-        np.testing.assert_array_equal(cell.plastic.values[:length], stored["trace"]["plastic"])
-        assert np.isnan(cell.energy.values[length:]).all()
+        assert int(cell.n_steps) == len(stored["trace"]["energy"]) == rows
+        np.testing.assert_array_equal(cell.energy.values, stored["trace"]["energy"])
+        np.testing.assert_array_equal(cell.plastic.values, stored["trace"]["plastic"])
         assert float(cell.phi_actual) == stored["attrs"]["phi_actual"]
     with pytest.raises(ValueError, match="unknown trace field"):
         open_run(run, fields=("energi",))
@@ -68,11 +72,11 @@ def test_open_run_matches_the_files_and_pads_with_nan(tmp_path):
 
 def test_run_sample_turns_exceptions_into_failures():
     key = STUDY.keys()[0]
-    out = run_sample(STUDY, key, 1, task=_ragged)
+    out = run_sample(STUDY, key, 1, task=_partial)
     assert isinstance(out, SampleResult)
-    bad = run_sample(STUDY, STUDY.keys()[-1], 1, task=_ragged)
+    bad = run_sample(STUDY, STUDY.keys()[-1], 1, task=_partial)
     assert isinstance(bad, SampleFailure) and bad.error_type == "RuntimeError"
-    assert "_ragged" in bad.traceback
+    assert "_partial" in bad.traceback
     assert toy_task(STUDY, key, 1).traces["energy"].tobytes() == (
         toy_task(STUDY, key, 1).traces["energy"].tobytes()
     )

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import stat
+
 import h5py
 import numpy as np
 import pytest
@@ -56,3 +59,50 @@ def test_text_positions(tmp_path):
     assert np.array_equal(p.positions, pos) and p.strain == 0.1
     with pytest.raises(ValueError, match="meta.json"):
         read_lammps_positions(tmp_path / "p.txt")
+
+
+def _good_file(tmp_path):
+    p = sp.Packing(np.random.default_rng(0).uniform(0, 3, (10, 3)), sp.Box(3.0, 3), seed=4)
+    return write_packing(tmp_path / "c.h5", p)
+
+
+@pytest.mark.parametrize(
+    "damage, needle",
+    [
+        (lambda h5: (h5.__delitem__("positions"), h5.create_group("positions")), "positions"),
+        (lambda h5: (h5.__delitem__("positions"), h5.create_dataset("positions", data=[1.0, 2])),
+         "positions"),
+        (lambda h5: (h5.__delitem__("positions"), h5.create_dataset("positions", data=["a"] * 3)),
+         "positions"),
+        (lambda h5: h5["positions"].__setitem__((0, 0), np.nan), "finite"),
+        (lambda h5: h5.attrs.__setitem__("strain", 1e17), "strain"),
+        (lambda h5: h5.attrs.__setitem__("dim", 2), "dim"),
+        (lambda h5: h5.attrs.__setitem__("seed", 2.5), "seed"),
+        (lambda h5: h5.attrs.__setitem__("box_length", -3.0), "box length"),
+    ],
+)
+def test_damaged_configuration_is_a_value_error(tmp_path, damage, needle):
+    """Every damage is a one-line ``ValueError`` (on 09aa8ce: TypeError, AttributeError or a
+    configuration silently accepted)."""
+    path = _good_file(tmp_path)
+    with h5py.File(path, "a") as h5:
+        damage(h5)
+    with pytest.raises(ValueError, match=needle):
+        read_packing(path)
+
+
+def test_malformed_meta_json_is_a_value_error(tmp_path):
+    np.savetxt(tmp_path / "p.txt", np.random.default_rng(1).uniform(0, 4, (20, 3)))
+    for text in ("{", '{"box_length": null}', '{"box_length": 4, "seed_of_random_start": "x"}'):
+        (tmp_path / "meta.json").write_text(text)
+        with pytest.raises(ValueError, match="meta.json"):
+            read_lammps_positions(tmp_path / "p.txt")
+
+
+def test_files_are_created_with_the_umask_mode(tmp_path):
+    old = os.umask(0o027)
+    try:
+        path = _good_file(tmp_path)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640

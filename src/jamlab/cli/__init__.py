@@ -2,15 +2,19 @@
 
 Each module in this package defines ``register(app)`` adding its commands; they are discovered
 automatically so that command groups can grow independently. Errors a user can cause (bad
-arguments, ``ValueError`` from the library, missing files) are printed as one line
+arguments, ``ValueError`` from the library, missing files) and errors of the environment
+(``OSError``: a full disk, a read-only file system) are printed as one line
 ``jamlab: error: ...`` on stderr with exit code 2 and no traceback.
 """
 
 from __future__ import annotations
 
+import errno
+import functools
 import importlib
 import pkgutil
 import sys
+from typing import Any
 
 import typer
 
@@ -27,6 +31,9 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode=None,
 )
+
+
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG}
 
 
 class UserError(Exception):
@@ -67,10 +74,24 @@ def fail(message: str) -> None:
     raise SystemExit(2)
 
 
+@functools.cache
+def _command() -> Any:
+    """The click command of ``app``, built once per process (typer rebuilds it on every call)."""
+    return typer.main.get_command(app)
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an ``OSError``: ``cannot write PATH: No space left on device``."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    where = f" {exc.filename}" if exc.filename else ""
+    verb = "write" if exc.errno in _WRITE_ERRNOS else "access"
+    return f"cannot {verb}{where}: {reason}".replace("\n", " ")
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
     try:
-        rv = app(args=argv, prog_name="jamlab", standalone_mode=False)
+        rv = _command().main(args=argv, prog_name="jamlab", standalone_mode=False)
     except NoArgsIsHelpError as exc:
         print(exc.format_message())
         raise SystemExit(0) from None
@@ -84,4 +105,7 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(exc.exit_code) from None
     except (UserError, ValueError, FileNotFoundError, FileExistsError, PermissionError) as exc:
         fail(str(exc).replace("\n", " "))
+    except OSError as exc:
+        # the environment, not a bug: a full disk, a read-only file system, an I/O error
+        fail(describe_os_error(exc))
     raise SystemExit(rv if isinstance(rv, int) else 0)

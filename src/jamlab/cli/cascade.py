@@ -37,12 +37,17 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Sample jumps of the k-level cascade (SPEC §2) at strain δγ; histogram |ΔE| (log bins)
         beside the printed theory and the exact recursion; print p_no_jump sampled vs theory."""
+        from jamlab import validation
+        from jamlab.files import check_outputs
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
         from jamlab.theory.cascade import sample_cascade_jumps, sample_cascade_tree, validate_levels
         from jamlab.theory.exact import exact_jump_R
         from jamlab.theory.jumps import jump_distribution
         from jamlab.theory.parisi import ParisiFunction
 
+        validation.seed("--seed", seed)
+        validation.integer("--k", k, minimum=1)
+        check_outputs({"--out": out, "--csv": csv, "--tree": tree})
         given = [x is not None for x in (q, linear, power_law)]
         if sum(given) != 1:
             raise ValueError("give exactly one of --q/--y, --linear, --power-law")

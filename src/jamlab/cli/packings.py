@@ -67,11 +67,20 @@ def register(app: typer.Typer) -> None:
         ] = 2.0,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
     ) -> None:
+        from jamlab import validation
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import write_packing
         from jamlab.spheres.packing import jam, prepare
         from jamlab.spheres.pair import check_alpha
         from jamlab.spheres.state import parse_sizes
 
+        validation.integer("--n", n, minimum=2)
+        validation.integer("--dim", dim, minimum=2)
+        validation.seed("--seed", seed)
+        validation.positive("--ftol", ftol)
+        validation.positive("--p-target", p_target)
+        validation.packing_fraction("--phi-init", phi_init)
+        check_outputs({"--out": out})
         parse_sizes(sizes)
         check_alpha(alpha)
         if phi.strip().lower() == "jamming":
@@ -92,8 +101,7 @@ def register(app: typer.Typer) -> None:
                 value = float(phi)
             except ValueError:
                 raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
-            if not (math.isfinite(value) and 0 < value < 1):
-                raise ValueError(f"--phi must be in (0, 1), got {value}")
+            value = validation.packing_fraction("--phi", value)
             if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
                 raise ValueError(
                     f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
@@ -127,10 +135,19 @@ def register(app: typer.Typer) -> None:
         import h5py
         import numpy as np
 
+        from jamlab import validation
+        from jamlab.files import check_outputs
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected
 
+        validation.integer("--steps", steps, minimum=2)
+        validation.positive("--ftol", ftol)
+        validation.positive("--dphi-min", dphi_min)
+        validation.positive("--dphi-max", dphi_max, maximum=1.0)
+        if not config.is_file():
+            raise FileNotFoundError(f"no such configuration file: {config}")
+        check_outputs({"--out": out, "--csv": csv}, {"configuration": config})
         packing = read_packing(config)
         with h5py.File(config, "r") as h5:
             ok = bool(h5.attrs.get("ok", True))

@@ -256,7 +256,7 @@ def register(app: typer.Typer) -> None:
         console.print(table)
         if failures:
             for key in study.keys():
-                if run.state(key) == "failed":
+                if run.state(key, study) == "failed":
                     info = run.read_failure(key)
                     console.print(
                         f"phi={key.phi_label} N={key.n} sample={key.index}: "

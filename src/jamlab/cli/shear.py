@@ -6,10 +6,85 @@ A thin face over :func:`jamlab.spheres.aqs.shear`; the trace format is in ``docs
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
+
+
+def check_resume(
+    previous: Any, packing: Any, *, dgamma: float, ftol: float, minimizer: str
+) -> None:
+    """``ValueError`` unless the run being resumed (trace ``previous``) was made from the
+    configuration ``packing`` with the same ``dgamma``, ``ftol`` and ``minimizer``: a resumed
+    trace is one run, and its attributes describe all of it."""
+    attrs = previous.attrs
+    for name, given in (("dgamma", dgamma), ("ftol", ftol), ("minimizer", minimizer)):
+        if attrs.get(name) != given:
+            raise ValueError(
+                f"--{name} {given} differs from the run being resumed ({attrs.get(name)})"
+            )
+    recorded = {
+        "N": attrs.get("N"),
+        "dim": attrs.get("dim"),
+        "box_length": attrs.get("box_length"),
+        "seed": attrs.get("seed"),
+        "strain": float(previous.gamma[0]),
+    }
+    given_values = {
+        "N": packing.n,
+        "dim": packing.dim,
+        "box_length": float(packing.box.length),
+        "seed": -1 if packing.seed is None else packing.seed,
+        "strain": packing.strain,
+    }
+    differ = [k for k in recorded if recorded[k] != given_values[k]]
+    if not differ and int(previous.iterations[0]) == 0:
+        # the input was already a minimum: row 0 is its energy
+        import jamlab.spheres as sp
+
+        energy = sp.energy(packing, sp.NeighborList(packing, skin=0.0))
+        if not math.isclose(energy, float(previous.energy[0]), rel_tol=1e-12, abs_tol=1e-300):
+            differ.append("energy")
+    if differ:
+        raise ValueError(
+            "the configuration is not the one the run being resumed started from "
+            f"(different {', '.join(differ)})"
+        )
+
+
+def resume_configuration(out: Path, previous: Any) -> Any:
+    """The saved configuration at the strain of the trace's last row: the one stored in the
+    trace file itself (written with it by one rename), else ``<stem>.last.h5`` or, if the run was
+    killed between writing that and the trace, the snapshot of the same step."""
+    from jamlab.spheres.aqs import checkpoint_paths
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.io import read_packing
+    from jamlab.spheres.potential import Packing
+    from jamlab.spheres.trace import read_trace_configuration
+
+    last, snapshots = checkpoint_paths(out)
+    step = previous.n_steps
+    strain = float(previous.gamma[-1])
+    stored = read_trace_configuration(out)
+    if stored is not None and stored["step"] == step:
+        seed = int(stored["seed"])
+        positions = stored["positions"]
+        box = Box(float(stored["box_length"]), positions.shape[1], float(stored["strain"]))
+        return Packing(positions, box, seed=None if seed < 0 else seed)
+    tried = []
+    for candidate in (last, snapshots / f"step_{step:08d}.h5"):
+        if not candidate.is_file():
+            continue
+        packing = read_packing(candidate)
+        if math.isclose(packing.strain, strain, rel_tol=0, abs_tol=1e-15):
+            return packing
+        tried.append(f"{candidate} is at strain {packing.strain!r}")
+    raise ValueError(
+        f"no saved configuration at the last strain {strain!r} (step {step}) of {out}"
+        + (f": {'; '.join(tried)}" if tried else f"; expected {last}")
+    )
 
 
 def register(app: typer.Typer) -> None:
@@ -52,29 +127,46 @@ def register(app: typer.Typer) -> None:
             Path | None, typer.Option("--plot", help="Also draw E and Σ against γ (PNG/PDF).")
         ] = None,
     ) -> None:
-        from jamlab.spheres.aqs import checkpoint_paths, n_steps_for, shear
+        from jamlab import validation
+        from jamlab.files import check_outputs
+        from jamlab.spheres.aqs import checkpoint_paths, shear
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
-        n_steps = n_steps_for(dgamma, gamma_max)
         if minimizer not in ("linear", "fire"):
             raise ValueError(f"--minimizer must be 'linear' or 'fire', got {minimizer!r}")
+        validation.positive("--ftol", ftol)
+        if save_every is not None:
+            validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
+        last, snapshots = checkpoint_paths(out)
+        outputs = {"--out": out, "--plot": plot}
+        if resume:
+            check_outputs(outputs, {"configuration": config})
+        else:
+            outputs["checkpoint"] = last
+            check_outputs(
+                outputs,
+                {"configuration": config},
+                directories={"the snapshot directory": snapshots if save_every else None},
+            )
         previous = None
         if resume:
-            last, _ = checkpoint_paths(out)
-            if not (out.is_file() and last.is_file()):
-                raise FileNotFoundError(f"--resume needs {out} and {last} from an earlier run")
+            if not out.is_file():
+                raise FileNotFoundError(f"--resume needs {out} from an earlier run")
             previous = read_trace(out)
-            if previous.attrs.get("dgamma") != dgamma:
-                raise ValueError(
-                    f"--dgamma {dgamma} differs from the run being resumed "
-                    f"({previous.attrs.get('dgamma')})"
-                )
-            packing = read_packing(last)
+            packing = read_packing(config)
+            check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
+            n_steps = validation.strain_steps(
+                dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")
+            )
+            packing = resume_configuration(out, previous)
         else:
             packing = read_packing(config)
+            n_steps = validation.strain_steps(
+                dgamma, gamma_max, packing.strain, names=("--dgamma", "--gamma-max")
+            )
         result = shear(
             packing,
             dgamma,

@@ -6,11 +6,12 @@ A thin face over :mod:`jamlab.spheres`; the configuration file format is in ``do
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from jamlab import validation
 
 INSPECT_KEYS = (
     "n",
@@ -52,12 +53,6 @@ def inspect_packing(path: Path) -> dict[str, float | int]:
     }
 
 
-def _positive(name: str, value: float) -> float:
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be finite and > 0, got {value}")
-    return value
-
-
 def register(app: typer.Typer) -> None:
     """Add the soft-sphere commands."""
 
@@ -93,12 +88,15 @@ def register(app: typer.Typer) -> None:
             int, typer.Option("--max-iter", help="Largest number of steps.")
         ] = 1_000_000,
     ) -> None:
+        from jamlab.files import check_outputs
         from jamlab.spheres.fire import minimize
         from jamlab.spheres.io import read_packing, write_packing
 
-        _positive("--ftol", ftol)
-        if max_iter < 0:
-            raise ValueError(f"--max-iter must be >= 0, got {max_iter}")
+        validation.positive("--ftol", ftol)
+        validation.integer("--max-iter", max_iter, minimum=0)
+        if not config.is_file():
+            raise FileNotFoundError(f"no such configuration file: {config}")
+        check_outputs({"--out": out}, {"configuration": config})
         packing = read_packing(config)
         result = minimize(packing, ftol=ftol, max_iter=max_iter)
         write_packing(
@@ -126,8 +124,14 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option("--seed", help="Seed of numpy.random.default_rng.")] = 0,
     ) -> None:
         import jamlab.spheres as sp
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import write_packing
 
+        validation.integer("--n", n, minimum=2)
+        validation.integer("--dim", dim, minimum=2)
+        validation.seed("--seed", seed)
+        validation.packing_fraction("--phi", phi)
+        check_outputs({"--out": out})
         packing = sp.random_packing(n, dim, phi, seed)
         write_packing(out, packing)
         typer.echo(f"N={n} d={dim} phi={phi} L={packing.box.length!r} seed={seed} -> {out}")
@@ -148,10 +152,16 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--strain", help="Accumulated strain of the positions.")
         ] = 0.0,
     ) -> None:
+        from jamlab.files import check_outputs
         from jamlab.spheres.io import read_lammps_positions, write_packing
 
         if box_length is not None:
-            _positive("--box-length", box_length)
+            validation.positive("--box-length", box_length)
+        validation.strain("--strain", strain)
+        if not positions.is_file():
+            raise FileNotFoundError(f"no such positions file: {positions}")
+        meta = positions.parent / "meta.json" if box_length is None else None
+        check_outputs({"--out": out}, {"positions file": positions, "meta.json": meta})
         packing = read_lammps_positions(positions, box_length=box_length, strain=strain)
         write_packing(out, packing)
         typer.echo(f"N={packing.n} d={packing.dim} phi={packing.phi:.10g} -> {out}")

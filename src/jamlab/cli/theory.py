@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 from typer.core import TyperCommand
+
+THEORY_DGAMMA = (1e-30, 1e6)
+"""Accepted ``|δγ|`` of ``jamlab theory``."""
 
 _NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
@@ -52,19 +54,19 @@ def theory(
     points: Annotated[int, typer.Option("--points", help="Points per curve.")] = 300,
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
+    from jamlab import validation
+    from jamlab.files import check_outputs
     from jamlab.plots.theory import plot_jump_distributions
     from jamlab.theory import ParisiFunction, mu_jamming
 
     mu = mu_jamming() if mu is None else mu
     dgammas = list(dgamma) if dgamma else [1e-2, 1e-3, 1e-4]
     for dg in dgammas:
-        if not math.isfinite(dg) or dg == 0.0:
-            raise ValueError(f"--dgamma values must be finite and nonzero, got {dg}")
-    if points < 2:
-        raise ValueError(f"--points must be >= 2, got {points}")
+        # a strain step is a small number: |δγ| in [1e-30, 1e6] (beyond, the formula overflows)
+        validation.number("|--dgamma|", abs(dg), low=THEORY_DGAMMA[0], high=THEORY_DGAMMA[1])
+    validation.integer("--points", points, minimum=2, maximum=1_000_000)
     ParisiFunction.power_law(mu, amplitude=amplitude, q_max=q_max)  # validates the parameters
-    if not out.parent.exists():
-        raise FileNotFoundError(f"output directory does not exist: {out.parent}")
+    check_outputs({"--out": out, "--csv": csv})
     table = plot_jump_distributions(
         mu, dgammas, out, q_max=q_max, amplitude=amplitude, n_points=points, csv=csv
     )

@@ -28,12 +28,13 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
 
+from jamlab import validation
 from jamlab.runs.seeds import sample_seed
-from jamlab.runs.storage import RunDir
+from jamlab.runs.storage import RunDir, check_sample_data
 from jamlab.runs.study import SampleKey, Study
 from jamlab.runs.tasks import SampleFailure, SampleResult, Task, run_sample
 
-__all__ = ["Execution", "RunSummary", "run_study", "slurm_cluster_kwargs"]
+__all__ = ["Execution", "RunSummary", "die_with_parent", "run_study", "slurm_cluster_kwargs"]
 
 _SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 _SLURM_KEYS = {
@@ -63,8 +64,15 @@ class Execution:
     slurm: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.workers is not None and (isinstance(self.workers, bool) or self.workers < 0):
-            raise ValueError(f"workers must be an integer >= 0, got {self.workers!r}")
+        if self.workers is not None:
+            workers = validation.integer("workers", self.workers, minimum=0)
+            object.__setattr__(self, "workers", workers)
+        for name in ("scheduler", "cluster"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str):
+                raise ValueError(f"{name} must be a string, got {value!r}")
+        if not isinstance(self.slurm, dict):
+            raise ValueError(f"[slurm] must be a table, got {self.slurm!r}")
         if self.scheduler is not None and self.cluster is not None:
             raise ValueError("give either --scheduler or --cluster, not both")
         if self.scheduler is not None and "://" not in self.scheduler:
@@ -111,12 +119,10 @@ def slurm_cluster_kwargs(options: dict[str, Any]) -> tuple[dict[str, Any], int]:
     """``(SLURMCluster keyword arguments, number of jobs)`` from the ``slurm`` options; defaults:
     1 job of 1 core, 1 process, 2 GiB, 01:00:00."""
     opts = dict(options)
-    jobs = int(opts.pop("jobs", 1))
-    if jobs < 1:
-        raise ValueError(f"slurm jobs must be >= 1, got {jobs}")
+    jobs = validation.integer("slurm jobs", opts.pop("jobs", 1), minimum=1)
     kwargs: dict[str, Any] = {
-        "cores": int(opts.pop("cores", 1)),
-        "processes": int(opts.pop("processes", 1)),
+        "cores": validation.integer("slurm cores", opts.pop("cores", 1), minimum=1),
+        "processes": validation.integer("slurm processes", opts.pop("processes", 1), minimum=1),
         "memory": str(opts.pop("memory", "2GiB")),
         "walltime": str(opts.pop("walltime", "01:00:00")),
     }
@@ -131,6 +137,33 @@ def slurm_cluster_kwargs(options: dict[str, Any]) -> tuple[dict[str, Any], int]:
     return kwargs, jobs
 
 
+def die_with_parent(parent: int, poll: float = 0.5) -> None:
+    """Make this worker process end when the driving process ``parent`` does, even on SIGKILL
+    (which runs no clean-up in the driver): on Linux the kernel sends SIGKILL to the worker
+    (``prctl(PR_SET_PDEATHSIG)``); everywhere, a daemon thread checks every ``poll`` seconds
+    that the parent is still ``parent`` and exits the process otherwise."""
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG = 1
+    if os.getppid() != parent:  # the parent died before the prctl took effect
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(poll)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="jamlab-parent-watch", daemon=True).start()
+
+
 def _local_outcomes(
     items: list[tuple[SampleKey, int]], study: Study, workers: int, task: Task | None
 ) -> Iterator[tuple[SampleKey, Outcome]]:
@@ -142,7 +175,10 @@ def _local_outcomes(
     os.environ.update(_SINGLE_THREAD_ENV)  # inherited by the spawned workers
     try:
         pool = ProcessPoolExecutor(
-            max_workers=workers, mp_context=multiprocessing.get_context("spawn")
+            max_workers=workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
         )
     finally:
         for k, v in saved.items():
@@ -235,8 +271,10 @@ def run_study(
     """
     execution = execution or Execution()
     start = time.perf_counter()
+    study.check_geometry()
     run = RunDir.open(out, study)
     with run.lock():
+        run.start(study)
         removed = run.remove_temporaries()
         states = run.scan(study)
         redo = {"pending", "corrupt"} | ({"failed"} if retry_failed else set())
@@ -259,6 +297,11 @@ def run_study(
             slurm = {**execution.slurm, "log_directory": str(run.path.resolve() / "slurm-logs")}
             execution = dataclasses.replace(execution, slurm=slurm)
         for key, outcome in _outcomes(items, study, execution, task):
+            if isinstance(outcome, SampleResult):
+                try:
+                    check_sample_data(outcome.traces, outcome.arrays, key, study)
+                except ValueError as exc:
+                    outcome = SampleFailure("InvalidResult", f"the task's result: {exc}", "")
             if isinstance(outcome, SampleResult):
                 run.write_sample(key, outcome, seeds[key], study)
                 summary.done += 1

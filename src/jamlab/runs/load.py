@@ -33,10 +33,10 @@ import h5py
 import numpy as np
 import xarray as xr
 
+from jamlab.runs.results import TRACE_FIELDS
 from jamlab.runs.seeds import sample_seed
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, phi_label
-from jamlab.runs.tasks import TRACE_FIELDS
 
 __all__ = ["open_run", "read_sample"]
 
@@ -82,7 +82,7 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     for key in study.keys():
         idx = (study.phi.index(key.phi), study.n.index(key.n), key.index)
         seeds[idx] = sample_seed(study.seed, key)
-        state = run.state(key)
+        state = run.state(key, study)
         status[idx] = state
         if state != "done":
             continue

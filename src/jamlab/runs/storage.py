@@ -27,19 +27,21 @@ import contextlib
 import datetime as _dt
 import errno
 import fcntl
+import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
 
-from jamlab._atomic import atomic_write
+from jamlab import validation
+from jamlab.files import atomic_write, atomic_write_hdf5
+from jamlab.runs.results import TRACE_FIELDS, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study, phi_label
-from jamlab.runs.tasks import SampleFailure, SampleResult
 
 __all__ = [
     "MANIFEST",
@@ -47,10 +49,13 @@ __all__ = [
     "SAMPLE_FORMAT",
     "RunDir",
     "RunError",
+    "check_sample",
+    "check_sample_data",
     "sample_state",
 ]
 
 MANIFEST = "manifest.json"
+LOCK = "run.lock"
 RUN_FORMAT = "jamlab-run"
 SAMPLE_FORMAT = "jamlab-sample"
 FORMAT_VERSION = 1
@@ -80,25 +85,105 @@ def _is_manifest_tmp(path: Path) -> bool:
     return path.name.startswith(f".{MANIFEST}.") and path.name.endswith(".tmp")
 
 
-def sample_state(path: Path, key: SampleKey) -> str:
-    """``"done"`` if ``path`` is a whole sample file for ``key``; ``"corrupt"`` if it exists but is
-    unreadable, incomplete or another sample's; ``"pending"`` if it does not exist."""
+_INTEGER_FIELDS = {"iterations"}
+_BOOL_FIELDS = {"plastic"}
+_NAN_ROW0_FIELDS = {"energy_jump", "stress_jump"}
+
+
+def _digest(values: np.ndarray) -> str:
+    return hashlib.sha256(np.ascontiguousarray(values).tobytes()).hexdigest()
+
+
+def check_sample_data(
+    traces: Mapping[str, Any],
+    arrays: Mapping[str, Any],
+    key: SampleKey,
+    study: Study | None = None,
+) -> None:
+    """``ValueError`` unless ``traces`` and ``arrays`` are a whole sample of ``key``: every trace
+    field present, 1-D, of one length (``M + 1`` with ``M`` the study's step count), of its
+    dtype (float, integer ``iterations``, bool ``plastic``), finite (``energy_jump`` and
+    ``stress_jump``: except row 0), ``gamma`` increasing; ``positions`` a finite ``(N, d)`` float
+    array. Applied to a task's result before it is written and to a file when a run is scanned."""
+    rows = None
+    if study is not None:
+        rows = validation.strain_steps(study.dgamma, study.gamma_max) + 1
+    for name in TRACE_FIELDS:
+        if name not in traces:
+            raise ValueError(f"trace {name} is missing")
+        values = np.asarray(traces[name])
+        kind = "iu" if name in _INTEGER_FIELDS else ("b" if name in _BOOL_FIELDS else "f")
+        if values.dtype.kind not in kind:
+            raise ValueError(f"trace {name} has dtype {values.dtype}")
+        if values.ndim != 1 or values.shape[0] < 1:
+            raise ValueError(f"trace {name} has shape {values.shape}")
+        if rows is None:
+            rows = values.shape[0]
+        if values.shape[0] != rows:
+            raise ValueError(f"trace {name} has {values.shape[0]} rows, expected {rows}")
+        if kind == "f":
+            check = values[1:] if name in _NAN_ROW0_FIELDS else values
+            if not np.all(np.isfinite(check)):
+                raise ValueError(f"trace {name} is not finite")
+            if name == "gamma" and not np.all(np.diff(values) > 0):
+                raise ValueError("trace gamma is not increasing")
+    if "positions" not in arrays:
+        raise ValueError("positions are missing")
+    positions = np.asarray(arrays["positions"])
+    dim = None if study is None else study.dim
+    if positions.dtype.kind != "f":
+        raise ValueError(f"positions have dtype {positions.dtype}")
+    if positions.ndim != 2 or positions.shape[0] != key.n or (dim and positions.shape[1] != dim):
+        raise ValueError(f"positions have shape {positions.shape}")
+    if not np.all(np.isfinite(positions)):
+        raise ValueError("positions are not finite")
+
+
+def _read_checked(group: Any, where: str) -> dict[str, np.ndarray]:
+    """Every dataset of an HDF5 group, each checked against its ``sha256`` attribute."""
+    if not isinstance(group, h5py.Group):
+        raise ValueError(f"no {where} group")
+    out = {}
+    for name, ds in group.items():
+        if not isinstance(ds, h5py.Dataset):
+            raise ValueError(f"{where}/{name} is not a dataset")
+        values = ds[()]
+        recorded = ds.attrs.get("sha256")
+        if recorded is not None:
+            recorded = recorded.decode() if isinstance(recorded, bytes) else str(recorded)
+            if recorded != _digest(np.asarray(values)):
+                raise ValueError(f"{where}/{name} does not match its checksum")
+        out[name] = values
+    return out
+
+
+def check_sample(h5: h5py.File, key: SampleKey, study: Study | None = None) -> None:
+    """``ValueError`` unless the open sample file ``h5`` is a whole sample of ``key``: identity
+    attributes and ``complete``, each dataset matching its ``sha256`` attribute (when present;
+    files written before it lack it), and the data passing :func:`check_sample_data`."""
+    a = h5.attrs
+    if a.get("format") != SAMPLE_FORMAT or not bool(a.get("complete", False)):
+        raise ValueError("not a complete sample file")
+    identity = (a.get("phi"), int(a.get("n", -1)), int(a.get("index", -1)))
+    if identity != (key.phi_label, key.n, key.index):
+        raise ValueError("another sample's file")
+    traces = _read_checked(h5.get("trace"), "trace")
+    arrays = _read_checked(h5.get("packing"), "packing")
+    check_sample_data(traces, arrays, key, study)
+
+
+def sample_state(path: Path, key: SampleKey, study: Study | None = None) -> str:
+    """``"done"`` if ``path`` is a whole sample file for ``key`` (:func:`check_sample`);
+    ``"corrupt"`` if it exists but is unreadable, damaged, incomplete or another sample's;
+    ``"pending"`` if it does not exist."""
     if not path.exists():
         return "pending"
     try:
         with h5py.File(path, "r") as h5:
-            a = h5.attrs
-            ok = (
-                a.get("format") == SAMPLE_FORMAT
-                and bool(a.get("complete", False))
-                and a.get("phi") == key.phi_label
-                and int(a.get("n", -1)) == key.n
-                and int(a.get("index", -1)) == key.index
-                and "trace" in h5
-            )
+            check_sample(h5, key, study)
     except Exception:  # noqa: BLE001 - any failure to read means the file must be redone
         return "corrupt"
-    return "done" if ok else "corrupt"
+    return "done"
 
 
 class RunDir:
@@ -144,26 +229,19 @@ class RunDir:
 
     @classmethod
     def open(cls, path: str | os.PathLike, study: Study) -> RunDir:
-        """Check that ``path`` can hold ``study``: a new or empty directory (the manifest is then
-        written), or an existing run of the same study. Raises :class:`RunError` — before
-        touching anything — for an unwritable location, a non-run directory or a mismatch."""
+        """Check that ``path`` can hold ``study`` — a new or empty directory, or an existing run of
+        the same study — and create the directory. Raises :class:`RunError` — before writing
+        anything — for an unwritable location, a non-run directory or a mismatch. The manifest
+        is written by :meth:`start`, under :meth:`lock`."""
         run = cls(path)
         p = run.path
         if p.exists() and not p.is_dir():
             raise RunError(f"output path exists and is not a directory: {p}")
         if run.manifest_path.exists():
-            recorded = run.study()
-            diffs = recorded.differences(study)
-            if diffs:
-                raise RunError(
-                    f"{p} holds a different study ({'; '.join(diffs)}; recorded != requested); "
-                    "use another --out or the recorded parameters"
-                )
+            run._check_study(study)
             run._check_writable(p)
             return run
-        # a run killed while writing its manifest leaves only a temporary manifest behind
-        if p.exists() and any(not _is_manifest_tmp(e) for e in p.iterdir()):
-            raise RunError(f"output directory is not empty and has no {MANIFEST}: {p}")
+        run._check_empty()
         existing = p
         while not existing.exists():
             existing = existing.parent
@@ -174,6 +252,33 @@ class RunDir:
             p.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise RunError(f"cannot create output directory {p}: {exc.strerror}") from None
+        return run
+
+    def _check_study(self, study: Study) -> None:
+        diffs = self.study().differences(study)
+        if diffs:
+            raise RunError(
+                f"{self.path} holds a different study ({'; '.join(diffs)}; recorded != "
+                "requested); use another --out or the recorded parameters"
+            )
+
+    def _check_empty(self) -> None:
+        # a run killed while writing its manifest leaves only a temporary manifest behind, and a
+        # driver that took the lock first leaves run.lock
+        p = self.path
+        if p.is_dir() and any(
+            not (_is_manifest_tmp(e) or e.name == LOCK) for e in p.iterdir()
+        ):
+            raise RunError(f"output directory is not empty and has no {MANIFEST}: {p}")
+
+    def start(self, study: Study) -> None:
+        """Write the manifest of ``study`` if there is none, else check it records ``study``;
+        call only while holding :meth:`lock` (two drivers started together: the one that gets
+        the lock writes the manifest, the other is refused and writes nothing)."""
+        if self.manifest_path.exists():
+            self._check_study(study)
+            return
+        self._check_empty()
         from jamlab import __version__
 
         manifest = {
@@ -186,8 +291,7 @@ class RunDir:
             "seed_derivation": SEED_RULE,
             "layout": "samples/phi=<phi>/N=<N>/sample-<index:05d>.h5",
         }
-        _write_json(run.manifest_path, manifest)
-        return run
+        _write_json(self.manifest_path, manifest)
 
     @staticmethod
     def _check_writable(directory: Path) -> None:
@@ -206,7 +310,7 @@ class RunDir:
     def lock(self) -> Iterator[None]:
         """Hold an exclusive ``flock`` on ``run.lock`` (released by the kernel even on SIGKILL),
         so that two drivers never write the same run."""
-        fh = open(self.path / "run.lock", "a")  # noqa: SIM115 - held for the whole block
+        fh = open(self.path / LOCK, "a")  # noqa: SIM115 - held for the whole block
         try:
             try:
                 fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -233,50 +337,53 @@ class RunDir:
 
     # -- samples ------------------------------------------------------------------------------
 
-    def state(self, key: SampleKey) -> str:
-        """``done``, ``failed`` (no whole file but a failure record), ``corrupt`` or ``pending``."""
-        state = sample_state(self.sample_path(key), key)
+    def state(self, key: SampleKey, study: Study | None = None) -> str:
+        """``done``, ``failed`` (no whole file but a failure record), ``corrupt`` or ``pending``
+        (with ``study``: the trace length and dimension are checked too)."""
+        state = sample_state(self.sample_path(key), key, study)
         if state == "pending" and self.failure_path(key).exists():
             return "failed"
         return state
 
     def scan(self, study: Study) -> dict[SampleKey, str]:
         """The state of every sample of ``study``."""
-        return {key: self.state(key) for key in study.keys()}
+        return {key: self.state(key, study) for key in study.keys()}
 
     def write_sample(self, key: SampleKey, result: SampleResult, seed: int, study: Study) -> Path:
         """Write ``result`` atomically as ``key``'s sample file; removes a failure record."""
         from jamlab import __version__
 
-        def write(tmp: str) -> None:
-            with h5py.File(tmp, "w") as h5:
-                h5.attrs["format"] = SAMPLE_FORMAT
-                h5.attrs["format_version"] = FORMAT_VERSION
-                h5.attrs["phi"] = key.phi_label
-                h5.attrs["n"] = key.n
-                h5.attrs["index"] = key.index
-                h5.attrs["seed"] = str(seed)
-                h5.attrs["master_seed"] = study.seed
-                h5.attrs["task"] = study.task
-                h5.attrs["jamlab_version"] = __version__
-                h5.attrs["seconds"] = float(result.seconds)
-                for name, value in result.attrs.items():
-                    h5.attrs[name] = value
-                trace = h5.create_group("trace")
-                lengths = {np.asarray(v).shape for v in result.traces.values()}
-                if len(lengths) > 1:
-                    raise ValueError(f"trace arrays of unequal shapes {sorted(lengths)}")
-                for name, values in result.traces.items():
-                    trace.create_dataset(name, data=np.asarray(values))
-                packing = h5.create_group("packing")
-                for name, values in result.arrays.items():
-                    packing.create_dataset(name, data=np.asarray(values))
-                h5.flush()
-                h5.attrs["complete"] = True
-                h5.flush()
+        lengths = {np.asarray(v).shape for v in result.traces.values()}
+        if len(lengths) > 1:
+            raise ValueError(f"trace arrays of unequal shapes {sorted(lengths)}")
+
+        def dataset(group: h5py.Group, name: str, values: Any) -> None:
+            values = np.asarray(values)
+            group.create_dataset(name, data=values).attrs["sha256"] = _digest(values)
+
+        def fill(h5: h5py.File) -> None:
+            h5.attrs["format"] = SAMPLE_FORMAT
+            h5.attrs["format_version"] = FORMAT_VERSION
+            h5.attrs["phi"] = key.phi_label
+            h5.attrs["n"] = key.n
+            h5.attrs["index"] = key.index
+            h5.attrs["seed"] = str(seed)
+            h5.attrs["master_seed"] = study.seed
+            h5.attrs["task"] = study.task
+            h5.attrs["jamlab_version"] = __version__
+            h5.attrs["seconds"] = float(result.seconds)
+            for name, value in result.attrs.items():
+                h5.attrs[name] = value
+            trace = h5.create_group("trace")
+            for name, values in result.traces.items():
+                dataset(trace, name, values)
+            packing = h5.create_group("packing")
+            for name, values in result.arrays.items():
+                dataset(packing, name, values)
+            h5.attrs["complete"] = True
 
         path = self.sample_path(key)
-        atomic_write(path, write, make_parents=True)
+        atomic_write_hdf5(path, fill, make_parents=True)
         self.failure_path(key).unlink(missing_ok=True)
         return path
 

@@ -13,13 +13,14 @@ optional ``[execution]`` table with ``workers``, ``scheduler`` or ``cluster`` an
 
 from __future__ import annotations
 
-import math
 import os
 import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
+
+from jamlab import validation
 
 __all__ = [
     "PHI_KEYWORDS",
@@ -40,11 +41,13 @@ deterministic stand-in used to test the run machinery (see :mod:`jamlab.runs.tas
 
 
 def parse_phi(value: str | float | int) -> str | float:
-    """``"jamming"`` or a finite packing fraction ``φ > 0``; ``ValueError`` otherwise."""
+    """``"jamming"`` or a packing fraction ``0 < φ < 1``; ``ValueError`` otherwise."""
     if isinstance(value, bool):
         raise ValueError(f"phi must be a number > 0 or one of {PHI_KEYWORDS}, got {value!r}")
     if isinstance(value, int | float):
-        phi = float(value)
+        phi = value
+    elif not isinstance(value, str):
+        raise ValueError(f"phi must be a number or one of {PHI_KEYWORDS}, got {value!r}")
     else:
         text = str(value).strip()
         if text.lower() in PHI_KEYWORDS:
@@ -56,9 +59,7 @@ def parse_phi(value: str | float | int) -> str | float:
                 f"unknown phi {text!r}: give a packing fraction > 0 or one of "
                 f"{', '.join(PHI_KEYWORDS)}"
             ) from None
-    if not math.isfinite(phi) or phi <= 0:
-        raise ValueError(f"phi must be a finite packing fraction > 0, got {phi!r}")
-    return phi
+    return validation.packing_fraction("phi", phi)
 
 
 def phi_label(phi: str | float) -> str:
@@ -102,8 +103,9 @@ class Study:
       then ascending numbers), duplicates refused.
     - ``n``: particle numbers, sorted ascending, each ``>= 2``.
     - ``samples``: samples per ``(φ, N)``, indices ``0 .. samples−1``.
-    - ``dgamma``, ``gamma_max``: AQS strain step and final strain, ``0 < dgamma < gamma_max``.
-    - ``seed``: master seed (integer ``>= 0``); see :mod:`jamlab.runs.seeds`.
+    - ``dgamma``, ``gamma_max``: AQS strain step and final strain, ``0 < dgamma < gamma_max``,
+      at most :data:`jamlab.validation.MAX_STEPS` steps.
+    - ``seed``: master seed (integer in ``[0, 2^64 − 1]``); see :mod:`jamlab.runs.seeds`.
     - ``dim``: space dimension (``>= 2``).
     - ``p_target``: target pressure of the jamming protocol (``φ = "jamming"`` only).
     - ``force_tol``: FIRE convergence, largest per-particle force ``|F_i|`` (SPEC §3).
@@ -139,19 +141,30 @@ class Study:
         object.__setattr__(self, "n", tuple(sorted(ns)))
 
         object.__setattr__(self, "samples", _int("samples", self.samples, minimum=1))
-        object.__setattr__(self, "seed", _int("seed", self.seed, minimum=0))
+        object.__setattr__(self, "seed", validation.seed("seed", self.seed))
         object.__setattr__(self, "dim", _int("dim", self.dim, minimum=2))
         for name in ("dgamma", "gamma_max", "p_target", "force_tol"):
             object.__setattr__(self, name, _positive_float(name, getattr(self, name)))
-        if self.dgamma >= self.gamma_max:
-            raise ValueError(
-                f"dgamma must be smaller than gamma_max, got dgamma={self.dgamma!r} >= "
-                f"gamma_max={self.gamma_max!r}"
-            )
-        if self.task not in TASKS:
+        validation.strain_steps(self.dgamma, self.gamma_max)
+        if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
 
     # -- the samples ------------------------------------------------------------------------
+
+    def check_geometry(self) -> None:
+        """``ValueError`` unless every ``(φ, N)`` gives a valid box in ``dim`` dimensions (side
+        ``L > 2``; at jamming, at the protocol's starting ``φ_init``), checked before a run
+        writes anything. Imports the physics (:func:`jamlab.validation.box_fits`)."""
+        if self.task != "aqs":
+            return
+        import inspect
+
+        from jamlab.spheres.packing import jam
+
+        phi_init = inspect.signature(jam).parameters["phi_init"].default
+        for phi in self.phi:
+            for n in self.n:
+                validation.box_fits(n, self.dim, phi_init if isinstance(phi, str) else phi)
 
     def keys(self) -> list[SampleKey]:
         """All samples, φ-major then N then index (the order of submission, not of results)."""
@@ -194,28 +207,11 @@ class Study:
 
 
 def _int(name: str, value: Any, minimum: int) -> int:
-    if isinstance(value, bool):
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    try:
-        as_float = float(value)
-        as_int = int(as_float) if math.isfinite(as_float) else None
-    except (TypeError, ValueError):
-        as_int = None
-    if as_int is None or as_int != as_float:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    if as_int < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {as_int}")
-    return as_int
+    return validation.integer(name, value, minimum=minimum)
 
 
 def _positive_float(name: str, value: Any) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number > 0, got {value!r}") from None
-    if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return x
+    return validation.positive(name, value)
 
 
 def load_toml(path: str | os.PathLike) -> tuple[dict[str, Any], str | None, dict[str, Any]]:

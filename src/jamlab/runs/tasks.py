@@ -22,13 +22,12 @@ import os
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
+from jamlab.runs import physics
+from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study
-from jamlab.spheres.trace import TRACE_COLUMNS
 
 __all__ = [
     "TRACE_FIELDS",
@@ -41,35 +40,6 @@ __all__ = [
     "toy_task",
     "aqs_task",
 ]
-
-TRACE_FIELDS = TRACE_COLUMNS
-"""The per-step arrays of :class:`jamlab.spheres.trace.Trace` that every sample stores."""
-
-
-class SampleFailed(Exception):
-    """A sample that ran but whose result must not be used (e.g. a non-converged minimisation)."""
-
-
-@dataclass
-class SampleResult:
-    """A finished sample: equal-length 1-D ``traces``, scalar ``attrs`` (numbers/strings/bools)
-    and other ``arrays`` (e.g. the prepared packing's positions)."""
-
-    traces: dict[str, np.ndarray]
-    attrs: dict[str, Any] = field(default_factory=dict)
-    arrays: dict[str, np.ndarray] = field(default_factory=dict)
-    seconds: float = 0.0
-
-
-@dataclass
-class SampleFailure:
-    """A failed sample: the error's type and message, the traceback, the worker's wall time."""
-
-    error_type: str
-    message: str
-    traceback: str
-    seconds: float = 0.0
-
 
 Task = Callable[[Study, SampleKey, int], SampleResult]
 
@@ -88,7 +58,8 @@ def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
     kicks = rng.normal(size=(steps + 1, key.n)).sum(axis=1) / key.n
     stress = np.cumsum(kicks)
     energy = np.cumsum(stress * study.dgamma)
-    energy_jump = np.diff(energy, append=np.nan) - study.dgamma * stress
+    # the trace's convention: row n describes the step n-1 -> n, NaN in row 0
+    energy_jump = np.concatenate([[np.nan], np.diff(energy) - study.dgamma * stress[:-1]])
     traces = {
         "gamma": gamma,
         "energy": energy,
@@ -99,8 +70,8 @@ def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
         "max_force": rng.uniform(0, study.force_tol, size=steps + 1),
         "iterations": rng.integers(1, 100, size=steps + 1),
         "energy_jump": energy_jump,
-        "stress_jump": np.diff(stress, append=np.nan),
-        "plastic": energy_jump < 0,
+        "stress_jump": np.concatenate([[np.nan], np.diff(stress)]),
+        "plastic": np.concatenate([[False], energy_jump[1:] < 0]),
     }
     phi_value = 0.64 if isinstance(key.phi, str) else float(key.phi)
     attrs = {"phi_actual": phi_value, "prep_converged": True}
@@ -109,9 +80,7 @@ def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
 
 def aqs_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
     """Prepare (``jam`` at ``φ = "jamming"``, ``prepare`` at a number) and shear one sample."""
-    from jamlab.runs import _physics
-
-    return _physics.prepare_and_shear(study, key, seed)
+    return physics.prepare_and_shear(study, key, seed)
 
 
 _TASKS: dict[str, Task] = {"toy": toy_task, "aqs": aqs_task}

@@ -25,13 +25,14 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
 
-from jamlab._atomic import atomic_write
+from jamlab.files import atomic_write_hdf5
 
-__all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace"]
+__all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace", "read_trace_configuration"]
 
 FORMAT = "jamlab-aqs-trace"
 FORMAT_VERSION = 1
@@ -134,21 +135,53 @@ def _attr_value(value: object) -> object:
     return value
 
 
-def write_trace(path: str | os.PathLike, trace: Trace) -> Path:
+def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None) -> Path:
     """Write ``trace`` atomically to HDF5: one 1-D dataset per column (names ``TRACE_COLUMNS``),
-    ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``."""
+    ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``.
 
-    def write(tmp: str) -> None:
-        with h5py.File(tmp, "w") as h5:
-            for name in TRACE_COLUMNS:
-                h5.create_dataset(name, data=getattr(trace, name))
-            for key, value in trace.attrs.items():
-                h5.attrs[key] = _attr_value(value)
-            h5.attrs["format"] = FORMAT
-            h5.attrs["format_version"] = FORMAT_VERSION
-            h5.flush()
+    ``configuration`` (a :class:`jamlab.spheres.Packing`, optional): the configuration of the
+    trace's last row, stored in the group ``configuration`` (``positions``; attributes
+    ``box_length``, ``strain``, ``seed``, ``step``) of the same file, so that a checkpoint (trace +
+    configuration) is written by one atomic rename (:func:`read_trace_configuration`)."""
 
-    return atomic_write(path, write)
+    def fill(h5: h5py.File) -> None:
+        for name in TRACE_COLUMNS:
+            h5.create_dataset(name, data=getattr(trace, name))
+        if configuration is not None:
+            group = h5.create_group("configuration")
+            group.create_dataset(
+                "positions", data=np.asarray(configuration.positions, dtype=np.float64)
+            )
+            group.attrs["box_length"] = float(configuration.box.length)
+            group.attrs["strain"] = float(configuration.box.strain)
+            group.attrs["seed"] = int(-1 if configuration.seed is None else configuration.seed)
+            group.attrs["step"] = int(trace.n_steps)
+        for key, value in trace.attrs.items():
+            h5.attrs[key] = _attr_value(value)
+        h5.attrs["format"] = FORMAT
+        h5.attrs["format_version"] = FORMAT_VERSION
+
+    return atomic_write_hdf5(path, fill)
+
+
+def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
+    """The configuration stored with the trace by :func:`write_trace` (``positions``,
+    ``box_length``, ``strain``, ``seed``, ``step``), or ``None`` if the file has none."""
+    try:
+        with h5py.File(path, "r") as h5:
+            group = h5.get("configuration")
+            if not isinstance(group, h5py.Group):
+                return None
+            positions = group.get("positions")
+            if not isinstance(positions, h5py.Dataset) or positions.dtype.kind != "f":
+                raise ValueError(f"damaged configuration group in {path}")
+            out: dict[str, Any] = {"positions": np.asarray(positions[()], dtype=np.float64)}
+            for key in ("box_length", "strain", "seed", "step"):
+                value = group.attrs[key]
+                out[key] = value.item() if isinstance(value, np.generic) else value
+            return out
+    except (OSError, KeyError, TypeError) as exc:
+        raise ValueError(f"unreadable configuration group in {path}: {exc}") from None
 
 
 def read_trace(path: str | os.PathLike) -> Trace:
@@ -164,7 +197,13 @@ def read_trace(path: str | os.PathLike) -> Trace:
         missing = [name for name in TRACE_COLUMNS if name not in h5]
         if missing:
             raise ValueError(f"not a jamlab AQS trace (missing {', '.join(missing)}): {path}")
-        cols = {name: h5[name][()] for name in TRACE_COLUMNS}
+        cols = {}
+        for name in TRACE_COLUMNS:
+            item = h5[name]
+            numeric = isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"
+            if not numeric or item.ndim != 1:
+                raise ValueError(f"not a jamlab AQS trace ({name}: not 1-D numeric): {path}")
+            cols[name] = item[()]
         attrs = {}
         for key, value in h5.attrs.items():
             if key in ("format", "format_version"):
@@ -174,4 +213,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
             elif isinstance(value, np.generic):
                 value = value.item()
             attrs[key] = value
-    return Trace(**cols, attrs=attrs)
+    try:
+        return Trace(**cols, attrs=attrs)
+    except ValueError as exc:
+        raise ValueError(f"invalid AQS trace {path}: {exc}") from None

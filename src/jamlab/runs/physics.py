@@ -1,5 +1,5 @@
-"""The ``aqs`` task: one sample = prepare a packing + AQS shear (kept apart so that the run
-machinery imports no physics until a worker needs it)."""
+"""The ``aqs`` task: one sample = prepare a packing + AQS shear. The physics modules are imported
+inside :func:`prepare_and_shear`, so that the run machinery imports none until a worker needs it."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from typing import Any
 
 import numpy as np
 
+from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleResult
 from jamlab.runs.study import SampleKey, Study
-from jamlab.runs.tasks import TRACE_FIELDS, SampleFailed, SampleResult
 
 
-def _scalars(prefix: str, obj: Any) -> dict[str, Any]:
+def scalars(prefix: str, obj: Any) -> dict[str, Any]:
     """Numeric/bool/str attributes of a result object (dataclass fields or a dict), prefixed."""
     items = obj.items() if isinstance(obj, dict) else getattr(obj, "__dict__", {}).items()
     out = {}
@@ -35,7 +35,7 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
     else:
         prepared = packing.prepare(key.n, study.dim, float(key.phi), seed, ftol=study.force_tol)
     config = prepared.packing
-    info = prepared.attrs() if hasattr(prepared, "attrs") else _scalars("", prepared)
+    info = prepared.attrs() if hasattr(prepared, "attrs") else scalars("", prepared)
     # wall-clock times are not reproducible: kept out of the sample's data
     attrs: dict[str, Any] = {
         f"prep_{k}": (v.item() if isinstance(v, np.generic) else v)
@@ -49,7 +49,7 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
     result = aqs.shear(config, study.dgamma, study.gamma_max, ftol=study.force_tol)
     trace = getattr(result, "trace", result)
     traces = {name: np.asarray(getattr(trace, name)) for name in TRACE_FIELDS}
-    attrs.update(_scalars("shear_", result) if trace is not result else {})
+    attrs.update(scalars("shear_", result) if trace is not result else {})
     attrs.pop("shear_time", None)  # wall time: not reproducible, kept out of the sample's data
     n_bad = int(attrs.get("shear_n_not_converged", 0))
     if n_bad:

@@ -1,0 +1,159 @@
+"""Output files: the one guard every command applies to its output paths, and the atomic writes
+shared by every writer in jamlab (packings, traces, run directories).
+
+:func:`check_outputs` refuses, before any computation, an output path that is an existing
+directory, sits in a missing or unwritable directory, or is the same file as an input (also
+through a symbolic or hard link) or as another output; and an input inside an output directory.
+
+:func:`atomic_write` writes a file under a temporary name in its final directory, fsync's it,
+renames it over the destination with ``os.replace`` (atomic on POSIX) and fsync's the directory:
+a reader sees either no file or a whole one, and an interrupted write leaves at most a
+``.NAME.XXXX.tmp`` file. The file gets the mode ``0o666 & ~umask`` (like ``open(path, "w")``),
+not ``mkstemp``'s ``0o600``. :func:`atomic_write_hdf5` builds an HDF5 file in memory and writes its
+bytes the same way, so that a full disk is an ``OSError`` (``ENOSPC``) from a plain ``write``,
+never an error inside the HDF5 library.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = ["atomic_write", "atomic_write_bytes", "atomic_write_hdf5", "check_outputs", "fsync_dir"]
+
+PathLike = str | os.PathLike
+
+
+def fsync_dir(directory: PathLike) -> None:
+    """fsync a directory so that a rename inside it survives a crash."""
+    fd = os.open(directory, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _identity(path: Path) -> tuple[Any, ...]:
+    """What makes two paths the same file: (device, inode) if it exists, else the real path."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return ("path", os.path.realpath(path))
+    return ("inode", st.st_dev, st.st_ino)
+
+
+def _inside(path: Path, directory: Path) -> bool:
+    real, root = os.path.realpath(path), os.path.realpath(directory)
+    return real == root or real.startswith(root.rstrip(os.sep) + os.sep)
+
+
+def check_outputs(
+    outputs: Mapping[str, PathLike | None],
+    inputs: Mapping[str, PathLike | None] | None = None,
+    *,
+    directories: Mapping[str, PathLike | None] | None = None,
+) -> None:
+    """The output-path guard of every command; raises ``ValueError`` (one line) before anything
+    is computed or written.
+
+    ``outputs``: ``{description: file to be written}``; ``inputs``: ``{description: file that is
+    read}``; ``directories``: ``{description: directory that will be written into}`` (an input
+    inside it is refused). ``None`` values are skipped. Descriptions appear in the message, e.g.
+    ``{"--out": path}``.
+    """
+    inputs = {k: Path(v) for k, v in (inputs or {}).items() if v is not None}
+    files = {k: Path(v) for k, v in outputs.items() if v is not None}
+    dirs = {k: Path(v) for k, v in (directories or {}).items() if v is not None}
+    seen: dict[tuple[Any, ...], str] = {}
+    for name, path in files.items():
+        if path.is_dir():
+            raise ValueError(f"{name} {path} is an existing directory, not a file")
+        parent = path.parent
+        if not parent.is_dir():
+            raise ValueError(f"{name} {path}: output directory does not exist: {parent}")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise ValueError(f"{name} {path}: output directory is not writable: {parent}")
+        ident = _identity(path)
+        for in_name, in_path in inputs.items():
+            if _identity(in_path) == ident:
+                raise ValueError(
+                    f"{name} {path} is the same file as the {in_name} {in_path}; "
+                    "writing it would destroy the input"
+                )
+        if ident in seen:
+            raise ValueError(f"{name} {path} is the same file as {seen[ident]}")
+        seen[ident] = f"{name} {path}"
+    for name, directory in dirs.items():
+        if directory.exists() and not directory.is_dir():
+            raise ValueError(f"{name} {directory} exists and is not a directory")
+        for in_name, in_path in inputs.items():
+            if _inside(in_path, directory):
+                raise ValueError(
+                    f"the {in_name} {in_path} lies in {directory}, which {name} writes into"
+                )
+
+
+def atomic_write(
+    path: PathLike, write: Callable[[str], None], *, make_parents: bool = False
+) -> Path:
+    """Call ``write(tmp_path)``, then fsync it and rename it over ``path``; return ``path``.
+
+    Without ``make_parents`` a missing destination directory is a ``FileNotFoundError``; an
+    existing directory at ``path`` is an ``IsADirectoryError`` (nothing is written).
+    """
+    path = Path(path)
+    directory = path.parent
+    if make_parents:
+        directory.mkdir(parents=True, exist_ok=True)
+    elif not directory.is_dir():
+        raise FileNotFoundError(f"output directory does not exist: {directory}")
+    if path.is_dir():
+        raise IsADirectoryError(f"output path is an existing directory: {path}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    os.close(fd)
+    try:
+        os.chmod(tmp, 0o666 & ~_umask())
+        write(tmp)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(tmp)
+        raise
+    fsync_dir(directory)
+    return path
+
+
+def atomic_write_bytes(path: PathLike, data: bytes, *, make_parents: bool = False) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`)."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+
+    return atomic_write(path, write, make_parents=make_parents)
+
+
+def atomic_write_hdf5(
+    path: PathLike, fill: Callable[[Any], None], *, make_parents: bool = False
+) -> Path:
+    """Build an HDF5 file in memory with ``fill(h5file)`` and write it atomically to ``path``."""
+    import h5py
+
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w") as h5:
+        fill(h5)
+    return atomic_write_bytes(path, buffer.getvalue(), make_parents=make_parents)

@@ -1,0 +1,42 @@
+"""What travels back from a worker to the driving process: a finished sample's arrays, or the
+record of its failure (shared by :mod:`jamlab.runs.tasks`, :mod:`jamlab.runs.physics` and
+:mod:`jamlab.runs.storage`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from jamlab.spheres.trace import TRACE_COLUMNS
+
+__all__ = ["TRACE_FIELDS", "SampleResult", "SampleFailure", "SampleFailed"]
+
+TRACE_FIELDS = TRACE_COLUMNS
+"""The per-step arrays of :class:`jamlab.spheres.trace.Trace` that every sample stores."""
+
+
+class SampleFailed(Exception):
+    """A sample that ran but whose result must not be used (e.g. a non-converged minimisation)."""
+
+
+@dataclass
+class SampleResult:
+    """A finished sample: equal-length 1-D ``traces``, scalar ``attrs`` (numbers/strings/bools)
+    and other ``arrays`` (e.g. the prepared packing's positions)."""
+
+    traces: dict[str, np.ndarray]
+    attrs: dict[str, Any] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    seconds: float = 0.0
+
+
+@dataclass
+class SampleFailure:
+    """A failed sample: the error's type and message, the traceback, the worker's wall time."""
+
+    error_type: str
+    message: str
+    traceback: str
+    seconds: float = 0.0

@@ -1,0 +1,202 @@
+"""One validation layer for user-given parameters, shared by the command line, the TOML study
+files (:mod:`jamlab.runs.study`) and the Python API.
+
+Every checker takes the parameter's user-facing ``name`` (``"--dgamma"`` on the command line,
+``"dgamma"`` in a study) and the raw value (a number, or a string from the command line or a
+TOML file), and returns the value converted to its type or raises ``ValueError`` with a one-line
+message naming the parameter. The bounds (``docs/formats.md``, "Limits"):
+
+- seeds: integers in ``[0, 2^64 − 1]`` (what ``numpy.random.default_rng`` and the 64-bit HDF5
+  attributes hold);
+- packing fractions: ``0 < φ < 1``; dimension ``d ≥ 2`` with a box side ``L > 2`` (twice the
+  cut-off) at the requested ``(N, d, φ)``;
+- strains: finite, ``|γ| ≤ MAX_STRAIN``; an AQS run: ``0 < δγ < γ_max``, at most ``MAX_STEPS``
+  steps, and ``δγ`` resolved by float64 at the run's largest strain (``δγ ≥ STRAIN_RESOLUTION ·
+  max(1, |γ_0| + γ_max)``), so that every step really changes the strain.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+__all__ = [
+    "SEED_MAX",
+    "MAX_STEPS",
+    "MAX_STRAIN",
+    "STRAIN_RESOLUTION",
+    "integer",
+    "number",
+    "positive",
+    "seed",
+    "packing_fraction",
+    "strain",
+    "strain_steps",
+    "box_fits",
+]
+
+SEED_MAX = 2**64 - 1
+"""Largest seed (``numpy.random.default_rng`` takes any ``int >= 0``, the files store 64 bits)."""
+
+MAX_STEPS = 10_000_000
+"""Largest number of AQS steps of one run (the trace is held in memory: ~1 GB at this size)."""
+
+MAX_STRAIN = 1e6
+"""Largest accumulated strain ``|γ|`` of a configuration or a run."""
+
+STRAIN_RESOLUTION = 2.0**-40
+"""Smallest ``δγ / max(1, |γ|)``: below it ``γ + δγ`` loses more than ~12 bits of ``δγ``."""
+
+
+def _reject(name: str, what: str, value: Any) -> ValueError:
+    return ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def integer(
+    name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None
+) -> int:
+    """An integer (``int``, an integral float or a decimal string; never a ``bool``) in
+    ``[minimum, maximum]``."""
+    if minimum is not None and maximum is not None:
+        bounds = f" in [{minimum}, {maximum}]"
+    elif minimum is not None:
+        bounds = f" >= {minimum}"
+    elif maximum is not None:
+        bounds = f" <= {maximum}"
+    else:
+        bounds = ""
+    what = f"an integer{bounds}"
+    if isinstance(value, bool):
+        raise _reject(name, what, value)
+    if isinstance(value, int):
+        as_int = value
+    elif isinstance(value, float):
+        if not (math.isfinite(value) and value == int(value)):
+            raise _reject(name, what, value)
+        as_int = int(value)
+    elif isinstance(value, str):
+        text = value.strip()
+        try:
+            as_int = int(text)
+        except ValueError:
+            try:
+                f = float(text)
+            except ValueError:
+                raise _reject(name, what, value) from None
+            if not (math.isfinite(f) and f == int(f)):
+                raise _reject(name, what, value) from None
+            as_int = int(f)
+    else:
+        try:
+            import numpy as np
+
+            if isinstance(value, np.integer):
+                as_int = int(value)
+            else:
+                raise TypeError
+        except TypeError:
+            raise _reject(name, what, value) from None
+    if (minimum is not None and as_int < minimum) or (maximum is not None and as_int > maximum):
+        raise _reject(name, what, as_int)
+    return as_int
+
+
+def number(
+    name: str,
+    value: Any,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """A finite float (a number or a numeric string; never a ``bool``) in the interval given by
+    ``low``/``high`` (closed unless ``low_open``/``high_open``)."""
+    lo = "" if low is None else ("(" if low_open else "[") + f"{low:g}"
+    hi = "" if high is None else f"{high:g}" + (")" if high_open else "]")
+    if low is not None and high is not None:
+        what = f"a finite number in {lo}, {hi}"
+    elif low is not None:
+        what = f"a finite number {'>' if low_open else '>='} {low:g}"
+    elif high is not None:
+        what = f"a finite number {'<' if high_open else '<='} {high:g}"
+    else:
+        what = "a finite number"
+    if isinstance(value, bool):
+        raise _reject(name, what, value)
+    try:
+        x = float(value.strip() if isinstance(value, str) else value)
+    except (TypeError, ValueError, OverflowError):
+        raise _reject(name, what, value) from None
+    if not math.isfinite(x):
+        raise _reject(name, what, value)
+    if low is not None and (x < low or (low_open and x == low)):
+        raise _reject(name, what, value)
+    if high is not None and (x > high or (high_open and x == high)):
+        raise _reject(name, what, value)
+    return x
+
+
+def positive(name: str, value: Any, *, maximum: float | None = None) -> float:
+    """A finite float ``> 0`` (and ``<= maximum`` if given)."""
+    return number(name, value, low=0.0, low_open=True, high=maximum)
+
+
+def seed(name: str, value: Any) -> int:
+    """A seed: an integer in ``[0, SEED_MAX]``."""
+    return integer(name, value, minimum=0, maximum=SEED_MAX)
+
+
+def packing_fraction(name: str, value: Any) -> float:
+    """A packing fraction ``0 < φ < 1``."""
+    return number(name, value, low=0.0, high=1.0, low_open=True, high_open=True)
+
+
+def strain(name: str, value: Any) -> float:
+    """An accumulated strain: finite, ``|γ| <= MAX_STRAIN``."""
+    return number(name, value, low=-MAX_STRAIN, high=MAX_STRAIN)
+
+
+def strain_steps(
+    dgamma: Any,
+    gamma_max: Any,
+    gamma0: float = 0.0,
+    *,
+    names: tuple[str, str] = ("dgamma", "gamma_max"),
+) -> int:
+    """``M = round(γ_max / δγ)`` AQS steps from strain ``gamma0``; ``ValueError`` unless
+    ``0 < δγ < γ_max``, ``M <= MAX_STEPS`` and ``δγ`` is resolved at strain ``|γ_0| + γ_max``."""
+    dg_name, gm_name = names
+    dg = positive(dg_name, dgamma, maximum=MAX_STRAIN)
+    gm = positive(gm_name, gamma_max, maximum=MAX_STRAIN)
+    g0 = strain("the start strain", gamma0)
+    if not gm > dg:
+        raise ValueError(f"{dg_name} must be smaller than {gm_name}, got {dg!r} >= {gm!r}")
+    ratio = gm / dg
+    if not ratio <= MAX_STEPS:
+        raise ValueError(
+            f"{gm_name}/{dg_name} = {ratio:.3g} steps exceeds the limit of {MAX_STEPS} steps "
+            "of one run"
+        )
+    scale = max(1.0, abs(g0) + gm)
+    if dg < STRAIN_RESOLUTION * scale:
+        raise ValueError(
+            f"{dg_name} = {dg!r} is below the float64 resolution of strains near {scale:.3g} "
+            f"(need {dg_name} >= {STRAIN_RESOLUTION * scale:.3g})"
+        )
+    return int(round(ratio))
+
+
+def box_fits(n: int, dim: int, phi: float) -> None:
+    """``ValueError`` unless ``N`` spheres at ``φ`` in ``d`` dimensions give a valid box
+    (``Packing``'s rule: side ``L > 2``, twice the cut-off); checked before any computation."""
+    import numpy as np
+
+    from jamlab.spheres.box import Box, box_length_for
+    from jamlab.spheres.potential import Packing
+
+    n = integer("N", n, minimum=2)
+    dim = integer("dim", dim, minimum=2)
+    phi = packing_fraction("phi", phi)
+    # Packing applies the rule (side L > 2); positions are irrelevant to it
+    Packing(np.zeros((n, dim)), Box(box_length_for(n, dim, phi), dim, 0.0))
