@@ -428,11 +428,6 @@ def test_resume_from_the_configuration_stored_in_the_trace(good, checkpointed, t
     np.testing.assert_array_equal(resumed.energy[:26], whole.energy[:26])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="aqs._save writes the trace without its configuration: patch in "
-    "/work/briefs/patch-15-aqs.md (item 2), to be applied by the lead",
-)
 def test_the_checkpoint_trace_carries_its_configuration(checkpointed):
     from jamlab.spheres.trace import read_trace_configuration
 
@@ -442,11 +437,6 @@ def test_the_checkpoint_trace_carries_its_configuration(checkpointed):
     assert np.array_equal(stored["positions"], last.positions)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="aqs.shear starts its counters at 0 on resume: patch in /work/briefs/patch-15-aqs.md "
-    "(item 3), to be applied by the lead",
-)
 def test_resumed_counters_cover_the_whole_trace(good, checkpointed, tmp_path):
     shutil.copyfile(checkpointed / "w.h5", tmp_path / "w.h5")
     shutil.copyfile(checkpointed / "w.last.h5", tmp_path / "w.last.h5")
@@ -460,11 +450,6 @@ def test_resumed_counters_cover_the_whole_trace(good, checkpointed, tmp_path):
     assert after["n_lean"] >= first["n_lean"] > 0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="aqs.shear validates dgamma/gamma_max itself (n_steps_for): patch in "
-    "/work/briefs/patch-15-aqs.md (item 1), to be applied by the lead",
-)
 def test_python_api_shear_uses_the_validation_layer(good):
     from jamlab.spheres.aqs import shear
 

@@ -72,7 +72,13 @@ def resume_configuration(out: Path, previous: Any) -> Any:
         seed = int(stored["seed"])
         positions = stored["positions"]
         box = Box(float(stored["box_length"]), positions.shape[1], float(stored["strain"]))
-        return Packing(positions, box, seed=None if seed < 0 else seed)
+        return Packing(
+            positions,
+            box,
+            seed=None if seed < 0 else seed,
+            diameters=stored.get("diameters"),
+            alpha=stored.get("alpha", 2.0),
+        )
     tried = []
     for candidate in (last, snapshots / f"step_{step:08d}.h5"):
         if not candidate.is_file():

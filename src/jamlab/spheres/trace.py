@@ -140,9 +140,10 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
     ``trace.attrs`` as root attributes, plus ``format`` and ``format_version``.
 
     ``configuration`` (a :class:`jamlab.spheres.Packing`, optional): the configuration of the
-    trace's last row, stored in the group ``configuration`` (``positions``; attributes
-    ``box_length``, ``strain``, ``seed``, ``step``) of the same file, so that a checkpoint (trace +
-    configuration) is written by one atomic rename (:func:`read_trace_configuration`)."""
+    trace's last row, stored in the group ``configuration`` (``positions``, ``diameters``;
+    attributes ``alpha``, ``box_length``, ``strain``, ``seed``, ``step``) of the same file, so
+    that a checkpoint (trace + configuration) is written by one atomic rename
+    (:func:`read_trace_configuration`)."""
 
     def fill(h5: h5py.File) -> None:
         for name in TRACE_COLUMNS:
@@ -152,6 +153,10 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
             group.create_dataset(
                 "positions", data=np.asarray(configuration.positions, dtype=np.float64)
             )
+            group.create_dataset(
+                "diameters", data=np.asarray(configuration.diameters, dtype=np.float64)
+            )
+            group.attrs["alpha"] = float(configuration.alpha)
             group.attrs["box_length"] = float(configuration.box.length)
             group.attrs["strain"] = float(configuration.box.strain)
             group.attrs["seed"] = int(-1 if configuration.seed is None else configuration.seed)
@@ -166,7 +171,8 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
 
 def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
     """The configuration stored with the trace by :func:`write_trace` (``positions``,
-    ``box_length``, ``strain``, ``seed``, ``step``), or ``None`` if the file has none."""
+    ``diameters`` (absent in older files), ``alpha``, ``box_length``, ``strain``, ``seed``,
+    ``step``), or ``None`` if the file has none."""
     try:
         with h5py.File(path, "r") as h5:
             group = h5.get("configuration")
@@ -176,6 +182,12 @@ def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
             if not isinstance(positions, h5py.Dataset) or positions.dtype.kind != "f":
                 raise ValueError(f"damaged configuration group in {path}")
             out: dict[str, Any] = {"positions": np.asarray(positions[()], dtype=np.float64)}
+            diameters = group.get("diameters")
+            if diameters is not None:
+                if not isinstance(diameters, h5py.Dataset) or diameters.dtype.kind != "f":
+                    raise ValueError(f"damaged configuration group in {path}")
+                out["diameters"] = np.asarray(diameters[()], dtype=np.float64)
+            out["alpha"] = float(group.attrs.get("alpha", 2.0))
             for key in ("box_length", "strain", "seed", "step"):
                 value = group.attrs[key]
                 out[key] = value.item() if isinstance(value, np.generic) else value

@@ -26,14 +26,17 @@ def save_checkpoint(
     step: int,
     snapshot: bool,
 ) -> None:
-    """Write the configuration ``packing`` after ``step`` (also as a snapshot if ``snapshot``)
-    and then the trace so far, each atomically (:func:`checkpoint_paths`)."""
+    """Write the trace so far together with its last configuration ``packing`` (one atomic
+    rename: the checkpoint pair), then ``<stem>.last.h5`` (a convenience copy) and, if
+    ``snapshot``, the step snapshot (:func:`checkpoint_paths`)."""
     from jamlab.spheres.io import write_packing
 
     last, snapshots = checkpoint_paths(out)
     if snapshot:
         snapshots.mkdir(exist_ok=True)
         write_packing(snapshots / f"step_{step:08d}.h5", packing, aqs_step=int(step))
-    # configuration first: a trace never refers to a configuration that is not on disk
+    # the trace carries its last configuration: one atomic rename writes the checkpoint pair, so
+    # a SIGKILL at any moment leaves a resumable trace (jamlab.cli.shear.resume_configuration);
+    # <stem>.last.h5 is written after it for the user (a convenience copy, never needed to resume)
+    write_trace(out, make_trace(rows, attrs, counters), configuration=packing)
     write_packing(last, packing, aqs_step=int(step))
-    write_trace(out, make_trace(rows, attrs, counters))

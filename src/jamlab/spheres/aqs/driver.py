@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
@@ -44,15 +45,11 @@ class ShearResult:
     time: float
 
 
-def n_steps_for(dgamma: float, gamma_max: float) -> int:
-    """``M = round(γ_max / δγ)`` strain steps; validates ``0 < δγ < γ_max``."""
-    if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
-        raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
-    if not (isinstance(gamma_max, int | float) and math.isfinite(gamma_max)):
-        raise ValueError(f"gamma_max must be finite, got gamma_max={gamma_max!r}")
-    if not gamma_max > dgamma:
-        raise ValueError(f"need dgamma < gamma_max, got dgamma={dgamma!r}, gamma_max={gamma_max!r}")
-    return int(round(gamma_max / dgamma))
+def n_steps_for(dgamma: float, gamma_max: float, gamma0: float = 0.0) -> int:
+    """``M = round(γ_max / δγ)`` strain steps from ``γ_0``; validated by
+    :func:`jamlab.validation.strain_steps` (``0 < δγ < γ_max``, at most ``MAX_STEPS`` steps,
+    ``δγ`` resolved at strain ``|γ_0| + γ_max``)."""
+    return validation.strain_steps(dgamma, gamma_max, gamma0)
 
 
 def shear(
@@ -90,14 +87,13 @@ def shear(
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     if (gamma_max is None) == (n_steps is None):
         raise ValueError("give exactly one of gamma_max and n_steps")
+    start_strain = packing.strain if previous is None else float(previous.gamma[0])
     if n_steps is None:
-        total = n_steps_for(dgamma, gamma_max)
+        total = n_steps_for(dgamma, gamma_max, start_strain)
     else:
-        if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
-            raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
-        if not (isinstance(n_steps, int) and n_steps >= 1):
-            raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
+        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
         total = n_steps
+        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
     if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if save_every is not None and out is None:
@@ -143,6 +139,8 @@ def shear(
         "dim": int(packing.dim),
         "phi": float(packing.phi),
         "box_length": float(packing.box.length),
+        "alpha": float(packing.alpha),
+        "monodisperse": bool(packing.monodisperse),
         "seed": int(-1 if packing.seed is None else packing.seed),
         "jamlab_version": jamlab_version(),
         "source": "" if source is None else str(source),
@@ -154,6 +152,10 @@ def shear(
         "n_factorisations": 1,
         "n_lean": 0,
     }
+    if previous is not None:
+        # a resumed trace is one run: its counters cover every step, not only the resumed ones
+        for key in counters:
+            counters[key] += int(previous.attrs.get(key, 0))
     prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
     stepper = Stepper(
         cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params, counters
