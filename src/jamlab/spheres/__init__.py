@@ -3,7 +3,7 @@ contacts, FIRE, packings, AQS shear.
 
 Layers (each module imports only from the ones above it): ``box`` → ``pair`` → ``state`` →
 ``neighbors`` → ``contacts`` → ``potential`` → ``fire`` → ``relax`` → ``describe`` →
-``jam_search`` → ``coordination`` → ``packing``; ``io`` and ``trace`` (files); ``aqs`` (shear).
+``jam_search`` → ``compression`` → ``packing``; ``io`` and ``trace`` (files); ``aqs`` (shear).
 """
 
 from jamlab.spheres.box import Box, box_length_for, packing_fraction, sphere_volume

@@ -10,7 +10,7 @@ Minimisation: FIRE 2.0 with :data:`~jamlab.spheres.relax.JAM_FIRE` until ``max_i
 (:mod:`jamlab.spheres.relax`). The jamming protocol (:func:`jam`, its search in
 :mod:`jamlab.spheres.jam_search`) and its stopping rule are documented in ``docs/packings.md``.
 The names of :mod:`~jamlab.spheres.relax`, :mod:`~jamlab.spheres.describe` and
-:mod:`~jamlab.spheres.coordination` are re-exported here.
+:mod:`~jamlab.spheres.compression` are re-exported here.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jamlab.spheres.coordination import (
+from jamlab.spheres.compression import (
     CoordinationCurve,
     coordination_curve,
     fit_power_law,
