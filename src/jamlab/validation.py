@@ -187,16 +187,38 @@ def strain_steps(
     return int(round(ratio))
 
 
-def box_fits(n: int, dim: int, phi: float) -> None:
-    """``ValueError`` unless ``N`` spheres at ``φ`` in ``d`` dimensions give a valid box
-    (``Packing``'s rule: side ``L > 2``, twice the cut-off); checked before any computation."""
+def box_fits(n: int, dim: int, phi: float, sizes: str = "mono") -> None:
+    """``ValueError`` unless ``N`` spheres (diameters ``sizes``) at ``φ`` in ``d`` dimensions
+    give a valid box (``Packing``'s rule: side ``L > 2 max D``, twice the cut-off); checked
+    before any computation."""
     import numpy as np
 
-    from jamlab.spheres.box import Box, box_length_for
-    from jamlab.spheres.potential import Packing
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.state import Packing, box_length_for_diameters, size_distribution
 
     n = integer("N", n, minimum=2)
     dim = integer("dim", dim, minimum=2)
     phi = packing_fraction("phi", phi)
-    # Packing applies the rule (side L > 2); positions are irrelevant to it
-    Packing(np.zeros((n, dim)), Box(box_length_for(n, dim, phi), dim, 0.0))
+    diam = size_distribution(n, sizes)
+    # Packing applies the rule; positions are irrelevant to it
+    length = box_length_for_diameters(diam, dim, phi)
+    Packing(np.zeros((n, dim)), Box(length, dim, 0.0), diameters=diam)
+
+
+def sizes(name: str, value: Any) -> str:
+    """A size specification ``mono | bidisperse | polydisperse[:w]`` (``SPEC.md`` §5)."""
+    from jamlab.spheres.state import parse_sizes
+
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be mono, bidisperse or polydisperse[:w], got {value!r}")
+    parse_sizes(value)
+    return value.strip()
+
+
+def pair_exponent(name: str, value: Any) -> float:
+    """The pair exponent ``α`` of ``V = (1 − r/σ)^α``: a finite number ``> 1``."""
+    from jamlab.spheres.pair import check_alpha
+
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be a number > 1, got {value!r}")
+    return check_alpha(value)

@@ -136,6 +136,14 @@ def register(app: typer.Typer) -> None:
         force_tol: str | None = typer.Option(
             None, "--force-tol", help="FIRE tolerance, max |F_i| (default 1e-12)."
         ),
+        sizes: str | None = typer.Option(
+            None,
+            "--sizes",
+            help="Diameters: mono (default), bidisperse (1:1.4) or polydisperse[:w].",
+        ),
+        alpha: str | None = typer.Option(
+            None, "--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (default 2)."
+        ),
         task: str | None = typer.Option(None, "--task", hidden=True),
         workers: int | None = typer.Option(
             None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
@@ -184,6 +192,8 @@ def register(app: typer.Typer) -> None:
                 ("dim", dim),
                 ("p_target", p_target),
                 ("force_tol", force_tol),
+                ("sizes", sizes),
+                ("alpha", alpha),
                 ("task", task),
             ],
         )

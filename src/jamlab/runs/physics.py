@@ -30,10 +30,24 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
 
     if isinstance(key.phi, str):
         prepared = packing.jam(
-            key.n, study.dim, seed, p_target=study.p_target, ftol=study.force_tol
+            key.n,
+            study.dim,
+            seed,
+            p_target=study.p_target,
+            ftol=study.force_tol,
+            sizes=study.sizes,
+            alpha=study.alpha,
         )
     else:
-        prepared = packing.prepare(key.n, study.dim, float(key.phi), seed, ftol=study.force_tol)
+        prepared = packing.prepare(
+            key.n,
+            study.dim,
+            float(key.phi),
+            seed,
+            ftol=study.force_tol,
+            sizes=study.sizes,
+            alpha=study.alpha,
+        )
     config = prepared.packing
     info = prepared.attrs() if hasattr(prepared, "attrs") else scalars("", prepared)
     # wall-clock times are not reproducible: kept out of the sample's data
@@ -56,4 +70,7 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
         raise SampleFailed(f"AQS minimisation did not converge at {n_bad} step(s) (max |F_i|)")
     attrs["phi_actual"] = float(config.phi)
     attrs["box_length"] = float(config.box.length)
-    return SampleResult(traces, attrs, {"positions": np.asarray(config.positions)})
+    arrays = {"positions": np.asarray(config.positions)}
+    if not config.monodisperse:  # (mono samples keep their earlier layout, bit for bit)
+        arrays["diameters"] = np.asarray(config.diameters)
+    return SampleResult(traces, attrs, arrays)

@@ -109,6 +109,8 @@ class Study:
     - ``dim``: space dimension (``>= 2``).
     - ``p_target``: target pressure of the jamming protocol (``φ = "jamming"`` only).
     - ``force_tol``: FIRE convergence, largest per-particle force ``|F_i|`` (SPEC §3).
+    - ``sizes``: diameters, ``"mono"``, ``"bidisperse"`` or ``"polydisperse[:w]"`` (SPEC §5,
+      :mod:`jamlab.spheres.state`); ``alpha``: pair exponent, ``V = (1 − r/σ_ij)^α``, ``> 1``.
     - ``task``: ``"aqs"`` (prepare + shear) or ``"toy"`` (machinery tests only).
     """
 
@@ -122,6 +124,8 @@ class Study:
     p_target: float = 1e-7
     force_tol: float = 1e-12
     task: str = "aqs"
+    sizes: str = "mono"
+    alpha: float = 2.0
 
     def __post_init__(self) -> None:
         phis = [parse_phi(p) for p in _as_list(self.phi)]
@@ -146,6 +150,8 @@ class Study:
         for name in ("dgamma", "gamma_max", "p_target", "force_tol"):
             object.__setattr__(self, name, _positive_float(name, getattr(self, name)))
         validation.strain_steps(self.dgamma, self.gamma_max)
+        object.__setattr__(self, "sizes", validation.sizes("sizes", self.sizes))
+        object.__setattr__(self, "alpha", validation.pair_exponent("alpha", self.alpha))
         if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
 
@@ -164,7 +170,9 @@ class Study:
         phi_init = inspect.signature(jam).parameters["phi_init"].default
         for phi in self.phi:
             for n in self.n:
-                validation.box_fits(n, self.dim, phi_init if isinstance(phi, str) else phi)
+                validation.box_fits(
+                    n, self.dim, phi_init if isinstance(phi, str) else phi, self.sizes
+                )
 
     def keys(self) -> list[SampleKey]:
         """All samples, φ-major then N then index (the order of submission, not of results)."""
