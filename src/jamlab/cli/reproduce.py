@@ -27,11 +27,22 @@ def reproduce_command(
         typer.Option("--scheduler", help="Address of a running dask scheduler, tcp://HOST:8786."),
     ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Master seed (default 0).")] = None,
+    sizes: Annotated[
+        str,
+        typer.Option(
+            "--sizes",
+            help="Diameters of every ensemble: mono (the paper's), bidisperse or polydisperse[:w].",
+        ),
+    ] = "mono",
+    alpha: Annotated[
+        float, typer.Option("--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (paper: 2).")
+    ] = 2.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")] = False,
 ) -> None:
     """Run (or resume) the ensembles of a scale, make every figure and write the report with the
     table quantity | paper | ours ± uncertainty | samples | verdict."""
     from jamlab.reproduce import SCALES, reproduce, with_seed
+    from jamlab.reproduce.scales import with_pair_law
     from jamlab.runs import Execution
 
     if scale not in SCALES:
@@ -39,6 +50,8 @@ def reproduce_command(
     chosen = SCALES[scale] if seed is None else with_seed(SCALES[scale], seed)
     if seed is not None and seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed}")
+    if sizes != "mono" or alpha != 2.0:
+        chosen = with_pair_law(chosen, sizes, alpha)
     execution = Execution(workers=workers, scheduler=scheduler)
     log = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
     result = reproduce(chosen, out, runs=runs, execution=execution, log=log)

@@ -22,9 +22,15 @@ CURVE_ARRAYS = ("phi", "dphi", "z", "z_nr", "z_iso", "n_rattlers", "energy", "pr
 """The array fields of a coordination curve, stored as they are (scalars: ``phi_j, dim, n``)."""
 
 
-def cache_file(cache: Path, n: int, seed: int, steps: int) -> Path:
-    """The file of the curve of the packing of ``n`` spheres, ``seed``, ``steps`` compressions."""
-    return Path(cache) / f"coordination_N{n}_seed{seed}_steps{steps}.npz"
+def cache_file(
+    cache: Path, n: int, seed: int, steps: int, sizes: str = "mono", alpha: float = 2.0
+) -> Path:
+    """The file of the curve of the packing of ``n`` spheres, ``seed``, ``steps`` compressions
+    (the pair law, when not the paper's, is part of the name: ``…_sizes{s}_alpha{a}.npz``)."""
+    law = ""
+    if sizes != "mono" or alpha != 2.0:
+        law = f"_sizes{sizes.replace(':', '-')}_alpha{alpha:g}"
+    return Path(cache) / f"coordination_N{n}_seed{seed}_steps{steps}{law}.npz"
 
 
 def load_curve(path: Path) -> Any:

@@ -59,12 +59,12 @@ def coordination_curves(scale: Scale, cache: Path, log: Callable[[str], None]) -
     curves = []
     for i in range(scale.coord_samples):
         seed = scale.seed + 1 + i
-        f = cache_file(cache, scale.coord_n, seed, scale.coord_steps)
+        f = cache_file(cache, scale.coord_n, seed, scale.coord_steps, scale.sizes, scale.alpha)
         if f.is_file():
             curves.append(load_curve(f))
             continue
         t = time.perf_counter()
-        res = jam(scale.coord_n, 3, seed)
+        res = jam(scale.coord_n, 3, seed, sizes=scale.sizes, alpha=scale.alpha)
         if not res.ok:
             log(f"coordination: packing seed {seed} failed ({res.reason}); skipped")
             continue

@@ -48,6 +48,8 @@ class Scale:
     seed: int = 0
     bins_per_decade: int = 5
     expected: str = ""
+    sizes: str = "mono"  # the pair law of every ensemble (SPEC.md §5; the paper: mono, α = 2)
+    alpha: float = 2.0
 
     def __post_init__(self) -> None:
         steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
@@ -149,12 +151,14 @@ def studies(scale: Scale) -> dict[str, Any]:
     return {
         "jamming": Study(phi=("jamming",), n=scale.jamming_n, samples=scale.jamming_samples,
                          dgamma=scale.dgamma, gamma_max=scale.jamming_gamma_max,
-                         seed=scale.seed),
+                         seed=scale.seed, sizes=scale.sizes, alpha=scale.alpha),
         "unsat": Study(phi=UNSAT_PHI, n=scale.unsat_n, samples=scale.unsat_samples,
-                       dgamma=scale.dgamma, gamma_max=scale.gamma_max, seed=scale.seed),
+                       dgamma=scale.dgamma, gamma_max=scale.gamma_max, seed=scale.seed,
+                       sizes=scale.sizes, alpha=scale.alpha),
         "stress-strain": Study(phi=(scale.stress_phi,), n=(scale.stress_n,),
                                samples=scale.stress_samples, dgamma=scale.stress_dgamma,
-                               gamma_max=scale.stress_gamma_max, seed=scale.seed),
+                               gamma_max=scale.stress_gamma_max, seed=scale.seed,
+                               sizes=scale.sizes, alpha=scale.alpha),
     }
 
 
@@ -171,3 +175,15 @@ def get_scale(scale: Scale | str) -> Scale:
 def with_seed(scale: Scale, seed: int) -> Scale:
     """The same scale with another master seed."""
     return replace(scale, seed=int(seed))
+
+
+def with_pair_law(scale: Scale, sizes: str = "mono", alpha: float = 2.0) -> Scale:
+    """The same scale for another system: diameters ``sizes`` and pair exponent ``alpha``
+    (``SPEC.md`` §5). The paper's reference values stay those of its system (mono, α = 2)."""
+    from jamlab import validation
+
+    return replace(
+        scale,
+        sizes=validation.sizes("sizes", sizes),
+        alpha=validation.pair_exponent("alpha", alpha),
+    )

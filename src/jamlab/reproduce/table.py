@@ -281,7 +281,13 @@ def parameters(scale: Scale, runs: Path) -> dict[str, str]:
         "fits": (f"min tail {scale.min_tail}, {scale.n_boot} bootstrap resamples, "
                  f"seed {scale.seed}"),
         "cascade": f"k = {scale.cascade_k} levels, {scale.cascade_samples} samples per δγ",
-        "space dimension, potential": "d = 3, V(r) = (1 − r)² for r < 1 (σ = 1, ε = 1)",
+        "space dimension, potential": (
+            "d = 3, V(r) = (1 − r)² for r < 1 (σ = 1, ε = 1)"
+            if scale.sizes == "mono" and scale.alpha == 2.0
+            else f"d = 3, V(r) = (1 − r/σ_ij)^{scale.alpha:g} for r < σ_ij = (D_i + D_j)/2, "
+            f"diameters {scale.sizes} (SPEC.md §5) — not the paper's system: its reference "
+            f"values are shown for orientation only"
+        ),
         "expected cost of this scale": scale.expected,
     }
 
