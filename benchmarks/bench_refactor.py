@@ -8,8 +8,11 @@ subprocesses with ``PYTHONPATH`` set to each tree in turn, ``--repeat`` rounds `
 best time per step of each tree and their ratio, and the ratio of every round. Compiled kernels
 are warmed before timing in every subprocess. Asserts nothing about time.
 
+With ``--jam-n N`` (default 256) it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
+``bench_jam.py`` protocol, jamlab only), per packing.
+
 Run: ``python benchmarks/bench_refactor.py --compare-src /work/wt-base/src [--src src]
-[--repeat 5] [--steps 200] [--no-jamming]``.
+[--repeat 5] [--steps 200] [--no-jamming] [--jam-n 256]``.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from jamlab.spheres.io import read_lammps_positions
 from jamlab.spheres.packing import jam
 
 start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+jam_n = int(sys.argv[5])
 meta = json.load(open(start_dir + "/meta.json"))
 start = read_lammps_positions(start_dir + "/positions.txt", box_length=meta["box_length"])
 shear(start, 1e-5, n_steps=2)  # compile outside the timings
@@ -49,6 +53,14 @@ if jamming == "1":
     out["jamming N=128 fast path"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
     r = shear(jammed, 1e-5, n_steps=jam_steps, minimizer="fire", classify=True)
     out["jamming N=128 FIRE+classify"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
+if jam_n:
+    import time
+    jam(64, 3, seed=1, p_target=1e-4)  # compile outside the timings
+    t = time.perf_counter()
+    for seed in (1, 2, 3):
+        res = jam(jam_n, 3, seed=seed)
+        assert res.ok, res.reason
+    out[f"jam N={jam_n} (3 seeds)"] = ((time.perf_counter() - t) / 3, 0)
 print("RESULT " + json.dumps(out))
 """
 
@@ -63,6 +75,7 @@ def run_child(src: str, args) -> dict:
         str(args.steps),
         str(args.jam_steps),
         "0" if args.no_jamming else "1",
+        str(args.jam_n),
     ]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
     line = next(x for x in res.stdout.splitlines() if x.startswith("RESULT "))
@@ -77,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--jam-steps", type=int, default=30)
     ap.add_argument("--no-jamming", action="store_true")
+    ap.add_argument(
+        "--jam-n", type=int, default=256, help="also time jam(N, 3, seed) for seeds 1-3 (0: no)"
+    )
     args = ap.parse_args(argv)
     if not START.is_dir():
         print(f"reference start not found at {START}")
@@ -88,7 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"round {k + 1}/{args.repeat} done", flush=True)
     print(f"A (before) = {runs['A'][0]['jamlab']}\nB (after)  = {runs['B'][0]['jamlab']}")
     cases = [c for c in runs["A"][0] if c != "jamlab"]
-    print(f"{'case':30s} {'A ms/step':>10s} {'B ms/step':>10s} {'B/A best':>9s}  B/A per round")
+    print(f"{'case':30s} {'A ms':>10s} {'B ms':>10s} {'B/A best':>9s}  B/A per round"
+          "  (ms per AQS step; for jam: ms per packing)")
     for case in cases:
         a = [r[case][0] for r in runs["A"]]
         b = [r[case][0] for r in runs["B"]]

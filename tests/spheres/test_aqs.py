@@ -348,11 +348,13 @@ def test_fused_kernel_equals_the_separate_passes():
     nl = NeighborList(pk)
     pos = nl.sorted(pk.positions)
     f1, s1 = np.empty_like(pos), np.empty((3, 3))
-    e1, n1 = KK.energy_forces_virial(pos, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0, f1, s1)
+    e1, n1 = KK.energy_forces_virial(
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f1, s1
+    )
     flags = np.empty(nl.nbr.size, dtype=np.uint8)
     f2, s2 = np.empty_like(pos), np.empty((3, 3))
     e2, n2, m = AK.forces_virial_flags(
-        pos, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0, f2, s2, flags, True
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f2, s2, flags, True
     )
     assert m == 0 and n2 == n1 and int(flags.sum()) == n1
     np.testing.assert_allclose(e2, e1, rtol=1e-13)
@@ -365,7 +367,7 @@ def test_fused_kernel_equals_the_separate_passes():
     ci, cj, _ = KK.contact_pairs(moved, nl.start, nl.nbr, nl.shift, nl.diameters)
     after = {tuple(sorted(p)) for p in zip(ci.tolist(), cj.tolist(), strict=True)}
     _, _, m = AK.forces_virial_flags(
-        moved, nl.start, nl.nbr, nl.shift, nl.diameters, 2.0,
+        moved, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha,
         np.empty_like(pos), np.empty((3, 3)), flags, False,
     )
     assert m == len(before ^ after) > 0

@@ -139,7 +139,7 @@ def minimize(
         neighbors.img_y,
         ref,
         neighbors.diameters,
-        float(neighbors.alpha),
+        neighbors.alpha,
         float(ftol),
         int(max_iter),
         float(params.dt),

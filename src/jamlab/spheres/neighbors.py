@@ -58,7 +58,8 @@ class NeighborList:
     For memory locality the list works on the particles permuted by ``order`` (fixed at
     creation, :func:`spatial_order`): index ``k`` of the list is particle ``order[k]``. The
     functions of :mod:`jamlab.spheres.potential` translate back, so callers only see the original
-    numbering. ``diameters`` (list order) and ``alpha`` are the packing's pair law.
+    numbering. ``diameters`` (list order) and ``alpha`` are the packing's pair law in the
+    kernels' form (:func:`jamlab.spheres.pair.kernel_law`: ``None`` for ``D = 1``, ``α = 2``).
     """
 
     def __init__(self, packing: Packing, skin: float = DEFAULT_SKIN) -> None:
@@ -74,8 +75,10 @@ class NeighborList:
         self.inverse = np.empty_like(self.order)
         self.inverse[self.order] = np.arange(len(self.order))
         self.source_diameters = packing.diameters
-        self.diameters = np.ascontiguousarray(packing.diameters[self.order])
-        self.alpha = packing.alpha
+        self.pair_alpha = packing.alpha
+        # the pair law in the kernels' form (pair.kernel_law): None for D = 1 and for α = 2
+        diam, self.alpha = packing.kernel_law
+        self.diameters = None if diam is None else np.ascontiguousarray(diam[self.order])
         self.rebuild(self.sorted(packing.positions), packing.strain)
 
     def sorted(self, array: np.ndarray) -> np.ndarray:
@@ -96,7 +99,7 @@ class NeighborList:
         return (
             self.box.length == packing.box.length
             and self.ref.shape == packing.positions.shape
-            and self.alpha == packing.alpha
+            and self.pair_alpha == packing.alpha
             and (
                 self.source_diameters is packing.diameters
                 or np.array_equal(self.source_diameters, packing.diameters)

@@ -13,9 +13,10 @@ with ``ε = 1`` and any exponent ``α > 1``: ``α = 2`` is the harmonic law of t
 
 Every numba kernel (energy, forces, virial, Hessian blocks, ``∂F/∂γ``, the AQS kernels) gets
 ``V``, ``V'`` and ``V''`` from :func:`pair_terms` and ``σ_ij`` from :func:`pair_sigma`; adding a
-pair law means changing these two small functions. For ``α = 2`` the expressions are evaluated
-in the same floating-point operations as the harmonic kernels written by hand before (bit for bit
-the same energies and forces for ``D = 1``).
+pair law means changing these two small functions. Kernels take the law as ``(diam, alpha)``
+from :func:`kernel_law`: ``diam=None`` (all ``D = 1``) and ``alpha=None`` (``α = 2``) are
+compile-time specialisations, so for the paper's system the kernels are the hand-written harmonic
+ones — same operations, same bits, same speed (``benchmarks/bench_pair_law.py``).
 
 For continuing a branch across contact changes the AQS code treats every contact of a network as
 a spring also in tension (``r > σ``, ``h < 0``). :func:`pair_terms` extends the law there as
@@ -27,7 +28,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 __all__ = [
     "HARMONIC",
@@ -36,6 +38,7 @@ __all__ = [
     "pair_sigma",
     "pair_terms",
     "pair_sigmas",
+    "kernel_law",
     "pair_energy",
 ]
 
@@ -56,22 +59,59 @@ def check_alpha(alpha: float) -> float:
     return a
 
 
-@njit(inline="always", cache=True)
 def pair_sigma(diam, i, j):
-    """``σ_ij = (D_i + D_j)/2``."""
-    return 0.5 * (diam[i] + diam[j])
+    """``σ_ij = (D_i + D_j)/2`` inside numba kernels; ``diam=None`` means every ``D = 1``.
+
+    The two cases are compiled separately (numba overload on the argument's type), so the
+    monodisperse kernels contain no diameter at all: ``σ = 1`` is a compile-time constant and
+    they are exactly the harmonic kernels written by hand before pair laws existed (same speed,
+    same bits). Use :func:`pair_sigmas` from numpy code."""
+    raise NotImplementedError("pair_sigma is for numba kernels; use pair_sigmas")
+
+
+@overload(pair_sigma, inline="always")
+def _pair_sigma_numba(diam, i, j):
+    if isinstance(diam, types.NoneType):
+        return lambda diam, i, j: 1.0
+    return lambda diam, i, j: 0.5 * (diam[i] + diam[j])
 
 
 @njit(inline="always", cache=True)
-def pair_terms(r, sigma, alpha):
-    """``(V, V', V'')`` at distance ``r`` (module docstring); the caller applies the cut-off
-    ``r < σ``. Beyond it (``h < 0``, a network spring in tension) this is ``|h|^α``."""
+def _harmonic_terms(r, sigma):
     h = 1.0 - r / sigma
-    if alpha == 2.0:
-        return h * h, -2.0 * h / sigma, 2.0 / (sigma * sigma)
-    a = abs(h)
-    hm = a ** (alpha - 2.0)
-    return hm * a * a, -alpha * (hm * h) / sigma, alpha * (alpha - 1.0) * hm / (sigma * sigma)
+    return h * h, -2.0 * h / sigma, 2.0 / (sigma * sigma)
+
+
+def pair_terms(r, sigma, alpha):
+    """``(V, V', V'')`` at distance ``r`` inside numba kernels (module docstring); the caller
+    applies the cut-off ``r < σ``. Beyond it (``h < 0``, a network spring in tension) the law is
+    ``|h|^α``. ``alpha=None`` means ``α = 2`` fixed at compile time (the harmonic kernels);
+    a float ``alpha`` is read at run time (``α = 2`` and ``α = 5/2`` have exact fast paths:
+    ``h^(α−2)`` is 1 and ``√|h|``)."""
+    raise NotImplementedError("pair_terms is for numba kernels")
+
+
+@overload(pair_terms, inline="always")
+def _pair_terms_numba(r, sigma, alpha):
+    if isinstance(alpha, types.NoneType):
+        return lambda r, sigma, alpha: _harmonic_terms(r, sigma)
+
+    def impl(r, sigma, alpha):
+        if alpha == 2.0:
+            return _harmonic_terms(r, sigma)
+        h = 1.0 - r / sigma
+        a = abs(h)
+        hm = np.sqrt(a) if alpha == 2.5 else a ** (alpha - 2.0)
+        return hm * a * a, -alpha * (hm * h) / sigma, alpha * (alpha - 1.0) * hm / (sigma * sigma)
+
+    return impl
+
+
+def kernel_law(diameters: np.ndarray, alpha: float) -> tuple[np.ndarray | None, float | None]:
+    """The pair law as kernels take it: ``(None, ·)`` for all ``D = 1`` and ``(·, None)`` for
+    ``α = 2``, so that the paper's system runs the specialised harmonic monodisperse kernels."""
+    d = np.ascontiguousarray(diameters, dtype=np.float64)
+    return (None if np.all(d == 1.0) else d), (None if alpha == 2.0 else float(alpha))
 
 
 def pair_sigmas(diameters: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:

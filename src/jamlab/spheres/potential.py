@@ -148,7 +148,7 @@ def hessian(packing: Packing, neighbors: NeighborList | None = None) -> scipy.sp
     Pair block ``B = V''(r) n nᵀ + (V'(r)/r)(1 − n nᵀ)``: ``H_ii = Σ_j B_ij``, ``H_ij = −B_ij``.
     """
     ci, cj, cd = contacts(packing, neighbors)
-    rows, cols, vals = K.hessian_coo(ci, cj, cd, packing.diameters, packing.alpha)
+    rows, cols, vals = K.hessian_coo(ci, cj, cd, *packing.kernel_law)
     size = packing.n * packing.dim
     return scipy.sparse.coo_matrix((vals, (rows, cols)), shape=(size, size)).tocsr()
 
@@ -160,4 +160,4 @@ def dforce_dstrain(packing: Packing, neighbors: NeighborList | None = None) -> n
     ``H du/dγ = Ξ`` (linear response) and ``dΣ/dγ = ∂²E/∂γ² − Ξ·H⁻¹Ξ``.
     """
     ci, cj, cd = contacts(packing, neighbors)
-    return K.dforce_dstrain(packing.n, ci, cj, cd, packing.diameters, packing.alpha)
+    return K.dforce_dstrain(packing.n, ci, cj, cd, *packing.kernel_law)

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from jamlab.spheres.box import Box, box_length_for, sphere_volume
-from jamlab.spheres.pair import HARMONIC, check_alpha
+from jamlab.spheres.pair import HARMONIC, check_alpha, kernel_law
 
 __all__ = [
     "Packing",
@@ -195,6 +195,12 @@ class Packing:
     def monodisperse(self) -> bool:
         """Every ``D_i = 1``."""
         return bool(np.all(self.diameters == 1.0))
+
+    @property
+    def kernel_law(self) -> tuple[np.ndarray | None, float | None]:
+        """The pair law as numba kernels take it (:func:`jamlab.spheres.pair.kernel_law`):
+        ``None`` for all ``D = 1`` and for ``α = 2`` (compile-time specialisations)."""
+        return kernel_law(self.diameters, self.alpha)
 
     @property
     def sigma_max(self) -> float:

@@ -54,6 +54,7 @@ class Factor:
     free_sorted: np.ndarray | None = None  # ``free`` in the neighbour list's order
     diameters: np.ndarray | None = None  # the pair law of the factorised packing
     alpha: float = 2.0
+    kernel_law: tuple = (None, None)  # the same in the kernels' form (pair.kernel_law)
 
     def solve(self, r: np.ndarray) -> np.ndarray:
         """``P⁻¹ r`` (``M⁻¹ r`` without corrections)."""
@@ -157,7 +158,7 @@ def hessian_matrix(ci: np.ndarray, cj: np.ndarray, dr: np.ndarray, fac: Factor) 
     of the pair law (:mod:`jamlab.spheres.pair`), a held particle (pinned, rattler) a fixed spring
     end."""
     data, indices, indptr = AK.backbone_hessian_csr(
-        ci, cj, dr, fac.diameters, fac.alpha, fac.free_index, fac.free.size
+        ci, cj, dr, *fac.kernel_law, fac.free_index, fac.free.size
     )
     size = fac.free.size * dr.shape[1]
     return sps.csr_matrix((data, indices, indptr), shape=(size, size))
@@ -214,6 +215,7 @@ def factorise(
     free, free_index = free_set(backbone)
     fac = Factor(backbone, free, free_index, None, False)
     fac.diameters, fac.alpha = packing.diameters, packing.alpha
+    fac.kernel_law = packing.kernel_law
     if free.size == 0:
         return fac
     ci, cj, cd = contact_list(packing, nl) if contacts is None else contacts

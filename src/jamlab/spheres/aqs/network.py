@@ -62,7 +62,7 @@ def network_forces(packing: Packing, ci: np.ndarray, cj: np.ndarray) -> tuple[np
     pos = packing.positions
     dr = packing.box.minimum_image(pos[ci] - pos[cj])
     r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
-    fp = K.pair_force_factors(r, ci, cj, packing.diameters, packing.alpha)[:, None] * dr  # on i
+    fp = K.pair_force_factors(r, ci, cj, *packing.kernel_law)[:, None] * dr  # force on i
     n, d = pos.shape
     f = np.empty((n, d))
     for a in range(d):
