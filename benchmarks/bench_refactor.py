@@ -5,14 +5,17 @@ Runs the jamlab part of ``bench_aqs.py`` (φ = 0.8: N = 1000 from the LAMMPS sta
 jamming: ``jam(128, seed=1, p_target=1e-5)``, fast path and FIRE with classification) in
 subprocesses with ``PYTHONPATH`` set to each tree in turn, ``--repeat`` rounds ``A B A B …``
 (the machine is shared: alternating spreads the disturbance over both), and prints per case the
-best time per step of each tree and their ratio, and the ratio of every round. Compiled kernels
-are warmed before timing in every subprocess. Asserts nothing about time.
+best time per step of each tree and their ratio, and the ratio of every round, both in wall
+clock and in CPU time of the process (one BLAS/numba thread; less sensitive to other load on a
+shared machine). Compiled kernels are warmed before timing in every subprocess. Asserts nothing
+about time.
 
 With ``--jam-n N`` (default 256) it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
-``bench_jam.py`` protocol, jamlab only), per packing.
+``bench_jam.py`` protocol, jamlab only), per packing (the "ms/step" columns are then ms per
+packing).
 
 Run: ``python benchmarks/bench_refactor.py --compare-src /work/wt-base/src [--src src]
-[--repeat 5] [--steps 200] [--no-jamming] [--jam-n 256]``.
+[--repeat 5] [--steps 200] [--no-jamming] [--fast-only] [--jam-n 256]``.
 """
 
 from __future__ import annotations
@@ -30,43 +33,53 @@ START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 # the child: time each case with the jamlab found on PYTHONPATH; prints one JSON line
 CHILD = r"""
-import json, sys
+import json, sys, time
 import jamlab
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.io import read_lammps_positions
 from jamlab.spheres.packing import jam
 
 start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
-jam_n = int(sys.argv[5])
+fast_only = sys.argv[5] == "1"
+jam_n = int(sys.argv[6])
 meta = json.load(open(start_dir + "/meta.json"))
 start = read_lammps_positions(start_dir + "/positions.txt", box_length=meta["box_length"])
 shear(start, 1e-5, n_steps=2)  # compile outside the timings
 out = {"jamlab": jamlab.__file__}
-r = shear(start, 1e-5, n_steps=steps)
-out["phi0.8 fast path"] = (r.time / steps, int(r.trace.plastic.sum()))
-r = shear(start, 1e-5, n_steps=steps, minimizer="fire", classify=False)
-out["phi0.8 plain FIRE"] = (r.time / steps, int(r.trace.plastic.sum()))
+
+def timed(name, packing, n, **kw):
+    # wall clock of the stepping loop (ShearResult.time) and CPU time of the whole call
+    cpu = time.process_time()
+    r = shear(packing, 1e-5, n_steps=n, **kw)
+    cpu = time.process_time() - cpu
+    out[name] = (r.time / n, cpu / n, int(r.trace.plastic.sum()))
+
+timed("phi0.8 fast path", start, steps)
+if not fast_only:
+    timed("phi0.8 plain FIRE", start, steps, minimizer="fire", classify=False)
 if jamming == "1":
     jammed = jam(128, 3, seed=1, p_target=1e-5).packing
     shear(jammed, 1e-5, n_steps=1)
-    r = shear(jammed, 1e-5, n_steps=jam_steps)
-    out["jamming N=128 fast path"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
-    r = shear(jammed, 1e-5, n_steps=jam_steps, minimizer="fire", classify=True)
-    out["jamming N=128 FIRE+classify"] = (r.time / jam_steps, int(r.trace.plastic.sum()))
+    timed("jamming N=128 fast path", jammed, jam_steps)
+    if not fast_only:
+        timed("jamming N=128 FIRE+classify", jammed, jam_steps, minimizer="fire", classify=True)
 if jam_n:
-    import time
     jam(64, 3, seed=1, p_target=1e-4)  # compile outside the timings
-    t = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     for seed in (1, 2, 3):
         res = jam(jam_n, 3, seed=seed)
         assert res.ok, res.reason
-    out[f"jam N={jam_n} (3 seeds)"] = ((time.perf_counter() - t) / 3, 0)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    out[f"jam N={jam_n}, per packing"] = (wall / 3, cpu / 3, 0)
 print("RESULT " + json.dumps(out))
 """
 
 
 def run_child(src: str, args) -> dict:
     env = dict(os.environ, PYTHONPATH=str(Path(src).resolve()))
+    # one BLAS/numba thread: CPU time then measures the work, not the threads' spinning
+    env.update(OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    env.update(NUMBA_NUM_THREADS="1")
     cmd = [
         sys.executable,
         "-c",
@@ -75,6 +88,7 @@ def run_child(src: str, args) -> dict:
         str(args.steps),
         str(args.jam_steps),
         "0" if args.no_jamming else "1",
+        "1" if args.fast_only else "0",
         str(args.jam_n),
     ]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
@@ -90,8 +104,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--jam-steps", type=int, default=30)
     ap.add_argument("--no-jamming", action="store_true")
+    ap.add_argument("--fast-only", action="store_true", help="time the fast path only")
     ap.add_argument(
-        "--jam-n", type=int, default=256, help="also time jam(N, 3, seed) for seeds 1-3 (0: no)"
+        "--jam-n", type=int, default=256, help="also time jam(N, 3, seed), seeds 1-3 (0: no)"
     )
     args = ap.parse_args(argv)
     if not START.is_dir():
@@ -104,17 +119,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"round {k + 1}/{args.repeat} done", flush=True)
     print(f"A (before) = {runs['A'][0]['jamlab']}\nB (after)  = {runs['B'][0]['jamlab']}")
     cases = [c for c in runs["A"][0] if c != "jamlab"]
-    print(f"{'case':30s} {'A ms':>10s} {'B ms':>10s} {'B/A best':>9s}  B/A per round"
-          "  (ms per AQS step; for jam: ms per packing)")
-    for case in cases:
-        a = [r[case][0] for r in runs["A"]]
-        b = [r[case][0] for r in runs["B"]]
-        plastic = {r[case][1] for r in runs["A"] + runs["B"]}
-        rounds = " ".join(f"{y / x:.2f}" for x, y in zip(a, b, strict=True))
-        print(
-            f"{case:30s} {1e3 * min(a):10.2f} {1e3 * min(b):10.2f} {min(b) / min(a):9.3f}  "
-            f"{rounds}  (plastic: {sorted(plastic)})"
-        )
+    for what, col in (("wall clock (ShearResult.time)", 0), ("CPU time (process_time)", 1)):
+        print(f"\n{what}")
+        print(f"{'case':30s} {'A ms/step':>10s} {'B ms/step':>10s} {'B/A best':>9s}  B/A per round")
+        for case in cases:
+            a = [r[case][col] for r in runs["A"]]
+            b = [r[case][col] for r in runs["B"]]
+            plastic = sorted({r[case][2] for r in runs["A"] + runs["B"]})
+            rounds = " ".join(f"{y / x:.2f}" for x, y in zip(a, b, strict=True))
+            print(
+                f"{case:30s} {1e3 * min(a):10.2f} {1e3 * min(b):10.2f} {min(b) / min(a):9.3f}  "
+                f"{rounds}  (plastic: {plastic})"
+            )
     return 0
 
 

@@ -14,7 +14,9 @@ change a trace:
 Cases: the shared LAMMPS reference starts (N = 1000 and N = 500, φ = 0.8; fast path, and plain
 FIRE with classification), ``jam`` packings (N = 128 at the default goal pressure 1e-7 and at
 1e-5, N = 500 at 1e-7; fast path and FIRE with classification), and an unjammed packing (no
-backbone). ``--cases`` selects some; ``--quick`` shortens every run. Exit code 1 when
+backbone). ``--cases`` selects some; ``--quick`` shortens every run, ``--long`` runs five times
+the steps; ``--count-calls NAME ...`` counts calls of functions by name (instrumentation by
+``sys.setprofile``, e.g. of a code path that is to be removed). Exit code 1 when
 ``compare`` finds a difference above ``--rtol`` (default 1e-14) or a differing flag, iteration
 count or counter.
 """
@@ -91,7 +93,9 @@ def count_calls(names: list[str]) -> dict[str, int]:
     return counts
 
 
-def run(out: Path, names: list[str], quick: bool, count: list[str] | None = None) -> None:
+def run(
+    out: Path, names: list[str], quick: bool, count: list[str] | None = None, long: bool = False
+) -> None:
     import jamlab
     from jamlab.spheres.aqs import shear
 
@@ -103,7 +107,7 @@ def run(out: Path, names: list[str], quick: bool, count: list[str] | None = None
         t0 = time.perf_counter()
         start = start_packing(spec, cache)
         t1 = time.perf_counter()
-        n = quick_steps if quick else steps
+        n = quick_steps if quick else 5 * steps if long else steps
         counts = count_calls(count) if count else None
         res = shear(start, DGAMMA, n_steps=n, minimizer=minimizer, classify=classify)
         if counts is not None:
@@ -154,8 +158,10 @@ def compare(a: Path, b: Path, rtol: float) -> int:
                 parts.append(f"{k} DIFFER")
         rows = x["energy"].size
         plastic = int(np.asarray(x["plastic"]).sum())
-        print(f"{'OK  ' if ok else 'DIFF'} {name:22s} rows {rows:4d} plastic {plastic:3d}: "
-              + " ".join(parts))
+        print(
+            f"{'OK  ' if ok else 'DIFF'} {name:22s} rows {rows:4d} plastic {plastic:3d}: "
+            + " ".join(parts)
+        )
         if not ok:
             for k in EXACT_COLUMNS:
                 if x[k].shape == y[k].shape:
@@ -178,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--src", help="source tree to put first on PYTHONPATH (runs a subprocess)")
     r.add_argument("--cases", nargs="*", choices=sorted(CASES), default=list(CASES))
     r.add_argument("--quick", action="store_true", help="fewer steps per case")
+    r.add_argument("--long", action="store_true", help="five times the steps per case")
     r.add_argument(
         "--count-calls",
         nargs="*",
@@ -196,10 +203,12 @@ def main(argv: list[str] | None = None) -> int:
         cmd = [sys.executable, __file__, "run", "--out", str(args.out), "--cases", *args.cases]
         if args.quick:
             cmd.append("--quick")
+        if args.long:
+            cmd.append("--long")
         if args.count_calls:
             cmd += ["--count-calls", *args.count_calls]
         return subprocess.call(cmd, env=env)
-    run(args.out, args.cases, args.quick, args.count_calls)
+    run(args.out, args.cases, args.quick, args.count_calls, args.long)
     return 0
 
 
