@@ -150,6 +150,7 @@ def shear_at_pressure(
     plastic_floor: float = 0.1,
     extrapolate_volume: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    observer: Callable[[int, Packing], None] | None = None,
 ) -> PressureShearResult:
     """AQS shear at fixed pressure ``pressure`` in steps ``δγ`` up to ``γ_max`` (the strain
     increment from the input's strain) or for ``n_steps`` steps (module docstring).
@@ -157,7 +158,8 @@ def shear_at_pressure(
     The input is first brought to the target pressure (:func:`minimize_enthalpy`). With
     ``extrapolate_volume`` the box side of each step starts from the linear extrapolation of the
     last two minima (dilatancy is smooth on elastic stretches). A step that does not converge is
-    recorded with ``converged=False`` and the run goes on from it.
+    recorded with ``converged=False`` and the run goes on from it. ``observer(n, packing)`` (if
+    given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
     """
     if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
@@ -184,6 +186,8 @@ def shear_at_pressure(
 
     append(gamma0, _row(res, ftol))
     cur = res.packing
+    if observer is not None:
+        observer(0, cur)
     for n in range(1, total + 1):
         target = gamma0 + n * dgamma
         guess = None
@@ -194,6 +198,8 @@ def shear_at_pressure(
         )
         cur = res.packing
         append(target, _row(res, ftol))
+        if observer is not None:
+            observer(n, cur)
         if progress is not None:
             progress(n, total)
     cols: dict[str, np.ndarray] = {}
