@@ -13,8 +13,11 @@ the explicit volume dependence counts). So ``H`` is stationary over ``L`` exactl
 relaxed pressure equals the target, and it is a minimum since ``p(L)`` decreases with ``L`` along
 a branch (positive bulk modulus). The outer problem is one-dimensional and monotone: it is solved
 on ``s = ln L`` by a safeguarded secant iteration (first slope from the affine response, a
-bracket and bisection once the target is bracketed), the inner one by the compiled FIRE of
-:func:`jamlab.spheres.fire.minimize` at fixed box, unchanged.
+bracket and bisection once the target is bracketed; from a state that carries less than
+``p_t/10`` — unjammed, or jammed at a much lower pressure — the step is taken from the loosest
+known state with ``p > p_t``, or, if there is none, the box is compressed by steps
+``p_t/|DEFAULT_SLOPE| · 2^k``; at most 0.01 in ``ln L`` per step), the inner one by the
+compiled FIRE of :func:`jamlab.spheres.fire.minimize` at fixed box, unchanged.
 
 Why not FIRE with the box as an extra degree of freedom (LAMMPS ``fix box/relax iso``): that
 needs a box "mass" to tune, mixes a force and a pressure tolerance in one dynamics, and every
@@ -48,6 +51,8 @@ DEFAULT_SLOPE = -1.0
 order of ``−d φ dp/dφ`` near jamming in 3D (``dp/dφ ≈ 0.5–1`` for harmonic spheres)."""
 
 _AFFINE_STEP = 1e-8  # ln L step of the finite-difference affine slope
+_CARRIES = 0.1  # a state with p > 0.1 p_t is on a branch whose local slope is trusted
+_MAX_STEP = 0.01  # largest change of ln L per outer step
 
 
 def rescale_box(packing: Packing, length: float) -> Packing:
@@ -148,28 +153,48 @@ def minimize_enthalpy(
     p = pressure(cur)
     s = math.log(cur.box.length)
     lo, hi = -math.inf, math.inf  # ln L with p > p_t (too dense) / p < p_t (too loose)
-    prev: tuple[float, float] | None = None
+    lo_state: tuple[float, float, Packing] | None = None  # the loosest state with p > p_t
+    prev: tuple[float, float] | None = None  # the last state that carries pressure
+    n_loose = 0
     steps = 0
     while res.converged and abs(p - pt) > tol and steps < max_volume_steps:
         if p > pt:
-            lo = max(lo, s)
+            if s > lo:
+                lo, lo_state = s, (s, p, cur)
         else:
             hi = min(hi, s)
-        slope = math.nan
-        if prev is not None and prev[0] != s and min(p, prev[1]) > floor:
-            slope = (p - prev[1]) / (s - prev[0])
-        if not (math.isfinite(slope) and slope < 0):
-            slope = _affine_slope(cur, p) if p > floor else DEFAULT_SLOPE
-        if not (math.isfinite(slope) and slope < 0):
-            slope = DEFAULT_SLOPE
-        s_new = s - (p - pt) / slope
+        base = cur
+        if p > _CARRIES * pt:
+            # Newton/secant from here; the affine slope is steeper than the relaxed one, so the
+            # first step undershoots and stays on this branch
+            slope = math.nan
+            if prev is not None and prev[0] != s:
+                slope = (p - prev[1]) / (s - prev[0])
+            if not (math.isfinite(slope) and slope < 0):
+                slope = _affine_slope(cur, p)
+            if not (math.isfinite(slope) and slope < 0):
+                slope = DEFAULT_SLOPE
+            s_new = s - (p - pt) / slope
+            prev = (s, p)
+            n_loose = 0
+        elif lo_state is not None:
+            # (almost) unjammed here: step from the loosest state that carried more than p_t
+            s_lo, p_lo, base = lo_state
+            slope = _affine_slope(base, p_lo)
+            if not (math.isfinite(slope) and slope < 0):
+                slope = DEFAULT_SLOPE
+            s_new = s_lo - (p_lo - pt) / slope
+        else:
+            # unjammed and nothing denser known: compress, doubling the step each time
+            s_new = s - (pt / abs(DEFAULT_SLOPE)) * 2.0**n_loose
+            n_loose += 1
+        s_new = min(max(s_new, s - _MAX_STEP), s + _MAX_STEP)
         if math.isfinite(lo) and math.isfinite(hi) and not lo < s_new < hi:
             s_new = 0.5 * (lo + hi)
         if s_new == s:
             break  # the bracket closed to rounding: not resolvable at this ftol
-        prev = (s, p)
         res = minimize(
-            rescale_box(cur, math.exp(s_new)), ftol=ftol, max_iter=max_iter, params=params
+            rescale_box(base, math.exp(s_new)), ftol=ftol, max_iter=max_iter, params=params
         )
         iterations += res.iterations
         steps += 1
