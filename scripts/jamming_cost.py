@@ -174,6 +174,53 @@ def cmd_strain(args) -> dict:
     return {"command": "strain", "args": vars(args), "results": results}
 
 
+def cmd_table(args) -> None:
+    """Markdown tables from the JSON files of ``cost`` and ``strain``."""
+    for path in args.files:
+        with open(path) as f:
+            data = json.load(f)
+        if data["command"] == "cost":
+            print("| N | seed | protocol | " + " | ".join(CLASSES) + " | ms/step (all) |")
+            print("|---|---|---|" + "---|" * len(CLASSES) + "---|")
+            for row in data["results"]:
+                for key in [k for k in row if k == "constant_volume" or k.startswith("p=")]:
+                    r = row[key]
+                    cells = []
+                    total_t, total_n = 0.0, 0
+                    for c in CLASSES:
+                        if r[c]["steps"]:
+                            cells.append(
+                                f"{r[c]['steps']} × {r[c]['iter_mean']:,.0f} it, "
+                                f"{r[c]['ms_per_step']:,.0f} ms"
+                            )
+                            total_t += r[c]["ms_per_step"] * r[c]["steps"]
+                            total_n += r[c]["steps"]
+                        else:
+                            cells.append("–")
+                    name = "constant V" if key == "constant_volume" else key
+                    print(
+                        f"| {row['N']} | {row['seed']} | {name} | "
+                        + " | ".join(cells)
+                        + f" | {total_t / max(total_n, 1):,.0f} |"
+                    )
+        else:
+            print(
+                "| N | seed | p | δγ | first contact change | strain per step with a change | "
+                "changes per step | first plastic | strain per plastic step |"
+            )
+            print("|---|---|---|---|---|---|---|---|---|")
+            for r in data["results"]:
+                cc = ">" if r["frac_steps_contact_change"] == 0 else ""
+                pl = ">" if r["frac_steps_plastic"] == 0 else ""
+                print(
+                    f"| {r['N']} | {r['seed']} | {r['p']:g} | {r['dgamma']:g} | "
+                    f"{r['first_contact_change_strain']:.2g} | "
+                    f"{cc}{r['strain_per_contact_change_step']:.2g} | "
+                    f"{r['contact_changes_per_step']:.2f} | {r['first_plastic_strain']:.2g} | "
+                    f"{pl}{r['strain_per_plastic_step']:.2g} |"
+                )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -192,7 +239,12 @@ def main() -> None:
     s.add_argument("--dgamma", type=float, default=None, help="fixed δγ (overrides --factor)")
     s.add_argument("--pressures", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 1e-5])
     s.add_argument("--out", default=None)
+    t = sub.add_parser("table")
+    t.add_argument("files", nargs="+")
     args = ap.parse_args()
+    if args.cmd == "table":
+        cmd_table(args)
+        return
     out = cmd_cost(args) if args.cmd == "cost" else cmd_strain(args)
     if args.out:
         with open(args.out, "w") as f:
