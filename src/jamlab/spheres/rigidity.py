@@ -34,7 +34,13 @@ from dataclasses import dataclass
 
 from jamlab.spheres.potential import NeighborList, Packing, pressure, remove_rattlers
 
-__all__ = ["JammedState", "PRESSURE_FLOOR_FACTOR", "is_jammed", "pressure_floor"]
+__all__ = [
+    "JammedState",
+    "PRESSURE_FLOOR_FACTOR",
+    "is_jammed",
+    "jammed_verdict",
+    "pressure_floor",
+]
 
 PRESSURE_FLOOR_FACTOR = 10.0
 """Safety factor ``c`` in ``p_floor = c · ftol · N / L^d`` (see the module docstring)."""
@@ -71,6 +77,22 @@ class JammedState:
         return self.jammed
 
 
+def jammed_verdict(
+    dim: int, n_backbone: int, n_contacts_backbone: int, pressure: float, p_floor: float
+) -> str:
+    """The rule from counts already at hand (e.g. the AQS driver's backbone): ``""`` when
+    jammed, otherwise why not (empty backbone, hypostatic, pressure not above ``p_floor``)."""
+    n_iso = dim * (n_backbone - 1) + 1 if n_backbone > 0 else 0
+    excess = n_contacts_backbone - n_iso
+    if n_backbone == 0:
+        return "no backbone (every particle a rattler)"
+    if excess < 0:
+        return f"hypostatic backbone ({-excess} contacts short of d(N'-1)+1)"
+    if not pressure > p_floor:
+        return f"pressure {pressure:.3e} not above the resolution floor {p_floor:.3e}"
+    return ""
+
+
 def is_jammed(
     packing: Packing, ftol: float = 1e-12, neighbors: NeighborList | None = None
 ) -> JammedState:
@@ -82,14 +104,7 @@ def is_jammed(
     n_kept = packing.n - rr.n_rattlers
     n_iso = packing.dim * (n_kept - 1) + 1 if n_kept > 0 else 0
     excess = rr.n_contacts_nr - n_iso
-    if n_kept == 0:
-        reason = "no backbone (every particle a rattler)"
-    elif excess < 0:
-        reason = f"hypostatic backbone ({-excess} contacts short of d(N'-1)+1)"
-    elif not p > p_floor:
-        reason = f"pressure {p:.3e} not above the resolution floor {p_floor:.3e}"
-    else:
-        reason = ""
+    reason = jammed_verdict(packing.dim, n_kept, rr.n_contacts_nr, p, p_floor)
     return JammedState(
         jammed=not reason,
         pressure=float(p),
