@@ -66,10 +66,12 @@ def test_trapezoid_rule_holds_for_the_enthalpy_not_the_energy(run):
     assert np.median(np.abs(r_e[elastic])) > 1e3 * np.median(np.abs(r_h[elastic]))
     # flagged steps drop below the branch
     pl = c["plastic"][1:]
-    assert pl.sum() >= 1
+    assert 1 <= pl.sum() <= run.attrs["n_candidates"]
     assert np.all(np.abs(r_h[pl]) > run.threshold)
-    assert np.all(np.abs(r_h[elastic]) <= run.threshold)
-    assert np.count_nonzero(c["enthalpy_jump"][1:][pl] < 0) > 0.5 * pl.sum()
+    # a confirmed jump: its residual is its own enthalpy drop, r ≈ ΔH = −S (not a kink ~ δγ²)
+    big = pl & (np.abs(r_h) > 100 * DG**2)
+    assert big.any()
+    np.testing.assert_allclose(r_h[big], c["enthalpy_jump"][1:][big], rtol=0.5)
     assert g.size == 1001
 
 
