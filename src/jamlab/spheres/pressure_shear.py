@@ -8,7 +8,8 @@ columns (one row per minimum, row 0 the start):
 
 ``gamma, energy (E), enthalpy (H = E + p_t L^d), shear_stress (Σ = ∂E/∂γ, extensive), pressure,
 phi, box_length, z, z_nr, jammed, max_force, iterations (FIRE, summed over the inner
-minimisations), volume_steps, converged, enthalpy_jump, stress_jump, plastic``.
+minimisations and the substeps of a plastic-flag confirmation), volume_steps, converged,
+enthalpy_jump, stress_jump, plastic``.
 
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
@@ -146,22 +147,25 @@ def _residual(h0: float, s0: float, row: dict, step: float) -> float:
 
 def _jump_in_substeps(
     start: Packing, step: float, r_step: float, k: int, pressure: float, kw: dict
-) -> bool:
+) -> tuple[bool, int]:
     """Redo the step from ``start`` in ``k`` substeps: True when one substep keeps at least a
-    quarter of the step's residual (a jump); a kink leaves ``≈ r_step / k²`` per substep."""
+    quarter of the step's residual (a jump); a kink leaves ``≈ r_step / k²`` per substep. Also
+    returns the FIRE iterations spent."""
     cur = start
     ev = evaluate(cur)
     h, s = ev.energy + pressure * cur.box.volume, ev.shear_stress
     largest = 0.0
+    iterations = 0
     for _ in range(k):
         res = minimize_enthalpy(affine_shear(cur, step / k), pressure, **kw)
+        iterations += res.iterations
         cur = res.packing
         ev = evaluate(cur)
         h2, s2 = ev.energy + pressure * cur.box.volume, ev.shear_stress
         r = h2 - h - (step / k) * s - 0.5 * (step / k) * (s2 - s)
         largest = max(largest, abs(r))
         h, s = h2, s2
-    return largest > 0.25 * abs(r_step)
+    return largest > 0.25 * abs(r_step), iterations
 
 
 def shear_at_pressure(
@@ -233,7 +237,10 @@ def shear_at_pressure(
             r = _residual(rows["enthalpy"][-1], rows["shear_stress"][-1], row, step)
             if abs(r) > plastic_floor * step**2:
                 n_candidates += 1
-                confirmed[n] = _jump_in_substeps(cur, step, r, confirm_substeps, pressure, kw)
+                confirmed[n], extra = _jump_in_substeps(
+                    cur, step, r, confirm_substeps, pressure, kw
+                )
+                row["iterations"] += extra
         cur = res.packing
         append(target, row)
         if observer is not None:
