@@ -7,6 +7,8 @@ from jamlab.analysis import (
     avalanche_sizes,
     branch_residual,
     classify_steps,
+    exclusions,
+    jammed_steps,
     jumps_from_trace,
     noise_floor,
 )
@@ -104,3 +106,46 @@ def test_reference_trace_continuous_branch_not_counted():
     assert small_negative.sum() >= 10
     # nearly all small negative ΔE_n lie on continuous branches: trapezoid rule holds there
     assert mask[small_negative].sum() <= 0.1 * small_negative.sum()
+
+
+def test_jammed_flags_exclude_steps_that_start_or_end_unjammed():
+    # minima 0..6; minima 2 and 3 unjammed: steps 1 (1→2), 2 (2→3), 3 (3→4) are excluded
+    de = np.array([-1e-3, -2e-3, -3e-3, -4e-3, 1e-9, -5e-3])
+    plastic = np.array([True, True, True, True, False, True])
+    jammed = np.array([True, True, False, False, True, True, True])
+    np.testing.assert_array_equal(jammed_steps(jammed), [True, False, False, False, True, True])
+    np.testing.assert_array_equal(avalanche_sizes(de, plastic, jammed=jammed), [1e-3, 5e-3])
+    np.testing.assert_array_equal(avalanche_sizes(de, plastic), [1e-3, 2e-3, 3e-3, 4e-3, 5e-3])
+    ex = exclusions(de, jammed, plastic)
+    assert (ex.n_steps, ex.n_steps_excluded, ex.n_avalanches, ex.n_avalanches_excluded) == (
+        6,
+        3,
+        5,
+        3,
+    )
+    # per sample along the last axis
+    both = avalanche_sizes(
+        np.stack([de, de]),
+        np.stack([plastic, plastic]),
+        jammed=np.stack([jammed, np.ones(7, bool)]),
+    )
+    assert both.size == 2 + 5
+    with pytest.raises(ValueError, match="one flag per minimum"):
+        avalanche_sizes(de, plastic, jammed=jammed[:-1])
+    with pytest.raises(ValueError, match="boolean"):
+        jammed_steps(jammed.astype(float))
+
+
+def test_noise_floor_ignores_unjammed_steps(rng):
+    # elastic noise 1e-12 on jammed steps, 1e-6 garbage on the unjammed stretch
+    m = 400
+    dg = 1e-5
+    ds = np.full(m, 2.0 * dg)
+    de = 0.5 * dg * ds + rng.normal(0.0, 1e-12, m)
+    jammed = np.ones(m + 1, dtype=bool)
+    jammed[100:300] = False
+    de[99:300] += rng.normal(0.0, 1e-6, 201)
+    clean = noise_floor(de, ds, dg, jammed=jammed)
+    assert clean.n_elastic == m - 201
+    assert 0.7e-12 < clean.sigma < 1.3e-12
+    assert noise_floor(de, ds, dg).sigma > 1e-9

@@ -5,10 +5,13 @@ Imports neither :mod:`jamlab.theory` nor :mod:`jamlab.spheres`. Formulas and rul
 """
 
 from jamlab.analysis.avalanches import (
+    Exclusions,
     NoiseFloor,
     avalanche_sizes,
     branch_residual,
     classify_steps,
+    exclusions,
+    jammed_steps,
     jumps_from_trace,
     noise_floor,
 )
@@ -32,6 +35,9 @@ from jamlab.analysis.powerlaw import (
 )
 
 __all__ = [
+    "Exclusions",
+    "exclusions",
+    "jammed_steps",
     "LogHistogram",
     "ModulusMoments",
     "NoiseFloor",

@@ -15,6 +15,14 @@ whatever the sign of the local modulus ``ΔΣ_n/δγ_n``; ``ΔE_n`` itself is ``
 ``ΔE_n ≈ −6e-9`` stretches of SPEC §3). A jump to another minimum breaks the trapezoidal rule:
 ``r_n ≈ −S_n``. So ``−r_n`` (the *branch-corrected drop*) is what a threshold should test, and the
 threshold is tied to the noise of ``r_n`` on elastic steps (:func:`noise_floor`).
+
+**Unjammed minima.** A step that starts or ends on an unjammed minimum (no rigid backbone, or a
+pressure below the resolution floor of the force tolerance, as decided by
+``jamlab.spheres.rigidity.is_jammed``) is minimiser noise of a floppy configuration, not an
+avalanche. Every function here takes an optional per-*minimum* flag array ``jammed`` (length ``M +
+1`` along the last axis, one more than the per-step arrays, as the trace's ``jammed`` dataset);
+when given, only steps between two jammed minima (:func:`jammed_steps`) are counted, and
+:func:`exclusions` says how many were dropped. Without ``jammed`` nothing changes.
 """
 
 from __future__ import annotations
@@ -29,6 +37,9 @@ __all__ = [
     "avalanche_sizes",
     "branch_residual",
     "classify_steps",
+    "Exclusions",
+    "exclusions",
+    "jammed_steps",
     "jumps_from_trace",
     "noise_floor",
 ]
@@ -60,6 +71,37 @@ def jumps_from_trace(
     dgamma = np.diff(strain, axis=-1)
     energy_jump = np.diff(energy, axis=-1) - dgamma * stress[..., :-1]
     return energy_jump, np.diff(stress, axis=-1), dgamma
+
+
+def jammed_steps(jammed: ArrayLike, n_steps: int | None = None) -> BoolArray:
+    """Per step ``n`` (minimum ``n`` → ``n + 1``): True when both minima are jammed.
+
+    ``jammed`` holds one flag per minimum along the last axis (``M + 1`` of them); the result has
+    ``M`` along the last axis. ``n_steps`` (optional) checks that ``M`` matches the per-step
+    arrays it will be combined with.
+    """
+    flags = np.asarray(jammed)
+    if flags.dtype != np.bool_:
+        raise ValueError(f"jammed must be a boolean array, got dtype {flags.dtype}")
+    if flags.ndim == 0 or flags.shape[-1] < 2:
+        raise ValueError(f"jammed needs >= 2 minima along the last axis, got shape {flags.shape}")
+    if n_steps is not None and flags.shape[-1] != n_steps + 1:
+        raise ValueError(
+            f"jammed has {flags.shape[-1]} minima along the last axis; {n_steps} steps need "
+            f"{n_steps + 1} (one flag per minimum, rows 0..M of the trace)"
+        )
+    return flags[..., :-1] & flags[..., 1:]
+
+
+def _jammed_mask(jammed: ArrayLike | None, shape: tuple[int, ...]) -> BoolArray | None:
+    if jammed is None:
+        return None
+    if not shape:
+        raise ValueError("jammed needs per-step arrays with a step axis")
+    mask = jammed_steps(jammed, shape[-1])
+    if mask.shape != shape:
+        raise ValueError(f"jammed gives steps of shape {mask.shape}, the jumps have {shape}")
+    return mask
 
 
 def branch_residual(
@@ -101,6 +143,7 @@ def noise_floor(
     plastic: ArrayLike | None = None,
     *,
     local: bool = True,
+    jammed: ArrayLike | None = None,
 ) -> NoiseFloor:
     """Estimate the energy noise of the minima from the elastic steps of a trace.
 
@@ -113,7 +156,9 @@ def noise_floor(
       also contains the sample's modulus fluctuations along the trace, so it is an upper bound.
 
     Returns a :class:`NoiseFloor` with ``sigma = 1.4826 · median|r_n − median r_n|``.
+    ``jammed`` (per minimum, see the module docstring): only steps between jammed minima are used.
     """
+    jmask = _jammed_mask(jammed, np.shape(energy_jump))
     energy_jump = np.asarray(energy_jump, dtype=np.float64).ravel()
     stress_jump = np.asarray(stress_jump, dtype=np.float64).ravel()
     step = np.broadcast_to(np.asarray(strain_step, dtype=np.float64), energy_jump.shape).ravel()
@@ -126,6 +171,8 @@ def noise_floor(
     elastic = np.ones(energy_jump.shape, dtype=bool)
     if plastic is not None:
         elastic = ~np.asarray(plastic, dtype=bool).ravel()
+    if jmask is not None:
+        elastic = elastic & jmask.ravel()
     if np.count_nonzero(elastic) < 3:
         raise ValueError(f"need >= 3 elastic steps, got {np.count_nonzero(elastic)}")
     modulus = float(np.median(stress_jump[elastic] / step[elastic]))
@@ -147,6 +194,7 @@ def classify_steps(
     *,
     stress_jump: ArrayLike | None = None,
     strain_step: ArrayLike | float | None = None,
+    jammed: ArrayLike | None = None,
 ) -> BoolArray:
     """Boolean mask of the steps counted as avalanches.
 
@@ -154,9 +202,11 @@ def classify_steps(
     only steps whose drop exceeds it, the drop being ``−r_n = −(ΔE_n − ½ δγ_n ΔΣ_n)`` when
     ``stress_jump`` and ``strain_step`` are given (recommended: immune to continuous branches
     with negative modulus) and ``−ΔE_n`` otherwise. At least one of ``plastic`` and
-    ``threshold`` is required. Steps with ``−ΔE_n ≤ 0`` are never avalanches.
+    ``threshold`` is required. Steps with ``−ΔE_n ≤ 0`` are never avalanches. With ``jammed``
+    (one flag per minimum) steps that start or end unjammed are never avalanches.
     """
     energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    jmask = _jammed_mask(jammed, energy_jump.shape)
     if plastic is None and threshold is None:
         raise ValueError("give plastic flags, a threshold, or both (threshold=None uses flags)")
     mask = np.ones(energy_jump.shape, dtype=bool)
@@ -174,7 +224,8 @@ def classify_steps(
         else:
             drop = -energy_jump
         mask = mask & (drop > threshold)
-    return mask & (-energy_jump > 0)
+    mask = mask & (-energy_jump > 0)
+    return mask if jmask is None else mask & jmask
 
 
 def avalanche_sizes(
@@ -184,6 +235,7 @@ def avalanche_sizes(
     *,
     stress_jump: ArrayLike | None = None,
     strain_step: ArrayLike | float | None = None,
+    jammed: ArrayLike | None = None,
 ) -> FloatArray:
     """Avalanche sizes ``S_n = −ΔE_n`` (total, extensive energy) of the steps selected by
     :func:`classify_steps` (same arguments and rule), as a flat array of positive numbers.
@@ -194,6 +246,51 @@ def avalanche_sizes(
     """
     energy_jump = np.asarray(energy_jump, dtype=np.float64)
     mask = classify_steps(
-        energy_jump, plastic, threshold, stress_jump=stress_jump, strain_step=strain_step
+        energy_jump,
+        plastic,
+        threshold,
+        stress_jump=stress_jump,
+        strain_step=strain_step,
+        jammed=jammed,
     )
     return -energy_jump[mask]
+
+
+@dataclass(frozen=True)
+class Exclusions:
+    """What the ``jammed`` flags removed (:func:`exclusions`).
+
+    ``n_steps``: all steps; ``n_steps_excluded``: steps that start or end unjammed;
+    ``n_avalanches``: avalanches counted without the flags; ``n_avalanches_excluded``: those of
+    them that start or end unjammed (so ``n_avalanches − n_avalanches_excluded`` are counted).
+    """
+
+    n_steps: int
+    n_steps_excluded: int
+    n_avalanches: int
+    n_avalanches_excluded: int
+
+
+def exclusions(
+    energy_jump: ArrayLike,
+    jammed: ArrayLike,
+    plastic: ArrayLike | None = None,
+    threshold: float | None = None,
+    *,
+    stress_jump: ArrayLike | None = None,
+    strain_step: ArrayLike | float | None = None,
+) -> Exclusions:
+    """Count the steps and avalanches (rule of :func:`classify_steps`, same arguments) that the
+    per-minimum ``jammed`` flags exclude."""
+    energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    jmask = _jammed_mask(jammed, energy_jump.shape)
+    assert jmask is not None
+    every = classify_steps(
+        energy_jump, plastic, threshold, stress_jump=stress_jump, strain_step=strain_step
+    )
+    return Exclusions(
+        n_steps=int(energy_jump.size),
+        n_steps_excluded=int(np.count_nonzero(~jmask)),
+        n_avalanches=int(np.count_nonzero(every)),
+        n_avalanches_excluded=int(np.count_nonzero(every & ~jmask)),
+    )

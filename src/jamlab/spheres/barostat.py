@@ -1,0 +1,218 @@
+"""Minimum of the enthalpy ``H = E + p V`` over positions and the (isotropic) box volume.
+
+The box stays a cube of side ``L`` (``V = L^d``) with its Lees–Edwards strain ``γ`` fixed; a change
+of volume is an affine isotropic rescaling ``r_i → r_i L'/L`` (reduced coordinates and ``γ`` kept).
+
+**Method: nested minimisation** (documented in ``docs/aqs.md``, "At the jamming point"). With
+``E*(L)`` the energy minimised over positions at fixed ``L`` (on one branch),
+
+    dH*/dL = dE*/dL + d p_t L^{d−1} = d L^{d−1} (p_t − p(L)),
+
+because ``dE*/dV = −p`` at a minimum (the virial pressure of SPEC §3; positions relaxed, so only
+the explicit volume dependence counts). So ``H`` is stationary over ``L`` exactly where the
+relaxed pressure equals the target, and it is a minimum since ``p(L)`` decreases with ``L`` along
+a branch (positive bulk modulus). The outer problem is one-dimensional and monotone: it is solved
+on ``s = ln L`` by a safeguarded secant iteration (first slope from the affine response, a
+bracket and bisection once the target is bracketed; from a state that carries less than
+``p_t/10`` — unjammed, or jammed at a much lower pressure — the step is taken from the loosest
+known state with ``p > p_t``, or, if there is none, the box is compressed by steps
+``p_t/|DEFAULT_SLOPE| · 2^k``; at most 0.01 in ``ln L`` per step), the inner one by the
+compiled FIRE of :func:`jamlab.spheres.fire.minimize` at fixed box, unchanged.
+
+Why not FIRE with the box as an extra degree of freedom (LAMMPS ``fix box/relax iso``): that
+needs a box "mass" to tune, mixes a force and a pressure tolerance in one dynamics, and every
+recorded minimum would be a minimum of a different objective than the constant-volume one. Here
+every recorded configuration is a fixed-volume minimum converged to ``max_i |F_i| < ftol`` (the
+same criterion as constant-volume AQS), the fixed-volume minimiser can be swapped, and near
+jamming, where the bulk modulus stays finite while the shear modulus vanishes, the outer
+iteration converges in a few steps.
+
+**Converged** means ``max_i |F_i| < ftol`` and ``|p − p_t| ≤ tol`` with
+``tol = max(ptol · p_t, p_floor(ftol))``: ``ptol`` relative (default 1e-6), but never below the
+pressure resolution of a minimum converged to ``ftol``
+(:func:`jamlab.spheres.rigidity.pressure_floor`, ``≈ 1.2e-11`` at ``ftol = 1e-12``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+from jamlab.spheres.box import Box
+from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.potential import Packing, pressure
+from jamlab.spheres.rigidity import pressure_floor
+
+__all__ = ["EnthalpyResult", "enthalpy", "minimize_enthalpy", "pressure_tolerance", "rescale_box"]
+
+DEFAULT_SLOPE = -1.0
+"""``dp/d ln L`` assumed when no contact carries the affine response (an unjammed start): the
+order of ``−d φ dp/dφ`` near jamming in 3D (``dp/dφ ≈ 0.5–1`` for harmonic spheres)."""
+
+_AFFINE_STEP = 1e-8  # ln L step of the finite-difference affine slope
+_CARRIES = 0.1  # a state with p > 0.1 p_t is on a branch whose local slope is trusted
+_MAX_STEP = 0.01  # largest change of ln L per outer step
+
+
+def rescale_box(packing: Packing, length: float) -> Packing:
+    """Isotropic affine rescaling to box side ``length``: ``r_i → r_i L'/L``, strain kept."""
+    scale = float(length) / packing.box.length
+    return replace(
+        packing,
+        positions=packing.positions * scale,
+        box=Box(float(length), packing.dim, packing.box.strain),
+    )
+
+
+def enthalpy(energy: float, target_pressure: float, packing: Packing) -> float:
+    """``H = E + p_t L^d`` (extensive, like ``E``)."""
+    return float(energy + target_pressure * packing.box.volume)
+
+
+def pressure_tolerance(packing: Packing, target_pressure: float, ftol: float, ptol: float) -> float:
+    """``tol = max(ptol · p_t, p_floor(ftol))`` (module docstring)."""
+    floor = pressure_floor(packing.n, packing.dim, packing.box.length, ftol)
+    return max(ptol * target_pressure, floor)
+
+
+@dataclass(frozen=True, eq=False)
+class EnthalpyResult:
+    """Outcome of :func:`minimize_enthalpy`.
+
+    ``packing``: the final minimum (box side chosen by the outer iteration); ``energy`` ``E``,
+    ``enthalpy`` ``H = E + p_t V``, ``pressure`` ``p`` there; ``target_pressure`` ``p_t``,
+    ``tolerance`` the pressure tolerance used; ``max_force``; ``iterations``: FIRE iterations
+    summed over the inner minimisations; ``volume_steps``: box rescalings; ``converged``: forces
+    below ``ftol`` and ``|p − p_t| ≤ tolerance``; ``time``: wall-clock seconds.
+    """
+
+    packing: Packing
+    energy: float
+    enthalpy: float
+    pressure: float
+    target_pressure: float
+    tolerance: float
+    max_force: float
+    iterations: int
+    volume_steps: int
+    converged: bool
+    time: float
+    ftol: float
+
+    @property
+    def phi(self) -> float:
+        return self.packing.phi
+
+
+def _affine_slope(packing: Packing, p0: float) -> float:
+    """``dp/d ln L`` of the unrelaxed affine response (finite difference)."""
+    h = _AFFINE_STEP
+    p1 = pressure(rescale_box(packing, packing.box.length * math.exp(h)))
+    return (p1 - p0) / h
+
+
+def minimize_enthalpy(
+    packing: Packing,
+    target_pressure: float,
+    ftol: float = 1e-12,
+    ptol: float = 1e-6,
+    max_volume_steps: int = 60,
+    max_iter: int = 1_000_000,
+    params: FireParameters | None = None,
+    length_guess: float | None = None,
+) -> EnthalpyResult:
+    """Minimise ``H = E + p_t V`` over positions and the box side at fixed strain.
+
+    ``length_guess`` (optional): box side to start the outer iteration from (e.g. extrapolated
+    along an AQS run); the configuration is rescaled to it before the first minimisation.
+    Non-convergence is reported (``converged=False``), not raised.
+    """
+    if not (isinstance(target_pressure, int | float) and math.isfinite(target_pressure)):
+        raise ValueError(f"target pressure must be a finite number, got {target_pressure!r}")
+    if not target_pressure > 0:
+        raise ValueError(f"target pressure must be > 0, got {target_pressure!r}")
+    if not (isinstance(ptol, int | float) and math.isfinite(ptol) and ptol > 0):
+        raise ValueError(f"ptol must be finite and > 0, got ptol={ptol!r}")
+    if not (isinstance(max_volume_steps, int) and max_volume_steps >= 0):
+        raise ValueError(f"max_volume_steps must be an integer >= 0, got {max_volume_steps!r}")
+    floor = pressure_floor(packing.n, packing.dim, packing.box.length, ftol)
+    if not target_pressure > floor:
+        raise ValueError(
+            f"target pressure {target_pressure:.3e} is not above the resolution floor "
+            f"{floor:.3e} of ftol={ftol:.1e} (see jamlab.spheres.rigidity)"
+        )
+    t0 = time.perf_counter()
+    pt = float(target_pressure)
+    tol = pressure_tolerance(packing, pt, ftol, ptol)
+    if length_guess is not None:
+        packing = rescale_box(packing, length_guess)
+    res = minimize(packing, ftol=ftol, max_iter=max_iter, params=params)
+    iterations = res.iterations
+    cur = res.packing
+    p = pressure(cur)
+    s = math.log(cur.box.length)
+    lo, hi = -math.inf, math.inf  # ln L with p > p_t (too dense) / p < p_t (too loose)
+    lo_state: tuple[float, float, Packing] | None = None  # the loosest state with p > p_t
+    prev: tuple[float, float] | None = None  # the last state that carries pressure
+    n_loose = 0
+    steps = 0
+    while res.converged and abs(p - pt) > tol and steps < max_volume_steps:
+        if p > pt:
+            if s > lo:
+                lo, lo_state = s, (s, p, cur)
+        else:
+            hi = min(hi, s)
+        base = cur
+        if p > _CARRIES * pt:
+            # Newton/secant from here; the affine slope is steeper than the relaxed one, so the
+            # first step undershoots and stays on this branch
+            slope = math.nan
+            if prev is not None and prev[0] != s:
+                slope = (p - prev[1]) / (s - prev[0])
+            if not (math.isfinite(slope) and slope < 0):
+                slope = _affine_slope(cur, p)
+            if not (math.isfinite(slope) and slope < 0):
+                slope = DEFAULT_SLOPE
+            s_new = s - (p - pt) / slope
+            prev = (s, p)
+            n_loose = 0
+        elif lo_state is not None:
+            # (almost) unjammed here: step from the loosest state that carried more than p_t
+            s_lo, p_lo, base = lo_state
+            slope = _affine_slope(base, p_lo)
+            if not (math.isfinite(slope) and slope < 0):
+                slope = DEFAULT_SLOPE
+            s_new = s_lo - (p_lo - pt) / slope
+        else:
+            # unjammed and nothing denser known: compress, doubling the step each time
+            s_new = s - (pt / abs(DEFAULT_SLOPE)) * 2.0**n_loose
+            n_loose += 1
+        s_new = min(max(s_new, s - _MAX_STEP), s + _MAX_STEP)
+        if math.isfinite(lo) and math.isfinite(hi) and not lo < s_new < hi:
+            s_new = 0.5 * (lo + hi)
+        if s_new == s:
+            break  # the bracket closed to rounding: not resolvable at this ftol
+        res = minimize(
+            rescale_box(base, math.exp(s_new)), ftol=ftol, max_iter=max_iter, params=params
+        )
+        iterations += res.iterations
+        steps += 1
+        cur = res.packing
+        s = s_new
+        p = pressure(cur)
+    energy = float(res.energy)
+    return EnthalpyResult(
+        packing=cur,
+        energy=energy,
+        enthalpy=enthalpy(energy, pt, cur),
+        pressure=float(p),
+        target_pressure=pt,
+        tolerance=float(tol),
+        max_force=float(res.max_force),
+        iterations=int(iterations),
+        volume_steps=steps,
+        converged=bool(res.converged and abs(p - pt) <= tol),
+        time=time.perf_counter() - t0,
+        ftol=float(ftol),
+    )

@@ -1,0 +1,297 @@
+"""Athermal quasi-static shear at fixed pressure: affine step ``δγ``, then minimise the enthalpy.
+
+Per step ``n → n + 1`` (``γ_{n+1} = γ_0 + (n + 1) δγ``, computed, not accumulated): affine
+shear ``x_i += (γ_{n+1} − γ_n) y_i`` at the current box, then
+:func:`jamlab.spheres.barostat.minimize_enthalpy` (positions and the isotropic box side,
+Lees–Edwards strain fixed) to ``max_i |F_i| < ftol`` and ``|p − p_t| ≤ tol``. The recorded
+columns (one row per minimum, row 0 the start):
+
+``gamma, energy (E), enthalpy (H = E + p_t L^d), shear_stress (Σ = ∂E/∂γ, extensive), pressure,
+phi, box_length, z, z_nr, jammed, max_force, iterations (FIRE, summed over the inner
+minimisations and the substeps of a plastic-flag confirmation), volume_steps, converged,
+enthalpy_jump, stress_jump, plastic``.
+
+**Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
+``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
+envelope theorem (the minimiser's ``x`` and ``L`` are stationary), ``dH*/dγ = ∂E/∂γ`` at fixed
+reduced coordinates and fixed ``L`` — the shear stress ``Σ`` of ``SPEC.md`` §3, evaluated at the
+minimum. So along an elastic step
+
+    ΔH_n ≡ H_{n+1} − H_n − δγ Σ_n = ½ δγ (Σ_{n+1} − Σ_n) − δγ³ Σ''/12 + …,
+
+the constant-volume rule with ``E`` replaced by ``H`` (the ``p_t ΔV`` of dilatancy is part of it;
+``E`` alone does not obey it). ``enthalpy_jump`` is ``ΔH_n`` (NaN in row 0), ``stress_jump``
+``ΔΣ_n``; the avalanche size at fixed pressure is ``S_n = −ΔH_n``.
+
+**Plastic flag.** The continuation test of constant-volume AQS is not available here. A step
+is a *candidate* when its trapezoid residual ``r_n = ΔH_n − ½ δγ ΔΣ_n`` exceeds
+``plastic_floor · δγ²`` in absolute value (either sign: near jamming an event with a large stress
+drop and a small ``S`` has ``r_n > 0``). A contact opening or closing inside the step (a kink)
+also breaks the rule, and near jamming by more than the affine estimate ``δγ²/16`` (non-affine
+displacements amplify the stiffness change): measured 0.15–0.22 ``δγ²`` at N = 64,
+p = 1e-3 (``docs/aqs.md``). So each candidate is redone from the previous minimum in
+``confirm_substeps`` (16) substeps: a jump keeps its residual in one substep (``≈ r_n``), a kink
+leaves ``≈ r_n/k²`` per substep; the step is **plastic** when one substep keeps more than
+``|r_n|/4``, it lies between two jammed minima, and ``|r_n| > max(10 σ, plastic_floor · δγ²)``
+(``σ`` the robust noise of ``r_n`` over the run's jammed steps,
+:func:`~jamlab.analysis.avalanches.noise_floor`). ``confirm_substeps=0`` skips the
+confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
+``S = −ΔH_n > 0`` of the flagged steps follow from
+:func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
+from jamlab.spheres.barostat import minimize_enthalpy
+from jamlab.spheres.fire import FireParameters
+from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
+from jamlab.spheres.rigidity import is_jammed
+from jamlab.spheres.trace import Trace
+
+__all__ = ["PRESSURE_COLUMNS", "PressureShearResult", "shear_at_pressure"]
+
+PRESSURE_COLUMNS: tuple[str, ...] = (
+    "gamma",
+    "energy",
+    "enthalpy",
+    "shear_stress",
+    "pressure",
+    "phi",
+    "box_length",
+    "z",
+    "z_nr",
+    "jammed",
+    "max_force",
+    "iterations",
+    "volume_steps",
+    "converged",
+    "enthalpy_jump",
+    "stress_jump",
+    "plastic",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class PressureShearResult:
+    """Outcome of :func:`shear_at_pressure`: ``columns`` (name → 1-D array, rows ``0 … M``, see
+    the module docstring), the final ``packing``, run ``attrs``, ``threshold`` of the plastic
+    flag, ``time`` (s)."""
+
+    columns: dict[str, np.ndarray]
+    packing: Packing
+    attrs: dict = field(default_factory=dict)
+    threshold: float = math.nan
+    time: float = 0.0
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    @property
+    def n_not_converged(self) -> int:
+        return int(np.count_nonzero(~self.columns["converged"]))
+
+    def trace(self) -> Trace:
+        """The run as a :class:`~jamlab.spheres.trace.Trace` whose ``energy`` column is the
+        enthalpy ``H`` (so its ``energy_jump`` is ``ΔH`` and the analysis tools apply as they
+        are); ``phi``, ``jammed``, ``converged`` and ``E`` are not in that format yet."""
+        c = self.columns
+        return Trace(
+            gamma=c["gamma"],
+            energy=c["enthalpy"],
+            shear_stress=c["shear_stress"],
+            pressure=c["pressure"],
+            z=c["z"],
+            z_nr=c["z_nr"],
+            max_force=c["max_force"],
+            iterations=c["iterations"],
+            energy_jump=c["enthalpy_jump"],
+            stress_jump=c["stress_jump"],
+            plastic=c["plastic"],
+            attrs={**self.attrs, "energy_column": "enthalpy"},
+        )
+
+
+def _row(res, ftol: float) -> dict:
+    pk = res.packing
+    ev = evaluate(pk)
+    rr = remove_rattlers(pk)
+    return {
+        "energy": ev.energy,
+        "enthalpy": ev.energy + res.target_pressure * pk.box.volume,
+        "shear_stress": ev.shear_stress,
+        "pressure": ev.pressure,
+        "phi": pk.phi,
+        "box_length": pk.box.length,
+        "z": 2.0 * ev.n_contacts / pk.n,
+        "z_nr": rr.z_nr,
+        "jammed": is_jammed(pk, ftol).jammed,
+        "max_force": ev.max_force,
+        "iterations": res.iterations,
+        "volume_steps": res.volume_steps,
+        "converged": res.converged,
+    }
+
+
+def _residual(h0: float, s0: float, row: dict, step: float) -> float:
+    """Trapezoid residual ``ΔH − ½ δγ ΔΣ`` of one step."""
+    return row["enthalpy"] - h0 - step * s0 - 0.5 * step * (row["shear_stress"] - s0)
+
+
+def _jump_in_substeps(
+    start: Packing, step: float, r_step: float, k: int, pressure: float, kw: dict
+) -> tuple[bool, int]:
+    """Redo the step from ``start`` in ``k`` substeps: True when one substep keeps at least a
+    quarter of the step's residual (a jump); a kink leaves ``≈ r_step / k²`` per substep. Also
+    returns the FIRE iterations spent."""
+    cur = start
+    ev = evaluate(cur)
+    h, s = ev.energy + pressure * cur.box.volume, ev.shear_stress
+    largest = 0.0
+    iterations = 0
+    for _ in range(k):
+        res = minimize_enthalpy(affine_shear(cur, step / k), pressure, **kw)
+        iterations += res.iterations
+        cur = res.packing
+        ev = evaluate(cur)
+        h2, s2 = ev.energy + pressure * cur.box.volume, ev.shear_stress
+        r = h2 - h - (step / k) * s - 0.5 * (step / k) * (s2 - s)
+        largest = max(largest, abs(r))
+        h, s = h2, s2
+    return largest > 0.25 * abs(r_step), iterations
+
+
+def shear_at_pressure(
+    packing: Packing,
+    dgamma: float,
+    gamma_max: float | None = None,
+    pressure: float = 1e-4,
+    *,
+    n_steps: int | None = None,
+    ftol: float = 1e-12,
+    ptol: float = 1e-6,
+    fire_params: FireParameters | None = None,
+    max_iter: int = 1_000_000,
+    plastic_floor: float = 0.1,
+    confirm_substeps: int = 16,
+    extrapolate_volume: bool = True,
+    progress: Callable[[int, int], None] | None = None,
+    observer: Callable[[int, Packing], None] | None = None,
+) -> PressureShearResult:
+    """AQS shear at fixed pressure ``pressure`` in steps ``δγ`` up to ``γ_max`` (the strain
+    increment from the input's strain) or for ``n_steps`` steps (module docstring).
+
+    The input is first brought to the target pressure (:func:`minimize_enthalpy`). With
+    ``extrapolate_volume`` the box side of each step starts from the linear extrapolation of the
+    last two minima (dilatancy is smooth on elastic stretches). A step that does not converge is
+    recorded with ``converged=False`` and the run goes on from it. ``observer(n, packing)`` (if
+    given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
+    """
+    if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+        raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+    if (gamma_max is None) == (n_steps is None):
+        raise ValueError("give exactly one of gamma_max and n_steps")
+    if n_steps is None:
+        if not (math.isfinite(gamma_max) and gamma_max > dgamma):
+            raise ValueError(f"need dgamma < gamma_max, got {dgamma!r}, {gamma_max!r}")
+        total = int(round(gamma_max / dgamma))
+    else:
+        if not (isinstance(n_steps, int) and n_steps >= 1):
+            raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
+        total = n_steps
+    kw = dict(ftol=ftol, ptol=ptol, max_iter=max_iter, params=fire_params)
+    t0 = time.perf_counter()
+    gamma0 = packing.strain
+    res = minimize_enthalpy(packing, pressure, **kw)
+    rows = {k: [] for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")}
+
+    def append(gamma: float, row: dict) -> None:
+        rows["gamma"].append(float(gamma))
+        for k, v in row.items():
+            rows[k].append(v)
+
+    append(gamma0, _row(res, ftol))
+    cur = res.packing
+    if observer is not None:
+        observer(0, cur)
+    confirmed = np.zeros(total + 1, dtype=bool)
+    n_candidates = 0
+    for n in range(1, total + 1):
+        target = gamma0 + n * dgamma
+        guess = None
+        if extrapolate_volume and n >= 2:
+            guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
+        res = minimize_enthalpy(
+            affine_shear(cur, target - cur.strain), pressure, length_guess=guess, **kw
+        )
+        row = _row(res, ftol)
+        if confirm_substeps > 1:
+            step = target - rows["gamma"][-1]
+            r = _residual(rows["enthalpy"][-1], rows["shear_stress"][-1], row, step)
+            if abs(r) > plastic_floor * step**2:
+                n_candidates += 1
+                confirmed[n], extra = _jump_in_substeps(
+                    cur, step, r, confirm_substeps, pressure, kw
+                )
+                row["iterations"] += extra
+        cur = res.packing
+        append(target, row)
+        if observer is not None:
+            observer(n, cur)
+        if progress is not None:
+            progress(n, total)
+    cols: dict[str, np.ndarray] = {}
+    for k, v in rows.items():
+        dtype = np.int64 if k in ("iterations", "volume_steps") else np.float64
+        if k in ("jammed", "converged"):
+            dtype = np.bool_
+        cols[k] = np.asarray(v, dtype=dtype)
+    g, h, s = cols["gamma"], cols["enthalpy"], cols["shear_stress"]
+    hj = np.full(g.shape, np.nan)
+    sj = np.full(g.shape, np.nan)
+    hj[1:] = np.diff(h) - np.diff(g) * s[:-1]
+    sj[1:] = np.diff(s)
+    cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
+    plastic = np.zeros(g.shape, dtype=bool)
+    threshold = math.nan
+    if np.count_nonzero(jammed_steps(cols["jammed"])) >= 3:
+        nf = noise_floor(hj[1:], sj[1:], np.diff(g), jammed=cols["jammed"])
+        threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
+        resid = branch_residual(hj[1:], sj[1:], np.diff(g))
+        plastic[1:] = jammed_steps(cols["jammed"]) & (np.abs(resid) > threshold)
+        if confirm_substeps > 1:
+            plastic &= confirmed
+    cols["plastic"] = plastic
+    attrs = {
+        "protocol": "fixed-pressure",
+        "pressure_target": float(pressure),
+        "ptol": float(ptol),
+        "dgamma": float(dgamma),
+        "gamma_max": float(gamma0 + total * dgamma),
+        "n_steps": int(total),
+        "ftol": float(ftol),
+        "minimizer": "enthalpy-nested-fire",
+        "N": int(packing.n),
+        "dim": int(packing.dim),
+        "seed": int(-1 if packing.seed is None else packing.seed),
+        "plastic_threshold": float(threshold),
+        "n_plastic": int(plastic.sum()),
+        "confirm_substeps": int(confirm_substeps),
+        "n_candidates": int(n_candidates),
+        "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
+        "n_not_converged": int(np.count_nonzero(~cols["converged"])),
+    }
+    return PressureShearResult(
+        columns={k: cols[k] for k in PRESSURE_COLUMNS},
+        packing=cur,
+        attrs=attrs,
+        threshold=float(threshold),
+        time=time.perf_counter() - t0,
+    )
