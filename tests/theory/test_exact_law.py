@@ -144,5 +144,16 @@ def test_trivial_and_bad_input():
     assert law.p_no_jump == 1.0 and law.cdf(-1.0) == 0.0
     with pytest.raises(ValueError, match="dgamma"):
         exact_jump_law(LINEAR, float("nan"), k=8)
-    with pytest.raises(ValueError, match="q_max < 1"):
+    with pytest.raises(ValueError, match="cut-off"):
         exact_jump_law(ParisiFunction.power_law(0.3), 0.1)
+
+
+@pytest.mark.parametrize("pf", [LINEAR, POWER], ids=["linear", "power"])
+def test_continuum_first_order_jump_rate(pf):
+    """(1 - R(0))/δγ → (1/√π) ∫ dq y'(q) √(1-q) (exact at first order, SPEC §1): linear
+    extrapolation from δγ = 2e-3 and 4e-3 of the continuum law."""
+    from jamlab.theory import jump_rate_first_order
+
+    rates = [(1 - exact_jump_law(pf, d).p_no_jump) / d for d in (2e-3, 4e-3)]
+    extrapolated = 2 * rates[0] - rates[1]
+    assert extrapolated == pytest.approx(jump_rate_first_order(pf), rel=2e-4)

@@ -212,18 +212,25 @@ class _DiscreteLaw:
         return it(np.clip(s, 0.0, ch.domain[1]))
 
 
-def continuum_levels(y: Any, K: int) -> tuple[np.ndarray, np.ndarray]:
+def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``K`` graded levels ``(q, y)`` approximating a continuous ``ParisiFunction``.
 
-    Level edges equidistribute ``s(q) = ½ q/q_max + ½ log(1 + (y(q) - y(0+))/y_s) / log(1 +
-    (y(q_max) - y(0+))/y_s)``, ``y_s = (y(q_max) - y(0+))/10`` (half the levels uniform in ``q``,
-    half where ``y`` rises, geometrically where it diverges); ``y_i`` is the mean of ``y`` over
-    ``[q_i, q_{i+1}]`` and the last level sits at ``q_max`` with ``y(q_max)``
-    (as :meth:`ParisiFunction.discretise`). Needs ``q_max < 1``.
+    The top level sits at ``q_top = min(q_max, q_cut)`` with ``y = Y(q_top)/(1 - q_top)`` (the
+    mean of ``y`` above it; ``y(q_max)`` when ``q_top = q_max``): a cut-off ``q_cut`` merges every
+    cluster above it into one level, which changes the law only at ``|ΔE|`` of order
+    ``|δγ|√(1 - q_cut)`` and ``δγ² Y(q_cut)`` or below. Without a cut-off (``q_max = 1``)
+    ``q_cut`` is required. Level edges equidistribute ``s(q) = ½ q/q_top + ½ log(1 + (y(q) -
+    y(0+))/y_s) / log(1 + (y(q_top) - y(0+))/y_s)``, ``y_s = (y(q_top) - y(0+))/10`` (half the
+    levels uniform in ``q``, half where ``y`` rises, geometrically where it diverges); ``y_i`` is
+    the mean of ``y`` over ``[q_i, q_{i+1}]`` (as :meth:`ParisiFunction.discretise`).
     """
     qm = float(y.q_max)
+    if q_cut is not None:
+        if not 0.0 < float(q_cut) < 1.0:
+            raise ValueError(f"q_cut must lie in (0, 1), got {q_cut!r}")
+        qm = min(qm, float(q_cut))
     if qm >= 1.0:
-        raise ValueError("continuum_levels needs a cut-off q_max < 1")
+        raise ValueError("continuum levels need a cut-off: q_max < 1 or q_cut < 1")
     y0 = float(y.y(0.0))
     ym = float(y.y(qm))
     rise = ym - y0
@@ -248,7 +255,7 @@ def continuum_levels(y: Any, K: int) -> tuple[np.ndarray, np.ndarray]:
     Yq = np.asarray(y.Y(q), dtype=np.float64)
     yv = np.empty(K)
     yv[:-1] = (Yq[:-1] - Yq[1:]) / np.diff(q)
-    yv[-1] = ym
+    yv[-1] = float(y.Y(qm)) / (1.0 - qm)
     if not yv[0] > 0:
         raise ValueError("y vanishes on the first level; a cascade needs y_1 > 0")
     keep = np.concatenate(([True], np.diff(yv) > 1e-12 * yv[1:]))
@@ -364,7 +371,8 @@ def exact_jump_law(
     dgamma: float,
     *,
     k: int | None = None,
-    levels: int = 256,
+    levels: int = 64,
+    q_cut: float | None = None,
     **grid: Any,
 ) -> ExactJumpLaw:
     """The exact law of a static jump at strain ``dgamma`` (module docstring).
@@ -373,7 +381,8 @@ def exact_jump_law(
     cascade). A step function (``ParisiFunction.steps``) or arrays give the discrete cascade;
     ``k=`` discretises any function as :meth:`ParisiFunction.discretise` does (the levels of
     :func:`jamlab.theory.sample_cascade_jumps` with ``k=``); otherwise the continuum limit is
-    computed from :func:`continuum_levels` with ``levels`` and ``2·levels`` levels (Richardson).
+    computed from :func:`continuum_levels` with ``levels`` and ``2·levels`` levels (Richardson);
+    ``q_cut`` (required when ``q_max = 1``) merges the clusters above ``q_cut`` into one level.
     ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`.
     """
     from jamlab.theory.cascade import validate_levels
@@ -402,9 +411,10 @@ def exact_jump_law(
     K = int(levels)
     if K < 8:
         raise ValueError(f"levels must be >= 8, got {levels}")
-    coarse = continuum_levels(y, K)
-    fine = continuum_levels(y, 2 * K)
+    coarse = continuum_levels(y, K, q_cut)
+    fine = continuum_levels(y, 2 * K, q_cut)
     if dg == 0.0:
         return _TrivialLaw(*fine)
     parts = [_DiscreteLaw(*coarse, dg, grid), _DiscreteLaw(*fine, dg, grid)]
-    return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=float(y.q_max))
+    q_top = float(fine[0][-1])
+    return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top)
