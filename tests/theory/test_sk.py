@@ -36,3 +36,16 @@ def test_k_step_energies_increase_towards_parisi():
     s3 = sk_k_rsb(3, s2)
     assert s1.energy < s2.energy < s3.energy < SK_ENERGY_REFERENCE
     assert SK_ENERGY_REFERENCE - s3.energy < 3e-4
+
+
+@pytest.mark.slow
+def test_ground_state_extrapolation_and_exponent():
+    """k = 1..5 extrapolated (E_k = E_inf + a k^-p on k = 3, 4, 5) within 1e-5 of Parisi's
+    -0.7631667; y(q) of k = 5 diverges near q = 1: the local exponent between its top two
+    breakpoints is 1/2 within 0.05, approached from above."""
+    from jamlab.theory.sk import sk_ground_state
+
+    gs = sk_ground_state(5)
+    assert abs(gs.energy - SK_ENERGY_REFERENCE) < 1e-5
+    assert abs(gs.local_mu[-1] - 0.5) < 0.05
+    assert np.all(np.diff(gs.local_mu) < 0)

@@ -138,9 +138,16 @@ def sk_k_rsb(k: int, start: SKStepSolution | None = None) -> SKStepSolution:
         return sk_q_functional(q, y)
 
     p0 = np.concatenate((a0, b0))
-    res = optimize.minimize(obj, p0, method="BFGS", options={"gtol": 1e-9, "maxiter": 2000})
-    res = optimize.minimize(obj, res.x, method="Nelder-Mead",
-                            options={"xatol": 1e-9, "fatol": 1e-13, "maxiter": 20000})
+    # Q is stationary at the optimum: parameters to ~1e-6 (finite-difference BFGS) give the
+    # energy to ~1e-12
+    res = optimize.minimize(obj, p0, method="BFGS", options={"gtol": 1e-8, "maxiter": 4000})
+    for _ in range(3):  # restarts (fresh Hessian) until Q stops moving
+        again = optimize.minimize(obj, res.x, method="BFGS",
+                                  options={"gtol": 1e-9, "maxiter": 4000})
+        done = res.fun - again.fun < 1e-11
+        res = again if again.fun < res.fun else res
+        if done:
+            break
     q, y = _unpack(res.x, k, free_q1=False)
     return SKStepSolution(k, q, y, -float(res.fun))
 
@@ -150,10 +157,12 @@ class SKGroundState:
     """Result of :func:`sk_ground_state`.
 
     ``energy``: the ``k → ∞`` extrapolation of the k-step energies ``energies`` (``E_k = E_∞ +
-    a k^{-p}``, fitted on the largest ``k``), ``energy_error`` its estimate (spread of fits
-    over the last three ``k``); ``y``: the Parisi function (``ParisiFunction.tabulated`` through
+    a k^{-p}`` through the last three ``k``), ``energy_error`` the change from the previous
+    triple; ``y``: the Parisi function (``ParisiFunction.tabulated`` through
     the level midpoints of the largest ``k``); ``mu``, ``mu_error``: exponent of
-    ``y ~ (1-q)^(-μ)`` from the top levels; ``steps``: every ``SKStepSolution``.
+    ``y ≈ A (1-q)^(-μ) + B`` fitted to ``y(q_i) ≈ √(y_{i-1} y_i)`` at the top (up to) five
+    breakpoints (``nan`` for ``k < 5``); ``local_mu``: ``-Δ log y / Δ log(1-q)`` between
+    neighbouring breakpoints (tends to ``μ`` at the top); ``steps``: every ``SKStepSolution``.
     """
 
     energy: float
@@ -163,6 +172,7 @@ class SKGroundState:
     y: ParisiFunction
     mu: float
     mu_error: float
+    local_mu: np.ndarray
     steps: list[SKStepSolution] = field(repr=False)
 
 
@@ -185,24 +195,23 @@ def sk_ground_state(k_max: int = 6) -> SKGroundState:
         r = optimize.least_squares(resid, [ee[-1], ee[0] - ee[-1], 3.0])
         return float(r.x[0]), float(r.x[2])
 
-    fits = [fit(slice(j, j + 3)) for j in range(max(0, len(ks) - 5), len(ks) - 2)]
+    fits = [fit(slice(j, j + 3)) for j in range(max(0, len(ks) - 4), len(ks) - 2)]
     e_inf, p = fits[-1]
     err = float(np.std([f[0] for f in fits])) if len(fits) > 1 else abs(es[-1] - e_inf)
     top = steps[-1]
     qe = np.append(top.q, 1.0)
     mid = 0.5 * (qe[1:] + qe[:-1])
     yfun = ParisiFunction.tabulated(mid, top.y, q_max=float(mid[-1]))
-    # exponent from the top levels: log y_i vs log(1 - midpoint)
-    nfit = min(4, top.k)
-    xs = np.log(1.0 - mid[-nfit:])
-    ys = np.log(top.y[-nfit:])
-    A = np.vstack([xs, np.ones_like(xs)]).T
-    coef, res, *_ = np.linalg.lstsq(A, ys, rcond=None)
-    mu = -float(coef[0])
-    if nfit > 2 and res.size:
-        s2 = float(res[0]) / (nfit - 2)
-        mu_err = math.sqrt(s2 / float(np.sum((xs - xs.mean()) ** 2)))
-    else:
-        mu_err = float("nan")
+    # exponent: y at the breakpoints, y(q_i) ≈ √(y_{i-1} y_i) (the step values interlace the
+    # continuous y), fitted by A (1-q)^(-μ) + B on the top (up to) five breakpoints
+    qb = top.q[1:]
+    yb = np.sqrt(top.y[:-1] * top.y[1:])
+    sel = slice(max(0, qb.size - 5), qb.size)
+    mu, mu_err = float("nan"), float("nan")
+    local_mu = -np.diff(np.log(yb)) / np.diff(np.log1p(-qb))
+    if qb[sel].size >= 4:
+        popt, pcov = optimize.curve_fit(lambda q, a, m, b: a * (1 - q) ** (-m) + b, qb[sel],
+                                        yb[sel], p0=[0.5, 0.5, 0.0], maxfev=20000)
+        mu, mu_err = float(popt[1]), float(math.sqrt(max(pcov[1, 1], 0.0)))
     return SKGroundState(e_inf, err, dict(zip(ks.astype(int).tolist(), es.tolist(), strict=True)),
-                         p, yfun, mu, mu_err, steps)
+                         p, yfun, mu, mu_err, local_mu, steps)
