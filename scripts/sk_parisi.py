@@ -46,8 +46,11 @@ def main() -> None:
            f"(p = {gs.exponent_p:.2f}); spread of the fits over the last three triples "
            f"{gs.energy_error:.1e}; difference to -0.7631667: "
            f"{gs.energy - SK_ENERGY_REFERENCE:+.1e}.", "",
-           f"Exponent of y(q) ~ (1-q)^-mu from the top four levels of k = {gs.steps[-1].k}: "
-           f"mu = {gs.mu:.3f} ± {gs.mu_error:.3f} (expected 1/2).", ""]
+           f"Exponent of y(q) near q = 1 (k = {gs.steps[-1].k}; y(q_i) ≈ √(y_(i-1) y_i) at the "
+           f"breakpoints): fit A(1-q)^-mu + B on the top five: mu = {gs.mu:.3f} ± "
+           f"{gs.mu_error:.3f}; local exponents -Δlog y/Δlog(1-q) between neighbouring "
+           "breakpoints, bottom to top: " + ", ".join(f"{m:.3f}" for m in gs.local_mu)
+           + " (expected 1/2).", ""]
     print("\n".join(md), flush=True)
     top = gs.steps[-1]
     pf = ParisiFunction.steps(top.q, top.y)
