@@ -182,6 +182,8 @@ class _DiscreteLaw:
 
         def p_sigma(s: np.ndarray) -> np.ndarray:
             s = np.atleast_1d(s)
+            if s.size > 64:  # bounded memory: the interpolation matrices are (64·48) × n
+                return np.concatenate([p_sigma(s[j:j + 64]) for j in range(0, s.size, 64)])
             a = np.maximum(-d * s, rec.x_lo)
             b = np.minimum(0.0, rec.w_hi - d * s)
             ok = b > a
