@@ -1,25 +1,36 @@
-"""Speed of the printed jump distribution: pdf at 1000 points for 5 values of δγ (target < 1 s).
+"""Speed of the jump distributions. Never asserts a time; prints each beside its target.
 
-Prints the time beside the target as a ratio, and the worst relative error against the 50-digit
-mpmath reference of the tests on a few points. Never asserts a time.
+1. Printed formula: pdf at 1000 points for 5 values of δγ (target < 1 s), and the worst relative
+   error against the 50-digit mpmath reference of the tests on a few points.
+2. Exact continuum law (``exact_jump_law``, k → ∞ by Richardson from 64 and 128 graded levels):
+   P(ΔE|δγ) at 200 points for one δγ, from scratch (target <= 10 s on one core), with the change
+   against 128/256 levels (convergence).
 
     .venv/bin/python benchmarks/bench_theory.py
+
+BLAS is pinned to one thread (one core, as the target says).
 """
 
 from __future__ import annotations
 
-import sys
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import sys  # noqa: E402
 import time
 from pathlib import Path
 
-import numpy as np
+import numpy as np  # noqa: E402
 
-from jamlab.theory import ParisiFunction, jump_distribution
+from jamlab.theory import ParisiFunction, exact_jump_law, jump_distribution  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "theory"))
 from _mp_reference import PowerLawReference, pdf_cdf  # noqa: E402
 
 TARGET_S = 1.0
+TARGET_EXACT_S = 10.0
 MU = 0.706346
 DGAMMAS = [0.3, 1e-2, 1e-3, 1e-4, 1e-6]
 
@@ -53,6 +64,27 @@ def main() -> None:
         f"worst relative error vs 50-digit mpmath (12 points): pdf {worst_pdf:.1e}, "
         f"cdf {worst_cdf:.1e} (target 1e-8)"
     )
+
+    exact_cases = [
+        ("power law mu_J, q_max = 0.99", ParisiFunction.power_law(MU, q_max=0.99), None),
+        ("power law mu_J, no cut-off (q_cut = 1 - 1e-4)", ParisiFunction.power_law(MU), 1 - 1e-4),
+        ("linear 2.5 q, q_max = 0.9", ParisiFunction.linear(2.5, 0.0, 0.9), None),
+    ]
+    dg = 0.1
+    dE = -dg * np.logspace(-2.5, 0.5, 200)
+    for name, pf, q_cut in exact_cases:
+        t0 = time.perf_counter()
+        law = exact_jump_law(pf, dg, q_cut=q_cut)
+        p = np.asarray(law.pdf(dE))
+        el = time.perf_counter() - t0
+        ref = exact_jump_law(pf, dg, q_cut=q_cut, levels=128)
+        change = float(np.max(np.abs(np.asarray(ref.R(dE)) - np.asarray(law.R(dE)))))
+        rel = float(np.max(np.abs(np.asarray(ref.pdf(dE)) / p - 1)))
+        print(
+            f"exact continuum P(dE|dgamma={dg:g}), 200 points, {name}: {el:.2f} s "
+            f"(target {TARGET_EXACT_S:g} s, ratio {el / TARGET_EXACT_S:.2f}); "
+            f"change with twice the levels: R {change:.1e}, pdf {rel:.1e} relative"
+        )
 
 
 if __name__ == "__main__":

@@ -97,7 +97,7 @@ def _edges(pf: ParisiFunction, s_end: FloatArray, extra: FloatArray | None = Non
     """Sorted panel edges per row: uniform in ``[0, s_end]``, plus ``extra`` and ``y'`` kinks."""
     n_uni = max(1, int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)))
     parts = [s_end[:, None] * np.linspace(0.0, 1.0, n_uni + 1)[None, :]]
-    kinks = _s_of_q(pf._breakpoints_q())
+    kinks = _s_of_q(pf.breakpoints_q())
     if kinks.size:
         parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
     if extra is not None:
@@ -143,20 +143,20 @@ class PrintedJumpDistribution:
         self._a = abs(dgamma)
         self._s_max = float(_s_of_q(np.float64(parisi.q_max)))
         self._atoms_q, self._atoms_m = parisi.atoms()
-        self._has_density = parisi._has_density()
+        self._has_density = parisi.has_density()
         self._p0: float | None = None
 
     # ------------------------------------------------------------------ core integrals
     def _x(self, dE: FloatArray, s: FloatArray) -> FloatArray:
         u = np.exp(-s)
-        B = dE + self.dgamma**2 * self.parisi._Y_u(u)
+        B = dE + self.dgamma**2 * self.parisi.Y_u(u)
         return B * np.exp(0.5 * s) / self._a
 
     def _crossing(self, dE: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``s*`` where ``ΔE + δγ² Y = 0`` (0 if no crossing) and the width of the sign change
         of ``x`` there, ``1/(|δγ| y(q*) √(1-q*))``."""
         d2 = self.dgamma**2
-        Y0 = float(self.parisi._Y_u(np.float64(1.0)))
+        Y0 = float(self.parisi.Y_u(np.float64(1.0)))
         has = d2 * Y0 + dE > 0.0
         s_star = np.zeros_like(dE)
         width = np.full_like(dE, np.inf)
@@ -167,19 +167,19 @@ class PrintedJumpDistribution:
         hi = np.minimum(np.full_like(de, 2.0), self._s_max)
         # B(s) = ΔE + δγ² Y(e^{-s}) decreases to ΔE < 0 (or to B(s_max)); bracket the zero
         for _ in range(2000):
-            bad = (de + d2 * self.parisi._Y_u(np.exp(-hi)) > 0.0) & (hi < self._s_max)
+            bad = (de + d2 * self.parisi.Y_u(np.exp(-hi)) > 0.0) & (hi < self._s_max)
             if not np.any(bad):
                 break
             hi[bad] = np.minimum(2.0 * hi[bad], self._s_max)
-        inside = de + d2 * self.parisi._Y_u(np.exp(-hi)) <= 0.0
+        inside = de + d2 * self.parisi.Y_u(np.exp(-hi)) <= 0.0
         for _ in range(64):
             mid = 0.5 * (lo + hi)
-            pos = de + d2 * self.parisi._Y_u(np.exp(-mid)) > 0.0
+            pos = de + d2 * self.parisi.Y_u(np.exp(-mid)) > 0.0
             lo = np.where(pos, mid, lo)
             hi = np.where(pos, hi, mid)
         ss = np.where(inside, 0.5 * (lo + hi), self._s_max)
         u = np.exp(-np.minimum(ss, _S_LIMIT))
-        yq = self.parisi._y_u(u)
+        yq = self.parisi.y_u(u)
         with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
             wd = 1.0 / (self._a * yq * np.sqrt(u))
         s_star[has] = np.where(inside, ss, 0.0)
@@ -205,7 +205,7 @@ class PrintedJumpDistribution:
         # atoms of y' (the one at q = 0 included)
         for qa, m in zip(self._atoms_q, self._atoms_m, strict=True):
             ua = 1.0 - qa
-            x = (dE + self.dgamma**2 * float(self.parisi._Y_u(np.float64(ua)))) / (
+            x = (dE + self.dgamma**2 * float(self.parisi.Y_u(np.float64(ua)))) / (
                 math.sqrt(ua) * a
             )
             rho, ec = rho_and_erfc(x)
@@ -225,7 +225,7 @@ class PrintedJumpDistribution:
             edges = hi[:, None] - np.linspace(30.0, 0.0, 16)[None, :]
             sb, wb = _panel_nodes(edges)
             ub = np.exp(-sb)
-            bound = a * _INV_SQRT_PI * np.sum(self.parisi._dy_u(ub) * ub * np.sqrt(ub) * wb, axis=1)
+            bound = a * _INV_SQRT_PI * np.sum(self.parisi.dy_u(ub) * ub * np.sqrt(ub) * wb, axis=1)
             huge[deep] = 0.5 * bound > 800.0
         C[huge] = np.inf
         dC[huge] = np.inf
@@ -244,8 +244,8 @@ class PrintedJumpDistribution:
             edges = _edges(self.parisi, s_end[idx], _grading(s_star[idx], width[idx]))
             s, w = _panel_nodes(edges)
             u = np.exp(-s)
-            dens = self.parisi._dy_u(u) * u * w  # y'(q) dq
-            x = (dE[idx, None] + self.dgamma**2 * self.parisi._Y_u(u)) / (np.sqrt(u) * a)
+            dens = self.parisi.dy_u(u) * u * w  # y'(q) dq
+            x = (dE[idx, None] + self.dgamma**2 * self.parisi.Y_u(u)) / (np.sqrt(u) * a)
             rho, ec = rho_and_erfc(x)
             C[rows[idx]] += a * np.sum(dens * np.sqrt(u) * rho, axis=1)
             dC[rows[idx]] += 0.5 * np.sum(dens * ec, axis=1)
@@ -261,18 +261,18 @@ class PrintedJumpDistribution:
         C = 0.0
         for qa, m in zip(self._atoms_q, self._atoms_m, strict=True):
             ua = 1.0 - qa
-            x = self.dgamma**2 * float(self.parisi._Y_u(np.float64(ua))) / (math.sqrt(ua) * a)
+            x = self.dgamma**2 * float(self.parisi.Y_u(np.float64(ua))) / (math.sqrt(ua) * a)
             C += a * m * math.sqrt(ua) * float(rho_and_erfc(np.float64(x))[0])
         if not self._has_density:
             return C
-        s_end = min(self._s_max, self.parisi._density_tail_s(1e-18))
+        s_end = min(self._s_max, self.parisi.density_tail_s(1e-18))
         if not math.isfinite(s_end):
             return math.inf
         edges = _edges(self.parisi, np.array([s_end]))
         s, w = _panel_nodes(edges)
         u = np.exp(-s)
-        dens = self.parisi._dy_u(u) * u * w
-        x = self.dgamma**2 * self.parisi._Y_u(u) / (np.sqrt(u) * a)
+        dens = self.parisi.dy_u(u) * u * w
+        x = self.dgamma**2 * self.parisi.Y_u(u) / (np.sqrt(u) * a)
         C += a * float(np.sum(dens * np.sqrt(u) * rho_and_erfc(x)[0]))
         return C
 
@@ -421,7 +421,7 @@ def _density_integral(y: ParisiFunction, f, s_end: float) -> float:
     edges = _edges(y, np.array([s_end]))
     s, w = _panel_nodes(edges)
     u = np.exp(-s)
-    return float(np.sum(y._dy_u(u) * u * w * f(u)))
+    return float(np.sum(y.dy_u(u) * u * w * f(u)))
 
 
 def jump_rate_first_order(y: ParisiFunction) -> float:
@@ -432,7 +432,7 @@ def jump_rate_first_order(y: ParisiFunction) -> float:
     """
     qa, m = y.atoms()
     total = float(np.sum(m * np.sqrt(1.0 - qa)))
-    s_end = min(float(_s_of_q(np.float64(y.q_max))), y._density_tail_s(1e-18))
+    s_end = min(float(_s_of_q(np.float64(y.q_max))), y.density_tail_s(1e-18))
     if not math.isfinite(s_end):
         return math.inf
     if s_end > 0.0:

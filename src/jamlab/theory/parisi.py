@@ -145,7 +145,7 @@ class ParisiFunction:
     @property
     def atom0(self) -> float:
         """``y(0+)``: the mass of the atom of ``y'`` at ``q = 0``."""
-        return float(self._y_u(np.float64(1.0)))
+        return float(self.y_u(np.float64(1.0)))
 
     def atoms(self) -> tuple[FloatArray, FloatArray]:
         """All atoms of ``y'`` as ``(positions q, masses)``, including the one at ``q = 0``."""
@@ -199,38 +199,49 @@ class ParisiFunction:
         idx = np.asarray(keep)
         return q[idx].copy(), y[idx].copy()
 
-    # ----------------------------------------------------------------- internals (u = 1 - q)
-    # Smooth kinds are evaluated in u; tables and steps in q (their node positions are exact in q).
+    # ----------------------------------------------------------------- gap-variable surface
+    # Public evaluation in the gap variable ``u = 1 - q`` (exact for ``1 - q`` far below the float64
+    # spacing of ``q`` near 1) and the quadrature hints used by the jump distributions
+    # (:mod:`jamlab.theory.jumps`, :mod:`jamlab.theory.exact`). Smooth kinds are evaluated in
+    # ``u``; tables and steps in ``q`` (their node positions are exact in ``q``).
     def _y_q(self, q: FloatArray) -> FloatArray:
-        return self._y_u(1.0 - q)
+        return self.y_u(1.0 - q)
 
     def _dy_q(self, q: FloatArray) -> FloatArray:
-        return self._dy_u(1.0 - q)
+        return self.dy_u(1.0 - q)
 
     def _Y_q(self, q: FloatArray) -> FloatArray:  # noqa: N802
-        return self._Y_u(1.0 - q)
+        return self.Y_u(1.0 - q)
 
-    def _y_u(self, u: FloatArray) -> FloatArray:
+    def y_u(self, u: FloatArray) -> FloatArray:
+        """``y(1 - u)`` for an array of gaps ``u = 1 - q`` in ``[0, 1]`` (no input checks)."""
         raise NotImplementedError
 
-    def _dy_u(self, u: FloatArray) -> FloatArray:
+    def dy_u(self, u: FloatArray) -> FloatArray:
+        """Density part of ``y'`` at ``q = 1 - u`` (0 at and above ``q_max``; no input checks)."""
         raise NotImplementedError
 
-    def _Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+    def Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+        """``Y(1 - u) = ∫_{1-u}^1 y(q') dq'`` (no input checks)."""
         raise NotImplementedError
 
-    def _has_density(self) -> bool:
+    def has_density(self) -> bool:
         """Whether ``y'`` has a non-zero density part (besides atoms)."""
         return True
 
-    def _breakpoints_q(self) -> FloatArray:
+    def breakpoints_q(self) -> FloatArray:
         """Points in ``(0, q_max)`` where ``dy`` is not smooth (quadrature panel edges)."""
         return np.empty(0)
 
-    def _density_tail_s(self, eps: float) -> float:
+    def density_tail_s(self, eps: float) -> float:
         """An ``s = -log(1-q)`` beyond which ``∫ dy √(1-q) dq`` is below ``eps`` (``inf`` when
         that integral diverges)."""
         raise NotImplementedError
+
+    @property
+    def step_levels(self) -> tuple[FloatArray, FloatArray] | None:
+        """``(q, y)`` of a k-RSB step function (:meth:`steps`), ``None`` for any other kind."""
+        return None
 
 
 def _check_table(q: FloatArray, y: FloatArray, strict_q: bool) -> None:
@@ -270,18 +281,18 @@ class _PowerLaw(ParisiFunction):
         # ∫_{1-u}^1 y = y0 u + A (u^(1-mu)/(1-mu) - u)
         return self.y0 * u + self.amplitude * (u ** (1.0 - self.mu) / (1.0 - self.mu) - u)
 
-    def _y_u(self, u: FloatArray) -> FloatArray:
+    def y_u(self, u: FloatArray) -> FloatArray:
         u = np.asarray(u, dtype=np.float64)
         return self._raw_y(np.maximum(u, self.u_min))
 
-    def _dy_u(self, u: FloatArray) -> FloatArray:
+    def dy_u(self, u: FloatArray) -> FloatArray:
         u = np.asarray(u, dtype=np.float64)
         inside = (u > self.u_min) & (u < 1.0 + 1e-300) & (u > 0.0)
         with np.errstate(divide="ignore", over="ignore"):
             dens = self.amplitude * self.mu * np.exp((-self.mu - 1.0) * np.log(u))
         return np.where(inside, dens, 0.0)
 
-    def _Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+    def Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
         u = np.asarray(u, dtype=np.float64)
         if self.u_min == 0.0:
             return self._raw_Y(u)
@@ -290,10 +301,10 @@ class _PowerLaw(ParisiFunction):
         above = self._raw_Y(np.maximum(u, um)) - self._raw_Y(np.float64(um)) + um * ymax
         return np.where(u > um, above, u * ymax)
 
-    def _has_density(self) -> bool:
+    def has_density(self) -> bool:
         return self.amplitude > 0.0
 
-    def _density_tail_s(self, eps: float) -> float:
+    def density_tail_s(self, eps: float) -> float:
         if self.amplitude == 0.0:
             return 0.0
         if self.mu >= 0.5:
@@ -309,15 +320,15 @@ class _Linear(ParisiFunction):
     slope: float
     y0: float
 
-    def _y_u(self, u: FloatArray) -> FloatArray:
+    def y_u(self, u: FloatArray) -> FloatArray:
         q = 1.0 - np.asarray(u, dtype=np.float64)
         return self.y0 + self.slope * np.minimum(q, self.q_max)
 
-    def _dy_u(self, u: FloatArray) -> FloatArray:
+    def dy_u(self, u: FloatArray) -> FloatArray:
         u = np.asarray(u, dtype=np.float64)
         return np.where(u > 1.0 - self.q_max, self.slope, 0.0)
 
-    def _Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+    def Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
         u = np.asarray(u, dtype=np.float64)
         um = 1.0 - self.q_max
         ymax = self.y0 + self.slope * self.q_max
@@ -329,10 +340,10 @@ class _Linear(ParisiFunction):
         above = raw(np.maximum(u, um)) - raw(np.float64(um)) + um * ymax
         return np.where(u > um, above, u * ymax)
 
-    def _has_density(self) -> bool:
+    def has_density(self) -> bool:
         return self.slope > 0.0
 
-    def _density_tail_s(self, eps: float) -> float:
+    def density_tail_s(self, eps: float) -> float:
         if self.slope == 0.0:
             return 0.0
         # ∫_0^u slope √v dv = (2/3) slope u^(3/2)
@@ -381,13 +392,13 @@ class _Tabulated(ParisiFunction):
         yq = np.interp(q, self._qn, self._yn)
         return self._cum[i + 1] + 0.5 * (yq + self._yn[i + 1]) * (q1 - q)
 
-    def _breakpoints_q(self) -> FloatArray:
+    def breakpoints_q(self) -> FloatArray:
         return self._qn[(self._qn > 0.0) & (self._qn < self.q_max)]
 
-    def _has_density(self) -> bool:
+    def has_density(self) -> bool:
         return bool(np.any(np.diff(self._yn) > 0.0))
 
-    def _density_tail_s(self, eps: float) -> float:
+    def density_tail_s(self, eps: float) -> float:
         if self.q_max < 1.0:
             return -math.log1p(-self.q_max)
         slopes = np.diff(self._yn) / np.diff(self._qn)
@@ -396,13 +407,13 @@ class _Tabulated(ParisiFunction):
             return 0.0
         return max(0.0, math.log(2.0 * smax / (3.0 * eps)) / 1.5)
 
-    def _y_u(self, u: FloatArray) -> FloatArray:
+    def y_u(self, u: FloatArray) -> FloatArray:
         return self._y_q(1.0 - np.asarray(u, dtype=np.float64))
 
-    def _dy_u(self, u: FloatArray) -> FloatArray:
+    def dy_u(self, u: FloatArray) -> FloatArray:
         return self._dy_q(1.0 - np.asarray(u, dtype=np.float64))
 
-    def _Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+    def Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
         return self._Y_q(1.0 - np.asarray(u, dtype=np.float64))
 
 
@@ -430,22 +441,26 @@ class _Steps(ParisiFunction):
         inside = cum[ic + 1] + self.yv[ic] * (edges[ic + 1] - q)
         return np.where(i >= 0, inside, cum[0])
 
+    @property
+    def step_levels(self) -> tuple[FloatArray, FloatArray] | None:
+        return self.q.copy(), self.yv.copy()
+
     def atoms(self) -> tuple[FloatArray, FloatArray]:
         sizes = np.diff(np.concatenate([[0.0], self.yv]))
         keep = sizes > 0.0
         return self.q[keep].copy(), sizes[keep]
 
-    def _has_density(self) -> bool:
+    def has_density(self) -> bool:
         return False
 
-    def _density_tail_s(self, eps: float) -> float:
+    def density_tail_s(self, eps: float) -> float:
         return 0.0
 
-    def _y_u(self, u: FloatArray) -> FloatArray:
+    def y_u(self, u: FloatArray) -> FloatArray:
         return self._y_q(1.0 - np.asarray(u, dtype=np.float64))
 
-    def _dy_u(self, u: FloatArray) -> FloatArray:
+    def dy_u(self, u: FloatArray) -> FloatArray:
         return self._dy_q(1.0 - np.asarray(u, dtype=np.float64))
 
-    def _Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
+    def Y_u(self, u: FloatArray) -> FloatArray:  # noqa: N802
         return self._Y_q(1.0 - np.asarray(u, dtype=np.float64))

@@ -1,0 +1,422 @@
+r"""The whole exact jump law of a cascade: ``ΔE``, the overlap ``q``, ``ΔU`` and ``ΔΣ``.
+
+:func:`exact_jump_law` returns an :class:`ExactJumpLaw` built on the grid solution of the exact
+recursion (:class:`jamlab.theory.exact.CascadeRecursion`, derivation in its module docstring and
+``docs/theory-vs-cascade.md`` §7). Conventions as for the printed law
+(:class:`jamlab.theory.PrintedJumpDistribution`): ``ΔE <= 0`` with an atom ``p_no_jump`` at 0,
+``cdf(x) = 1 - R(x)`` for ``x < 0``; ``ΔU >= 0`` and ``δγ ΔΣ >= 0`` with their atoms at 0 (no
+jump); the overlap law has its atom at ``q = 1``. ``pdf`` always means the density of the jumps'
+part (atoms excluded), ``cdf`` includes the atoms.
+
+For a step function (``ParisiFunction.steps`` or arrays ``(q, y)``) the law is exact for that
+``k``-level cascade. For any other ``ParisiFunction`` the continuum limit (``k → ∞``) is computed:
+:func:`continuum_levels` discretises ``y`` on ``K`` graded levels, the law is evaluated at ``K``
+and ``2K`` and Richardson-extrapolated (the recursion converges as ``K^{-2}``, measured); the
+difference of the two is the reported error estimate ``R_error``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.polynomial import chebyshev as C
+
+from jamlab.theory.exact import CascadeRecursion
+
+__all__ = [
+    "ExactJumpLaw",
+    "JumpOverlapLaw",
+    "ScalarJumpLaw",
+    "continuum_levels",
+    "exact_jump_law",
+]
+
+
+def _lobatto(a: float, b: float, n: int) -> np.ndarray:
+    return 0.5 * (a + b) + 0.5 * (b - a) * np.cos(np.pi * np.arange(n) / (n - 1))[::-1]
+
+
+def _bary_matrix(nodes: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Barycentric interpolation matrix of Chebyshev–Lobatto ``nodes`` at the points ``t``."""
+    n = nodes.size
+    w = (-1.0) ** np.arange(n)
+    w[0] *= 0.5
+    w[-1] *= 0.5
+    diff = t[:, None] - nodes[None, :]
+    hit = diff == 0.0
+    diff[hit] = 1.0
+    m = w[None, :] / diff
+    m /= m.sum(axis=1, keepdims=True)
+    rows = np.flatnonzero(hit.any(axis=1))
+    if rows.size:
+        m[rows] = hit[rows].astype(float)
+    return m
+
+
+class ScalarJumpLaw:
+    """Law of ``ΔU`` or ``ΔΣ``: an atom ``p_no_jump`` at 0 and the density ``pdf`` of the jumps.
+
+    ``sign = +1``: the jumps' values are positive (``ΔU``; ``ΔΣ`` for ``δγ > 0``); ``-1``: negative
+    (``ΔΣ`` for ``δγ < 0``). ``cdf(s) = P(X <= s)``.
+    """
+
+    def __init__(self, p_no_jump: float, pdf_pos: Any, cdf_pos: Any, sign: int = 1) -> None:
+        self.p_no_jump = float(p_no_jump)
+        self._pdf = pdf_pos  # density at s > 0 of |X|
+        self._cdf = cdf_pos  # P(0 < |X| <= s), s >= 0
+        self.sign = 1 if sign >= 0 else -1
+
+    def pdf(self, s: Any) -> np.ndarray | float:
+        """Density of the jumps' part at ``s`` (0 on the wrong side of 0)."""
+        a = np.asarray(s, dtype=np.float64)
+        flat = self.sign * a.ravel()
+        out = np.zeros(flat.size)
+        pos = flat > 0
+        if np.any(pos):
+            out[pos] = self._pdf(flat[pos])
+        return _ret(out.reshape(a.shape))
+
+    def cdf(self, s: Any) -> np.ndarray | float:
+        """``P(X <= s)``, the atom at 0 included."""
+        a = np.asarray(s, dtype=np.float64)
+        flat = a.ravel()
+        out = np.empty(flat.size)
+        jumps_total = 1.0 - self.p_no_jump
+        if self.sign > 0:
+            neg = flat < 0
+            out[neg] = 0.0
+            if np.any(~neg):
+                out[~neg] = self.p_no_jump + self._cdf(flat[~neg])
+        else:
+            pos = flat >= 0
+            out[pos] = 1.0
+            if np.any(~pos):
+                out[~pos] = jumps_total - self._cdf(-flat[~pos])
+        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
+
+
+class JumpOverlapLaw:
+    """Law of the overlap ``q`` between old and new ground states.
+
+    ``levels``: the overlaps ``q_i``; ``masses``: ``P(q = q_i)``; ``p_no_jump``: the atom at
+    ``q = 1``. For a discrete cascade the law is atomic (:meth:`atoms`; ``pdf`` is 0). For the
+    continuum (``continuum=True``) the levels are a fine graded grid: the masses become the density
+    ``pdf`` (mass per unit ``q`` between neighbouring levels, from the finer of the two level
+    sets, not extrapolated) except an atom of mass ``atom0`` at ``q = 0`` when ``y(0+) > 0``.
+    """
+
+    def __init__(self, levels: np.ndarray, masses: np.ndarray, p_no_jump: float,
+                 continuum: bool = False, atom0: float = 0.0, q_max: float = 1.0) -> None:
+        self.levels = np.asarray(levels, dtype=np.float64)
+        self.masses = np.asarray(masses, dtype=np.float64)
+        self.p_no_jump = float(p_no_jump)
+        self.continuum = continuum
+        self.atom0 = float(atom0)
+        self.q_max = q_max
+
+    def atoms(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(positions, masses)`` of the atoms, ``q = 1`` (no jump) last."""
+        if self.continuum:
+            pos = [0.0] if self.atom0 > 0 else []
+            return np.array(pos + [1.0]), np.array(([self.atom0] if self.atom0 > 0 else [])
+                                                   + [self.p_no_jump])
+        return np.append(self.levels, 1.0), np.append(self.masses, self.p_no_jump)
+
+    def pdf(self, q: Any) -> np.ndarray | float:
+        """Density of ``q`` (continuum; 0 for a discrete cascade)."""
+        qa = np.asarray(q, dtype=np.float64)
+        if not self.continuum:
+            return _ret(np.zeros(qa.shape))
+        edges = np.append(self.levels, self.q_max)
+        m = self.masses.copy()
+        m[0] -= self.atom0
+        dens = m / np.diff(edges)
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        out = np.interp(qa, centres, dens, left=dens[0], right=dens[-1])
+        return _ret(np.where((qa >= 0) & (qa < self.q_max), out, 0.0))
+
+    def cdf(self, q: Any) -> np.ndarray | float:
+        """``P(q_jump <= q)`` (the atom at ``q = 1`` included at ``q = 1``)."""
+        qa = np.asarray(q, dtype=np.float64)
+        if not self.continuum:
+            cum = np.cumsum(self.masses)
+            idx = np.searchsorted(self.levels, qa, side="right")
+            out = np.where(idx > 0, cum[np.maximum(idx, 1) - 1], 0.0)
+        else:
+            edges = np.append(self.levels, self.q_max)
+            cum = np.concatenate(([self.atom0], self.atom0 + np.cumsum(
+                self.masses - np.append(self.atom0, np.zeros(self.masses.size - 1)))))
+            out = np.interp(qa, edges, cum, left=0.0, right=cum[-1])
+            out = np.where(qa < 0, 0.0, out)
+        out = np.where(qa >= 1.0, out + self.p_no_jump, out)
+        return _ret(np.clip(out, 0.0, 1.0))
+
+
+def _ret(x: np.ndarray) -> np.ndarray | float:
+    return float(x) if x.ndim == 0 else x
+
+
+class _DiscreteLaw:
+    """All laws for one ``k``-level cascade (one grid solution)."""
+
+    def __init__(self, q: np.ndarray, y: np.ndarray, dgamma: float, grid: dict) -> None:
+        self.rec = rec = CascadeRecursion(q, y, dgamma, **grid)
+        self.p_no_jump = float(rec.R(0.0)[0])
+        self._sig_cheb: C.Chebyshev | None = None
+
+    # ΔΣ (|ΔΣ| = (w - x)/d), from the joint density of (ΔE, ΔU) on Chebyshev nodes
+    def _dsigma_series(self) -> C.Chebyshev:
+        if self._sig_cheb is not None:
+            return self._sig_cheb
+        rec = self.rec
+        d, yk = rec.d, float(rec.y[-1])
+        span = rec.w_hi - rec.x_lo
+        n = int(np.clip(3.0 * (-rec.x_lo) / rec.sigma[-1] + 40, 60, 400))
+        xn = _lobatto(rec.x_lo, 0.0, n)
+        wn = _lobatto(0.0, rec.w_hi, n)
+        Q = rec.joint_on_nodes(xn, wn)  # p e^{-y_k w}
+        gx, gw = np.polynomial.legendre.leggauss(48)
+        s_hi = span / d
+
+        def p_sigma(s: np.ndarray) -> np.ndarray:
+            s = np.atleast_1d(s)
+            if s.size > 64:  # bounded memory: the interpolation matrices are (64·48) × n
+                return np.concatenate([p_sigma(s[j:j + 64]) for j in range(0, s.size, 64)])
+            a = np.maximum(-d * s, rec.x_lo)
+            b = np.minimum(0.0, rec.w_hi - d * s)
+            ok = b > a
+            out = np.zeros(s.size)
+            if not np.any(ok):
+                return out
+            a, b, so = a[ok], b[ok], s[ok]
+            xs = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * gx[None, :]
+            ws = xs + d * so[:, None]
+            Lx = _bary_matrix(xn, xs.ravel())
+            Lw = _bary_matrix(wn, ws.ravel())
+            vals = np.sum((Lx @ Q) * Lw, axis=1).reshape(xs.shape)
+            vals *= np.exp(yk * ws)
+            out[ok] = d * 0.5 * (b - a) * (vals @ gw)
+            return out
+
+        deg = int(np.clip(3.0 * span / rec.sigma[-1] + 60, 100, 700))
+        self._sig_cheb = C.Chebyshev.interpolate(p_sigma, deg, domain=[0.0, s_hi])
+        return self._sig_cheb
+
+    def dsigma_pdf(self, s: np.ndarray) -> np.ndarray:
+        ch = self._dsigma_series()
+        return np.where(s < ch.domain[1], ch(np.minimum(s, ch.domain[1])), 0.0)
+
+    def dsigma_cdf(self, s: np.ndarray) -> np.ndarray:
+        ch = self._dsigma_series()
+        it = ch.integ(lbnd=0.0)
+        return it(np.clip(s, 0.0, ch.domain[1]))
+
+
+def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``K`` graded levels ``(q, y)`` approximating a continuous ``ParisiFunction``.
+
+    The top level sits at ``q_top = min(q_max, q_cut)`` with ``y = Y(q_top)/(1 - q_top)`` (the
+    mean of ``y`` above it; ``y(q_max)`` when ``q_top = q_max``): a cut-off ``q_cut`` merges every
+    cluster above it into one level, which changes the law only at ``|ΔE|`` of order
+    ``|δγ|√(1 - q_cut)`` and ``δγ² Y(q_cut)`` or below. Without a cut-off (``q_max = 1``)
+    ``q_cut`` is required. Level edges equidistribute ``s(q) = ½ q/q_top + ½ log(1 + (y(q) -
+    y(0+))/y_s) / log(1 + (y(q_top) - y(0+))/y_s)``, ``y_s = (y(q_top) - y(0+))/10`` (half the
+    levels uniform in ``q``, half where ``y`` rises, geometrically where it diverges); ``y_i`` is
+    the mean of ``y`` over ``[q_i, q_{i+1}]`` (as :meth:`ParisiFunction.discretise`).
+    """
+    qm = float(y.q_max)
+    if q_cut is not None:
+        if not 0.0 < float(q_cut) < 1.0:
+            raise ValueError(f"q_cut must lie in (0, 1), got {q_cut!r}")
+        qm = min(qm, float(q_cut))
+    if qm >= 1.0:
+        raise ValueError("continuum levels need a cut-off: q_max < 1 or q_cut < 1")
+    y0 = float(y.y(0.0))
+    ym = float(y.y(qm))
+    rise = ym - y0
+    ys = rise / 10.0 if rise > 0 else 1.0
+    norm = math.log1p(rise / ys) if rise > 0 else 1.0
+
+    def s_of(q: np.ndarray) -> np.ndarray:
+        yy = np.asarray(y.y(np.minimum(q, qm)), dtype=np.float64)
+        return 0.5 * q / qm + 0.5 * np.log1p((yy - y0) / ys) / norm
+
+    t = np.arange(K, dtype=np.float64) / (K - 1)
+    lo = np.zeros(K)
+    hi = np.full(K, qm)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        big = s_of(mid) > t
+        hi = np.where(big, mid, hi)
+        lo = np.where(big, lo, mid)
+    q = 0.5 * (lo + hi)
+    q[0] = 0.0
+    q[-1] = qm
+    Yq = np.asarray(y.Y(q), dtype=np.float64)
+    yv = np.empty(K)
+    yv[:-1] = (Yq[:-1] - Yq[1:]) / np.diff(q)
+    yv[-1] = float(y.Y(qm)) / (1.0 - qm)
+    if not yv[0] > 0:
+        raise ValueError("y vanishes on the first level; a cascade needs y_1 > 0")
+    keep = np.concatenate(([True], np.diff(yv) > 1e-12 * yv[1:]))
+    return q[keep], yv[keep]
+
+
+class ExactJumpLaw:
+    """The exact law of a static jump (see the module docstring). Build with
+    :func:`exact_jump_law`.
+
+    Attributes: ``p_no_jump``, ``dgamma``, ``levels`` (the ``(q, y)`` used; for the continuum the
+    finer of the two), ``overlap`` (:class:`JumpOverlapLaw`), ``du``, ``dsigma``
+    (:class:`ScalarJumpLaw`), ``R_error`` (0 for a discrete cascade; the Richardson error estimate
+    of ``R(0)`` for the continuum).
+    """
+
+    def __init__(self, parts: list[_DiscreteLaw], dgamma: float, continuum: bool,
+                 atom0: float = 0.0, q_max: float = 1.0) -> None:
+        self.dgamma = float(dgamma)
+        self._parts = parts
+        self.continuum = continuum
+        fine = parts[-1]
+        self.levels = (fine.rec.q.copy(), fine.rec.y.copy())
+        self.p_no_jump = self._combine(lambda p: np.array([p.p_no_jump]))[0]
+        self.R_error = (abs(parts[1].p_no_jump - parts[0].p_no_jump) / 3.0
+                        if len(parts) == 2 else 0.0)
+        masses = fine.rec.cluster_masses()
+        # continuum: the first level's mass splits into the atom at q = 0 (share y(0+)/y_1 of
+        # its Δy_1 = y_1) and the density part of [0, q_2]
+        atom_mass = masses[0] * min(atom0 / float(fine.rec.y[0]), 1.0) if continuum else 0.0
+        self.overlap = JumpOverlapLaw(fine.rec.q, masses, self.p_no_jump, continuum=continuum,
+                                      atom0=atom_mass, q_max=q_max)
+        self.du = ScalarJumpLaw(
+            self.p_no_jump,
+            lambda w: self._combine(lambda p: p.rec.dU_pdf(w)),
+            lambda w: self._combine(lambda p: p.rec.dU_cdf_jumps(w)),
+        )
+        self.dsigma = ScalarJumpLaw(
+            self.p_no_jump,
+            lambda s: self._combine(lambda p: p.dsigma_pdf(s)),
+            lambda s: self._combine(lambda p: p.dsigma_cdf(s)),
+            sign=1 if self.dgamma >= 0 else -1,
+        )
+
+    def _combine(self, get: Any) -> np.ndarray:
+        vals = [np.asarray(get(p), dtype=np.float64) for p in self._parts]
+        if len(vals) == 1:
+            return vals[0]
+        return (4.0 * vals[1] - vals[0]) / 3.0
+
+    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
+        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        if np.any(a > 0):
+            raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
+        return _ret(self._combine(lambda p: p.rec.R(a.ravel())).reshape(a.shape))
+
+    def pdf(self, dE: Any) -> np.ndarray | float:
+        """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.zeros(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = self._combine(lambda p: p.rec.dE_pdf(flat[neg]))
+        return _ret(out.reshape(a.shape))
+
+    def cdf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.ones(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = 1.0 - self._combine(lambda p: p.rec.R(flat[neg]))
+        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
+
+    def sf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' > ΔE)``."""
+        return _ret(1.0 - np.asarray(self.cdf(dE)))
+
+
+class _TrivialLaw(ExactJumpLaw):
+    """``δγ = 0``: the ground state never changes."""
+
+    def __init__(self, q: np.ndarray, y: np.ndarray) -> None:
+        self.dgamma = 0.0
+        self._parts = []
+        self.continuum = False
+        self.levels = (q, y)
+        self.p_no_jump = 1.0
+        self.R_error = 0.0
+        zero = lambda s: np.zeros(np.shape(s))  # noqa: E731
+        self.overlap = JumpOverlapLaw(q, np.zeros(q.size), 1.0)
+        self.du = ScalarJumpLaw(1.0, zero, zero)
+        self.dsigma = ScalarJumpLaw(1.0, zero, zero)
+
+    def _combine(self, get: Any) -> np.ndarray:  # pragma: no cover - never reached
+        raise AssertionError
+
+    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
+        return _ret(np.ones(np.shape(dE)))
+
+    def pdf(self, dE: Any) -> np.ndarray | float:
+        return _ret(np.zeros(np.shape(dE)))
+
+    def cdf(self, dE: Any) -> np.ndarray | float:
+        return _ret(np.where(np.asarray(dE, dtype=np.float64) >= 0, 1.0, 0.0))
+
+
+def exact_jump_law(
+    y: Any,
+    dgamma: float,
+    *,
+    k: int | None = None,
+    levels: int = 64,
+    q_cut: float | None = None,
+    **grid: Any,
+) -> ExactJumpLaw:
+    """The exact law of a static jump at strain ``dgamma`` (module docstring).
+
+    ``y``: a ``ParisiFunction`` or a pair of arrays ``(q, y)`` (the levels of a ``k``-level
+    cascade). A step function (``ParisiFunction.steps``) or arrays give the discrete cascade;
+    ``k=`` discretises any function as :meth:`ParisiFunction.discretise` does (the levels of
+    :func:`jamlab.theory.sample_cascade_jumps` with ``k=``); otherwise the continuum limit is
+    computed from :func:`continuum_levels` with ``levels`` and ``2·levels`` levels (Richardson);
+    ``q_cut`` (required when ``q_max = 1``) merges the clusters above ``q_cut`` into one level.
+    ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`.
+    """
+    from jamlab.theory.cascade import validate_levels
+
+    try:
+        dg = float(dgamma)
+    except (TypeError, ValueError):
+        raise ValueError(f"dgamma must be a real number, got {dgamma!r}") from None
+    if not math.isfinite(dg):
+        raise ValueError(f"dgamma must be finite, got {dgamma!r}")
+    if isinstance(y, tuple):
+        qa, ya = validate_levels(*y)
+        discrete = True
+    elif k is not None:
+        qa, ya = validate_levels(*y.discretise(int(k)))
+        discrete = True
+    elif y.step_levels is not None:
+        qa, ya = validate_levels(*y.step_levels)
+        discrete = True
+    else:
+        discrete = False
+    if discrete:
+        if dg == 0.0:
+            return _TrivialLaw(qa, ya)
+        return ExactJumpLaw([_DiscreteLaw(qa, ya, dg, grid)], dg, continuum=False)
+    K = int(levels)
+    if K < 8:
+        raise ValueError(f"levels must be >= 8, got {levels}")
+    coarse = continuum_levels(y, K, q_cut)
+    fine = continuum_levels(y, 2 * K, q_cut)
+    if dg == 0.0:
+        return _TrivialLaw(*fine)
+    parts = [_DiscreteLaw(*coarse, dg, grid), _DiscreteLaw(*fine, dg, grid)]
+    q_top = float(fine[0][-1])
+    return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top)
