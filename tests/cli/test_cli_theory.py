@@ -45,8 +45,8 @@ def test_theory_bad_arguments_are_one_line(tmp_path):
 
 
 def test_dgamma_expansion():
-    from jamlab.cli.theory import _expand_dgamma
+    from jamlab.cli.theory import expand_dgamma
 
-    assert _expand_dgamma(["--dgamma", "1e-2", "-3e-3", "--mu", "0.5"]) == [
+    assert expand_dgamma(["--dgamma", "1e-2", "-3e-3", "--mu", "0.5"]) == [
         "--dgamma", "1e-2", "--dgamma", "-3e-3", "--mu", "0.5",
     ]  # fmt: skip

@@ -31,7 +31,7 @@ def _assert_identical(q: sp.Packing, p: sp.Packing) -> None:
     assert q.box == p.box  # length, dim and strain, exactly
     assert q.positions.shape == p.positions.shape
     assert np.array_equal(q.positions, p.positions)  # bit for bit (stronger than 1e-15)
-    assert np.array_equal(ex.diameters_of(q), ex.diameters_of(p))
+    assert np.array_equal(q.diameters, p.diameters)
     assert q.seed == p.seed
 
 
@@ -209,7 +209,7 @@ def test_lammps_atomic_style_and_origin_shift(tmp_path):
     assert q.box == sp.Box(3.0, 3, 0.25)
     # sorted by atom id, shifted by (xlo, ylo, zlo)
     assert np.array_equal(q.positions, [[0.5, 0.0, 1.5], [2.0, 1.75, 0.5]])
-    assert np.array_equal(ex.diameters_of(q), [1.0, 1.0])
+    assert np.array_equal(q.diameters, [1.0, 1.0])
 
 
 def test_format_from_suffix():

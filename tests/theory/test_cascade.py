@@ -8,7 +8,7 @@ import pytest
 from scipy import integrate, stats
 
 from jamlab.theory.cascade import (
-    _brute_force_cascade_jumps,
+    brute_force_cascade_jumps,
     cascade_constants,
     sample_cascade_jumps,
     sample_cascade_tree,
@@ -73,7 +73,7 @@ def test_one_level_no_jump_probability_and_cdf():
 def test_best_first_matches_brute_force(q, y, dg):
     n = 15_000
     a = sample_cascade_jumps(q, y, dg, 4 * n, seed=1)
-    b = _brute_force_cascade_jumps(q, y, dg, n, seed=2)
+    b = brute_force_cascade_jumps(q, y, dg, n, seed=2)
     # overlap categories (including "no jump"): each frequency within Z combined standard errors
     for qv in [*q, 1.0]:
         pa = np.mean(a.q_jump == qv)
@@ -98,7 +98,7 @@ def test_exact_recursion_reduces_to_one_level():
 
 def test_exact_recursion_matches_brute_force_two_levels():
     q, y, dg, n = [0.0, 0.5], [0.2, 1.0], 0.5, 40_000
-    b = _brute_force_cascade_jumps(q, y, dg, n, seed=5)
+    b = brute_force_cascade_jumps(q, y, dg, n, seed=5)
     xs = np.array([0.0, -0.1, -0.4, -1.0])
     R = exact_jump_R(q, y, dg, xs)
     for x, Rx in zip(xs, R, strict=True):

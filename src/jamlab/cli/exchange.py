@@ -117,7 +117,7 @@ def register(app: typer.Typer) -> None:
             raise UserError(str(exc)) from None
         (packing,) = _pick(packings, frame, str(source))
         write_packing(out, packing, imported_from=str(source), imported_format=fmt)
-        if not np.array_equal(ex.diameters_of(read_packing(out)), ex.diameters_of(packing)):
+        if not np.array_equal(read_packing(out).diameters, packing.diameters):
             out.unlink()
             raise ValueError(f"{out}: this jamlab's configuration file cannot keep the diameters")
         typer.echo(

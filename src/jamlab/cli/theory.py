@@ -15,7 +15,7 @@ THEORY_DGAMMA = (1e-30, 1e6)
 _NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
 
-def _expand_dgamma(args: list[str]) -> list[str]:
+def expand_dgamma(args: list[str]) -> list[str]:
     """Rewrite ``--dgamma a b c`` as ``--dgamma a --dgamma b --dgamma c`` (values run until the
     next option; negative numbers are values)."""
     out: list[str] = []
@@ -33,7 +33,7 @@ def _expand_dgamma(args: list[str]) -> list[str]:
 
 class _TheoryCommand(TyperCommand):
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
-        return super().parse_args(ctx, _expand_dgamma(list(args)))
+        return super().parse_args(ctx, expand_dgamma(list(args)))
 
 
 def theory(

@@ -35,7 +35,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from jamlab._atomic import atomic_write
+from jamlab.files import atomic_write
 from jamlab.spheres import Box, Packing
 from jamlab.spheres.box import reduced_strain
 from jamlab.spheres.io import read_lammps_positions, read_packing
@@ -46,7 +46,6 @@ __all__ = [
     "EXPORT_FORMATS",
     "Frame",
     "format_from_suffix",
-    "diameters_of",
     "make_packing",
     "frames_of",
     "export_frames",
@@ -97,15 +96,6 @@ def format_from_suffix(path: str | os.PathLike) -> str:
             f"({', '.join(FORMATS)})"
         )
     return _SUFFIXES[suffix]
-
-
-def diameters_of(packing: Packing) -> np.ndarray:
-    """The particle diameters ``D_i``."""
-    return np.asarray(packing.diameters, dtype=np.float64)
-
-
-def _alpha_of(packing: Packing) -> float:
-    return float(packing.alpha)
 
 
 def make_packing(
@@ -278,7 +268,7 @@ def write_gsd(out: str | os.PathLike, frames: list[Frame]) -> Path:
                 image = np.floor(frac)
                 pos = (frac - image - 0.5) @ h
                 pos[:, dim:] = 0.0
-                diam = diameters_of(p)
+                diam = p.diameters
                 f = hoomd.Frame()
                 f.configuration.step = int(fr.step if fr.step is not None else k)
                 f.configuration.dimensions = dim
@@ -291,7 +281,7 @@ def write_gsd(out: str | os.PathLike, frames: list[Frame]) -> Path:
                 f.particles.diameter = diam.astype(np.float32)
                 f.log["jamlab/box_length"] = np.array([L])
                 f.log["jamlab/strain"] = np.array([gamma])
-                f.log["jamlab/alpha"] = np.array([_alpha_of(p)])
+                f.log["jamlab/alpha"] = np.array([p.alpha])
                 f.log["jamlab/seed"] = np.array([-1 if p.seed is None else p.seed], np.int64)
                 f.log["particles/jamlab/position"] = np.ascontiguousarray(p.positions)
                 f.log["particles/jamlab/diameter"] = np.ascontiguousarray(diam)
@@ -378,7 +368,7 @@ def write_extxyz(out: str | os.PathLike, frames: list[Frame]) -> Path:
             "strain": _f(gamma),
             "box_length": _f(L),
             "dim": str(dim),
-            "alpha": _f(_alpha_of(p)),
+            "alpha": _f(p.alpha),
             "seed": str(-1 if p.seed is None else p.seed),
             "frame": str(k),
         }
@@ -393,7 +383,7 @@ def write_extxyz(out: str | os.PathLike, frames: list[Frame]) -> Path:
             + " ".join(f"{key}={value}" for key, value in info.items())
         )
         x = _pad3(p.positions)
-        radius = 0.5 * diameters_of(p)
+        radius = 0.5 * p.diameters
         lines = [str(p.n), head]
         lines += [
             f"X {_f(a)} {_f(b)} {_f(c)} {_f(r)}" for (a, b, c), r in zip(x, radius, strict=True)
@@ -466,13 +456,13 @@ def write_lammps_data(out: str | os.PathLike, packing: Packing) -> Path:
     p = packing
     _check_dim_3(p, "a LAMMPS data file")
     L, gamma, dim = p.box.length, p.box.strain, p.dim
-    diam = diameters_of(p)
+    diam = p.diameters
     kinds, types = np.unique(diam, return_inverse=True)
     x = _pad3(p.positions)
     seed = -1 if p.seed is None else p.seed
     title = (
         f"LAMMPS data file written by jamlab {__version__}: jamlab_box_length={_f(L)} "
-        f"jamlab_strain={_f(gamma)} jamlab_dim={dim} jamlab_alpha={_f(_alpha_of(p))} "
+        f"jamlab_strain={_f(gamma)} jamlab_dim={dim} jamlab_alpha={_f(p.alpha)} "
         f"jamlab_seed={seed} (tilt xy = (strain - round(strain)) * box_length)"
     )
     zlo, zhi = (0.0, L) if dim == 3 else (-0.5, 0.5)

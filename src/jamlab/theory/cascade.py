@@ -50,6 +50,7 @@ __all__ = [
     "cascade_constants",
     "sample_cascade_jumps",
     "sample_cascade_tree",
+    "brute_force_cascade_jumps",
     "validate_levels",
 ]
 
@@ -273,7 +274,7 @@ def sample_cascade_tree(
     return CascadeTree(par, lev, u, s, int(iu), int(iv), qa, ya, dg)
 
 
-def _brute_force_cascade_jumps(
+def brute_force_cascade_jumps(
     q: Any,
     y: Any,
     dgamma: float,
