@@ -62,7 +62,7 @@ def reproduce_command(
 
 
 def figure_command(
-    name: Annotated[str, typer.Argument(help="fig1 … fig7 or theory_vs_cascade.")],
+    name: Annotated[str, typer.Argument(help="fig1 … fig7, fig3_exact or theory_vs_cascade.")],
     out: Annotated[Path, typer.Option("--out", help="Output PNG file.")],
     runs: Annotated[
         Path | None,

@@ -29,6 +29,7 @@ __all__ = [
     "fig1",
     "fig2",
     "fig3",
+    "fig3_exact",
     "fig4",
     "fig5",
     "fig6",
@@ -40,6 +41,7 @@ TITLES = {
     "fig1": "Fig. 1 — coordination vs packing fraction",
     "fig2": "Fig. 2 — a Derrida–Ruelle cascade",
     "fig3": "Fig. 3 — mean-field jump distribution P(ΔE|δγ)",
+    "fig3_exact": "Fig. 3, exact — the printed formula beside the exact jump law",
     "fig4": "Fig. 4 — energy and stress vs strain, one jammed sample",
     "fig5": "Fig. 5 — avalanche size distributions",
     "fig6": "Fig. 6 — mean stress–strain curve",
@@ -50,6 +52,8 @@ TITLES = {
 
 FIG3_DGAMMAS = (1e-2, 1e-3, 1e-4)
 """The strain steps of Fig. 3."""
+FIG3_EXACT_DGAMMAS = (1e-2, 1e-3)
+"""The strain steps of the exact-law panel (the exact law costs seconds per δγ)."""
 
 
 def fig1(r: CoordinationResult, figdir: Path) -> Path | None:
@@ -84,6 +88,16 @@ def fig3(figdir: Path) -> Path:
     plot_jump_distributions_two_panels(
         [(mu_jamming(), jump_distribution_table(mu_jamming(), FIG3_DGAMMAS, n_points=150)),
          (0.5, jump_distribution_table(0.5, FIG3_DGAMMAS, n_points=150))], path)
+    return path
+
+
+def fig3_exact(figdir: Path) -> Path:
+    """Fig. 3 with jamlab's exact law beside the printed formula (same ``y``, cut-off 1 − 1e-5)."""
+    from jamlab.plots.theory import plot_jump_distributions_exact
+    from jamlab.theory import mu_jamming
+
+    path = figdir / "fig3_exact.png"
+    plot_jump_distributions_exact((mu_jamming(), 0.5), FIG3_EXACT_DGAMMAS, path, n_points=60)
     return path
 
 
@@ -181,6 +195,10 @@ def captions(
         "fig3": ("The printed formula P(ΔE|δγ) (SPEC §1) for y'(q) ~ (1−q)^(−μ−1) without "
                  f"cut-off: (a) μ = μ_J = {mu_jamming():.6f} (jamming), (b) μ = 1/2 (UNSAT, "
                  "SK); dashed: slope −2μ = −τ."),
+        "fig3_exact": ("P(ΔE|δγ) for y(q) = (1−q)^(−μ) − 1 cut at q_max = 1 − 1e-5: jamlab's "
+                       "exact law (solid, docs/theory-vs-cascade.md §7–9) and the paper's printed "
+                       "formula with the same cut-off (dashed) and without (grey), at δγ = 1e-2 "
+                       "and 1e-3; below, the local log-slopes against −2μ."),
         "fig4": ("Energy per particle E/N (ε) and intensive shear stress σ_xy = Σ/L³ (ε/σ³) "
                  "against strain for the first finished sample of the largest jamming ensemble;"
                  " red: steps flagged plastic."),

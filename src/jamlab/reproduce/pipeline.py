@@ -97,11 +97,13 @@ PARTS: dict[str, Part] = {
                          lambda r, s: (table.coordination_rows(r, s),
                                        table.coordination_data(r))),
     "theory": Part(lambda c: theory_checks(c.scale),
-                   lambda r, s: (table.theory_rows(r, s), table.theory_data(r))),
+                   lambda r, s: (table.theory_rows(r, s) + table.exponent_rows(r),
+                                 table.theory_data(r))),
 }
 """The analysis in independent parts, in report order of their rows."""
 
-FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory", "fig4": "trace",
+FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
+               "fig3_exact": "theory", "fig4": "trace",
                "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
                "theory_vs_cascade": "theory"}
 """Which part makes which figure."""
@@ -110,6 +112,7 @@ _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir),
     "fig2": lambda c: figures.fig2(c.scale, c.figdir),
     "fig3": lambda c: figures.fig3(c.figdir),
+    "fig3_exact": lambda c: figures.fig3_exact(c.figdir),
     "fig4": lambda c: figures.fig4(c.result("trace"), c.scale, c.figdir),
     "fig5": lambda c: figures.fig5(c.result("avalanches"), c.scale, c.figdir),
     "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir),

@@ -255,6 +255,28 @@ def theory_rows(th: TheoryChecks, scale: Scale) -> list[Row]:
     ]
 
 
+def exponent_rows(th: TheoryChecks) -> list[Row]:
+    """``τ = 2μ`` in the exact jump law (``docs/theory-vs-cascade.md`` §9): the median local
+    slope over the window, half its range over the window as the uncertainty."""
+    from jamlab.reproduce.theory_checks import EXPONENT_DGAMMA, EXPONENT_WINDOW
+
+    rows = []
+    for e in th.exponents:
+        half = 0.5 * (e.tau_exact_max - e.tau_exact_min)
+        rows.append(Row(
+            quantity=(f"τ of the exact jump law, μ = {e.mu:.6g}: −d log P/d log|ΔE| at "
+                      f"δγ = {EXPONENT_DGAMMA:g}, |ΔE|/δγ ∈ [{EXPONENT_WINDOW[0]:g}, "
+                      f"{EXPONENT_WINDOW[1]:g}] (median; ± half its range over the window)"),
+            reference_text=f"2μ = {2 * e.mu:.6f} (theory); printed formula {e.tau_printed:.4f}",
+            value=e.tau_exact, error=half,
+            value_text=f"{format_value(e.tau_exact, half)} (exact law, computed)",
+            samples="continuum exact law, q_max = 1 − 1e-5",
+            comparisons=(Comparison("2μ", 2 * e.mu),),
+            note="jamlab's exact law (not in the paper); μ = 1/2 has log corrections",
+        ))
+    return rows
+
+
 def theory_data(th: TheoryChecks) -> dict[str, Any]:
     """``theory``: every number of the checks."""
     return {"theory": asdict(th)}

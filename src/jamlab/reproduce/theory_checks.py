@@ -17,7 +17,50 @@ import numpy as np
 
 from jamlab.reproduce.scales import Scale
 
-__all__ = ["NoJumpPoint", "TheoryChecks", "printed_chi_one_level", "theory_checks"]
+__all__ = [
+    "ExponentCheck",
+    "NoJumpPoint",
+    "TheoryChecks",
+    "exponent_checks",
+    "printed_chi_one_level",
+    "theory_checks",
+]
+
+EXPONENT_DGAMMA = 1e-3
+"""``δγ`` of the exponent check (the exact law's local slope, docs/theory-vs-cascade.md §9)."""
+EXPONENT_WINDOW = (0.02, 0.15)
+"""``|ΔE|/δγ`` window where the local slope of ``P(ΔE|δγ)`` is read (inside SPEC §1's)."""
+EXPONENT_Q_MAX = 1.0 - 1e-5
+"""Cut-off of ``y(q) = (1 − q)^(−μ) − 1`` for the exact law (it needs one, docs §8)."""
+
+
+@dataclass(frozen=True)
+class ExponentCheck:
+    """``τ = −d log P/d log |ΔE|`` of the exact and printed laws for ``y = (1−q)^(−μ) − 1``
+    (``q_max = 1 − 1e-5``) at ``δγ = 1e-3``, read over ``|ΔE|/δγ ∈ [0.02, 0.15]``: the median
+    and the range of the local slope over the window, against ``2μ``."""
+
+    mu: float
+    tau_exact: float
+    tau_exact_min: float
+    tau_exact_max: float
+    tau_printed: float
+
+
+def exponent_checks(mus: tuple[float, ...]) -> tuple[ExponentCheck, ...]:
+    """One :class:`ExponentCheck` per ``μ`` (the exact continuum law, ``jamlab.theory``)."""
+    from jamlab.plots.theory import exact_jump_distribution_table
+
+    out = []
+    for mu in mus:
+        t = exact_jump_distribution_table(mu, [EXPONENT_DGAMMA], q_max=EXPONENT_Q_MAX,
+                                          n_points=60, ratios=EXPONENT_WINDOW)[EXPONENT_DGAMMA]
+        slope = -np.asarray(t["slope_exact"])
+        out.append(ExponentCheck(mu=float(mu), tau_exact=float(np.median(slope)),
+                                 tau_exact_min=float(slope.min()),
+                                 tau_exact_max=float(slope.max()),
+                                 tau_printed=float(np.median(-np.asarray(t["slope_printed"])))))
+    return tuple(out)
 
 LINEAR_Y = (2.5, 0.0, 0.9)
 """The Parisi function of the checks: ``y(q) = 2.5 q`` (``y_0 = 0``) cut at ``q_max = 0.9``."""
@@ -49,6 +92,7 @@ class TheoryChecks:
     k1_sampled: float
     k1_sampled_err: float
     k1_chi: float
+    exponents: tuple[ExponentCheck, ...] = ()
 
     def at(self, dgamma: float) -> NoJumpPoint:
         """The point at ``dgamma`` (one of the scale's ``cascade_dgammas``)."""
@@ -73,6 +117,7 @@ def theory_checks(scale: Scale) -> TheoryChecks:
         exact_jump_R,
         jump_distribution,
         jump_rate_first_order,
+        mu_jamming,
         one_level_R,
         sample_cascade_jumps,
     )
@@ -101,4 +146,5 @@ def theory_checks(scale: Scale) -> TheoryChecks:
         k1_sampled=float(p1),
         k1_sampled_err=float(se1),
         k1_chi=printed_chi_one_level(1.0, 0.5),
+        exponents=exponent_checks((mu_jamming(), 0.5)),
     )
