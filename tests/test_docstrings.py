@@ -20,6 +20,9 @@ ENTRY_POINTS = [
     "jamlab.reproduce.reproduce",
     "jamlab.spheres.packing.jam",
     "jamlab.spheres.packing.prepare",
+    "jamlab.theory.jumps.jump_distribution",
+    "jamlab.theory.cascade.sample_cascade_jumps",
+    "jamlab.runs.load.open_run",
 ]
 
 SECTIONS = ("Parameters", "Returns", "Examples")

@@ -64,7 +64,30 @@ def _plain(value: Any) -> Any:
 def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> xr.Dataset:
     """The traces of the run directory ``path`` as an :class:`xarray.Dataset` (module docstring).
 
-    ``fields`` restricts the per-step variables loaded (default: all of ``TRACE_FIELDS``).
+    Parameters
+    ----------
+    path : path
+        A run directory made by :func:`jamlab.runs.run_study` / ``jamlab run``.
+    fields : tuple of str, optional
+        The per-step variables to load (default: all of ``TRACE_FIELDS``).
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``(phi, N, sample, step)``; per-step variables (``gamma``, ``energy``, …,
+        NaN where a sample is not done), per-sample ``status`` (``done``, ``pending``,
+        ``failed``, ``corrupt``), ``seed`` and scalar attributes; the study in ``attrs``.
+
+    Examples
+    --------
+    >>> from jamlab.runs import Execution, Study, open_run, run_study
+    >>> study = Study(phi=[0.8], n=[32], samples=2, dgamma=1e-3, gamma_max=5e-3, seed=1)
+    >>> _ = run_study(study, "r", Execution(workers=0))
+    >>> ds = open_run("r")
+    >>> dict(ds.sizes)
+    {'phi': 1, 'N': 1, 'sample': 2, 'step': 6}
+    >>> ds["status"].values.ravel().tolist(), float(ds["gamma"][0, 0, 1, -1])
+    (['done', 'done'], 0.005)
     """
     run = RunDir(Path(path))
     manifest = run.read_manifest()

@@ -411,7 +411,33 @@ def _ret(x: FloatArray) -> FloatArray | float:
 
 
 def jump_distribution(y: ParisiFunction, dgamma: float) -> PrintedJumpDistribution:
-    """The paper's printed ``P(ΔE | δγ)`` for Parisi function ``y`` (see the module docstring)."""
+    """The paper's printed ``P(ΔE | δγ)`` for the Parisi function ``y`` (module docstring).
+
+    ``P(ΔE|δγ) = δ(ΔE) R(0) − θ(−ΔE) ∂R/∂ΔE`` with ``R = exp(−C)`` and
+    ``C = |δγ| ∫ dq y'(q) √(1−q) ρ((ΔE + δγ² Y(q))/(√(1−q)|δγ|))`` (``SPEC.md`` §1). Exact at
+    first order in ``δγ`` only: :func:`jamlab.theory.exact_jump_law` is the exact law.
+
+    Parameters
+    ----------
+    y : ParisiFunction
+        The Parisi function (``ParisiFunction.power_law``, ``.linear``, discretised, …).
+    dgamma : float
+        The strain step ``δγ`` (either sign; the law is even in it).
+
+    Returns
+    -------
+    PrintedJumpDistribution
+        A scipy-like law of ``ΔE ≤ 0``: ``R``, ``pdf``, ``cdf``, ``sf``, ``rvs``; ``R(0)`` is
+        the probability of no jump.
+
+    Examples
+    --------
+    >>> from jamlab.theory import ParisiFunction, jump_distribution
+    >>> y = ParisiFunction.linear(2.5, 0.0, 0.9)   # y = 2.5 q cut at q_max = 0.9
+    >>> P = jump_distribution(y, 0.1)
+    >>> round(float(P.R(0.0)), 4)                    # printed P(no jump)
+    0.9034
+    """
     return PrintedJumpDistribution(y, dgamma)
 
 
