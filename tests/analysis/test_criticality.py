@@ -252,7 +252,7 @@ def test_synthetic_sampler_has_the_stated_cdf():
 def test_fitter_covers_the_true_exponent(a, method, trials):
     """20 packings of 3000 samples, half in the power law; the cut-off leaves about one sample per
     packing below it (``x_c = (1/1500)^(1/(1+a))``, the ``N^(−1/(1+a))`` law); the window starts
-    where the packings hold 10 samples each and ends at 0.3. The 95 % interval must contain the
+    where the packings hold 5 samples each and ends at 0.3. The 95 % interval must contain the
     true exponent in at least 90 % of the trials."""
     m, packings = 3000, 20
     x_cut = float(finite_size_cutoff(m / 2, a))
@@ -261,7 +261,7 @@ def test_fitter_covers_the_true_exponent(a, method, trials):
     for trial in range(trials):
         rng = np.random.default_rng([19, trial])
         samples = [_synthetic(rng, m, a, x_cut) for _ in range(packings)]
-        window = choose_window(samples, WindowRule(per_packing=10, upper=0.3))
+        window = choose_window(samples, WindowRule(per_packing=5, upper=0.3))
         assert window[0] > x_cut
         fit = fit_exponent(samples, window, method=method, n_boot=100, seed=trial)
         values.append(fit.value)

@@ -58,6 +58,12 @@ __all__ = [
     "local_exponents",
     "choose_window",
     "finite_size_cutoff",
+    "DEFAULT_RULES",
+    "REFERENCE",
+    "criticality_samples",
+    "measure_exponents",
+    "counts",
+    "smallest_per_packing",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -619,3 +625,69 @@ def finite_size_cutoff(n: ArrayLike, exponent: float, prefactor: float = 1.0) ->
     if not exponent > -1:
         raise ValueError(f"exponent must be > -1, got {exponent!r}")
     return prefactor * np.asarray(n, dtype=np.float64) ** (-1.0 / (1.0 + exponent))
+
+
+# ------------------------------------------------------------------------------------------------
+# the three exponents of a set of packings
+
+DEFAULT_RULES: dict[str, WindowRule] = {
+    "theta_e": WindowRule(per_packing=5, upper=0.1),
+    "theta_l": WindowRule(per_packing=5, upper=0.05),
+    "gamma": WindowRule(per_packing=5, upper=1e-2),
+}
+"""The stated window rule (``docs/criticality.md``): the lower end is where the packings hold on
+average 5 samples each of that class (the finite-size cut-off is where they hold about one), the
+upper end the crossover to the bulk: ``f/⟨f⟩ = 0.1`` (extended), ``0.05`` (localized; their
+distribution turns over at smaller forces), ``h = 1e-2``."""
+
+REFERENCE = {"theta_e": THETA_E, "theta_l": THETA_L, "gamma": GAMMA}
+"""``SPEC.md`` §6 values."""
+
+
+def criticality_samples(observables: Sequence[PackingObservables]) -> dict[str, list[FloatArray]]:
+    """Per packing: extended and localized ``f/⟨f⟩`` and gaps ``h``, keyed ``theta_e``,
+    ``theta_l``, ``gamma``."""
+    return {
+        "theta_e": [o.extended_force for o in observables],
+        "theta_l": [o.localized_force for o in observables],
+        "gamma": [o.gap for o in observables],
+    }
+
+
+def measure_exponents(
+    observables: Sequence[PackingObservables],
+    rules: dict[str, WindowRule] | None = None,
+    windows: dict[str, tuple[float, float]] | None = None,
+    method: str = "cdf",
+    n_boot: int = 1000,
+    seed: int = 0,
+) -> dict[str, ExponentFit]:
+    """``θ_e``, ``θ_l`` and ``γ`` (sign flipped from the gap fit) pooled over ``observables``,
+    each on ``windows[name]`` if given, else on the window of ``rules[name]``
+    (:data:`DEFAULT_RULES`)."""
+    rules = DEFAULT_RULES if rules is None else rules
+    windows = {} if windows is None else windows
+    out: dict[str, ExponentFit] = {}
+    for name, samples in criticality_samples(observables).items():
+        window = windows.get(name) or choose_window(samples, rules[name])
+        fit = fit_exponent(samples, window, method=method, n_boot=n_boot, seed=seed)
+        out[name] = fit.negated() if name == "gamma" else fit
+    return out
+
+
+def counts(observables: Sequence[PackingObservables]) -> dict[str, int]:
+    """Packings, backbone contacts, extended and localized contacts, bucklers, gaps, rattlers."""
+    return {
+        "packings": len(observables),
+        "contacts": int(sum(o.n_contacts for o in observables)),
+        "extended_contacts": int(sum(int((~o.localized).sum()) for o in observables)),
+        "localized_contacts": int(sum(int(o.localized.sum()) for o in observables)),
+        "bucklers": int(sum(o.buckler_ids.size for o in observables)),
+        "gaps": int(sum(o.gap.size for o in observables)),
+        "rattlers": int(sum(o.n_rattlers for o in observables)),
+    }
+
+
+def smallest_per_packing(samples: Sequence[ArrayLike]) -> FloatArray:
+    """The smallest sample of each packing (the measured finite-size cut-off)."""
+    return np.array([float(np.min(s)) if np.size(s) else math.nan for s in samples])
