@@ -194,10 +194,10 @@ def main() -> None:
             "isostatic_excess": sorted({m["isostatic_excess"] for m in metas[n]}),
             "searches": sorted({m["search"] for m in metas[n]}),
             "force_resolution_max": max(m["ftol"] / m["mean_force"] for m in metas[n]),
-            "smallest_extended_force_mean": float(
-                np.mean(smallest_per_packing(samples["theta_e"]))
+            "smallest_extended_force_median": float(
+                np.median(smallest_per_packing(samples["theta_e"]))
             ),
-            "smallest_gap_mean": float(np.mean(smallest_per_packing(samples["gamma"]))),
+            "smallest_gap_median": float(np.median(smallest_per_packing(samples["gamma"]))),
             "rule_windows": {k: list(choose_window(samples[k], DEFAULT_RULES[k])) for k in samples}
             if len(obs) > 1
             else {},

@@ -168,7 +168,7 @@ def plot_finite_size(
     out: str | os.PathLike,
 ) -> None:
     """(a) ``θ_e``, ``θ_l``, ``γ`` on the rule's window against ``N`` with the reference values;
-    (b) the measured finite-size cut-offs (mean over packings of the smallest extended force and
+    (b) the measured finite-size cut-offs (median over packings of the smallest extended force and
     of the smallest gap) against ``N`` with ``N^(−1/(1+θ_e))`` and ``N^(−1/(1−γ))``."""
     plt = _plt()
     ns = np.array(sorted(groups))
@@ -197,9 +197,9 @@ def plot_finite_size(
         ("gamma", -REFERENCE["gamma"], "s"),
     ):
         mins = np.array(
-            [np.mean(smallest_per_packing(criticality_samples(groups[n])[name])) for n in ns]
+            [np.median(smallest_per_packing(criticality_samples(groups[n])[name])) for n in ns]
         )
-        ax2.loglog(ns, mins, marker, label=f"mean smallest {_X[name]}")
+        ax2.loglog(ns, mins, marker, label=f"median over packings of the smallest {_X[name]}")
         pred = finite_size_cutoff(ns, a_ref)
         ax2.loglog(ns, pred * mins[-1] / pred[-1], "k--", lw=1)
     ax2.set_xlabel("N")
