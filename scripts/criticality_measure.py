@@ -261,7 +261,38 @@ def main() -> None:
                 for k, f in t[kind].items()
             )
             print(f"  {kind:5s} {line}")
+    print(markdown(results))
     print(f"wrote {args.results} and {args.figures}/criticality_*.png")
+
+
+def _cell(f: dict, window: bool = True) -> str:
+    if "value" not in f:
+        return "–"
+    lo, hi = f["ci95"]
+    text = f"{f['value']:.3f} [{lo:.3f}, {hi:.3f}]"
+    if window:
+        text += f" on [{f['window'][0]:.2g}, {f['window'][1]:.2g}]"
+    return text
+
+
+def markdown(results: dict) -> str:
+    """The table of docs/criticality.md."""
+    lines = [
+        "| N | packings, backbone contacts (localized), gaps | exponent | rule window, `cdf` | "
+        "`plain` | `mle` | fixed window, `cdf` | reference |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for n, t in results["by_n"].items():
+        c = t["counts"]
+        what = f"{c['packings']}, {c['contacts']} ({c['localized_contacts']}), {c['gaps']}"
+        for k, name in enumerate(("theta_e", "theta_l", "gamma")):
+            lines.append(
+                f"| {n if k == 0 else ''} | {what if k == 0 else ''} | {name} | "
+                f"{_cell(t['rule'][name])} | {_cell(t['plain'][name], False)} | "
+                f"{_cell(t['mle'][name], False)} | {_cell(t['fixed'][name], False)} | "
+                f"{results['reference'][name]} |"
+            )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
