@@ -160,6 +160,46 @@ def precision_check(data: Path, k: int, n_boot: int) -> dict:
     return {"packings": rows, "fixed_window_fits": fits}
 
 
+def gap_diagnostics(data: Path, n: int, limit: int, n_boot: int) -> dict:
+    """γ on the fixed window for: backbone gaps (the definition), all pairs with rattlers,
+    rattler pairs only, backbone pairs without a buckler, and packings split at p = 8e-8."""
+    paths = sorted(
+        glob.glob(str(data / f"n{n}" / f"jam_n{n}_s*.h5")),
+        key=lambda p: int(Path(p).stem.split("_s")[-1]),
+    )[:limit]
+    sets: dict[str, list] = {
+        k: []
+        for k in (
+            "backbone",
+            "with_rattlers",
+            "rattler_pairs",
+            "no_buckler_pairs",
+            "p_below_8e-8",
+            "p_above_8e-8",
+        )
+    }
+    for path in paths:
+        with h5py.File(path, "r") as h5:
+            pressure = float(h5.attrs["pressure"])
+        pk = read_packing(path)
+        o = packing_observables(pk.positions, pk.box.length, pk.strain)
+        w = packing_observables(pk.positions, pk.box.length, pk.strain, include_rattlers=True)
+        buck = np.zeros(o.n, dtype=bool)
+        buck[o.buckler_ids] = True
+        sets["backbone"].append(o.gap)
+        sets["with_rattlers"].append(w.gap)
+        sets["rattler_pairs"].append(w.gap[~(o.backbone[w.gap_i] & o.backbone[w.gap_j])])
+        sets["no_buckler_pairs"].append(o.gap[~(buck[o.gap_i] | buck[o.gap_j])])
+        sets["p_below_8e-8" if pressure < 8e-8 else "p_above_8e-8"].append(o.gap)
+    out = {}
+    for key, samples in sets.items():
+        if len(samples) < 2:
+            continue
+        f = fit_exponent(samples, FIXED["gamma"], n_boot=n_boot).negated()
+        out[key] = f.as_dict()
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("/work/data/criticality"))
@@ -231,6 +271,9 @@ def main() -> None:
     plot_distributions(groups, rule_main, args.figures / "criticality_distributions.png")
     plot_local_exponents(local, rule_main, args.figures / "criticality_local_exponents.png")
     plot_finite_size(groups, fits_by_n, args.figures / "criticality_finite_size.png")
+    results["gap_diagnostics"] = {
+        str(n): gap_diagnostics(args.data, n, sizes[n], args.n_boot) for n in groups
+    }
     if args.precision:
         results["precision"] = precision_check(args.data, args.precision, args.n_boot)
     results["reference"] = REFERENCE
@@ -261,6 +304,11 @@ def main() -> None:
                 for k, f in t[kind].items()
             )
             print(f"  {kind:5s} {line}")
+    for n, diag in results["gap_diagnostics"].items():
+        print(
+            f"N={n} gamma on {FIXED['gamma']}: "
+            + "  ".join(f"{k}={_cell(f, False)}" for k, f in diag.items())
+        )
     print(markdown(results))
     print(f"wrote {args.results} and {args.figures}/criticality_*.png")
 
