@@ -47,7 +47,6 @@ __all__ = [
     "THETA_E",
     "THETA_L",
     "GAMMA",
-    "pair_diameters",
     "pairs_within",
     "pair_force",
     "backbone_mask",
@@ -102,12 +101,6 @@ def _diameters(diameters: ArrayLike | None, n: int) -> FloatArray:
     if not (np.all(np.isfinite(dia)) and np.all(dia > 0)):
         raise ValueError("diameters must be finite and > 0")
     return dia
-
-
-def pair_diameters(i: ArrayLike, j: ArrayLike, diameters: ArrayLike | None, n: int) -> FloatArray:
-    """``σ_ij = (D_i + D_j)/2`` of the pairs ``(i, j)`` (``D = 1`` if ``diameters`` is None)."""
-    dia = _diameters(diameters, n)
-    return 0.5 * (dia[np.asarray(i)] + dia[np.asarray(j)])
 
 
 def _check_positions(positions: ArrayLike, box_length: float) -> FloatArray:
@@ -436,6 +429,7 @@ def _window_cdf_exponent(counts: FloatArray, log_x: FloatArray) -> float:
         model = np.expm1(u * t) / math.expm1(u * span)
         return float(np.sum((emp - model) ** 2))
 
+    # 1 + a in [1e-3, 6]: every exponent a density can have near 0 (a > −1) up to a steep 5
     res = minimize_scalar(loss, bounds=(1e-3, 6.0), method="bounded", options={"xatol": 1e-7})
     return float(res.x) - 1.0
 
