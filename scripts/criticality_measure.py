@@ -310,6 +310,7 @@ def main() -> None:
             + "  ".join(f"{k}={_cell(f, False)}" for k, f in diag.items())
         )
     print(markdown(results))
+    print(markdown_local(results))
     print(f"wrote {args.results} and {args.figures}/criticality_*.png")
 
 
@@ -321,6 +322,28 @@ def _cell(f: dict, window: bool = True) -> str:
     if window:
         text += f" on [{f['window'][0]:.2g}, {f['window'][1]:.2g}]"
     return text
+
+
+def markdown_local(results: dict) -> str:
+    """The local-exponent tables of docs/criticality.md (θ and γ, ± half the 95 % interval)."""
+    out = []
+    for names in (("theta_e", "theta_l"), ("gamma",)):
+        cols = [(name, n) for name in names for n in results["local"][name]]
+        sign = {name: -1.0 if name == "gamma" else 1.0 for name in names}
+        rows: dict[float, list[str]] = {}
+        for k, (name, n) in enumerate(cols):
+            d = results["local"][name][n]
+            for lo, v, a, b in zip(d["lo"], d["value"], d["ci_low"], d["ci_high"], strict=True):
+                if v is None or not math.isfinite(v):
+                    continue
+                cell = f"{sign[name] * v:.2f} ± {abs(b - a) / 2:.2f}"
+                rows.setdefault(round(lo, 12), [""] * len(cols))[k] = cell
+        out.append("| window | " + " | ".join(f"{a} N = {n}" for a, n in cols) + " |")
+        out.append("|---" * (len(cols) + 1) + "|")
+        for lo in sorted(rows):
+            out.append(f"| [{lo:.0e}, {lo * 10:.0e}] | " + " | ".join(rows[lo]) + " |")
+        out.append("")
+    return "\n".join(out)
 
 
 def markdown(results: dict) -> str:
