@@ -1,0 +1,236 @@
+"""``jamlab criticality``: contact forces, gaps, bucklers and ``θ_e``, ``θ_l``, ``γ`` of packings.
+
+A thin face over :mod:`jamlab.analysis.criticality` and :mod:`jamlab.plots.criticality`; rules and
+measured numbers in ``docs/criticality.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+SUMMARY = "criticality.json"
+FIGURES = ("distributions.png", "local_exponents.png", "finite_size.png")
+
+
+def _window(text: str | None, option: str) -> tuple[float, float] | None:
+    if text is None or text.strip().lower() == "auto":
+        return None
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"{option} must be 'auto' or 'LO,HI', got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise ValueError(f"{option} must satisfy 0 < LO < HI, got {text!r}")
+    return lo, hi
+
+
+def analyse(
+    paths: list[Path],
+    h_max: float = 0.5,
+    alpha: float = 2.0,
+    method: str = "cdf",
+    n_boot: int = 1000,
+    seed: int = 0,
+    windows: dict[str, tuple[float, float]] | None = None,
+    out: Path | None = None,
+) -> dict[str, object]:
+    """Read the packings, measure, optionally draw the figures into ``out``; the summary dict
+    (the ``--json`` output)."""
+    import h5py
+    import numpy as np
+
+    from jamlab.analysis.criticality import (
+        DEFAULT_RULES,
+        REFERENCE,
+        counts,
+        criticality_samples,
+        local_exponents,
+        measure_exponents,
+        packing_observables,
+    )
+    from jamlab.spheres.io import read_packing
+
+    observables, warnings, resolution, pressures = [], [], [], []
+    for path in paths:
+        packing = read_packing(path)
+        with h5py.File(path, "r") as h5:
+            diameters = h5["diameters"][()] if "diameters" in h5 else None
+            ok = bool(h5.attrs.get("ok", True))
+            ftol = float(h5.attrs.get("param_ftol", math.nan))
+            pressures.append(float(h5.attrs.get("pressure", math.nan)))
+        if not ok:
+            warnings.append(f"{path} is flagged ok=False")
+        obs = packing_observables(
+            packing.positions, packing.box.length, packing.strain, diameters, alpha, h_max
+        )
+        if obs.n_contacts == 0:
+            raise ValueError(f"{path}: no backbone (not jammed)")
+        observables.append(obs)
+        resolution.append(ftol / obs.mean_force)
+    groups: dict[int, list] = {}
+    for obs in observables:
+        groups.setdefault(obs.n, []).append(obs)
+
+    def measure(obs_list):
+        return measure_exponents(obs_list, DEFAULT_RULES, windows, method, n_boot, seed)
+
+    fits = measure(observables)
+    fits_by_n = {n: measure(g) for n, g in groups.items()} if len(groups) > 1 else {}
+    theta_e, gamma = fits["theta_e"].value, fits["gamma"].value
+    summary: dict[str, object] = {name: fit.as_dict() for name, fit in fits.items()}
+    summary.update(
+        counts=counts(observables),
+        n=sorted(groups),
+        dim=sorted({o.dim for o in observables}),
+        pressure_range=[float(np.nanmin(pressures)), float(np.nanmax(pressures))],
+        isostatic_excess=sorted({o.isostatic_excess for o in observables}),
+        force_resolution=float(np.nanmax(resolution)) if np.isfinite(resolution).any() else None,
+        tau_j_from_theta_e=(3 + theta_e) / (2 + theta_e),
+        tau_j_from_gamma=1 + gamma,
+        reference=dict(REFERENCE),
+        window_rule={k: [r.per_packing, r.upper] for k, r in DEFAULT_RULES.items()},
+        method=method,
+        h_max=h_max,
+        alpha=alpha,
+        warnings=warnings,
+    )
+    if fits_by_n:
+        summary["by_n"] = {
+            str(n): {name: f.as_dict() for name, f in fs.items()} | {"counts": counts(groups[n])}
+            for n, fs in sorted(fits_by_n.items())
+        }
+    if out is not None:
+        from jamlab.plots.criticality import (
+            plot_distributions,
+            plot_finite_size,
+            plot_local_exponents,
+        )
+
+        spans = {"theta_e": (1e-4, 1.0), "theta_l": (1e-4, 1.0), "gamma": (1e-7, 1e-1)}
+        local = {
+            name: {
+                n: local_exponents(
+                    criticality_samples(g)[name], *spans[name], method=method, n_boot=200
+                )
+                for n, g in groups.items()
+            }
+            for name in spans
+        }
+        summary["local"] = {
+            name: {
+                str(n): {
+                    "lo": le.lo.tolist(),
+                    "hi": le.hi.tolist(),
+                    "value": [None if math.isnan(v) else v for v in le.value.tolist()],
+                    "ci95_low": [None if math.isnan(v) else v for v in le.ci_low.tolist()],
+                    "ci95_high": [None if math.isnan(v) else v for v in le.ci_high.tolist()],
+                    "n_in_window": le.n_in_window.tolist(),
+                }
+                for n, le in by_n.items()
+            }
+            for name, by_n in local.items()
+        }
+        plot_distributions(groups, fits, out / FIGURES[0])
+        plot_local_exponents(local, fits, out / FIGURES[1])
+        plot_finite_size(groups, fits_by_n or {next(iter(groups)): fits}, out / FIGURES[2])
+    return summary
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``criticality``."""
+
+    @app.command(
+        "criticality",
+        help="Contact forces, gaps, bucklers and the exponents theta_e, theta_l, gamma of jammed "
+        "packings (pooled, bootstrap over packings), with figures.",
+    )
+    def criticality_command(
+        packings: Annotated[
+            list[Path], typer.Argument(help="Packings (HDF5, e.g. from jamlab prepare).")
+        ],
+        out: Annotated[Path, typer.Option("--out", help="Output directory (figures, summary).")],
+        as_json: Annotated[
+            bool, typer.Option("--json", help="Print the summary as JSON on stdout.")
+        ] = False,
+        h_max: Annotated[float, typer.Option("--h-max", help="Largest gap h kept.")] = 0.5,
+        alpha: Annotated[float, typer.Option("--alpha", help="Pair exponent α.")] = 2.0,
+        method: Annotated[
+            str, typer.Option("--method", help="Fit: 'cdf' (window CDF), 'plain' or 'mle'.")
+        ] = "cdf",
+        n_boot: Annotated[int, typer.Option("--n-boot", help="Bootstrap resamples.")] = 1000,
+        seed: Annotated[int, typer.Option("--seed", help="Bootstrap seed.")] = 0,
+        window_theta_e: Annotated[
+            str, typer.Option("--window-theta-e", help="'auto' (the rule) or 'LO,HI' in f/<f>.")
+        ] = "auto",
+        window_theta_l: Annotated[
+            str, typer.Option("--window-theta-l", help="'auto' or 'LO,HI' in f/<f>.")
+        ] = "auto",
+        window_gamma: Annotated[
+            str, typer.Option("--window-gamma", help="'auto' or 'LO,HI' in h.")
+        ] = "auto",
+        overwrite: Annotated[
+            bool, typer.Option("--overwrite", help="Replace an existing summary in --out.")
+        ] = False,
+    ) -> None:
+        from jamlab._atomic import atomic_write
+
+        if method not in ("cdf", "plain", "mle"):
+            raise ValueError(f"--method must be cdf, plain or mle, got {method!r}")
+        if not (math.isfinite(h_max) and 0 < h_max):
+            raise ValueError(f"--h-max must be > 0, got {h_max}")
+        if not (math.isfinite(alpha) and alpha > 1):
+            raise ValueError(f"--alpha must be > 1, got {alpha}")
+        if n_boot < 2:
+            raise ValueError(f"--n-boot must be >= 2, got {n_boot}")
+        windows = {
+            k: w
+            for k, w in (
+                ("theta_e", _window(window_theta_e, "--window-theta-e")),
+                ("theta_l", _window(window_theta_l, "--window-theta-l")),
+                ("gamma", _window(window_gamma, "--window-gamma")),
+            )
+            if w is not None
+        }
+        for p in packings:
+            if not p.is_file():
+                raise FileNotFoundError(f"no such packing file: {p}")
+        if out.exists() and not out.is_dir():
+            raise FileExistsError(f"--out {out} exists and is not a directory")
+        if (out / SUMMARY).exists() and not overwrite:
+            raise FileExistsError(f"{out / SUMMARY} exists (use --overwrite to replace it)")
+        resolved = {p.resolve() for p in packings}
+        if any((out / f).resolve() in resolved for f in (SUMMARY, *FIGURES)):
+            raise ValueError("--out would overwrite an input packing")
+        out.mkdir(parents=True, exist_ok=True)
+        summary = analyse(packings, h_max, alpha, method, n_boot, seed, windows, out)
+        text = json.dumps(summary, indent=1)
+        atomic_write(out / SUMMARY, lambda tmp: Path(tmp).write_text(text + "\n"))
+        for w in summary["warnings"]:  # type: ignore[union-attr]
+            typer.echo(f"jamlab: warning: {w}", err=True)
+        if as_json:
+            brief = {k: summary[k] for k in ("theta_e", "theta_l", "gamma", "counts")}
+            brief |= {k: summary[k] for k in summary if k not in brief and k != "local"}
+            typer.echo(json.dumps(brief, indent=1))
+            return
+        c = summary["counts"]
+        typer.echo(
+            f"{c['packings']} packings (N={summary['n']}), {c['contacts']} backbone contacts "
+            f"({c['localized_contacts']} localized), {c['gaps']} gaps <= {h_max}"
+        )
+        for name in ("theta_e", "theta_l", "gamma"):
+            f = summary[name]
+            ref = summary["reference"][name]  # type: ignore[index]
+            typer.echo(
+                f"{name} = {f['value']:.4f}  95% [{f['ci95'][0]:.4f}, {f['ci95'][1]:.4f}]  "
+                f"window [{f['window'][0]:.3g}, {f['window'][1]:.3g}]  (reference {ref})"
+            )
+        typer.echo(
+            f"tau_J = (3+theta_e)/(2+theta_e) = {summary['tau_j_from_theta_e']:.4f}, "
+            f"1+gamma = {summary['tau_j_from_gamma']:.4f}"
+        )
+        typer.echo(f"wrote {out / SUMMARY} and {', '.join(FIGURES)}")

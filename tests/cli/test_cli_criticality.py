@@ -1,0 +1,90 @@
+"""``jamlab criticality``: summary, counts, figures, exit codes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cli_helpers import jamlab, one_line_error
+from jamlab.cli import main
+from jamlab.spheres.io import write_packing
+from jamlab.spheres.packing import jam
+from jamlab.spheres.potential import remove_rattlers
+
+
+def run(args: list[str]) -> int:
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    return int(exc.value.code)
+
+
+@pytest.fixture(scope="module")
+def packings(tmp_path_factory):
+    root = tmp_path_factory.mktemp("crit")
+    paths, states = [], []
+    for seed, n in ((1, 128), (2, 128), (3, 128), (4, 160), (5, 160)):
+        res = jam(n, 3, seed, p_target=1e-6)
+        assert res.ok
+        path = root / f"p{seed}.h5"
+        write_packing(path, res.packing, **res.attrs())
+        paths.append(path)
+        states.append(remove_rattlers(res.packing))
+    return paths, states
+
+
+WINDOWS = ["--window-theta-e", "0.02,0.5", "--window-theta-l", "0.02,0.5"]
+WINDOWS += ["--window-gamma", "1e-4,0.1", "--n-boot", "50"]
+
+
+def test_summary_counts_and_figures(packings, tmp_path, capsys):
+    paths, states = packings
+    out = tmp_path / "crit"
+    assert run(["criticality", *map(str, paths), "--out", str(out), "--json", *WINDOWS]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    for name in ("theta_e", "theta_l", "gamma"):
+        fit = summary[name]
+        assert set(fit) >= {"value", "ci95", "window"}
+        assert fit["ci95"][0] <= fit["value"] <= fit["ci95"][1]
+    assert summary["theta_e"]["window"] == [0.02, 0.5]
+    # counts against the engine's own rattler removal (an independent implementation)
+    c = summary["counts"]
+    assert c["packings"] == 5
+    assert c["contacts"] == sum(s.n_contacts_nr for s in states)
+    assert c["rattlers"] == sum(s.n_rattlers for s in states)
+    assert c["extended_contacts"] + c["localized_contacts"] == c["contacts"]
+    assert summary["isostatic_excess"] == [0]
+    assert summary["n"] == [128, 160] and set(summary["by_n"]) == {"128", "160"}
+    assert summary["tau_j_from_gamma"] == pytest.approx(1 + summary["gamma"]["value"])
+    # forces resolved: ftol 1e-12 against a mean force ~1e-6
+    assert 0 < summary["force_resolution"] < 1e-4
+    on_disk = json.loads((out / "criticality.json").read_text())
+    assert on_disk["theta_e"] == summary["theta_e"]
+    for fig in ("distributions.png", "local_exponents.png", "finite_size.png"):
+        assert (out / fig).stat().st_size > 1000
+    # a second run does not replace the summary unless asked
+    again = jamlab("criticality", *paths, "--out", out, *WINDOWS)
+    assert "exists" in one_line_error(again)
+    assert run(["criticality", *map(str, paths), "--out", str(out), "--overwrite", *WINDOWS]) == 0
+    assert np.isfinite(json.loads((out / "criticality.json").read_text())["gamma"]["value"])
+
+
+def test_user_errors(packings, tmp_path):
+    paths, _ = packings
+    out = tmp_path / "o"
+    assert "no such packing" in one_line_error(
+        jamlab("criticality", tmp_path / "missing.h5", "--out", out)
+    )
+    assert "--window-gamma" in one_line_error(
+        jamlab("criticality", paths[0], "--out", out, "--window-gamma", "0.1")
+    )
+    assert "--method" in one_line_error(
+        jamlab("criticality", paths[0], "--out", out, "--method", "ols")
+    )
+    not_h5 = tmp_path / "x.h5"
+    not_h5.write_text("hello")
+    assert "HDF5" in one_line_error(jamlab("criticality", not_h5, "--out", out, *WINDOWS))
+    # the automatic window needs statistics: one small packing has none for the localized forces
+    err = one_line_error(jamlab("criticality", paths[0], "--out", tmp_path / "p", "--n-boot", "5"))
+    assert "window" in err
