@@ -32,7 +32,7 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
 def analyse(
     paths: list[Path],
     h_max: float = 0.5,
-    alpha: float = 2.0,
+    alpha: float | None = None,
     method: str = "cdf",
     n_boot: int = 1000,
     seed: int = 0,
@@ -55,18 +55,22 @@ def analyse(
     )
     from jamlab.spheres.io import read_packing
 
-    observables, warnings, resolution, pressures = [], [], [], []
+    observables, warnings, resolution, pressures, alphas = [], [], [], [], []
     for path in paths:
         packing = read_packing(path)
         with h5py.File(path, "r") as h5:
-            diameters = h5["diameters"][()] if "diameters" in h5 else None
             ok = bool(h5.attrs.get("ok", True))
             ftol = float(h5.attrs.get("param_ftol", math.nan))
             pressures.append(float(h5.attrs.get("pressure", math.nan)))
         if not ok:
             warnings.append(f"{path} is flagged ok=False")
+        if alpha is not None and alpha != packing.alpha:
+            raise ValueError(f"--alpha {alpha} differs from the pair exponent of {path} "
+                             f"({packing.alpha})")
+        alphas.append(float(packing.alpha))
         obs = packing_observables(
-            packing.positions, packing.box.length, packing.strain, diameters, alpha, h_max
+            packing.positions, packing.box.length, packing.strain, packing.diameters,
+            packing.alpha, h_max,
         )
         if obs.n_contacts == 0:
             raise ValueError(f"{path}: no backbone (not jammed)")
@@ -96,7 +100,7 @@ def analyse(
         window_rule={k: [r.per_packing, r.upper] for k, r in DEFAULT_RULES.items()},
         method=method,
         h_max=h_max,
-        alpha=alpha,
+        alpha=sorted({o_alpha for o_alpha in alphas}),
         warnings=warnings,
     )
     if fits_by_n:
@@ -158,7 +162,10 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option("--json", help="Print the summary as JSON on stdout.")
         ] = False,
         h_max: Annotated[float, typer.Option("--h-max", help="Largest gap h kept.")] = 0.5,
-        alpha: Annotated[float, typer.Option("--alpha", help="Pair exponent α.")] = 2.0,
+        alpha: Annotated[
+            float | None,
+            typer.Option("--alpha", help="Pair exponent α (default: the packings' own)."),
+        ] = None,
         method: Annotated[
             str, typer.Option("--method", help="Fit: 'cdf' (window CDF), 'plain' or 'mle'.")
         ] = "cdf",
@@ -177,13 +184,13 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option("--overwrite", help="Replace an existing summary in --out.")
         ] = False,
     ) -> None:
-        from jamlab._atomic import atomic_write
+        from jamlab.files import atomic_write
 
         if method not in ("cdf", "plain", "mle"):
             raise ValueError(f"--method must be cdf, plain or mle, got {method!r}")
         if not (math.isfinite(h_max) and 0 < h_max):
             raise ValueError(f"--h-max must be > 0, got {h_max}")
-        if not (math.isfinite(alpha) and alpha > 1):
+        if alpha is not None and not (math.isfinite(alpha) and alpha > 1):
             raise ValueError(f"--alpha must be > 1, got {alpha}")
         if n_boot < 2:
             raise ValueError(f"--n-boot must be >= 2, got {n_boot}")
