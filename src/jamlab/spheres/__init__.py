@@ -92,3 +92,9 @@ __all__ += [
     "jam",
     "prepare",
 ]
+
+# ``import jamlab.spheres.packing`` above loads the submodule ``jamlab.spheres.coordination``,
+# which the import system binds as the package attribute ``coordination``, hiding the function
+# of the same name imported from ``contacts``; bind the function again (a later import of the
+# already loaded submodule does not rebind it).
+from jamlab.spheres.contacts import coordination  # noqa: E402, F811
