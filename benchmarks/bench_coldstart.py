@@ -27,6 +27,7 @@ Run: ``python benchmarks/bench_coldstart.py [--src src] [--compare-src /work/wt-
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import resource
 import shutil
@@ -42,14 +43,17 @@ LAUNCH = "import sys; from jamlab.cli import main; sys.argv[0] = 'jamlab'; main(
 
 
 def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
-    """Run ``cmd``; return (wall, user + sys CPU of the child) in seconds; raise on failure."""
+    """Run ``cmd``; return (wall, user + sys CPU of the child) in seconds; NaN if it failed
+    (its last line of stderr is printed: a tree where a command is broken is still timed)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr}")
+        last = (proc.stderr.strip().splitlines() or ["?"])[-1]
+        print(f"FAILED ({proc.returncode}): {' '.join(cmd[3:])}: {last}", file=sys.stderr)
+        return math.nan, math.nan
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu
 
@@ -89,7 +93,7 @@ class Tree:
         self.record("cold prepare", self.jamlab(*prepare, "--out", str(config)))
         self.record("cold shear", self.jamlab("shear", str(config), *shear, "--out", str(trace)))
         for path in (config, trace):
-            path.unlink()
+            path.unlink(missing_ok=True)
         self.record("warm prepare", self.jamlab(*prepare, "--out", str(config)))
         self.record("warm shear", self.jamlab("shear", str(config), *shear, "--out", str(trace)))
         self.record("warm --help", self.jamlab("--help"))
@@ -101,8 +105,11 @@ class Tree:
 
 
 def summary(values: list[tuple[float, float]]) -> str:
-    walls = [w for w, _ in values]
-    cpus = [c for _, c in values]
+    ok = [v for v in values if not math.isnan(v[1])]
+    if not ok:
+        return "failed"
+    walls = [w for w, _ in ok]
+    cpus = [c for _, c in ok]
     return (
         f"{min(walls):6.2f} {statistics.median(walls):6.2f}  "
         f"{min(cpus):6.2f} {statistics.median(cpus):6.2f}"
@@ -139,8 +146,8 @@ def main() -> None:
                      "warm shear", "warm --help", "warm inspect"):
             row = f"{name:20s}" + "".join(f"| {summary(t.times[name]):33s}" for t in trees)
             if len(trees) == 2:
-                a = min(c for _, c in trees[0].times[name])
-                b = min(c for _, c in trees[1].times[name])
+                a = min((c for _, c in trees[0].times[name]), key=lambda c: (math.isnan(c), c))
+                b = min((c for _, c in trees[1].times[name]), key=lambda c: (math.isnan(c), c))
                 row += f"| cpu ratio {a / b:5.1f}x"
             print(row)
         print("targets: cold prepare+shear <= 5 s (moonshot 2 s); warm --help, inspect <= 0.5 s")
