@@ -15,7 +15,9 @@ Each is repeated ``--repeat`` times (cold: the cache is emptied before every rep
 the trees are run alternately (``A B A B …``; the machine is shared, so alternating spreads a
 disturbance over both). Printed: best and median wall time, and best and median CPU time
 (user + system of the child, from ``resource.getrusage(RUSAGE_CHILDREN)``), which a loaded
-machine inflates less than wall time. Asserts nothing about time.
+machine inflates less than wall time. Asserts nothing about time. Python byte-code is not
+written (nothing is written into the trees): byte-compile a tree you have edited first
+(``python -m compileall -q src``), or its start-up includes recompiling the edited modules.
 
 The targets of issue 16: cold prepare + shear ≤ 5 s in total (moonshot 2 s), warm ``--help`` and
 ``inspect`` ≤ 0.5 s.
@@ -71,7 +73,7 @@ class Tree:
             os.environ,
             PYTHONPATH=str(src),
             NUMBA_CACHE_DIR=str(self.cache),
-            PYTHONDONTWRITEBYTECODE="0",
+            PYTHONDONTWRITEBYTECODE="1",  # never write into the trees
         )
         self.times: dict[str, list[tuple[float, float]]] = {}
 
