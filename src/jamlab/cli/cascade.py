@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
 import typer
 
 
@@ -37,6 +36,8 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Sample jumps of the k-level cascade (SPEC §2) at strain δγ; histogram |ΔE| (log bins)
         beside the printed theory and the exact recursion; print p_no_jump sampled vs theory."""
+        import numpy as np
+
         from jamlab import validation
         from jamlab.files import check_outputs
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure

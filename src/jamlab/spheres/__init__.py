@@ -70,25 +70,38 @@ __all__ = [
     "write_packing",
 ]
 
-# AQS shear and its trace (issue 6)
-from jamlab.spheres.aqs import ShearResult, shear  # noqa: E402
-from jamlab.spheres.trace import Trace, read_trace, write_trace  # noqa: E402
+# AQS shear and its trace (issue 6), packings: imported on first use (PEP 562), so that a command
+# that needs neither (``jamlab inspect``) does not import SciPy's sparse solvers
+_LAZY = {
+    "ShearResult": "jamlab.spheres.aqs",
+    "shear": "jamlab.spheres.aqs",
+    "Trace": "jamlab.spheres.trace",
+    "read_trace": "jamlab.spheres.trace",
+    "write_trace": "jamlab.spheres.trace",
+    "JammingError": "jamlab.spheres.packing",
+    "PreparedPacking": "jamlab.spheres.packing",
+    "compress_to": "jamlab.spheres.packing",
+    "coordination_curve": "jamlab.spheres.packing",
+    "jam": "jamlab.spheres.packing",
+    "prepare": "jamlab.spheres.packing",
+}
+__all__ += list(_LAZY)
 
-__all__ += ["ShearResult", "Trace", "read_trace", "shear", "write_trace"]
-from jamlab.spheres.packing import (  # noqa: E402
-    JammingError,
-    PreparedPacking,
-    compress_to,
-    coordination_curve,
-    jam,
-    prepare,
-)
 
-__all__ += [
-    "JammingError",
-    "PreparedPacking",
-    "compress_to",
-    "coordination_curve",
-    "jam",
-    "prepare",
-]
+def __getattr__(name: str):
+    import importlib
+
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    try:  # a submodule not imported yet (``jamlab.spheres.aqs``, ...)
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -19,14 +19,17 @@ closer than the cut-off; see :mod:`jamlab.spheres.box`. Contacts and rattlers:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse
 
 from jamlab.spheres import kernels as K
 from jamlab.spheres.contacts import RattlerResult, contacts, coordination, remove_rattlers
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList, list_positions, spatial_order
 from jamlab.spheres.state import Packing, affine_shear, random_packing
+
+if TYPE_CHECKING:
+    import scipy.sparse
 
 __all__ = [
     "Packing",
@@ -147,6 +150,8 @@ def hessian(packing: Packing, neighbors: NeighborList | None = None) -> scipy.sp
 
     Pair block ``B = V''(r) n nᵀ + (V'(r)/r)(1 − n nᵀ)``: ``H_ii = Σ_j B_ij``, ``H_ij = −B_ij``.
     """
+    import scipy.sparse  # here, not at the top: SciPy's import costs every command's start-up
+
     ci, cj, cd = contacts(packing, neighbors)
     rows, cols, vals = K.hessian_coo(ci, cj, cd, *packing.kernel_law)
     size = packing.n * packing.dim

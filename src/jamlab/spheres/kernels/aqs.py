@@ -84,6 +84,39 @@ def backbone_hessian_csr(ci, cj, cd, diam, alpha, free_index, n_free):
 
 
 @njit(cache=True)
+def sort_by_key(keys, values):
+    """In place: sort ``keys`` ascending (heapsort) and permute ``values`` alongside.
+
+    The keys must be distinct (then the order is unique and equals ``np.argsort``'s). Written out
+    because ``np.argsort`` in numba compiles its generic quicksort (~1.5 s on first use).
+    """
+    n = keys.size
+    # build a max-heap, then move the maximum to the end n - 1 times
+    for root in range(n // 2 - 1, -1, -1):
+        _sift_down(keys, values, root, n)
+    for end in range(n - 1, 0, -1):
+        keys[0], keys[end] = keys[end], keys[0]
+        values[0], values[end] = values[end], values[0]
+        _sift_down(keys, values, 0, end)
+
+
+@njit(cache=True)
+def _sift_down(keys, values, root, end):
+    """Restore the max-heap property below ``root`` in ``keys[:end]``."""
+    while True:
+        child = 2 * root + 1
+        if child >= end:
+            return
+        if child + 1 < end and keys[child + 1] > keys[child]:
+            child += 1
+        if keys[root] >= keys[child]:
+            return
+        keys[root], keys[child] = keys[child], keys[root]
+        values[root], values[child] = values[child], values[root]
+        root = child
+
+
+@njit(cache=True)
 def contact_changes(keys0, row0, ci, cj, n):
     """Contacts that closed and opened since a reference list.
 
@@ -115,10 +148,13 @@ def contact_changes(keys0, row0, ci, cj, n):
             new_pos[k] = p
             new_keys[k] = key
             k += 1
-    order = np.argsort(new_keys[:k])
-    closed = new_keys[:k][order]
-    where = new_pos[:k][order]
-    n_open = m0 - np.count_nonzero(seen)
+    closed = new_keys[:k].copy()
+    where = new_pos[:k].copy()
+    sort_by_key(closed, where)
+    n_open = m0
+    for q in range(m0):
+        if seen[q]:
+            n_open -= 1
     opened = np.empty(n_open, np.int64)
     k = 0
     for q in range(m0):

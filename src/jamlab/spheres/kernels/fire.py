@@ -157,7 +157,11 @@ def fire(
         if need:
             wrap_positions(pos, L, gamma)
             start, nbr, shift, img_y = build_neighbor_list(pos, L, gamma, rc)
-            ref[:, :] = pos
+            # an explicit copy: the array-to-array slice assignment ``ref[:, :] = pos`` would
+            # compile numba's broadcasting machinery (~3 s on first use, see bench_coldstart)
+            for i in range(n):
+                for a in range(d):
+                    ref[i, a] = pos[i, a]
             n_rebuild += 1
             half_budget2 = 0.25 * skin * skin
         e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f)
