@@ -16,6 +16,7 @@ from jamlab import validation
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
+from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.aqs.steps import Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
@@ -112,6 +113,11 @@ def shear(
             res = minimize(cur, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             cur, start_iterations = res.packing, res.iterations
             row, backbone = observe(cur, nl)
+        # a saddle is not a minimum to start from (saddle.py); its factorisation is the stepper's
+        cur, row, backbone, start_factor, descent_iterations, made = descend(
+            cur, row, backbone, nl, ftol, params.max_fire_iter, fire_params
+        )
+        start_iterations += descent_iterations
         append_row(rows, cur.strain, row, start_iterations, False)
         first = 1
     else:
@@ -149,7 +155,7 @@ def shear(
         "n_fallback": 0,
         "n_substepped": 0,
         "n_cleanup": 0,
-        "n_factorisations": 1,
+        "n_factorisations": 1 if previous is not None else made,
         "n_lean": 0,
     }
     if previous is not None:
@@ -177,7 +183,7 @@ def shear(
         prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
         stepper = Stepper(
             cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params,
-            counters,
+            counters, fac=start_factor,
         )  # fmt: skip
     else:
         cur, nl, stepper = restart(cur)
