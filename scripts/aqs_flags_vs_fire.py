@@ -89,8 +89,8 @@ def compare(n: int, seed: int, gamma_max: float) -> dict:
         "same_minimum": int(same_a.sum()),
         "flags_differ_same_minimum": steps_idx[same_a & (fast_a != fire_a)].tolist(),
         "different_minima": [
-            (int(s), bool(f), bool(g)) for s, f, g in zip(steps_idx[~same_a], fast_a[~same_a],
-                                                          fire_a[~same_a], strict=True)
+            (int(s), bool(f), bool(g))
+            for s, f, g in zip(steps_idx[~same_a], fast_a[~same_a], fire_a[~same_a], strict=True)
         ],  # fmt: skip
         "seconds": time.perf_counter() - t0,
     }
@@ -103,8 +103,10 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
     results = []
-    print("| N | seed | steps | plastic fast | plastic FIRE | same minimum | flags differ there "
-          "| different minima (step: fast/FIRE flag) |")
+    print(
+        "| N | seed | steps | plastic fast | plastic FIRE | same minimum | flags differ there "
+        "| different minima (step: fast/FIRE flag) |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for n, seed in SAMPLES[: args.samples]:
         r = compare(n, seed, args.gamma_max)
