@@ -2,8 +2,9 @@
 
 Franz & Spigler, "Mean-field avalanches in jammed spheres" (``/work/shared/paper``), the SPEC's
 numbers derived from it (``SPEC.md`` §1) and O'Hern et al., Phys. Rev. E 68, 011306 (2003).
-These are numbers to compare against, never inputs of a computation. The theory's own constants
-(``θ``, ``μ_J``, ``τ_J``) are defined in :mod:`jamlab.theory.exponents`, not here.
+These are numbers to compare against, and the one number the theory takes from the literature:
+``θ`` (:data:`THETA_JAMMING`), from which :mod:`jamlab.theory.exponents` derives ``μ_J``,
+``τ_J``, ``κ`` and :mod:`jamlab.analysis.criticality` its reference exponents.
 
 This module imports nothing, so every layer (theory, analysis, the report) may use it.
 """
@@ -11,6 +12,8 @@ This module imports nothing, so every layer (theory, analysis, the report) may u
 from __future__ import annotations
 
 __all__ = [
+    "THETA_JAMMING",
+    "THETA_LOCALIZED_3D",
     "COORDINATION_EXPONENTS",
     "K1_EXACT_SPEC",
     "K1_PAPER_CHI",
@@ -23,6 +26,11 @@ __all__ = [
     "PAPER_TAU_J_DIGITS",
     "PRINTED_NO_JUMP_SPEC",
 ]
+
+THETA_JAMMING = 0.42311
+"""The small-force exponent ``θ`` (``θ_e``) at jamming (``SPEC.md`` §1, §6; the paper)."""
+THETA_LOCALIZED_3D = 0.17
+"""The localized small-force exponent ``θ_l`` in 3D, approximate (``SPEC.md`` §6)."""
 
 PAPER_TAU: dict[str, tuple[float, float]] = {
     "jamming": (1.52, 0.075),

@@ -464,8 +464,8 @@ def test_python_api_shear_uses_the_validation_layer(good):
 def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path):
     """SIGKILL of `shear --save-every 3` at random moments (8 trials): whenever a trace exists,
     `--resume` succeeds, gives all 61 rows, and the rows written before the kill are bit for bit
-    those of the uninterrupted run. (Equality of the rows after the split is the AQS fast path's
-    business: issue 15, not this branch; see /work/briefs/patch-15-aqs.md.)"""
+    those of the uninterrupted run. (Equality of the whole file after the resume:
+    tests/cli/test_cli_resume.py.)"""
     args = ("--dgamma", "1e-3", "--gamma-max", "0.06", "--save-every", "3")
     ref = tmp_path / "ref.h5"
     start = time.perf_counter()

@@ -54,6 +54,25 @@ def check_resume(
         )
 
 
+def resume_save_every(previous: Any, save_every: int | None) -> int | None:
+    """The ``--save-every`` of a resumed run: the one the trace was made with (attribute
+    ``save_every``, 0 for none; older traces have none and take any). Its save points are the
+    run's restart points (docs/aqs.md), so continuing with another would make the resumed run
+    differ from the uninterrupted one while the attributes claimed one value for all of it."""
+    recorded = previous.attrs.get("save_every")
+    if recorded is None:
+        return save_every
+    recorded = int(recorded)
+    if save_every is None:
+        return recorded or None
+    if save_every != recorded:
+        raise ValueError(
+            f"--save-every {save_every} differs from the run being resumed "
+            f"({recorded or 'none'}); omit it to keep the run's"
+        )
+    return save_every
+
+
 def resume_configuration(out: Path, previous: Any) -> Any:
     """The saved configuration at the strain of the trace's last row: the one stored in the
     trace file itself (written with it by one rename), else ``<stem>.last.h5`` or, if the run was
@@ -164,6 +183,7 @@ def register(app: typer.Typer) -> None:
             previous = read_trace(out)
             packing = read_packing(config)
             check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
+            save_every = resume_save_every(previous, save_every)
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")
             )

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-THETA_JAMMING = 0.42311
+from jamlab.paper import THETA_JAMMING as THETA_JAMMING  # θ, written once (jamlab.paper)
 
 
 def _check_theta(theta: float) -> float:

@@ -16,6 +16,7 @@ from jamlab import validation
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
+from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.aqs.steps import Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
@@ -112,6 +113,11 @@ def shear(
             res = minimize(cur, ftol, params.max_fire_iter, fire_params, neighbors=nl)
             cur, start_iterations = res.packing, res.iterations
             row, backbone = observe(cur, nl)
+        # a saddle is not a minimum to start from (saddle.py); its factorisation is the stepper's
+        cur, row, backbone, start_factor, descent_iterations, made = descend(
+            cur, row, backbone, nl, ftol, params.max_fire_iter, fire_params
+        )
+        start_iterations += descent_iterations
         append_row(rows, cur.strain, row, start_iterations, False)
         first = 1
     else:
@@ -124,7 +130,6 @@ def shear(
         for k in ROW_KEYS:
             rows[k] = list(getattr(previous, k))
         cur = packing
-        _, backbone = observe(cur, nl)
         first = previous.n_steps + 1
     if first > total:
         raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
@@ -144,22 +149,44 @@ def shear(
         "seed": int(-1 if packing.seed is None else packing.seed),
         "jamlab_version": jamlab_version(),
         "source": "" if source is None else str(source),
+        "save_every": int(0 if save_every is None else save_every),
     }
     counters = {
         "n_fallback": 0,
         "n_substepped": 0,
         "n_cleanup": 0,
-        "n_factorisations": 1,
+        "n_factorisations": 1 if previous is not None else made,
         "n_lean": 0,
     }
     if previous is not None:
         # a resumed trace is one run: its counters cover every step, not only the resumed ones
         for key in counters:
             counters[key] += int(previous.attrs.get(key, 0))
-    prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
-    stepper = Stepper(
-        cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params, counters
-    )
+
+    def restart(cur: Packing) -> tuple[Packing, NeighborList, Stepper]:
+        # the solver state (neighbour list, factorisation, predictor, contact flags) derived
+        # from the configuration and the last row alone, as a resumed run derives it
+        cur = Packing(
+            np.array(cur.positions), cur.box, seed=cur.seed, diameters=cur.diameters,
+            alpha=cur.alpha,
+        )  # fmt: skip
+        nl = NeighborList(cur)
+        _, backbone = observe(cur, nl)
+        prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
+        stepper = Stepper(
+            cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params,
+            counters,
+        )  # fmt: skip
+        return cur, nl, stepper
+
+    if previous is None:
+        prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
+        stepper = Stepper(
+            cur, backbone, prev, nl, dgamma, ftol, minimizer, classify, params, fire_params,
+            counters, fac=start_factor,
+        )  # fmt: skip
+    else:
+        cur, nl, stepper = restart(cur)
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -171,6 +198,10 @@ def shear(
             progress(n, total)
         if out is not None and save_every is not None and n % save_every == 0 and n < total:
             save_checkpoint(out, rows, attrs, counters, cur, n, snapshot=True)
+            # a restart point: from here on the run is what `--resume` from this checkpoint
+            # computes, bit for bit (docs/aqs.md, "Checkpoints and resume")
+            counters["n_factorisations"] += 1
+            cur, nl, stepper = restart(cur)
     elapsed = time.perf_counter() - t0
     trace = make_trace(rows, attrs, counters)
     if out is not None:

@@ -25,11 +25,12 @@ import numpy as np
 from jamlab.spheres.aqs.classify import same_minimum
 from jamlab.spheres.aqs.continuation import Branch, continue_network
 from jamlab.spheres.aqs.lean import consistent_flags, lean_step
-from jamlab.spheres.aqs.linalg import factorise
+from jamlab.spheres.aqs.linalg import Factor, factorise
 from jamlab.spheres.aqs.network import affine_to, contact_keys
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.predictor import BranchPath, Secants
 from jamlab.spheres.aqs.record import observe
+from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
 
@@ -73,17 +74,20 @@ class Stepper:
         params: AQSParameters,
         fire_params: FireParameters,
         counters: dict[str, int],
+        fac: Factor | None = None,
     ) -> None:
         self.nl, self.dgamma, self.ftol = nl, dgamma, ftol
         self.linear, self.classify = minimizer == "linear", classify
         self.params, self.fire_params, self.counters = params, fire_params, counters
         self.backbone = backbone
-        self.fac = factorise(cur, nl, backbone)
+        # (``fac``: the caller's factorisation of ``cur``, e.g. from the saddle test)
+        self.fac = factorise(cur, nl, backbone) if fac is None else fac
         self.age = 0
         self.predictor: np.ndarray | None = None
         self.path = BranchPath(params.path_depth, params.path_degree, params.path_floor)
         self.secants = Secants(params.secant_depth) if params.secant_depth else None
         self.prev = prev
+        self.checked: tuple[Packing, object] | None = None  # (minimum, its factor) from settle
         self.keys = contact_keys(cur, nl) if self.linear else None
         self.flags, self.flags_build = (
             consistent_flags(cur, nl, self.fac, params) if self.linear else (None, -1)
@@ -201,16 +205,30 @@ class Stepper:
         relax forces left on rattlers (the continuation holds them where the affine step put
         them; ``n_cleanup``)."""
         new, iterations = step.packing, step.iterations
+        self.checked = None
         if step.observed is not None and step.observed[0] is new:
             row, backbone = step.observed[1], step.observed[2]
         else:
             row, backbone = observe(new, self.nl)
-        if not row["max_force"] >= self.ftol:
-            return new, row, backbone, iterations, False
-        self.counters["n_cleanup"] += 1
-        new, fire_iterations = self.fire(new)
-        row, backbone = observe(new, self.nl)
-        return new, row, backbone, iterations + fire_iterations, True
+        cleaned = False
+        if row["max_force"] >= self.ftol:
+            self.counters["n_cleanup"] += 1
+            new, fire_iterations = self.fire(new)
+            row, backbone = observe(new, self.nl)
+            iterations += fire_iterations
+            cleaned = True
+        if step.plastic:
+            # FIRE took the step from the affine start: it may have stopped on a saddle
+            # (saddle.py); the factorisation of the minimum, which tests it, is the next
+            # step's (advance)
+            new, row, backbone, fac, fire_iterations, made = descend(
+                new, row, backbone, self.nl, self.ftol, self.params.max_fire_iter,
+                self.fire_params,
+            )  # fmt: skip
+            self.counters["n_factorisations"] += made
+            iterations += fire_iterations
+            self.checked = (new, fac)
+        return new, row, backbone, iterations, cleaned
 
     def advance(
         self,
@@ -258,7 +276,9 @@ class Stepper:
             or self.age >= params.refactor_every
             or (branch is not None and branch.cg_iterations > params.stale_cg)
         )
-        if stale and not last:
+        if stale and self.checked is not None and self.checked[0] is new:
+            self.fac, self.age = self.checked[1], 0  # made by settle at this minimum
+        elif stale and not last:
             # the previous preconditioner is useless after an avalanche, and the regular
             # refactorisation re-checks positive definiteness exactly (LDLᵀ pivots)
             self.fac = factorise(new, nl, backbone)
