@@ -19,7 +19,8 @@ from test_report import parse_html  # noqa: E402  (tests/ is on sys.path via roo
 pytestmark = pytest.mark.slow  # one tiny reproduction, ~20-40 s on one core
 
 SCALE = SCALES["tiny"]
-FIGURES = ("fig1", "fig2", "fig3", "fig4", "fig5", "fig6", "fig7", "theory_vs_cascade")
+FIGURES = ("fig1", "fig2", "fig3", "fig3_exact", "fig4", "fig5", "fig6", "fig7",
+           "theory_vs_cascade")
 
 
 @pytest.fixture(scope="module")

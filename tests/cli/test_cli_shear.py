@@ -39,7 +39,9 @@ def test_shear_writes_the_documented_trace(start, tmp_path):
     )
     assert r.returncode == 0, r.stderr
     with h5py.File(out) as h5:
-        assert set(h5.keys()) == set(TRACE_COLUMNS)
+        # the columns, and the last configuration stored with them (the checkpoint pair)
+        assert set(h5.keys()) == set(TRACE_COLUMNS) | {"configuration"}
+        assert h5["configuration/positions"].shape == (packing.n, packing.dim)
         assert all(h5[k].shape == (11,) for k in TRACE_COLUMNS)
         for key in (
             "dgamma",
