@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests.spheres.spheres_brute import brute_force, image_shifts, pair_terms
 
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import checkpoint_paths, shear
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.trace import read_trace
-from tests.spheres.spheres_brute import brute_force, image_shifts, pair_terms
 
 
 def wrap(pos: np.ndarray, L: float, gamma: float) -> np.ndarray:
