@@ -64,9 +64,16 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--dgamma", type=float, default=1e-4)
     ap.add_argument("--out-dir", default="avalanche_anatomy")
+    ap.add_argument(
+        "--report-only", action="store_true", help="Only print the report of OUT_DIR/events.npz."
+    )
     args = ap.parse_args()
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if args.report_only:
+        with np.load(out / "events.npz") as f:
+            report({k: f[k] for k in f.files}, args)
+        return
     rows = {
         k: []
         for k in (
@@ -112,6 +119,8 @@ def main() -> None:
                     ("jammed", jam_ok),
                 ):
                     rows[key].extend(list(val))
+                # saved after every run: a run cut short still has its finished samples
+                np.savez(out / "events.npz", **{k: np.asarray(v) for k, v in rows.items()})
                 for i in np.flatnonzero(jam_ok):
                     cls = "localized" if av["localized"][i] else "extended"
                     if cls not in best or S[i] > best[cls][0]:

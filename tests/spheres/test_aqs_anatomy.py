@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.spheres.spheres_brute import brute_force, image_shifts, pair_terms
+from spheres_brute import brute_force, image_shifts, pair_terms
 
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import checkpoint_paths, shear
@@ -133,3 +133,22 @@ def test_hook_sees_every_step_and_records_equal_in_memory(run):
     shear(packing, 1e-3, n_steps=5, after_step=lambda b, a, s: seen.append((b.strain, a.strain)))
     assert [round(g1 - g0, 12) for g0, g1 in seen] == [1e-3] * 5
     assert seen[0][0] == pytest.approx(packing.strain) and seen[-1][1] == pytest.approx(5e-3)
+
+
+def test_cli_keep_avalanches_writes_the_same_group(run, tmp_path):
+    from cli_helpers import jamlab
+    from jamlab.spheres.io import write_packing
+
+    packing = sp.prepare(64, 3, 0.8, seed=3).packing
+    cfg = tmp_path / "start.h5"
+    write_packing(cfg, packing)
+    out = tmp_path / "cli.h5"
+    r = jamlab(
+        "shear", cfg, "--dgamma", "2e-3", "--gamma-max", "0.12", "--out", out, "--keep-avalanches"
+    )
+    assert r.returncode == 0, r.stderr
+    got = read_trace(out).avalanches
+    ref = run[1].avalanches
+    for key in ("step", "n_opened", "n_closed", "moved_offsets", "moved_index"):
+        np.testing.assert_array_equal(got[key], ref[key])
+    np.testing.assert_allclose(got["participation"], ref["participation"], rtol=1e-9)
