@@ -18,6 +18,10 @@ minimum after the ``n``-th strain step ``γ_{n-1} → γ_n``. Columns (``SPEC.md
 
 So row ``n`` of ``energy_jump``/``stress_jump``/``plastic`` describes the step ``n−1 → n`` (the
 paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``os.replace``).
+
+Optional group ``avalanches`` (``shear(..., keep_avalanches=True)``, :attr:`Trace.avalanches`):
+one row per plastic step with its anatomy and the displacement field in CSR form
+(``docs/formats.md``, :mod:`jamlab.spheres.aqs.anatomy`).
 """
 
 from __future__ import annotations
