@@ -119,3 +119,20 @@ def test_event_anatomy_and_moved_particles():
     idx, vec = moved_particles(an.u, 0.1)
     np.testing.assert_array_equal(idx, [1])
     np.testing.assert_allclose(vec, [[0.0, 0.0, 0.4]], atol=1e-15)
+
+
+def test_avalanche_figure_draws_the_scaled_field(tmp_path):
+    from matplotlib.quiver import Quiver
+
+    from jamlab.plots.anatomy import avalanche_figure
+
+    rng = np.random.default_rng(2)
+    pos = rng.uniform(0, 4.0, (20, 3))
+    u = rng.normal(size=(20, 3)) * 1e-2
+    fig = avalanche_figure(pos, u, 4.0, tmp_path / "a.png", axes=(0, 2))
+    (q,) = [c for c in fig.axes[0].get_children() if isinstance(c, Quiver)]
+    scale = 0.5 / np.sqrt((u**2).sum(axis=1)).max()
+    # arrows drawn in increasing |u| order; the set of (U, V) is the projected, scaled field
+    got = sorted(zip(q.U, q.V, strict=True))
+    np.testing.assert_allclose(got, sorted(zip(scale * u[:, 0], scale * u[:, 2], strict=True)))
+    assert (tmp_path / "a.png").stat().st_size > 0

@@ -23,10 +23,11 @@ def avalanche_figure(
     axes: tuple[int, int] = (0, 1),
     title: str = "",
 ) -> plt.Figure:
-    """Particles (projected on ``axes``, default the shear plane ``x``–``y``) as faint discs of
-    their diameter and the displacements ``u`` as arrows, scaled so that the largest is half a
-    mean diameter long (the factor is in the legend); arrow colour ``|u|`` on a log scale.
-    ``positions`` are drawn modulo ``L`` in each projected axis (a projection: nothing is cut)."""
+    """One avalanche: particles projected on ``axes`` (default the shear plane ``x``–``y``; in
+    2D faint discs of their diameter, in higher dimensions dots at their centres) and the
+    displacements ``u`` as arrows, scaled so that the largest is half a mean diameter long (the
+    factor is in the title); arrow colour ``log10 |u|``. Positions are drawn modulo ``L`` in
+    each projected axis (a projection: nothing is cut)."""
     pos = np.asarray(positions, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     a, b = axes
@@ -37,19 +38,22 @@ def avalanche_figure(
     umax = float(mag.max()) if mag.size and mag.max() > 0 else 1.0
     scale = 0.5 * float(np.mean(diam)) / umax
     fig, ax = plt.subplots(figsize=(6, 6))
-    ax.add_collection(
-        EllipseCollection(
-            diam,
-            diam,
-            np.zeros_like(diam),
-            units="xy",
-            offsets=xy,
-            transOffset=ax.transData,
-            facecolors="0.85",
-            edgecolors="0.6",
-            linewidths=0.3,
+    if pos.shape[1] == 2:
+        ax.add_collection(
+            EllipseCollection(
+                diam,
+                diam,
+                np.zeros_like(diam),
+                units="xy",
+                offsets=xy,
+                transOffset=ax.transData,
+                facecolors="0.85",
+                edgecolors="0.6",
+                linewidths=0.3,
+            )
         )
-    )
+    else:  # discs of a projection hide one another: centres only
+        ax.scatter(xy[:, 0], xy[:, 1], s=6, c="0.6", linewidths=0)
     order = np.argsort(mag)
     colours = np.log10(np.maximum(mag[order], umax * 1e-4))
     q = ax.quiver(
