@@ -151,7 +151,13 @@ def report(a, args) -> None:
     bins = np.logspace(-12, 0, 13)
     for state in args.states:
         m = ok & (a["state"] == state)
-        print(f"\n== {state}: {int(m.sum())} avalanches (jammed steps) ==")
+        st = a["state"] == state
+        jm = st & a["jammed"].astype(bool)
+        print(
+            f"\n== {state}: {int(st.sum())} plastic steps, {int(jm.sum())} between jammed minima, "
+            f"of which {int((jm & (a['S'] <= 0)).sum())} with S <= 0 (dropped): "
+            f"{int(m.sum())} avalanches =="
+        )
         classes = {
             "localized": m & a["localized"].astype(bool),
             "extended": m & ~a["localized"].astype(bool),
@@ -162,11 +168,14 @@ def report(a, args) -> None:
             h, _ = np.histogram(a["S"][c], bins=bins)
             print(f"  {name:24s} " + " ".join(f"{v:5d}" for v in h))
         tot_n, tot_s = max(int(m.sum()), 1), max(float(a["S"][m].sum()), 1e-300)
-        print("class                     fraction of events   fraction of total S   median PR·N")
+        print("class                  events  fraction  fraction of S  med PR·N  med opened+closed")
         for name, c in classes.items():
             med = float(np.median(a["n_eff"][c])) if c.any() else float("nan")
+            nch = a["n_opened"][c] + a["n_closed"][c]
+            mch = float(np.median(nch)) if c.any() else float("nan")
             print(
-                f"  {name:24s} {c.sum() / tot_n:10.3f} {a['S'][c].sum() / tot_s:20.3f} {med:16.1f}"
+                f"  {name:22s} {int(c.sum()):6d} {c.sum() / tot_n:9.3f} "
+                f"{a['S'][c].sum() / tot_s:14.3f} {med:9.1f} {mch:9.0f}"
             )
         print("N     events   <S>         S_c=<S^2>/<S>   <S>/N       median PR·N")
         for n in args.sizes:
