@@ -151,6 +151,20 @@ def register(app: typer.Typer) -> None:
         plot: Annotated[
             Path | None, typer.Option("--plot", help="Also draw E and Σ against γ (PNG/PDF).")
         ] = None,
+        keep_avalanches: Annotated[
+            bool,
+            typer.Option(
+                "--keep-avalanches",
+                help="Record the anatomy of every plastic step (trace group 'avalanches').",
+            ),
+        ] = False,
+        avalanche_threshold: Annotated[
+            float,
+            typer.Option(
+                "--avalanche-threshold",
+                help="Keep the displacements |u| above this (units of the mean diameter).",
+            ),
+        ] = 1e-3,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -161,6 +175,7 @@ def register(app: typer.Typer) -> None:
         if minimizer not in ("linear", "fire"):
             raise ValueError(f"--minimizer must be 'linear' or 'fire', got {minimizer!r}")
         validation.positive("--ftol", ftol)
+        validation.positive("--avalanche-threshold", avalanche_threshold)
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -203,6 +218,8 @@ def register(app: typer.Typer) -> None:
             out=out,
             previous=previous,
             source=str(config),
+            keep_avalanches=keep_avalanches,
+            avalanche_threshold=avalanche_threshold,
         )
         tr = result.trace
         typer.echo(

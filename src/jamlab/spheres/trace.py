@@ -18,6 +18,10 @@ minimum after the ``n``-th strain step ``γ_{n-1} → γ_n``. Columns (``SPEC.md
 
 So row ``n`` of ``energy_jump``/``stress_jump``/``plastic`` describes the step ``n−1 → n`` (the
 paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``os.replace``).
+
+Optional group ``avalanches`` (``shear(..., keep_avalanches=True)``, :attr:`Trace.avalanches`):
+one row per plastic step with its anatomy and the displacement field in CSR form
+(``docs/formats.md``, :mod:`jamlab.spheres.aqs.anatomy`).
 """
 
 from __future__ import annotations
@@ -74,6 +78,7 @@ class Trace:
     stress_jump: np.ndarray
     plastic: np.ndarray
     attrs: dict = field(default_factory=dict)
+    avalanches: dict | None = None
 
     def __post_init__(self) -> None:
         n = None
@@ -90,6 +95,14 @@ class Trace:
         if n == 0:
             raise ValueError("a trace needs at least row 0 (the starting minimum)")
         object.__setattr__(self, "attrs", dict(self.attrs))
+        if self.avalanches is not None:
+            object.__setattr__(self, "avalanches", dict(self.avalanches))
+
+    def with_avalanches(self, avalanches: dict | None) -> Trace:
+        """The same trace with the group ``avalanches`` (``shear(..., keep_avalanches=True)``;
+        ``docs/formats.md``): 1-D datasets of one row per plastic step, the CSR displacement
+        field, and an ``attrs`` dict."""
+        return Trace(**self.columns(), attrs=self.attrs, avalanches=avalanches)
 
     @property
     def n_steps(self) -> int:
@@ -123,7 +136,7 @@ class Trace:
         return {name: getattr(self, name) for name in TRACE_COLUMNS}
 
     def head(self, rows: int) -> Trace:
-        """The first ``rows`` rows."""
+        """The first ``rows`` rows (without the ``avalanches`` group)."""
         return Trace(**{k: v[:rows] for k, v in self.columns().items()}, attrs=self.attrs)
 
 
@@ -161,6 +174,14 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
             group.attrs["strain"] = float(configuration.box.strain)
             group.attrs["seed"] = int(-1 if configuration.seed is None else configuration.seed)
             group.attrs["step"] = int(trace.n_steps)
+        if trace.avalanches is not None:
+            group = h5.create_group("avalanches")
+            for key, value in trace.avalanches.items():
+                if key == "attrs":
+                    for name, v in value.items():
+                        group.attrs[name] = _attr_value(v)
+                else:
+                    group.create_dataset(key, data=np.asarray(value))
         for key, value in trace.attrs.items():
             h5.attrs[key] = _attr_value(value)
         h5.attrs["format"] = FORMAT
@@ -225,7 +246,14 @@ def read_trace(path: str | os.PathLike) -> Trace:
             elif isinstance(value, np.generic):
                 value = value.item()
             attrs[key] = value
+        avalanches = None
+        group = h5.get("avalanches")
+        if isinstance(group, h5py.Group):
+            avalanches = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
+            avalanches["attrs"] = {
+                k: (v.item() if isinstance(v, np.generic) else v) for k, v in group.attrs.items()
+            }
     try:
-        return Trace(**cols, attrs=attrs)
+        return Trace(**cols, attrs=attrs, avalanches=avalanches)
     except ValueError as exc:
         raise ValueError(f"invalid AQS trace {path}: {exc}") from None

@@ -13,14 +13,15 @@ from pathlib import Path
 import numpy as np
 
 from jamlab import validation
+from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD, AvalancheRecorder
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
 from jamlab.spheres.aqs.saddle import descend
-from jamlab.spheres.aqs.steps import Stepper
+from jamlab.spheres.aqs.steps import Step, Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
-from jamlab.spheres.trace import Trace
+from jamlab.spheres.trace import Trace, write_trace
 
 __all__ = ["MINIMIZERS", "ShearResult", "checkpoint_paths", "n_steps_for", "shear"]
 
@@ -69,6 +70,9 @@ def shear(
     previous: Trace | None = None,
     source: str | None = None,
     progress: Callable[[int, int], None] | None = None,
+    after_step: Callable[[Packing, Packing, Step], None] | None = None,
+    keep_avalanches: bool = False,
+    avalanche_threshold: float | None = None,
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
@@ -81,6 +85,13 @@ def shear(
     ``out``: trace file to write (atomically) at the end and every ``save_every`` steps, together
     with the configuration (:func:`checkpoint_paths`). ``previous``: a trace to continue (resume);
     ``packing`` must then be the configuration at ``previous.gamma[-1]``.
+
+    ``after_step(previous minimum, new minimum, step)``: called after every strain step (``step``
+    a :class:`~jamlab.spheres.aqs.steps.Step`, ``step.plastic`` its verdict).
+    ``keep_avalanches``: the trace gets the group ``avalanches`` (one row per plastic step, the
+    anatomy of :mod:`jamlab.spheres.aqs.anatomy`; displacements above ``avalanche_threshold``,
+    default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with the final
+    trace, not with the intermediate checkpoints.
     """
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
@@ -187,11 +198,23 @@ def shear(
         )  # fmt: skip
     else:
         cur, nl, stepper = restart(cur)
+    hooks = [] if after_step is None else [after_step]
+    recorder = None
+    if keep_avalanches:
+        recorder = AvalancheRecorder(
+            first,
+            MOVED_THRESHOLD if avalanche_threshold is None else avalanche_threshold,
+            previous=None if previous is None else previous.avalanches,
+        )
+        hooks.append(recorder)
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
         step = stepper.take(cur, target)
+        before = cur
         cur, row, backbone, iterations, cleaned = stepper.settle(step)
+        for hook in hooks:
+            hook(before, cur, step)
         append_row(rows, target, row, iterations, step.plastic)
         stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total)
         if progress is not None:
@@ -204,8 +227,14 @@ def shear(
             cur, nl, stepper = restart(cur)
     elapsed = time.perf_counter() - t0
     trace = make_trace(rows, attrs, counters)
+    if recorder is not None:
+        trace = trace.with_avalanches(
+            recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
+        )
     if out is not None:
         save_checkpoint(out, rows, attrs, counters, cur, total, snapshot=save_every is not None)
+        if recorder is not None:
+            write_trace(out, trace, configuration=cur)  # the same pair, with the avalanches
     return ShearResult(
         trace=trace,
         packing=cur,

@@ -1,0 +1,221 @@
+"""Avalanche anatomy: what a plastic AQS step did to the configuration (pure functions on arrays).
+
+Given the minima before and after a step (positions, box side ``L``, strains ``γ_b`` and
+``γ_a``), the contact lists ``(i, j)`` of both, their backbone masks (rattlers removed) and,
+optionally, the buckler mask before the step:
+
+- the **non-affine displacement field** of the event, ``u_i = x_i^a − (x_i^b + (γ_a − γ_b) y_i^b
+  e_x)`` reduced by the Lees–Edwards minimum image at ``γ_a`` (:func:`nonaffine_displacements`);
+- the **participation ratio** ``PR = (Σ|u_i|²)² / (N Σ|u_i|⁴)`` (``1`` when every particle
+  moves the same amount, ``1/N`` when one particle moves), and ``N_eff = PR·N``;
+- the **largest displacement** ``max_i |u_i|``;
+- the contacts **opened** (in the list before, not after) and **closed** (after, not before);
+- whether it **involves only bucklers/rattlers** (:func:`only_bucklers_rattlers`);
+- a **localized/extended** class (:func:`is_localized`).
+
+**Rules.** *Buckler* (``SPEC.md`` §6): a backbone particle with exactly ``d + 1`` contacts with
+backbone particles (:func:`buckler_mask`). *Only bucklers/rattlers*: at least one contact changed,
+and every contact that opened or closed has an end that is a rattler (before or after the step)
+or a buckler of the minimum before the step — a buckler flipping its weak contact, or a rattler
+falling into or out of the cage, changes no contact between two ordinary backbone particles.
+*Localized*: ``N_eff = PR·N ≤ n_eff_max`` (default :data:`N_EFF_LOCALIZED` = 10 particles). An
+event with an elastic (Eshelby-like) far field ``|u| ∝ r^(1−d)`` has ``Σ|u|²`` and ``Σ|u|⁴``
+dominated by the core, so its ``N_eff`` stays of order the core size whatever ``N``; an extended
+(system-spanning) rearrangement has ``N_eff ∝ N``.
+
+The analysis package never imports ``jamlab.spheres``: the Lees–Edwards minimum image is written
+here (:func:`lees_edwards_minimum_image`, the rule of ``jamlab.spheres.box.Box.minimum_image``;
+``tests/analysis/test_anatomy.py`` checks the two agree).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "N_EFF_LOCALIZED",
+    "EventAnatomy",
+    "buckler_mask",
+    "contact_changes",
+    "event_anatomy",
+    "is_localized",
+    "lees_edwards_minimum_image",
+    "moved_particles",
+    "nonaffine_displacements",
+    "only_bucklers_rattlers",
+    "participation_ratio",
+]
+
+N_EFF_LOCALIZED = 10.0
+"""Default ``n_eff_max`` of :func:`is_localized`: an event with ``PR·N ≤ 10`` is localized."""
+
+
+def lees_edwards_minimum_image(dr: ArrayLike, length: float, strain: float) -> NDArray[np.float64]:
+    """Minimum-image vectors ``(..., d)`` in a cube of side ``length`` with Lees–Edwards strain
+    ``strain`` (flow ``x`` = axis 0, gradient ``y`` = axis 1): first ``n_y = round(Δy/L)``,
+    ``Δx −= n_y γ' L`` (``γ' = γ − round(γ)``), ``Δy −= n_y L``; then ``Δ_a −= round(Δ_a/L) L`` on
+    every other axis."""
+    dr = np.array(dr, dtype=np.float64, copy=True)
+    L = float(length)
+    reduced = strain - np.floor(strain + 0.5)
+    ny = np.floor(dr[..., 1] / L + 0.5)
+    dr[..., 0] -= ny * reduced * L
+    dr[..., 1] -= ny * L
+    for a in range(dr.shape[-1]):
+        if a != 1:
+            dr[..., a] -= np.floor(dr[..., a] / L + 0.5) * L
+    return dr
+
+
+def nonaffine_displacements(
+    before: ArrayLike,
+    after: ArrayLike,
+    length: float,
+    strain_before: float,
+    strain_after: float,
+) -> NDArray[np.float64]:
+    """Non-affine displacements ``u_i = x_i^a − (x_i^b + (γ_a − γ_b) y_i^b e_x)`` (minimum image
+    at ``γ_a``), array ``(N, d)``. The affinely sheared ``x^b`` is a configuration of the box at
+    ``γ_a``, so the difference is defined modulo that box's lattice; valid while ``|u_i| < L/2``."""
+    xb = np.asarray(before, dtype=np.float64)
+    xa = np.asarray(after, dtype=np.float64)
+    if xb.shape != xa.shape or xb.ndim != 2 or xb.shape[1] < 2:
+        raise ValueError(f"positions must be two (N, d) arrays, got {xb.shape} and {xa.shape}")
+    affine = xb.copy()
+    affine[:, 0] += (strain_after - strain_before) * xb[:, 1]
+    return lees_edwards_minimum_image(xa - affine, length, strain_after)
+
+
+def participation_ratio(u: ArrayLike) -> float:
+    """``PR = (Σ_i |u_i|²)² / (N Σ_i |u_i|⁴)`` of a displacement field ``(N, d)``; NaN if
+    ``u = 0``."""
+    u = np.asarray(u, dtype=np.float64)
+    s2 = np.einsum("ij,ij->i", u, u)
+    den = u.shape[0] * float(np.sum(s2 * s2))
+    return float(np.sum(s2) ** 2 / den) if den > 0 else float("nan")
+
+
+def _keys(i: ArrayLike, j: ArrayLike, n: int) -> NDArray[np.int64]:
+    i = np.asarray(i, dtype=np.int64)
+    j = np.asarray(j, dtype=np.int64)
+    return np.unique(np.minimum(i, j) * n + np.maximum(i, j))
+
+
+def contact_changes(
+    pairs_before: tuple[ArrayLike, ArrayLike], pairs_after: tuple[ArrayLike, ArrayLike], n: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(opened, closed)``: pairs ``(k, 2)`` (``i < j``, sorted) in contact before and not
+    after, and after and not before."""
+    kb = _keys(*pairs_before, n)
+    ka = _keys(*pairs_after, n)
+    opened = np.setdiff1d(kb, ka, assume_unique=True)
+    closed = np.setdiff1d(ka, kb, assume_unique=True)
+    return (
+        np.stack([opened // n, opened % n], axis=1),
+        np.stack([closed // n, closed % n], axis=1),
+    )
+
+
+def buckler_mask(ci: ArrayLike, cj: ArrayLike, backbone: ArrayLike, dim: int) -> NDArray[np.bool_]:
+    """Bucklers (``SPEC.md`` §6): backbone particles with exactly ``d + 1`` contacts with
+    backbone particles. ``ci, cj``: the contact list; ``backbone``: boolean mask ``(N,)``."""
+    keep = np.asarray(backbone, dtype=bool)
+    ci = np.asarray(ci, dtype=np.int64)
+    cj = np.asarray(cj, dtype=np.int64)
+    live = keep[ci] & keep[cj]
+    z = np.bincount(ci[live], minlength=keep.size) + np.bincount(cj[live], minlength=keep.size)
+    return keep & (z == dim + 1)
+
+
+def only_bucklers_rattlers(
+    opened: ArrayLike,
+    closed: ArrayLike,
+    backbone_before: ArrayLike,
+    backbone_after: ArrayLike,
+    bucklers_before: ArrayLike | None = None,
+) -> bool:
+    """True when at least one contact changed and every opened or closed pair has an end that is
+    a rattler (before or after) or a buckler of the minimum before (module docstring)."""
+    special = ~np.asarray(backbone_before, dtype=bool) | ~np.asarray(backbone_after, dtype=bool)
+    if bucklers_before is not None:
+        special = special | np.asarray(bucklers_before, dtype=bool)
+    changed = np.concatenate(
+        [
+            np.asarray(opened, dtype=np.int64).reshape(-1, 2),
+            np.asarray(closed, np.int64).reshape(-1, 2),
+        ]
+    )
+    if changed.shape[0] == 0:
+        return False
+    return bool(np.all(special[changed[:, 0]] | special[changed[:, 1]]))
+
+
+def is_localized(participation: float, n: int, n_eff_max: float = N_EFF_LOCALIZED) -> bool:
+    """Localized when ``N_eff = PR·N ≤ n_eff_max`` (module docstring)."""
+    return bool(participation * n <= n_eff_max)
+
+
+def moved_particles(
+    u: ArrayLike, threshold: float
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Indices (ascending) and displacement vectors of the particles with ``|u_i| > threshold``."""
+    u = np.asarray(u, dtype=np.float64)
+    idx = np.flatnonzero(np.sqrt(np.einsum("ij,ij->i", u, u)) > threshold)
+    return idx.astype(np.int64), u[idx]
+
+
+@dataclass(frozen=True, eq=False)
+class EventAnatomy:
+    """The anatomy of one event (module docstring): displacement field ``u`` ``(N, d)``,
+    ``participation`` ratio, ``max_displacement``, ``opened``/``closed`` pairs ``(k, 2)``,
+    ``only_bucklers_rattlers``, ``localized``."""
+
+    u: NDArray[np.float64]
+    participation: float
+    max_displacement: float
+    opened: NDArray[np.int64]
+    closed: NDArray[np.int64]
+    only_bucklers_rattlers: bool
+    localized: bool
+
+    @property
+    def n_eff(self) -> float:
+        """``PR·N``: the number of particles that effectively move."""
+        return self.participation * self.u.shape[0]
+
+
+def event_anatomy(
+    before: ArrayLike,
+    after: ArrayLike,
+    length: float,
+    strain_before: float,
+    strain_after: float,
+    pairs_before: tuple[ArrayLike, ArrayLike],
+    pairs_after: tuple[ArrayLike, ArrayLike],
+    backbone_before: ArrayLike,
+    backbone_after: ArrayLike,
+    bucklers_before: ArrayLike | None = None,
+    n_eff_max: float = N_EFF_LOCALIZED,
+) -> EventAnatomy:
+    """All the numbers of the module docstring for one step. ``bucklers_before=None``: computed
+    from ``pairs_before`` and ``backbone_before`` (:func:`buckler_mask`)."""
+    u = nonaffine_displacements(before, after, length, strain_before, strain_after)
+    n, dim = u.shape
+    if bucklers_before is None:
+        bucklers_before = buckler_mask(*pairs_before, backbone_before, dim)
+    opened, closed = contact_changes(pairs_before, pairs_after, n)
+    pr = participation_ratio(u)
+    return EventAnatomy(
+        u=u,
+        participation=pr,
+        max_displacement=float(np.sqrt(np.max(np.einsum("ij,ij->i", u, u)))),
+        opened=opened,
+        closed=closed,
+        only_bucklers_rattlers=only_bucklers_rattlers(
+            opened, closed, backbone_before, backbone_after, bucklers_before
+        ),
+        localized=is_localized(pr, n, n_eff_max),
+    )

@@ -1,0 +1,124 @@
+"""The avalanche records of an AQS run (``shear(..., keep_avalanches=True)``): for every plastic
+step the anatomy of :mod:`jamlab.analysis.anatomy` measured on the minima before and after it,
+collected into the trace group ``avalanches`` (``docs/formats.md``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jamlab.analysis.anatomy import N_EFF_LOCALIZED, event_anatomy, moved_particles
+from jamlab.spheres.contacts import backbone_mask, contacts
+from jamlab.spheres.potential import Packing
+
+__all__ = ["AVALANCHE_COLUMNS", "MOVED_THRESHOLD", "AvalancheRecorder"]
+
+MOVED_THRESHOLD = 1e-3
+"""Default ``|u|`` (units of the mean diameter) above which a particle's displacement is kept."""
+
+# one row per plastic step
+AVALANCHE_COLUMNS: tuple[str, ...] = (
+    "step",
+    "energy_jump",
+    "stress_jump",
+    "participation",
+    "n_eff",
+    "max_displacement",
+    "n_opened",
+    "n_closed",
+    "only_bucklers_rattlers",
+    "localized",
+    "n_moved",
+)
+
+
+class AvalancheRecorder:
+    """The hook ``(previous minimum, new minimum, step)`` of :func:`~jamlab.spheres.aqs.shear`
+    that measures every plastic step; ``first_row``: the trace row of the first step it sees.
+    ``threshold``: displacements ``|u_i| > threshold`` are kept (CSR: ``moved_offsets``,
+    ``moved_index``, ``moved_displacement``); ``n_eff_max``: the localized/extended rule."""
+
+    def __init__(
+        self,
+        first_row: int,
+        threshold: float = MOVED_THRESHOLD,
+        n_eff_max: float = N_EFF_LOCALIZED,
+        previous: dict[str, np.ndarray] | None = None,
+    ) -> None:
+        if not (np.isfinite(threshold) and threshold >= 0):
+            raise ValueError(f"avalanche threshold must be finite and >= 0, got {threshold!r}")
+        self.row = int(first_row)
+        self.threshold, self.n_eff_max = float(threshold), float(n_eff_max)
+        self.rows: dict[str, list] = {k: [] for k in AVALANCHE_COLUMNS}
+        self.index: list[np.ndarray] = []
+        self.vectors: list[np.ndarray] = []
+        self.dim: int | None = None
+        if previous is not None:
+            offsets = np.asarray(previous["moved_offsets"])
+            for k in AVALANCHE_COLUMNS:
+                self.rows[k] = list(previous[k])
+            for a, b in zip(offsets[:-1], offsets[1:], strict=True):
+                self.index.append(np.asarray(previous["moved_index"][a:b]))
+                self.vectors.append(np.asarray(previous["moved_displacement"][a:b]))
+
+    def __call__(self, before: Packing, after: Packing, step: object) -> None:
+        n = self.row
+        self.row += 1
+        if not getattr(step, "plastic", False):
+            return
+        dim = before.dim
+        self.dim = dim
+        b0, b1 = contacts(before), contacts(after)
+        keep0 = backbone_mask(b0[0], b0[1], before.n, dim + 1)
+        keep1 = backbone_mask(b1[0], b1[1], after.n, dim + 1)
+        an = event_anatomy(
+            before.positions,
+            after.positions,
+            after.box.length,
+            before.strain,
+            after.strain,
+            (b0[0], b0[1]),
+            (b1[0], b1[1]),
+            keep0,
+            keep1,
+            n_eff_max=self.n_eff_max,
+        )
+        idx, vec = moved_particles(an.u, self.threshold)
+        r = self.rows
+        r["step"].append(n)
+        r["energy_jump"].append(np.nan)  # filled from the trace's rows (table)
+        r["stress_jump"].append(np.nan)
+        r["participation"].append(an.participation)
+        r["n_eff"].append(an.n_eff)
+        r["max_displacement"].append(an.max_displacement)
+        r["n_opened"].append(an.opened.shape[0])
+        r["n_closed"].append(an.closed.shape[0])
+        r["only_bucklers_rattlers"].append(an.only_bucklers_rattlers)
+        r["localized"].append(an.localized)
+        r["n_moved"].append(idx.size)
+        self.index.append(idx)
+        self.vectors.append(vec)
+
+    def table(self, energy_jump: np.ndarray, stress_jump: np.ndarray, dim: int) -> dict:
+        """The group ``avalanches``: the columns, ``ΔE``/``ΔΣ`` taken from the trace's
+        ``energy_jump``/``stress_jump`` at each row ``step``, and the CSR displacement field."""
+        steps = np.asarray(self.rows["step"], dtype=np.int64)
+        out: dict = {"step": steps}
+        for k in AVALANCHE_COLUMNS[1:]:
+            dtype = (
+                bool
+                if k in ("only_bucklers_rattlers", "localized")
+                else (np.int64 if k.startswith("n_") and k != "n_eff" else np.float64)
+            )
+            out[k] = np.asarray(self.rows[k], dtype=dtype)
+        out["energy_jump"] = np.asarray(energy_jump, dtype=np.float64)[steps]
+        out["stress_jump"] = np.asarray(stress_jump, dtype=np.float64)[steps]
+        sizes = np.array([i.size for i in self.index], dtype=np.int64)
+        out["moved_offsets"] = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        out["moved_index"] = (
+            np.concatenate(self.index).astype(np.int64) if self.index else np.zeros(0, np.int64)
+        )
+        out["moved_displacement"] = (
+            np.concatenate(self.vectors).reshape(-1, dim) if self.vectors else np.zeros((0, dim))
+        )
+        out["attrs"] = {"threshold": self.threshold, "n_eff_max": self.n_eff_max}
+        return out

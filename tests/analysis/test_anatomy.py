@@ -1,0 +1,138 @@
+"""jamlab.analysis.anatomy against exact cases worked by hand and, for the Lees–Edwards image,
+an explicit search over periodic images."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from jamlab.analysis.anatomy import (
+    buckler_mask,
+    contact_changes,
+    event_anatomy,
+    is_localized,
+    lees_edwards_minimum_image,
+    moved_particles,
+    nonaffine_displacements,
+    only_bucklers_rattlers,
+    participation_ratio,
+)
+
+
+def explicit_image(dr, L, gamma):
+    """Shortest dr − t over the lattice t = n_x L e_x + n_y (γL e_x + L e_y) + n_z L e_z."""
+    best = None
+    k = int(np.ceil(abs(gamma))) + 3
+    for nx, ny, nz in itertools.product(range(-k, k + 1), range(-3, 4), range(-3, 4)):
+        t = np.array([nx * L + ny * gamma * L, ny * L, nz * L])
+        c = dr - t
+        if best is None or c @ c < best @ best:
+            best = c
+    return best
+
+
+def test_minimum_image_is_the_shortest_lattice_image():
+    rng = np.random.default_rng(0)
+    L = 5.0
+    for gamma in (0.0, 0.13, -0.4, 2.37):
+        for _ in range(20):
+            # separations short enough (< L/2 after reduction) for the image to be unique
+            short = rng.uniform(-1.0, 1.0, 3)
+            n = rng.integers(-3, 4, 3)
+            dr = short + np.array([n[0] * L + n[1] * gamma * L, n[1] * L, n[2] * L])
+            got = lees_edwards_minimum_image(dr, L, gamma)
+            np.testing.assert_allclose(got, explicit_image(dr, L, gamma), atol=1e-12)
+            np.testing.assert_allclose(got, short, atol=1e-12)
+
+
+def test_affine_shear_has_no_nonaffine_displacement_across_the_boundary():
+    rng = np.random.default_rng(1)
+    L, g0, g1 = 4.0, 0.05, 0.0512
+    xb = rng.uniform(0, L, (30, 3))
+    xa = xb.copy()
+    xa[:, 0] += (g1 - g0) * xb[:, 1]
+    # re-wrap some particles through the y boundary (x shifts by γ1 L) and through x and z
+    xa[:5, 1] += L
+    xa[:5, 0] += g1 * L
+    xa[5:10, 0] -= L
+    xa[10:15, 2] += 2 * L
+    np.testing.assert_allclose(nonaffine_displacements(xb, xa, L, g0, g1), 0.0, atol=1e-12)
+    u = np.zeros((30, 3))
+    u[3] = [0.1, -0.2, 0.05]
+    np.testing.assert_allclose(nonaffine_displacements(xb, xa + u, L, g0, g1), u, atol=1e-12)
+
+
+def test_participation_ratio_exact_limits():
+    n = 50
+    one = np.zeros((n, 3))
+    one[7] = [0.0, 0.3, 0.0]
+    assert participation_ratio(one) == pytest.approx(1.0 / n)
+    assert participation_ratio(np.tile([0.1, 0.0, -0.2], (n, 1))) == pytest.approx(1.0)
+    half = np.zeros((n, 2))
+    half[: n // 2] = [1.0, 0.0]
+    assert participation_ratio(half) == pytest.approx(0.5)
+    assert np.isnan(participation_ratio(np.zeros((n, 3))))
+    assert is_localized(1.0 / n, n) and not is_localized(0.5, n)
+
+
+def test_contact_changes_and_bucklers_by_hand():
+    before = (np.array([0, 2, 1, 4]), np.array([1, 1, 3, 3]))  # pairs 0-1, 1-2, 1-3, 3-4
+    after = (np.array([1, 3, 0]), np.array([0, 4, 4]))  # pairs 0-1, 3-4, 0-4
+    opened, closed = contact_changes(before, after, 5)
+    np.testing.assert_array_equal(opened, [[1, 2], [1, 3]])
+    np.testing.assert_array_equal(closed, [[0, 4]])
+    # 2D: bucklers have exactly 3 backbone contacts
+    ci = np.array([0, 0, 0, 1, 1, 2, 3, 3, 0, 6])
+    cj = np.array([1, 2, 3, 2, 3, 3, 4, 5, 6, 1])
+    keep = np.array([True, True, True, True, False, False, True])
+    # backbone contacts: 0 → 1,2,3,6 (4); 1 → 0,2,3,6 (4); 2 → 0,1,3 (3); 3 → 0,1,2 (3, its
+    # contacts with the rattlers 4, 5 do not count); 6 → 0,1 (2)
+    expected = [False, False, True, True, False, False, False]
+    np.testing.assert_array_equal(buckler_mask(ci, cj, keep, 2), expected)
+
+
+def test_only_bucklers_rattlers_rule():
+    keep_b = np.array([True, True, True, True, False])
+    keep_a = np.array([True, True, True, False, False])
+    buck = np.array([False, True, False, False, False])
+    assert only_bucklers_rattlers([[1, 2]], [[0, 1]], keep_b, keep_b, buck)  # buckler 1 flips
+    assert only_bucklers_rattlers([[0, 3]], np.zeros((0, 2)), keep_b, keep_a, None)  # 3 rattles
+    assert not only_bucklers_rattlers([[0, 2]], [[1, 2]], keep_b, keep_b, buck)
+    assert not only_bucklers_rattlers(np.zeros((0, 2)), np.zeros((0, 2)), keep_b, keep_b, buck)
+
+
+def test_event_anatomy_and_moved_particles():
+    L = 3.0
+    xb = np.array([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [0.5, 1.5, 0.5], [2.5, 2.5, 2.5]])
+    xa = xb.copy()
+    xa[1] += [0.0, 0.0, 0.4]
+    pairs = (np.array([0, 0]), np.array([1, 2]))
+    keep = np.ones(4, bool)
+    an = event_anatomy(xb, xa, L, 0.0, 0.0, pairs, (np.array([0]), np.array([2])), keep, keep)
+    assert an.max_displacement == pytest.approx(0.4)
+    assert an.participation == pytest.approx(0.25) and an.n_eff == pytest.approx(1.0)
+    assert an.localized
+    np.testing.assert_array_equal(an.opened, [[0, 1]])
+    assert an.closed.shape == (0, 2)
+    idx, vec = moved_particles(an.u, 0.1)
+    np.testing.assert_array_equal(idx, [1])
+    np.testing.assert_allclose(vec, [[0.0, 0.0, 0.4]], atol=1e-15)
+
+
+def test_avalanche_figure_draws_the_scaled_field(tmp_path):
+    from matplotlib.quiver import Quiver
+
+    from jamlab.plots.anatomy import avalanche_figure
+
+    rng = np.random.default_rng(2)
+    pos = rng.uniform(0, 4.0, (20, 3))
+    u = rng.normal(size=(20, 3)) * 1e-2
+    fig = avalanche_figure(pos, u, 4.0, tmp_path / "a.png", axes=(0, 2))
+    (q,) = [c for c in fig.axes[0].get_children() if isinstance(c, Quiver)]
+    scale = 0.5 / np.sqrt((u**2).sum(axis=1)).max()
+    # arrows drawn in increasing |u| order; the set of (U, V) is the projected, scaled field
+    got = sorted(zip(q.U, q.V, strict=True))
+    np.testing.assert_allclose(got, sorted(zip(scale * u[:, 0], scale * u[:, 2], strict=True)))
+    assert (tmp_path / "a.png").stat().st_size > 0

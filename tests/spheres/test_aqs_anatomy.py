@@ -1,0 +1,154 @@
+"""The avalanche records of a trace (``shear(..., keep_avalanches=True)``) against a brute-force
+diff of the stored configurations before and after each plastic step: every pair, explicit
+periodic images (``spheres_brute``), rattlers and bucklers counted by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from spheres_brute import brute_force, image_shifts, pair_terms
+
+import jamlab.spheres as sp
+from jamlab.spheres.aqs import checkpoint_paths, shear
+from jamlab.spheres.io import read_packing
+from jamlab.spheres.trace import read_trace
+
+
+def wrap(pos: np.ndarray, L: float, gamma: float) -> np.ndarray:
+    """Into [0, L)^d: crossing y by k boxes moves x by −k γ L, then x and z modulo L."""
+    pos = np.array(pos, dtype=float)
+    k = np.floor(pos[:, 1] / L)
+    pos[:, 1] -= k * L
+    pos[:, 0] -= k * gamma * L
+    for a in range(pos.shape[1]):
+        if a != 1:
+            pos[:, a] -= np.floor(pos[:, a] / L) * L
+    return pos
+
+
+def contact_set(pos, L, gamma, diam) -> set[tuple[int, int]]:
+    i, j, _ = pair_terms(wrap(pos, L, gamma), L, gamma, diam)
+    return {(int(a), int(b)) for a, b in zip(i, j, strict=True)}
+
+
+def rattlers_by_hand(pairs: set, n: int, dim: int) -> np.ndarray:
+    keep = np.ones(n, dtype=bool)
+    changed = True
+    while changed:
+        changed = False
+        for p in range(n):
+            if keep[p] and sum(1 for a, b in pairs if p in (a, b) and keep[a] and keep[b]) <= dim:
+                keep[p] = False
+                changed = True
+    return keep
+
+
+def displacement_by_hand(before, after, L, g0, g1) -> np.ndarray:
+    affine = np.array(before, dtype=float)
+    affine[:, 0] += (g1 - g0) * affine[:, 1]
+    a, b = wrap(after, L, g1), wrap(affine, L, g1)
+    shifts = image_shifts(L, a.shape[1], g1)
+    cand = (a - b)[:, None, :] - shifts[None, :, :]
+    k = np.argmin((cand**2).sum(axis=2), axis=1)
+    return cand[np.arange(a.shape[0]), k]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("anatomy") / "trace.h5"
+    packing = sp.prepare(64, 3, 0.8, seed=3).packing
+    res = shear(packing, 2e-3, n_steps=60, keep_avalanches=True, out=out, save_every=1)
+    last, snapshots = checkpoint_paths(out)
+    trace = read_trace(out)
+
+    def config(step: int):
+        if step == 0:
+            return packing
+        if step == trace.n_steps:
+            return read_packing(last)
+        return read_packing(snapshots / f"step_{step:08d}.h5")
+
+    return res, trace, config
+
+
+def test_records_match_brute_force_diff(run):
+    res, trace, config = run
+    av = trace.avalanches
+    assert av is not None
+    steps = av["step"]
+    # one row per plastic step, in order
+    np.testing.assert_array_equal(steps, np.flatnonzero(trace.plastic))
+    assert steps.size >= 3, "the run should have a few plastic steps"
+    thr = av["attrs"]["threshold"]
+    offs = av["moved_offsets"]
+    n_buckler_steps = 0
+    for row, n in enumerate(steps):
+        b, a = config(n - 1), config(n)
+        L, dim, diam = b.box.length, b.dim, np.asarray(b.diameters)
+        g0, g1 = b.strain, a.strain
+        u = displacement_by_hand(b.positions, a.positions, L, g0, g1)
+        s2 = (u**2).sum(axis=1)
+        pr = s2.sum() ** 2 / (len(s2) * (s2**2).sum())
+        assert av["participation"][row] == pytest.approx(pr, rel=1e-9)
+        assert av["n_eff"][row] == pytest.approx(pr * b.n, rel=1e-9)
+        assert av["max_displacement"][row] == pytest.approx(np.sqrt(s2.max()), rel=1e-9)
+        assert bool(av["localized"][row]) == (pr * b.n <= av["attrs"]["n_eff_max"])
+        c0, c1 = contact_set(b.positions, L, g0, diam), contact_set(a.positions, L, g1, diam)
+        assert av["n_opened"][row] == len(c0 - c1)
+        assert av["n_closed"][row] == len(c1 - c0)
+        keep0, keep1 = rattlers_by_hand(c0, b.n, dim), rattlers_by_hand(c1, a.n, dim)
+        zb = np.zeros(b.n, int)
+        for i, j in c0:
+            if keep0[i] and keep0[j]:
+                zb[i] += 1
+                zb[j] += 1
+        special = ~keep0 | ~keep1 | (keep0 & (zb == dim + 1))
+        changed = (c0 - c1) | (c1 - c0)
+        only = bool(changed) and all(special[i] or special[j] for i, j in changed)
+        n_buckler_steps += only
+        assert bool(av["only_bucklers_rattlers"][row]) == only
+        moved = np.flatnonzero(np.sqrt(s2) > thr)
+        np.testing.assert_array_equal(av["moved_index"][offs[row] : offs[row + 1]], moved)
+        np.testing.assert_allclose(
+            av["moved_displacement"][offs[row] : offs[row + 1]], u[moved], rtol=1e-9, atol=1e-13
+        )
+        # ΔE = E_n − E_{n−1} − δγ Σ_{n−1}, ΔΣ = Σ_n − Σ_{n−1} from the brute-force sums
+        e0 = brute_force(wrap(b.positions, L, g0), L, g0, diam, b.alpha)
+        e1 = brute_force(wrap(a.positions, L, g1), L, g1, diam, a.alpha)
+        de = e1["energy"] - e0["energy"] - (g1 - g0) * e0["shear_stress"]
+        assert av["energy_jump"][row] == pytest.approx(de, rel=1e-6, abs=1e-12)
+        ds = e1["shear_stress"] - e0["shear_stress"]
+        assert av["stress_jump"][row] == pytest.approx(ds, rel=1e-6, abs=1e-10)
+    assert av["n_moved"].sum() == offs[-1]
+
+
+def test_hook_sees_every_step_and_records_equal_in_memory(run):
+    res, trace, _ = run
+    mem = res.trace.avalanches
+    for key, value in trace.avalanches.items():
+        if key != "attrs":
+            np.testing.assert_array_equal(np.asarray(mem[key]), value)
+    seen = []
+    packing = sp.prepare(32, 2, 0.9, seed=1).packing
+    shear(packing, 1e-3, n_steps=5, after_step=lambda b, a, s: seen.append((b.strain, a.strain)))
+    assert [round(g1 - g0, 12) for g0, g1 in seen] == [1e-3] * 5
+    assert seen[0][0] == pytest.approx(packing.strain) and seen[-1][1] == pytest.approx(5e-3)
+
+
+def test_cli_keep_avalanches_writes_the_same_group(run, tmp_path):
+    from cli_helpers import jamlab
+    from jamlab.spheres.io import write_packing
+
+    packing = sp.prepare(64, 3, 0.8, seed=3).packing
+    cfg = tmp_path / "start.h5"
+    write_packing(cfg, packing)
+    out = tmp_path / "cli.h5"
+    r = jamlab(
+        "shear", cfg, "--dgamma", "2e-3", "--gamma-max", "0.12", "--out", out, "--keep-avalanches"
+    )
+    assert r.returncode == 0, r.stderr
+    got = read_trace(out).avalanches
+    ref = run[1].avalanches
+    for key in ("step", "n_opened", "n_closed", "moved_offsets", "moved_index"):
+        np.testing.assert_array_equal(got[key], ref[key])
+    np.testing.assert_allclose(got["participation"], ref["participation"], rtol=1e-9)
