@@ -81,6 +81,7 @@ from jamlab.spheres.packing import (  # noqa: E402
     compress_to,
     coordination_curve,
     jam,
+    jam_at_pressure,
     prepare,
 )
 
@@ -90,5 +91,6 @@ __all__ += [
     "compress_to",
     "coordination_curve",
     "jam",
+    "jam_at_pressure",
     "prepare",
 ]
