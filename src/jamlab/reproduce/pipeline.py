@@ -184,7 +184,7 @@ def reproduce(
     ----------
     scale : Scale or str
         A :class:`~jamlab.reproduce.Scale` or the name of one in
-        :data:`~jamlab.reproduce.SCALES` (``"tiny"``, ``"quick"``, ``"paper"``).
+        :data:`~jamlab.reproduce.SCALES` (``"tiny"``, ``"quick"``, ``"medium"``, ``"paper"``).
     out : path
         The report directory (created if missing).
     runs : path, optional
@@ -214,11 +214,11 @@ def reproduce(
 
     >>> from jamlab.reproduce import SCALES, reproduce
     >>> sorted(SCALES)
-    ['paper', 'quick', 'tiny']
+    ['medium', 'paper', 'quick', 'tiny']
     >>> reproduce("huge", "report")
     Traceback (most recent call last):
     ...
-    ValueError: unknown scale 'huge': valid scales are tiny, quick, paper
+    ValueError: unknown scale 'huge': valid scales are tiny, quick, medium, paper
 
     The ``tiny`` scale (about a minute on one core) writes a complete report::
 

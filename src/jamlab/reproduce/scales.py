@@ -76,9 +76,18 @@ class Scale:
                              "pressure_gamma_max > dgamma")
 
 
-MEDIUM_CV_SAMPLES = 6
-MEDIUM_P_SAMPLES = 12
-MEDIUM_EXPECTED = "not sized yet (interim commit)"
+MEDIUM_CV_SAMPLES = 3
+MEDIUM_P_SAMPLES = 4
+MEDIUM_EXPECTED = (
+    "≈ 20 CPU-hours ≈ 10 h on 2 cores, projected (not run: a session cannot host it) from the "
+    "per-step times of benchmarks/bench_jamming.py (N = 500, δγ = 1e-5, measured on a loaded "
+    "machine: constant volume ≈ 3–4 s/step, fixed p = 1e-4 ≈ 3.7 s/step with the confirmed "
+    "plastic flag; N = 1000 ≈ 4× N = 500); σ(τ) ≤ 0.05 is not expected from "
+    "4 × 1000 steps per pressure (see docs/reproduce.md)"
+)
+
+"""The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4 (N = 500) and the
+paper's constant-volume protocol at N = 500, 1000, δγ = 1e-5, sized for ≈ 10 h on 2 cores."""
 
 SCALES: dict[str, Scale] = {
     "tiny": Scale(
