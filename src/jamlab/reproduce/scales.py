@@ -79,11 +79,11 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 4
 MEDIUM_EXPECTED = (
-    "≈ 20 CPU-hours ≈ 10 h on 2 cores, projected (not run: a session cannot host it) from the "
-    "per-step times of benchmarks/bench_jamming.py (N = 500, δγ = 1e-5, measured on a loaded "
-    "machine: constant volume ≈ 3–4 s/step, fixed p = 1e-4 ≈ 3.7 s/step with the confirmed "
-    "plastic flag; N = 1000 ≈ 4× N = 500); σ(τ) ≤ 0.05 is not expected from "
-    "4 × 1000 steps per pressure (see docs/reproduce.md)"
+    "≈ 19 CPU-hours ≈ 10 h on 2 cores, projected (not run: a session cannot host it) from "
+    "benchmarks/bench_jamming.py (δγ = 1e-5, measured on a loaded machine: constant volume, "
+    "default path, ≈ 4 s/step at N = 500 and ≈ 10 s/step at N = 1000; fixed p = 1e-4 with the "
+    "confirmed plastic flag ≈ 3.7 s/step at N = 500, lower p costlier than higher); σ(τ) ≤ 0.05 "
+    "is not expected from 3–4 samples × 1000 steps (docs/reproduce.md)"
 )
 
 """The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4 (N = 500) and the
