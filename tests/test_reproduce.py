@@ -50,9 +50,26 @@ def _sizes(run_dir: Path, phi: str, ns) -> tuple[np.ndarray, int]:
         for s in _traces(run_dir, phi, n):
             t = s["trace"]
             de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
-            sizes.append(-de[pl & (de < 0)])
+            # issue 18: a step counts only between two jammed minima (the trace's jammed column)
+            jm = t["jammed"].astype(bool)
+            sizes.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
             samples += 1
     return np.concatenate(sizes), samples
+
+
+def _excluded(run_dir: Path, phi: str, ns) -> tuple[int, int, int]:
+    """(steps, steps excluded as unjammed, avalanches excluded), counted here with numpy."""
+    steps = x_steps = x_av = 0
+    for n in ns:
+        for s in _traces(run_dir, phi, n):
+            t = s["trace"]
+            de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+            jm = t["jammed"].astype(bool)
+            ok = jm[:-1] & jm[1:]
+            steps += de.size
+            x_steps += int((~ok).sum())
+            x_av += int((pl & (de < 0) & ~ok).sum())
+    return steps, x_steps, x_av
 
 
 def _row(rows, start):
@@ -95,6 +112,12 @@ def test_tau_rows_recomputed_from_the_runs(tiny):
         row = _row(rows, title)
         assert f"{samples} samples" in row["samples"]
         assert f"{sizes.size} avalanches" in row["samples"]
+        steps, x_steps, x_av = _excluded(out / "runs" / run, phi, ns)
+        assert (f"excluded as unjammed: {x_steps} of {steps} steps, {x_av} of "
+                f"{sizes.size + x_av} avalanches") in row["samples"]
+        if phi == "jamming":
+            assert "constant volume" in row["quantity"] and "p of all minima sampled" in \
+                row["samples"]
         if sizes.size < SCALE.min_tail:
             assert row["value"] is None and row["value_text"] == "n/a"
             assert all("no data" in v for v in row["verdicts"])

@@ -80,3 +80,37 @@ def test_prepare_failure_writes_flagged_file(tmp_path, capsys) -> None:
     with h5py.File(out, "r") as h5:
         assert not bool(h5.attrs["ok"]) and "below jamming" in h5.attrs["reason"]
     assert "failed its stopping rule" in capsys.readouterr().err
+
+
+def test_prepare_at_a_pressure(tmp_path, capsys) -> None:
+    out = tmp_path / "p.h5"
+    args = ["prepare", "--n", "64", "--seed", "3", "--pressure", "1e-3", "--out", str(out)]
+    assert run([*args, "--quiet"]) == 0
+    packing = read_packing(out)
+    with h5py.File(out, "r") as h5:
+        a = dict(h5.attrs)
+    assert bool(a["ok"]) and a["protocol"] == "jamming+enthalpy"
+    assert a["param_pressure"] == 1e-3 and a["param_p_target"] == 1e-7
+    # the pressure of the written configuration, recomputed by brute force: the target to 1e-6
+    # (all pairs, minimum image: L > 2 σ, unsheared box; V = (1 - r)^2, p = Σ 2(1-r) r / (3 L^3))
+    assert packing.strain == 0.0 and packing.box.length > 2.0
+    x, length = packing.positions, packing.box.length
+    dr = x[:, None, :] - x[None, :, :]
+    dr -= length * np.round(dr / length)
+    r = np.sqrt((dr**2).sum(-1))
+    i, j = np.triu_indices(64, 1)
+    r = r[i, j]
+    overlap = r < 1.0
+    p = np.sum(2.0 * (1.0 - r[overlap]) * r[overlap]) / (3 * length**3)
+    assert p == pytest.approx(1e-3, rel=1.01e-6)
+    capsys.readouterr()
+    for bad, needle in (
+        (["--pressure", "-1"], "--pressure"),
+        (["--pressure", "inf"], "--pressure"),
+        (["--pressure", "1e-3", "--ptol", "0"], "--ptol"),
+        (["--pressure", "1e-3", "--phi", "0.8"], "--phi jamming"),
+    ):
+        assert run(["prepare", "--n", "64", *bad, "--out", str(tmp_path / "x.h5")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert needle in err and len(err.splitlines()) == 1
+        assert not (tmp_path / "x.h5").exists()

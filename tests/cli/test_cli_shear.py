@@ -10,7 +10,7 @@ import jamlab.spheres as sp
 from cli_helpers import jamlab, one_line_error
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import write_packing
-from jamlab.spheres.trace import TRACE_COLUMNS, read_trace
+from jamlab.spheres.trace import OPTIONAL_COLUMNS, TRACE_COLUMNS, read_trace
 
 
 @pytest.fixture(scope="module")
@@ -39,10 +39,11 @@ def test_shear_writes_the_documented_trace(start, tmp_path):
     )
     assert r.returncode == 0, r.stderr
     with h5py.File(out) as h5:
-        # the columns, and the last configuration stored with them (the checkpoint pair)
-        assert set(h5.keys()) == set(TRACE_COLUMNS) | {"configuration"}
+        # format version 2: the optional jammed and phi columns, and the last configuration
+        assert set(h5.keys()) == set(TRACE_COLUMNS) | set(OPTIONAL_COLUMNS) | {"configuration"}
+        assert all(h5[k].shape == (11,) for k in TRACE_COLUMNS + OPTIONAL_COLUMNS)
+        assert h5.attrs["format_version"] == 2
         assert h5["configuration/positions"].shape == (packing.n, packing.dim)
-        assert all(h5[k].shape == (11,) for k in TRACE_COLUMNS)
         for key in (
             "dgamma",
             "gamma_max",
@@ -95,6 +96,13 @@ def test_shear_resume_matches_one_run(start, tmp_path):
         (("--dgamma", "0.02", "--gamma-max", "0.01"), "gamma-max"),
         (("--dgamma", "1e-5", "--gamma-max", "1e-5"), "gamma-max"),
         (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--minimizer", "cg"), "minimizer"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "-1"), "--pressure"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "nan"), "--pressure"),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "1e-3", "--ptol", "0"), "ptol"),
+        (
+            ("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "1e-3", "--save-every", "2"),
+            "--pressure",
+        ),
     ],
 )
 def test_bad_arguments_are_one_line_errors(start, tmp_path, args, needle):
@@ -117,3 +125,27 @@ def test_missing_file_is_one_line_error(tmp_path):
         )
     )
     assert "nope.h5" in line
+
+
+def test_shear_at_fixed_pressure(start, tmp_path):
+    path, packing = start
+    out = tmp_path / "p.h5"
+    r = jamlab(
+        "shear",
+        str(path),
+        "--dgamma",
+        "1e-4",
+        "--gamma-max",
+        "1e-3",
+        "--out",
+        str(out),
+        "--pressure",
+        "1e-2",
+    )
+    assert r.returncode == 0, r.stderr
+    assert "fixed p=0.01" in r.stdout
+    tr = read_trace(out)
+    assert tr.n_steps == 10 and tr.attrs["protocol"] == "fixed-pressure"
+    assert np.all(np.abs(tr.pressure - 1e-2) <= 1e-8)
+    assert tr.phi[0] < packing.phi  # phi = 0.8 carries p >> 1e-2: the box expands
+    assert tr.jammed.all()

@@ -37,3 +37,29 @@ def test_aqs_samples_equal_a_direct_computation_whatever_the_workers(tmp_path, s
         for name in ("gamma", "energy", "shear_stress", "plastic", "energy_jump"):
             np.testing.assert_array_equal(stored["trace"][name], getattr(trace, name))
         assert stored["attrs"]["phi_actual"] == config.phi
+
+
+def test_study_pressure_field_and_a_fixed_pressure_sample(tmp_path):
+    base = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=4)
+    assert base.pressure is None and "pressure" not in base.to_dict()  # earlier runs unchanged
+    study = Study(**{**base.to_dict(), "pressure": "1e-3"})
+    assert study.pressure == 1e-3 and Study.from_dict(study.to_dict()) == study
+    for bad in (-1.0, 0.0, float("nan"), "x", True):
+        with pytest.raises(ValueError, match="pressure"):
+            Study(**{**base.to_dict(), "pressure": bad})
+    run_study(study, tmp_path / "r", Execution(workers=0))
+    rd = RunDir(tmp_path / "r")
+    key = study.keys()[0]
+    assert rd.state(key) == "done", rd.read_failure(key)
+    stored = read_sample(rd.sample_path(key))["trace"]
+    seed = sample_seed(study.seed, key)
+    config = packing.jam(16, 3, seed, p_target=study.p_target).packing
+    direct = aqs.shear(config, 1e-3, 3e-3, pressure=1e-3).trace
+    for name in ("gamma", "energy", "pressure", "jammed", "phi", "plastic"):
+        np.testing.assert_array_equal(stored[name], getattr(direct, name))
+    assert np.all(np.abs(stored["pressure"] - 1e-3) <= 1e-9)
+    from jamlab.runs import open_run
+
+    ds = open_run(tmp_path / "r")
+    assert "jammed" in ds and "phi_step" in ds
+    np.testing.assert_array_equal(ds.jammed.values[0, 0, 0], direct.jammed.astype(float))

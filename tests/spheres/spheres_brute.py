@@ -92,3 +92,41 @@ def brute_force(
         "n_contacts": len(r),
         "pairs": (i, j),
     }
+
+
+def brute_jammed_state(packing, ftol: float) -> dict:
+    """The jammed verdict by brute force: contacts from :func:`pair_terms` (every pair, every
+    image, σ_ij from the diameters), rattlers removed one particle at a time from a work queue,
+    the virial pressure of ``V = (1 − r/σ_ij)^α`` written out, the floor ``10 ftol N / L^d``."""
+    from collections import deque
+
+    pos = packing.wrapped().positions
+    L, d, n = packing.box.length, packing.dim, packing.n
+    diam = np.asarray(packing.diameters, dtype=float)
+    alpha = float(packing.alpha)
+    i, j, dr = pair_terms(pos, L, packing.strain, diam)
+    r = np.sqrt((dr * dr).sum(axis=1))
+    sig = (diam[i] + diam[j]) / 2
+    p = float(np.sum(alpha / sig * (1.0 - r / sig) ** (alpha - 1) * r) / (d * L**d))
+    nbrs: list[list[int]] = [[] for _ in range(n)]
+    for a, b in zip(i, j, strict=True):
+        nbrs[a].append(b)
+        nbrs[b].append(a)
+    alive = np.ones(n, dtype=bool)
+    count = np.array([len(x) for x in nbrs])
+    queue = deque(k for k in range(n) if count[k] < d + 1)
+    while queue:
+        k = queue.popleft()
+        if not alive[k]:
+            continue
+        alive[k] = False
+        for m in nbrs[k]:
+            if alive[m]:
+                count[m] -= 1
+                if count[m] < d + 1:
+                    queue.append(m)
+    n_kept = int(alive.sum())
+    n_c = int(np.sum(alive[i] & alive[j]))
+    floor = 10.0 * ftol * n / L**d
+    jammed = n_kept > 0 and n_c >= d * (n_kept - 1) + 1 and p > floor
+    return {"n_kept": n_kept, "n_c": n_c, "p": p, "floor": floor, "jammed": jammed}

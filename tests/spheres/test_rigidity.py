@@ -5,46 +5,16 @@ sweep of ``remove_rattlers``), pressure from the brute-force virial, and the flo
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import replace
 
 import numpy as np
 import pytest
+from spheres_brute import brute_jammed_state as brute_state
 from spheres_brute import pair_terms
 
 from jamlab.spheres import Box, Packing, jam, minimize
 from jamlab.spheres.packing import rescale
 from jamlab.spheres.rigidity import is_jammed, pressure_floor
-
-
-def brute_state(packing: Packing, ftol: float) -> dict:
-    pos = packing.wrapped().positions
-    L, d, n = packing.box.length, packing.dim, packing.n
-    i, j, dr = pair_terms(pos, L, packing.strain)
-    r = np.sqrt((dr * dr).sum(axis=1))
-    p = float(np.sum(2.0 * (1.0 - r) * r) / (d * L**d))
-    nbrs: list[list[int]] = [[] for _ in range(n)]
-    for a, b in zip(i, j, strict=True):
-        nbrs[a].append(b)
-        nbrs[b].append(a)
-    alive = np.ones(n, dtype=bool)
-    count = np.array([len(x) for x in nbrs])
-    queue = deque(k for k in range(n) if count[k] < d + 1)
-    while queue:
-        k = queue.popleft()
-        if not alive[k]:
-            continue
-        alive[k] = False
-        for m in nbrs[k]:
-            if alive[m]:
-                count[m] -= 1
-                if count[m] < d + 1:
-                    queue.append(m)
-    n_kept = int(alive.sum())
-    n_c = int(np.sum(alive[i] & alive[j]))
-    floor = 10.0 * ftol * n / L**d
-    jammed = n_kept > 0 and n_c >= d * (n_kept - 1) + 1 and p > floor
-    return {"n_kept": n_kept, "n_c": n_c, "p": p, "floor": floor, "jammed": jammed}
 
 
 def check_against_brute(packing: Packing, ftol: float = 1e-12):

@@ -66,6 +66,17 @@ def register(app: typer.Typer) -> None:
             float, typer.Option("--alpha", help="Pair exponent: V = (1 - r/sigma)^alpha, > 1.")
         ] = 2.0,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
+        pressure: Annotated[
+            float | None,
+            typer.Option(
+                "--pressure",
+                help="Jam (at --p-target), then relax positions and box to this pressure "
+                "(minimize_enthalpy; --phi jamming only).",
+            ),
+        ] = None,
+        ptol: Annotated[
+            float, typer.Option("--ptol", help="Relative pressure tolerance (--pressure).")
+        ] = 1e-6,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -80,10 +91,32 @@ def register(app: typer.Typer) -> None:
         validation.positive("--ftol", ftol)
         validation.positive("--p-target", p_target)
         validation.packing_fraction("--phi-init", phi_init)
+        if pressure is not None:
+            validation.positive("--pressure", pressure)
+            validation.positive("--ptol", ptol)
+            if phi.strip().lower() != "jamming":
+                raise ValueError("--pressure prepares at jamming: use it with --phi jamming")
         check_outputs({"--out": out})
         parse_sizes(sizes)
         check_alpha(alpha)
-        if phi.strip().lower() == "jamming":
+        if pressure is not None:
+            from jamlab.spheres.packing import jam_at_pressure
+
+            with _status(quiet, f"jamming N={n} d={dim} seed={seed} to p={pressure:g}") as progress:
+                res = jam_at_pressure(
+                    n,
+                    dim,
+                    seed,
+                    pressure,
+                    p_target=p_target,
+                    ptol=ptol,
+                    phi_init=phi_init,
+                    ftol=ftol,
+                    progress=progress,
+                    sizes=sizes,
+                    alpha=alpha,
+                )
+        elif phi.strip().lower() == "jamming":
             with _status(quiet, f"jamming N={n} d={dim} seed={seed}") as progress:
                 res = jam(
                     n,

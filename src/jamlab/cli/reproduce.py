@@ -12,7 +12,12 @@ import typer
 def reproduce_command(
     out: Annotated[Path, typer.Option("--out", help="Report directory (index.html, report.md).")],
     scale: Annotated[
-        str, typer.Option("--scale", help="quick (< 30 min on 2 cores), paper (a cluster), tiny.")
+        str,
+        typer.Option(
+            "--scale",
+            help="quick (< 30 min on 2 cores), medium (~10 h on 2 cores, projected), "
+            "paper (a cluster), tiny.",
+        ),
     ] = "quick",
     runs: Annotated[
         Path | None,

@@ -144,6 +144,11 @@ def register(app: typer.Typer) -> None:
         alpha: str | None = typer.Option(
             None, "--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (default 2)."
         ),
+        pressure: str | None = typer.Option(
+            None,
+            "--pressure",
+            help="AQS at this fixed pressure (default: constant volume, the paper's protocol).",
+        ),
         task: str | None = typer.Option(None, "--task", hidden=True),
         workers: int | None = typer.Option(
             None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
@@ -194,6 +199,7 @@ def register(app: typer.Typer) -> None:
                 ("force_tol", force_tol),
                 ("sizes", sizes),
                 ("alpha", alpha),
+                ("pressure", pressure),
                 ("task", task),
             ],
         )

@@ -165,6 +165,18 @@ def register(app: typer.Typer) -> None:
                 help="Keep the displacements |u| above this (units of the mean diameter).",
             ),
         ] = 1e-3,
+        pressure: Annotated[
+            float | None,
+            typer.Option(
+                "--pressure",
+                help="Shear at this fixed pressure (box relaxed; docs/aqs.md) instead of at "
+                "constant volume.",
+            ),
+        ] = None,
+        ptol: Annotated[
+            float,
+            typer.Option("--ptol", help="Relative pressure tolerance at fixed pressure."),
+        ] = 1e-6,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -176,6 +188,11 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--minimizer must be 'linear' or 'fire', got {minimizer!r}")
         validation.positive("--ftol", ftol)
         validation.positive("--avalanche-threshold", avalanche_threshold)
+        if pressure is not None:
+            validation.positive("--pressure", pressure)
+            validation.positive("--ptol", ptol)
+            if resume or save_every is not None:
+                raise ValueError("--pressure has no --resume or --save-every yet")
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -220,10 +237,15 @@ def register(app: typer.Typer) -> None:
             source=str(config),
             keep_avalanches=keep_avalanches,
             avalanche_threshold=avalanche_threshold,
+            pressure=pressure,
+            ptol=ptol,
         )
         tr = result.trace
+        protocol = minimizer if pressure is None else f"fixed p={pressure:g}"
+        unjammed = "" if tr.jammed is None else f"{int((~tr.jammed).sum())} unjammed minima, "
         typer.echo(
-            f"{tr.n_steps} steps of dγ={dgamma:g} to γ={tr.gamma[-1]:.6g} ({minimizer}): "
+            f"{tr.n_steps} steps of dγ={dgamma:g} to γ={tr.gamma[-1]:.6g} ({protocol}): "
+            f"{unjammed}"
             f"{int(tr.plastic.sum())} plastic, {result.n_fallback} FIRE fallbacks, "
             f"{result.n_not_converged} not converged, {result.time:.2f} s -> {out}"
         )

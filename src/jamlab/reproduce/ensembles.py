@@ -8,12 +8,20 @@ samples whose status is ``"done"`` count.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["RunSet", "avalanche_sizes_of", "finished", "intensive_stress"]
+__all__ = [
+    "AvalancheSet",
+    "RunSet",
+    "avalanche_set",
+    "avalanche_sizes_of",
+    "finished",
+    "intensive_stress",
+]
 
 
 def finished(ds: Any, label: str, n: int) -> np.ndarray:
@@ -21,16 +29,68 @@ def finished(ds: Any, label: str, n: int) -> np.ndarray:
     return np.asarray(ds.status.sel(phi=label, N=n).values == "done")
 
 
-def avalanche_sizes_of(ds: Any, label: str, n: int) -> tuple[np.ndarray, int, int]:
-    """``(sizes, number of AQS steps, number of samples)`` of the finished samples at
-    ``(φ label, N)``: plastic steps with ``ΔE < 0``, ``S = −ΔE`` (row 0 has no step)."""
-    from jamlab.analysis import avalanche_sizes
+@dataclass(frozen=True)
+class AvalancheSet:
+    """The avalanches of the finished samples at one ``(φ label, N)``.
+
+    ``sizes``: ``S = −ΔE`` of the counted avalanches; ``pressures``: the pressure of the minimum
+    each starts from (row ``n − 1`` of the step ``n − 1 → n``); ``steps``: all AQS steps;
+    ``samples``; ``jammed_known``: every finished sample has the ``jammed`` column (runs made
+    before trace format 2 have not: then nothing is excluded); ``n_steps_excluded``,
+    ``n_avalanches_excluded``: steps and would-be avalanches that start or end unjammed
+    (:func:`jamlab.analysis.exclusions`); ``minimum_pressures``: the pressure of every minimum
+    of the finished samples (what the ensemble actually sampled)."""
+
+    sizes: np.ndarray
+    pressures: np.ndarray
+    steps: int
+    samples: int
+    jammed_known: bool
+    n_steps_excluded: int
+    n_avalanches_excluded: int
+    minimum_pressures: np.ndarray
+
+
+def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
+    """:class:`AvalancheSet` of the finished samples at ``(φ label, N)``: plastic steps with
+    ``ΔE < 0`` between two jammed minima (:func:`jamlab.analysis.avalanche_sizes` with
+    ``jammed=``), ``S = −ΔE`` (row 0 has no step)."""
+    from jamlab.analysis import avalanche_sizes, classify_steps, exclusions
 
     done = finished(ds, label, n)
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
     pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
-    sizes = avalanche_sizes(ej.ravel(), pl.ravel()) if ej.size else np.empty(0)
-    return sizes, int(ej.size), int(done.sum())
+    pr = np.asarray(ds.pressure.sel(phi=label, N=n).values)[done]
+    jammed = None
+    if "jammed" in ds:
+        flags = np.asarray(ds.jammed.sel(phi=label, N=n).values)[done]
+        if flags.size and np.all(np.isfinite(flags)):
+            jammed = flags > 0.5
+    if not ej.size:
+        return AvalancheSet(np.empty(0), np.empty(0), 0, int(done.sum()), True, 0, 0, np.empty(0))
+    sizes = avalanche_sizes(ej, pl, jammed=jammed)
+    pressures = pr[:, :-1][classify_steps(ej, pl, jammed=jammed)]
+    if jammed is None:
+        n_st, n_av = 0, 0
+    else:
+        ex = exclusions(ej, jammed, pl)
+        n_st, n_av = ex.n_steps_excluded, ex.n_avalanches_excluded
+    return AvalancheSet(
+        sizes,
+        pressures,
+        int(ej.size),
+        int(done.sum()),
+        jammed is not None,
+        n_st,
+        n_av,
+        pr[np.isfinite(pr)],
+    )
+
+
+def avalanche_sizes_of(ds: Any, label: str, n: int) -> tuple[np.ndarray, int, int]:
+    """``(sizes, number of AQS steps, number of samples)`` of :func:`avalanche_set`."""
+    a = avalanche_set(ds, label, n)
+    return a.sizes, a.steps, a.samples
 
 
 def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:

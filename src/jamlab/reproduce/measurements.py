@@ -3,7 +3,11 @@
 Rules (``docs/reproduce.md``; each re-derived independently in ``tests/test_reproduce.py``):
 
 - avalanches: for every finished sample, the steps flagged ``plastic`` by the AQS runner with
-  ``ΔE < 0`` (:func:`jamlab.analysis.avalanche_sizes`, ``threshold=None``); ``S = −ΔE`` (total);
+  ``ΔE < 0`` between two jammed minima (:func:`jamlab.analysis.avalanche_sizes`,
+  ``threshold=None``, ``jammed=`` the trace's column; runs without it exclude nothing and say
+  so); ``S = −ΔE`` (total); the excluded steps and avalanches are counted
+  (:func:`jamlab.analysis.exclusions`), and the pressures of the minima each fitted avalanche
+  (``S ≥ x_min``) starts from are summarised (median, 10 and 90 % quantiles);
 - ``τ``: :func:`jamlab.analysis.fit_power_law` on the sizes pooled over ``N`` at one φ, truncated
   model with ``x_max`` = the largest size (τ may be ≤ 1 above jamming), ``x_min`` by the KS rule
   (tail ≥ ``min_tail``), 95 % percentile bootstrap with ``n_boot`` resamples and seed
@@ -23,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_sizes_of, finished, intensive_stress
+from jamlab.reproduce.ensembles import avalanche_set, finished, intensive_stress
 from jamlab.reproduce.scales import UNSAT_PHI, Scale
 
 __all__ = [
@@ -39,6 +43,9 @@ __all__ = [
     "one_trace",
     "phi_j_estimate",
     "predicted_tau",
+    "pressure_tau_estimates",
+    "tau_estimate",
+    "pressure_summary",
     "stress_strain",
     "tau_estimates",
     "tau_sigma",
@@ -92,33 +99,80 @@ class TauEstimate:
     samples: int
     per_n: dict[int, Any]
     pooled: Any
+    jammed_known: bool = False
+    n_steps_excluded: int = 0
+    n_avalanches_excluded: int = 0
+    fit_pressures: tuple[float, float, float] | None = None
+    sampled_pressures: tuple[float, float, float] | None = None
+
+    @property
+    def exclusion_text(self) -> str:
+        """How many steps and avalanches the jammed flags removed (or that they are absent)."""
+        if not self.jammed_known:
+            return "no jammed flags in these runs (made before trace format 2): nothing excluded"
+        return (f"excluded as unjammed: {self.n_steps_excluded} of {self.steps} steps, "
+                f"{self.n_avalanches_excluded} of "
+                f"{self.n_avalanches + self.n_avalanches_excluded} avalanches")
+
+
+def pressure_summary(p: np.ndarray) -> tuple[float, float, float] | None:
+    """``(median, 10 %, 90 %)`` quantiles of ``p`` (None when empty)."""
+    if not p.size:
+        return None
+    q10, q50, q90 = np.quantile(p, [0.1, 0.5, 0.9])
+    return float(q50), float(q10), float(q90)
+
+
+def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
+    """:class:`TauEstimate` of the avalanches at φ label ``label`` pooled over ``sources``
+    (``(run dataset, N)`` pairs), by the module rule."""
+    from jamlab.analysis import log_histogram
+
+    all_sizes, all_p, minima_p, steps, samples = [], [], [], 0, 0
+    known, n_st, n_av = True, 0, 0
+    per_n = {}
+    for ds, n in sources:
+        a = avalanche_set(ds, label, n)
+        s, st, sa = a.sizes, a.steps, a.samples
+        all_sizes.append(s)
+        all_p.append(a.pressures)
+        minima_p.append(a.minimum_pressures)
+        known = known and (a.jammed_known or not st)
+        n_st += a.n_steps_excluded
+        n_av += a.n_avalanches_excluded
+        steps += st
+        samples += sa
+        if s.size:
+            per_n[n] = log_histogram(s, scale.bins_per_decade, n_total=max(st, 1))
+    sizes = np.concatenate(all_sizes) if all_sizes else np.empty(0)
+    p_av = np.concatenate(all_p) if all_p else np.empty(0)
+    pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
+        if sizes.size else log_histogram(np.array([1.0]), scale.bins_per_decade, n_total=1)
+    fit = fit_tau(sizes, scale)
+    used = p_av if fit is None else p_av[sizes >= fit.x_min]
+    return TauEstimate(label, fit, tau_sigma(fit), int(sizes.size), steps, samples, per_n,
+                       pooled, known and steps > 0, n_st, n_av, pressure_summary(used),
+                       pressure_summary(np.concatenate(minima_p) if minima_p else np.empty(0)))
 
 
 def tau_estimates(jamming: Any, unsat: Any, scale: Scale) -> dict[str, TauEstimate]:
     """:class:`TauEstimate` for each of :data:`TAU_LABELS`, from the ``jamming`` and ``unsat``
     run datasets."""
-    from jamlab.analysis import log_histogram
-
     sources = [("jamming", jamming, scale.jamming_n)] + [
         (repr(p), unsat, scale.unsat_n) for p in UNSAT_PHI]
-    out: dict[str, TauEstimate] = {}
-    for label, ds, ns in sources:
-        all_sizes, steps, samples = [], 0, 0
-        per_n = {}
-        for n in ns:
-            s, st, sa = avalanche_sizes_of(ds, label, n)
-            all_sizes.append(s)
-            steps += st
-            samples += sa
-            if s.size:
-                per_n[n] = log_histogram(s, scale.bins_per_decade, n_total=max(st, 1))
-        sizes = np.concatenate(all_sizes)
-        pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
-            if sizes.size else log_histogram(np.array([1.0]), scale.bins_per_decade, n_total=1)
-        fit = fit_tau(sizes, scale)
-        out[label] = TauEstimate(label, fit, tau_sigma(fit), int(sizes.size), steps, samples,
-                                 per_n, pooled)
-    return out
+    return {label: tau_estimate(label, [(ds, n) for n in ns], scale)
+            for label, ds, ns in sources}
+
+
+def pressure_tau_estimates(runs: Any, scale: Scale) -> dict[float, TauEstimate]:
+    """τ at each fixed pressure of the scale (runs ``pressure-<p>``, φ label ``"jamming"``:
+    the packings of the jamming protocol brought to p; ``S = −ΔH``), pooled over
+    ``scale.pressure_n``; empty for a scale without fixed-pressure ensembles."""
+    from jamlab.reproduce.scales import pressure_run_name
+
+    return {p: tau_estimate("jamming", [(runs[pressure_run_name(p)], n)
+                                        for n in scale.pressure_n], scale)
+            for p in scale.pressures}
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from jamlab.reproduce.measurements import (
     moduli,
     one_trace,
     phi_j_estimate,
+    pressure_tau_estimates,
     stress_strain,
     tau_estimates,
 )
@@ -86,6 +87,8 @@ def _stress_strain_data(s: Any, scale: Scale) -> tuple[list[Row], dict[str, Any]
 
 PARTS: dict[str, Part] = {
     "avalanches": Part(_avalanches, lambda r, s: (table.tau_rows(r), table.tau_data(r))),
+    "pressure_tau": Part(lambda c: pressure_tau_estimates(c.runs, c.scale),
+                         lambda r, s: (table.pressure_tau_rows(r), table.pressure_tau_data(r))),
     "phi_j": Part(lambda c: phi_j_estimate(c.runs["jamming"], c.scale),
                   lambda r, s: ([table.phi_j_row(r)], table.phi_j_data(r))),
     "moduli": Part(lambda c: moduli(c.runs["jamming"], c.runs["unsat"], c.scale),
@@ -184,7 +187,7 @@ def reproduce(
     ----------
     scale : Scale or str
         A :class:`~jamlab.reproduce.Scale` or the name of one in
-        :data:`~jamlab.reproduce.SCALES` (``"tiny"``, ``"quick"``, ``"paper"``).
+        :data:`~jamlab.reproduce.SCALES` (``"tiny"``, ``"quick"``, ``"medium"``, ``"paper"``).
     out : path
         The report directory (created if missing).
     runs : path, optional
@@ -214,11 +217,11 @@ def reproduce(
 
     >>> from jamlab.reproduce import SCALES, reproduce
     >>> sorted(SCALES)
-    ['paper', 'quick', 'tiny']
+    ['medium', 'paper', 'quick', 'tiny']
     >>> reproduce("huge", "report")
     Traceback (most recent call last):
     ...
-    ValueError: unknown scale 'huge': valid scales are tiny, quick, paper
+    ValueError: unknown scale 'huge': valid scales are tiny, quick, medium, paper
 
     The ``tiny`` scale (about a minute on one core) writes a complete report::
 

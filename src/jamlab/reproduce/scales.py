@@ -11,7 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
-__all__ = ["SCALES", "UNSAT_PHI", "Scale", "get_scale", "studies", "with_seed"]
+__all__ = [
+    "SCALES",
+    "UNSAT_PHI",
+    "Scale",
+    "get_scale",
+    "pressure_run_name",
+    "studies",
+    "with_seed",
+]
 
 UNSAT_PHI = (0.75, 0.8)
 """The packing fractions above jamming (the paper's UNSAT ensembles)."""
@@ -50,6 +58,11 @@ class Scale:
     expected: str = ""
     sizes: str = "mono"  # the pair law of every ensemble (SPEC.md §5; the paper: mono, α = 2)
     alpha: float = 2.0
+    # fixed-pressure ensembles (issue 18): τ(p) at each p, the jamming packings brought to p
+    pressures: tuple[float, ...] = ()
+    pressure_n: tuple[int, ...] = ()
+    pressure_samples: int = 0
+    pressure_gamma_max: float = 0.0
 
     def __post_init__(self) -> None:
         steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
@@ -57,7 +70,24 @@ class Scale:
             raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")
         if self.cascade_check_dgamma not in self.cascade_dgammas:
             raise ValueError("cascade_check_dgamma must be one of cascade_dgammas")
+        if self.pressures and not (self.pressure_n and self.pressure_samples > 0
+                                   and self.pressure_gamma_max > self.dgamma):
+            raise ValueError("fixed-pressure ensembles need pressure_n, pressure_samples and "
+                             "pressure_gamma_max > dgamma")
 
+
+MEDIUM_CV_SAMPLES = 3
+MEDIUM_P_SAMPLES = 4
+MEDIUM_EXPECTED = (
+    "≈ 19 CPU-hours ≈ 10 h on 2 cores, projected (not run: a session cannot host it) from "
+    "benchmarks/bench_jamming.py (δγ = 1e-5, measured on a loaded machine: constant volume, "
+    "default path, ≈ 4 s/step at N = 500 and ≈ 10 s/step at N = 1000; fixed p = 1e-4 with the "
+    "confirmed plastic flag ≈ 3.7 s/step at N = 500, lower p costlier than higher); σ(τ) ≤ 0.05 "
+    "is not expected from 3–4 samples × 1000 steps (docs/reproduce.md)"
+)
+
+"""The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4 (N = 500) and the
+paper's constant-volume protocol at N = 500, 1000, δγ = 1e-5, sized for ≈ 10 h on 2 cores."""
 
 SCALES: dict[str, Scale] = {
     "tiny": Scale(
@@ -114,6 +144,37 @@ SCALES: dict[str, Scale] = {
         cascade_check_dgamma=0.3,
         expected="≈ 10 minutes on 2 idle cores (measured; budget 30 minutes)",
     ),
+    "medium": Scale(
+        name="medium",
+        jamming_n=(500, 1000),
+        jamming_samples=MEDIUM_CV_SAMPLES,
+        unsat_n=(128, 256),
+        unsat_samples=60,
+        dgamma=1e-5,
+        gamma_max=0.01,
+        jamming_gamma_max=0.01,
+        stress_phi=0.75,
+        stress_n=128,
+        stress_samples=32,
+        stress_dgamma=1e-4,
+        stress_gamma_max=0.15,
+        coord_n=256,
+        coord_samples=3,
+        coord_steps=30,
+        moduli_lags=(1, 2, 5, 10, 20, 50, 100, 200, 500),
+        moduli_fit_max_lag=100,
+        min_tail=50,
+        n_boot=200,
+        cascade_k=16,
+        cascade_samples=40_000,
+        cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
+        cascade_check_dgamma=0.3,
+        pressures=(1e-2, 1e-3, 1e-4),
+        pressure_n=(500,),
+        pressure_samples=MEDIUM_P_SAMPLES,
+        pressure_gamma_max=0.01,
+        expected=MEDIUM_EXPECTED,
+    ),
     "paper": Scale(
         name="paper",
         jamming_n=(500, 1000, 2000, 4000),
@@ -159,7 +220,18 @@ def studies(scale: Scale) -> dict[str, Any]:
                                samples=scale.stress_samples, dgamma=scale.stress_dgamma,
                                gamma_max=scale.stress_gamma_max, seed=scale.seed,
                                sizes=scale.sizes, alpha=scale.alpha),
+    } | {
+        pressure_run_name(p): Study(phi=("jamming",), n=scale.pressure_n,
+                                    samples=scale.pressure_samples, dgamma=scale.dgamma,
+                                    gamma_max=scale.pressure_gamma_max, seed=scale.seed,
+                                    sizes=scale.sizes, alpha=scale.alpha, pressure=p)
+        for p in scale.pressures
     }
+
+
+def pressure_run_name(p: float) -> str:
+    """The run directory of the fixed-pressure ensemble at ``p`` (``pressure-1e-04``)."""
+    return f"pressure-{p:.0e}"
 
 
 def get_scale(scale: Scale | str) -> Scale:

@@ -33,7 +33,7 @@ from jamlab.reproduce.measurements import (
     TauEstimate,
     predicted_tau,
 )
-from jamlab.reproduce.scales import Scale
+from jamlab.reproduce.scales import SCALES, Scale
 from jamlab.reproduce.theory_checks import TheoryChecks
 
 __all__ = [
@@ -49,6 +49,9 @@ __all__ = [
     "phi_j_row",
     "tau_data",
     "tau_rows",
+    "pressure_tau_data",
+    "pressure_tau_rows",
+    "tau_samples_text",
     "theory_data",
     "theory_rows",
 ]
@@ -56,8 +59,30 @@ __all__ = [
 TARGETS = {"tau_unsat": 0.15, "tau_jamming": 0.2, "slope": 0.2}
 """Acceptance windows of issue 8 at the quick scale (|τ−1|, |τ−1.41|, |slope+1|)."""
 
-_TAU_TITLES = {"jamming": "τ at jamming", "0.75": "τ at φ = 0.75", "0.8": "τ at φ = 0.80"}
-_MODULI_TITLES = {"jamming": "at jamming", "0.75": "at φ = 0.75"}
+_TAU_TITLES = {
+    "jamming": "τ at jamming (constant volume from p_target, the paper's protocol)",
+    "0.75": "τ at φ = 0.75",
+    "0.8": "τ at φ = 0.80",
+}
+_MODULI_TITLES = {"jamming": "at jamming (constant volume, the paper's protocol)",
+                  "0.75": "at φ = 0.75"}
+
+
+def _p_text(q: tuple[float, float, float] | None) -> str:
+    if q is None:
+        return "none"
+    return f"median {q[0]:.2g} [10–90 %: {q[1]:.2g}, {q[2]:.2g}]"
+
+
+def tau_samples_text(e: TauEstimate) -> str:
+    """The sample column of a τ row: counts, exclusions, pressures of the fitted avalanches
+    and (at jamming) of every minimum sampled."""
+    text = (f"{e.samples} samples, {e.steps} steps, {e.n_avalanches} avalanches; "
+            f"{e.exclusion_text}; p at the start of the fitted avalanches (S ≥ x_min): "
+            f"{_p_text(e.fit_pressures)}")
+    if e.label == "jamming":
+        text += f"; p of all minima sampled: {_p_text(e.sampled_pressures)}"
+    return text
 
 
 def _exp_text(x: float) -> str:
@@ -89,7 +114,7 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
             value=e.fit.tau if e.fit is not None else float("nan"),
             error=e.sigma,
             value_text=fit_text(e.fit, e.sigma),
-            samples=f"{e.samples} samples, {e.steps} steps, {e.n_avalanches} avalanches",
+            samples=tau_samples_text(e),
             comparisons=(
                 Comparison("the paper's fit", paper, paper_err),
                 Comparison("theory", theory),
@@ -97,6 +122,42 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
             ),
         ))
     return rows
+
+
+def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
+    """One row per fixed pressure: τ(p) against τ_J (the p → 0 limit of the theory), the paper's
+    constant-volume fit and τ_UNSAT = 1."""
+    rows = []
+    paper, paper_err = PAPER_TAU["jamming"]
+    theory = predicted_tau("jamming")
+    for p, e in sorted(estimates.items(), reverse=True):
+        rows.append(Row(
+            quantity=f"τ at fixed pressure p = {p:g} (S = −ΔH, jamming packings brought to p)",
+            reference_text=(f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
+                            f"constant-volume fit {paper} ± {paper_err}"),
+            value=e.fit.tau if e.fit is not None else float("nan"),
+            error=e.sigma,
+            value_text=fit_text(e.fit, e.sigma),
+            samples=tau_samples_text(e),
+            comparisons=(
+                Comparison("theory τ_J (p → 0)", theory),
+                Comparison("τ_UNSAT", 1.0),
+                Comparison("the paper's fit", paper, paper_err),
+            ),
+        ))
+    return rows
+
+
+def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
+    """``tau_pressure``: per p (as text) the fit numbers (or None) and the counts."""
+    out = {}
+    for p, e in estimates.items():
+        f = e.fit
+        out[f"{p:g}"] = dict(
+            tau=None if f is None else f.tau, sigma=e.sigma, n_avalanches=e.n_avalanches,
+            steps=e.steps, samples=e.samples, n_steps_excluded=e.n_steps_excluded,
+            fit_pressures=e.fit_pressures)
+    return {"tau_pressure": out} if out else {}
 
 
 def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
@@ -108,6 +169,12 @@ def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
             tau=f.tau, sigma=e.sigma, ci_low=f.ci_low, ci_high=f.ci_high, x_min=f.x_min,
             n_tail=f.n_tail, n_avalanches=e.n_avalanches)
     data["avalanche_counts"] = {k: e.n_avalanches for k, e in estimates.items()}
+    data["exclusions"] = {
+        k: dict(jammed_known=e.jammed_known, n_steps=e.steps,
+                n_steps_excluded=e.n_steps_excluded,
+                n_avalanches_excluded=e.n_avalanches_excluded,
+                fit_pressures=e.fit_pressures, sampled_pressures=e.sampled_pressures)
+        for k, e in estimates.items()}
     return data
 
 
@@ -311,6 +378,15 @@ def parameters(scale: Scale, runs: Path) -> dict[str, str]:
             f"values are shown for orientation only"
         ),
         "expected cost of this scale": scale.expected,
+        "projected cost of every scale": "; ".join(
+            f"{name}: {s.expected}" for name, s in SCALES.items()),
+        **({"fixed-pressure ensembles": (
+            f"p = {', '.join(f'{p:g}' for p in scale.pressures)}: N = "
+            f"{', '.join(map(str, scale.pressure_n))}, {scale.pressure_samples} samples each, "
+            f"γ_max = {scale.pressure_gamma_max:g} "
+            f"({round(scale.pressure_gamma_max / scale.dgamma)} steps), δγ = {scale.dgamma:g}; "
+            "the jamming protocol's packings brought to p (jam_at_pressure route), "
+            "enthalpy minimised at every step")} if scale.pressures else {}),
     }
 
 
@@ -318,9 +394,13 @@ def notes(scale: Scale) -> list[str]:
     """The report's notes: the avalanche rule, and how the protocol departs from the paper's."""
     out = [
         "Avalanches are the steps the AQS runner flags as plastic (the pre-step minimum's "
-        "branch ends) with ΔE < 0; S = −ΔE is a total energy. Fits: truncated power law by "
-        "maximum likelihood, x_max = largest size, x_min by the Kolmogorov–Smirnov rule "
-        "(Clauset et al. 2009), pooled over N at each φ.",
+        "branch ends) with ΔE < 0 between two jammed minima (rigid backbone and p above the "
+        "resolution floor 10·ftol·N/L³; steps that start or end unjammed are excluded and "
+        "counted in each τ row); S = −ΔE is a total energy. The jamming ensemble is the "
+        "paper's protocol: constant-volume shear of packings jammed at p_target, which unjam "
+        "and re-jam under shear — its τ rows give the pressures actually sampled. Fits: "
+        "truncated power law by maximum likelihood, x_max = largest size, x_min by the "
+        "Kolmogorov–Smirnov rule (Clauset et al. 2009), pooled over N at each φ.",
     ]
     if scale.dgamma != 1e-5 or scale.gamma_max != 0.01 or scale.jamming_gamma_max != 0.01:
         out.append(

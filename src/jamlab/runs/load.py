@@ -13,7 +13,10 @@ Dataset returned by :func:`open_run`:
 - per-step variables ``gamma, energy, shear_stress, pressure, z, z_nr, max_force, iterations,
   energy_jump, stress_jump, plastic`` (``phi, N, sample, step``), all float64 with NaN where a
   sample is missing (failed/pending) or its trace is shorter (``plastic`` is 1.0/0.0/NaN;
-  ``iterations`` is exact, being below 2⁵³);
+  ``iterations`` is exact, being below 2⁵³); and, when at least one sample stored them, the
+  optional ``jammed`` (1.0/0.0/NaN, NaN also for a sample without the column) and ``phi_step``
+  (the per-step packing fraction, stored as ``phi`` in the sample; renamed because ``phi`` is a
+  dimension here);
 - per-sample variables ``status`` (``"done"``, ``"failed"``, ``"corrupt"``, ``"pending"``),
   ``seed`` (uint64, the derived seed, known for every sample), ``n_steps`` (0 if missing) and the
   numeric attributes the task stored (e.g. ``phi_actual``: φ of the prepared packing, φ_J at
@@ -33,7 +36,7 @@ import h5py
 import numpy as np
 import xarray as xr
 
-from jamlab.runs.results import TRACE_FIELDS
+from jamlab.runs.results import OPTIONAL_TRACE_FIELDS, TRACE_FIELDS
 from jamlab.runs.seeds import sample_seed
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, phi_label
@@ -69,7 +72,8 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     path : path
         A run directory made by :func:`jamlab.runs.run_study` / ``jamlab run``.
     fields : tuple of str, optional
-        The per-step variables to load (default: all of ``TRACE_FIELDS``).
+        The per-step variables to load (default: all of ``TRACE_FIELDS`` and of
+        ``OPTIONAL_TRACE_FIELDS`` present).
 
     Returns
     -------
@@ -92,10 +96,11 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     run = RunDir(Path(path))
     manifest = run.read_manifest()
     study = run.study()
-    fields = tuple(TRACE_FIELDS if fields is None else fields)
-    unknown = sorted(set(fields) - set(TRACE_FIELDS))
+    valid = TRACE_FIELDS + OPTIONAL_TRACE_FIELDS
+    fields = tuple(valid if fields is None else fields)
+    unknown = sorted(set(fields) - set(valid))
     if unknown:
-        raise ValueError(f"unknown trace field(s) {', '.join(unknown)}; valid: {TRACE_FIELDS}")
+        raise ValueError(f"unknown trace field(s) {', '.join(unknown)}; valid: {valid}")
     shape3 = (len(study.phi), len(study.n), study.samples)
     status = np.full(shape3, "pending", dtype=object)
     seeds = np.zeros(shape3, dtype=np.uint64)
@@ -116,15 +121,19 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
                 if name in _SKIP_ATTRS or isinstance(value, str) or not _is_number(value):
                     continue
                 scalars.setdefault(name, np.full(shape3, np.nan))[idx] = float(value)
-        n_steps[idx] = max((len(v) for v in traces[idx].values()), default=0)
+        n_steps[idx] = max(
+            (len(v) for k, v in traces[idx].items() if k not in OPTIONAL_TRACE_FIELDS), default=0
+        )
     n_max = int(n_steps.max(initial=0))
     data_vars: dict[str, Any] = {}
     for f in fields:
+        if f in OPTIONAL_TRACE_FIELDS and not any(f in tr for tr in traces.values()):
+            continue
         arr = np.full((*shape3, n_max), np.nan)
         for idx, tr in traces.items():
             if f in tr:
                 arr[idx][: len(tr[f])] = tr[f].astype(np.float64)
-        data_vars[f] = (("phi", "N", "sample", "step"), arr)
+        data_vars["phi_step" if f == "phi" else f] = (("phi", "N", "sample", "step"), arr)
     dims3 = ("phi", "N", "sample")
     data_vars["status"] = (dims3, status.astype(str))
     data_vars["seed"] = (dims3, seeds)

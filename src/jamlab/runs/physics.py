@@ -60,9 +60,13 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
         raise SampleFailed(f"preparation did not converge: {prepared.reason or 'FIRE'}")
     if not prepared.ok:
         raise SampleFailed(f"preparation failed its stopping rule: {prepared.reason}")
-    result = aqs.shear(config, study.dgamma, study.gamma_max, ftol=study.force_tol)
+    result = aqs.shear(
+        config, study.dgamma, study.gamma_max, ftol=study.force_tol, pressure=study.pressure
+    )
     trace = getattr(result, "trace", result)
     traces = {name: np.asarray(getattr(trace, name)) for name in TRACE_FIELDS}
+    for name, column in trace.optional_columns().items():  # jammed, phi
+        traces[name] = np.asarray(column)
     attrs.update(scalars("shear_", result) if trace is not result else {})
     attrs.pop("shear_time", None)  # wall time: not reproducible, kept out of the sample's data
     n_bad = int(attrs.get("shear_n_not_converged", 0))

@@ -9,12 +9,16 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.spheres.trace import TRACE_COLUMNS
+from jamlab.spheres.trace import OPTIONAL_COLUMNS, TRACE_COLUMNS
 
-__all__ = ["TRACE_FIELDS", "SampleResult", "SampleFailure", "SampleFailed"]
+__all__ = ["OPTIONAL_TRACE_FIELDS", "TRACE_FIELDS", "SampleResult", "SampleFailure", "SampleFailed"]
 
 TRACE_FIELDS = TRACE_COLUMNS
 """The per-step arrays of :class:`jamlab.spheres.trace.Trace` that every sample stores."""
+
+OPTIONAL_TRACE_FIELDS = OPTIONAL_COLUMNS
+"""Per-step arrays stored when the trace has them (``jammed``, ``phi``: AQS samples written since
+trace format 2; absent in earlier run directories and in the ``toy`` task)."""
 
 
 class SampleFailed(Exception):

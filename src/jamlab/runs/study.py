@@ -111,6 +111,9 @@ class Study:
     - ``force_tol``: FIRE convergence, largest per-particle force ``|F_i|`` (SPEC §3).
     - ``sizes``: diameters, ``"mono"``, ``"bidisperse"`` or ``"polydisperse[:w]"`` (SPEC §5,
       :mod:`jamlab.spheres.state`); ``alpha``: pair exponent, ``V = (1 − r/σ_ij)^α``, ``> 1``.
+    - ``pressure``: ``None`` (default): AQS at constant volume (the paper's protocol); a number:
+      AQS at this fixed pressure (``shear(..., pressure=...)``; the prepared packing is first
+      brought to it). Stored only when set, so earlier run directories keep their study.
     - ``task``: ``"aqs"`` (prepare + shear) or ``"toy"`` (machinery tests only).
     """
 
@@ -126,6 +129,7 @@ class Study:
     task: str = "aqs"
     sizes: str = "mono"
     alpha: float = 2.0
+    pressure: float | None = None
 
     def __post_init__(self) -> None:
         phis = [parse_phi(p) for p in _as_list(self.phi)]
@@ -152,6 +156,8 @@ class Study:
         validation.strain_steps(self.dgamma, self.gamma_max)
         object.__setattr__(self, "sizes", validation.sizes("sizes", self.sizes))
         object.__setattr__(self, "alpha", validation.pair_exponent("alpha", self.alpha))
+        if self.pressure is not None:
+            object.__setattr__(self, "pressure", validation.positive("pressure", self.pressure))
         if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
 
@@ -191,6 +197,8 @@ class Study:
         d = asdict(self)
         d["phi"] = list(self.phi)
         d["n"] = list(self.n)
+        if d["pressure"] is None:  # constant volume: the study of earlier run directories
+            del d["pressure"]
         return d
 
     @classmethod

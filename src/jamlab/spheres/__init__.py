@@ -83,6 +83,7 @@ _LAZY = {
     "compress_to": "jamlab.spheres.packing",
     "coordination_curve": "jamlab.spheres.packing",
     "jam": "jamlab.spheres.packing",
+    "jam_at_pressure": "jamlab.spheres.packing",
     "prepare": "jamlab.spheres.packing",
 }
 __all__ += list(_LAZY)

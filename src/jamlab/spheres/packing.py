@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -40,6 +40,7 @@ from jamlab.spheres.relax import JAM_FIRE, RelaxResult, compress_to, relax, resc
 from jamlab.spheres.state import Packing, parse_sizes, random_packing
 
 __all__ = [
+    "jam_at_pressure",
     "RelaxResult",
     "PackingState",
     "PreparedPacking",
@@ -59,9 +60,6 @@ __all__ = [
     "fit_power_law",
     "fit_power_law_corrected",
 ]
-
-
-
 
 
 class JammingError(RuntimeError):
@@ -121,7 +119,6 @@ class PreparedPacking:
         return out
 
 
-
 def _check_common(n: int, dim: int, seed: int, ftol: float, sizes: str, alpha: float) -> None:
     if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2):
         raise ValueError(f"number of particles must be an integer >= 2, got n={n!r}")
@@ -133,8 +130,6 @@ def _check_common(n: int, dim: int, seed: int, ftol: float, sizes: str, alpha: f
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     parse_sizes(sizes)
     check_alpha(alpha)
-
-
 
 
 def jam(
@@ -407,3 +402,73 @@ def prepare(
         history=((r.packing.phi, state.pressure, state.n_contacts_nr > 0),),
     )
 
+
+def jam_at_pressure(
+    n: int,
+    dim: int = 3,
+    seed: int = 0,
+    pressure: float = 1e-4,
+    *,
+    p_target: float = 1e-7,
+    ptol: float = 1e-6,
+    phi_init: float = 0.66,
+    ftol: float = 1e-12,
+    sizes: str = "mono",
+    alpha: float = HARMONIC,
+    progress: ProgressCallback | None = None,
+) -> PreparedPacking:
+    """A packing at the target ``pressure``: the jamming packing of :func:`jam` (at its
+    ``p_target``, default 1e-7), then :func:`jamlab.spheres.barostat.minimize_enthalpy` to
+    ``|p − pressure| ≤ max(ptol·pressure, p_floor)`` at ``max|F_i| < ftol`` (positions and box side
+    relaxed: a compression when ``pressure > p_target``).
+
+    Why this route: the fixed-pressure packings are then the constant-volume protocol's packings
+    (same seeds, same ``jam``) brought to ``pressure``, so both protocols start from one ensemble.
+    Not ``jam(p_target=pressure)``: its stopping rule wants an *isostatic* backbone with ``p``
+    within a factor 2 of the target, which does not exist above ``p ≈ 1e-4`` at small N (a contact
+    is added first; measured N = 64 at 1e-3: 11 attempts failed). Not an enthalpy minimisation
+    from a random dense state: a different (deeper-quenched) ensemble. ``protocol`` is
+    ``"jamming+enthalpy"``; ``ok`` needs both stages; ``params`` gain ``pressure``, ``ptol``."""
+    from jamlab.spheres.barostat import minimize_enthalpy
+
+    if not (isinstance(pressure, int | float) and math.isfinite(pressure) and pressure > 0):
+        raise ValueError(f"pressure must be finite and > 0, got pressure={pressure!r}")
+    if not (isinstance(ptol, int | float) and math.isfinite(ptol) and ptol > 0):
+        raise ValueError(f"ptol must be finite and > 0, got ptol={ptol!r}")
+    t0 = time.perf_counter()
+    first = jam(
+        n,
+        dim,
+        seed,
+        p_target=p_target,
+        phi_init=phi_init,
+        ftol=ftol,
+        progress=progress,
+        sizes=sizes,
+        alpha=alpha,
+    )
+    if not first.ok:
+        return first
+    if progress is not None:
+        progress(f"enthalpy minimisation to p={pressure:g}")
+    res = minimize_enthalpy(first.packing, pressure, ftol=ftol, ptol=ptol)
+    reason = (
+        ""
+        if res.converged
+        else (
+            f"enthalpy minimisation did not converge (p={res.pressure:.6e}, "
+            f"max|F|={res.max_force:.3e})"
+        )
+    )
+    return replace(
+        first,
+        packing=res.packing,
+        state=describe(res.packing),
+        protocol="jamming+enthalpy",
+        converged=res.max_force < ftol,
+        ok=res.converged,
+        reason=reason,
+        fire_iterations=first.fire_iterations + res.iterations,
+        time=time.perf_counter() - t0,
+        params={**first.params, "pressure": float(pressure), "ptol": float(ptol)},
+    )

@@ -101,7 +101,8 @@ class PressureShearResult:
     def trace(self) -> Trace:
         """The run as a :class:`~jamlab.spheres.trace.Trace` whose ``energy`` column is the
         enthalpy ``H`` (so its ``energy_jump`` is ``ΔH`` and the analysis tools apply as they
-        are); ``phi``, ``jammed``, ``converged`` and ``E`` are not in that format yet."""
+        are), with its ``jammed`` and ``phi`` columns; ``converged`` shows as ``max_force`` or
+        the pressure, ``E`` and ``box_length`` are not in that format."""
         c = self.columns
         return Trace(
             gamma=c["gamma"],
@@ -115,6 +116,8 @@ class PressureShearResult:
             energy_jump=c["enthalpy_jump"],
             stress_jump=c["stress_jump"],
             plastic=c["plastic"],
+            jammed=c["jammed"],
+            phi=c["phi"],
             attrs={**self.attrs, "energy_column": "enthalpy"},
         )
 

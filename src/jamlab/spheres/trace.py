@@ -14,7 +14,16 @@ minimum after the ``n``-th strain step ``γ_{n-1} → γ_n``. Columns (``SPEC.md
 - ``energy_jump``: ``ΔE = E_n − E_{n-1} − (γ_n − γ_{n-1}) Σ_{n-1}``, NaN in row 0;
 - ``stress_jump``: ``ΔΣ = Σ_n − Σ_{n-1}``, NaN in row 0;
 - ``plastic``: True when the minimum of row ``n`` is not the continuation of the minimum of row
-  ``n − 1`` (see ``docs/aqs.md``); False in row 0.
+  ``n − 1`` (see ``docs/aqs.md``); False in row 0;
+- ``jammed`` (format version 2, optional): whether the minimum of row ``n`` is jammed
+  (:mod:`jamlab.spheres.rigidity`: non-empty, at least isostatic backbone, ``p > p_floor(ftol)``);
+  ``None`` when unknown (files of version 1);
+- ``phi`` (format version 2, optional): packing fraction of the minimum (constant at constant
+  volume, ``φ(γ)`` at fixed pressure); ``None`` when unknown.
+
+At fixed pressure (``attrs["protocol"] == "fixed-pressure"``, ``attrs["energy_column"] ==
+"enthalpy"``) the ``energy`` column holds the enthalpy ``H = E + p_t V`` and ``energy_jump`` is
+``ΔH`` (``docs/aqs.md``, "At the jamming point").
 
 So row ``n`` of ``energy_jump``/``stress_jump``/``plastic`` describes the step ``n−1 → n`` (the
 paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``os.replace``).
@@ -36,10 +45,17 @@ import numpy as np
 
 from jamlab.files import atomic_write_hdf5
 
-__all__ = ["Trace", "TRACE_COLUMNS", "write_trace", "read_trace", "read_trace_configuration"]
+__all__ = [
+    "OPTIONAL_COLUMNS",
+    "Trace",
+    "TRACE_COLUMNS",
+    "write_trace",
+    "read_trace",
+    "read_trace_configuration",
+]
 
 FORMAT = "jamlab-aqs-trace"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 TRACE_COLUMNS: tuple[str, ...] = (
     "gamma",
@@ -55,7 +71,10 @@ TRACE_COLUMNS: tuple[str, ...] = (
     "plastic",
 )
 
-_DTYPES = {"iterations": np.int64, "plastic": np.bool_}
+OPTIONAL_COLUMNS: tuple[str, ...] = ("jammed", "phi")
+"""Columns of format version 2 that older files lack (read as ``None``)."""
+
+_DTYPES = {"iterations": np.int64, "plastic": np.bool_, "jammed": np.bool_}
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,11 +97,15 @@ class Trace:
     stress_jump: np.ndarray
     plastic: np.ndarray
     attrs: dict = field(default_factory=dict)
+    jammed: np.ndarray | None = None
+    phi: np.ndarray | None = None
     avalanches: dict | None = None
 
     def __post_init__(self) -> None:
         n = None
-        for name in TRACE_COLUMNS:
+        for name in TRACE_COLUMNS + OPTIONAL_COLUMNS:
+            if getattr(self, name) is None:
+                continue
             arr = np.array(getattr(self, name), dtype=_DTYPES.get(name, np.float64))
             if arr.ndim != 1:
                 raise ValueError(f"trace column {name} must be 1-D, got shape {arr.shape}")
@@ -102,7 +125,9 @@ class Trace:
         """The same trace with the group ``avalanches`` (``shear(..., keep_avalanches=True)``;
         ``docs/formats.md``): 1-D datasets of one row per plastic step, the CSR displacement
         field, and an ``attrs`` dict."""
-        return Trace(**self.columns(), attrs=self.attrs, avalanches=avalanches)
+        return Trace(
+            **self.columns(), **self.optional_columns(), attrs=self.attrs, avalanches=avalanches
+        )
 
     @property
     def n_steps(self) -> int:
@@ -129,15 +154,21 @@ class Trace:
         ej[1:] = np.diff(energy) - np.diff(gamma) * stress[:-1]
         sj[1:] = np.diff(stress)
         cols = {k: rows[k] for k in TRACE_COLUMNS if k not in ("energy_jump", "stress_jump")}
-        return cls(**cols, energy_jump=ej, stress_jump=sj, attrs=attrs or {})
+        extra = {k: rows.get(k) for k in OPTIONAL_COLUMNS}
+        return cls(**cols, energy_jump=ej, stress_jump=sj, attrs=attrs or {}, **extra)
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The eleven columns by name."""
+        """The eleven required columns by name."""
         return {name: getattr(self, name) for name in TRACE_COLUMNS}
+
+    def optional_columns(self) -> dict[str, np.ndarray]:
+        """The optional columns (``jammed``, ``phi``) this trace has."""
+        return {k: getattr(self, k) for k in OPTIONAL_COLUMNS if getattr(self, k) is not None}
 
     def head(self, rows: int) -> Trace:
         """The first ``rows`` rows (without the ``avalanches`` group)."""
-        return Trace(**{k: v[:rows] for k, v in self.columns().items()}, attrs=self.attrs)
+        cols = {**self.columns(), **self.optional_columns()}
+        return Trace(**{k: v[:rows] for k, v in cols.items()}, attrs=self.attrs)
 
 
 def _attr_value(value: object) -> object:
@@ -161,6 +192,8 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
     def fill(h5: h5py.File) -> None:
         for name in TRACE_COLUMNS:
             h5.create_dataset(name, data=getattr(trace, name))
+        for name, column in trace.optional_columns().items():
+            h5.create_dataset(name, data=column)
         if configuration is not None:
             group = h5.create_group("configuration")
             group.create_dataset(
@@ -231,7 +264,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
         if missing:
             raise ValueError(f"not a jamlab AQS trace (missing {', '.join(missing)}): {path}")
         cols = {}
-        for name in TRACE_COLUMNS:
+        for name in TRACE_COLUMNS + tuple(k for k in OPTIONAL_COLUMNS if k in h5):
             item = h5[name]
             numeric = isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"
             if not numeric or item.ndim != 1:

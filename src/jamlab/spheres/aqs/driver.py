@@ -16,7 +16,14 @@ from jamlab import validation
 from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD, AvalancheRecorder
 from jamlab.spheres.aqs.checkpoint import checkpoint_paths, save_checkpoint
 from jamlab.spheres.aqs.parameters import AQSParameters
-from jamlab.spheres.aqs.record import ROW_KEYS, append_row, jamlab_version, make_trace, observe
+from jamlab.spheres.aqs.record import (
+    ROW_KEYS,
+    append_row,
+    jamlab_version,
+    make_trace,
+    observe,
+    resumed_rows,
+)
 from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.aqs.steps import Step, Stepper
 from jamlab.spheres.fire import FireParameters, minimize
@@ -73,6 +80,8 @@ def shear(
     after_step: Callable[[Packing, Packing, Step], None] | None = None,
     keep_avalanches: bool = False,
     avalanche_threshold: float | None = None,
+    pressure: float | None = None,
+    ptol: float = 1e-6,
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
@@ -92,7 +101,28 @@ def shear(
     anatomy of :mod:`jamlab.spheres.aqs.anatomy`; displacements above ``avalanche_threshold``,
     default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with the final
     trace, not with the intermediate checkpoints.
+    ``pressure``: shear at this fixed pressure instead of at constant volume
+    (:func:`jamlab.spheres.pressure_shear.shear_at_pressure`: positions and box side relaxed to
+    ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
+    is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` and ``params`` do not apply, and there is
+    no checkpoint or resume yet). Every trace has the ``jammed`` column.
     """
+    if pressure is not None:
+        return _shear_at_pressure(
+            packing,
+            dgamma,
+            gamma_max,
+            n_steps,
+            pressure,
+            ptol,
+            ftol,
+            fire_params,
+            save_every,
+            out,
+            previous,
+            source,
+            progress,
+        )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
     if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
@@ -138,9 +168,9 @@ def shear(
                 f"configuration strain {packing.strain} does not match the trace's last strain "
                 f"{previous.gamma[-1]}"
             )
-        for k in ROW_KEYS:
-            rows[k] = list(getattr(previous, k))
         cur = packing
+        last_row, backbone = observe(cur, nl)
+        rows = resumed_rows(previous, last_row)
         first = previous.n_steps + 1
     if first > total:
         raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
@@ -243,4 +273,74 @@ def shear(
         n_cleanup=counters["n_cleanup"],
         n_not_converged=int(np.count_nonzero(trace.max_force >= ftol)),
         time=elapsed,
+    )
+
+
+def _shear_at_pressure(
+    packing,
+    dgamma,
+    gamma_max,
+    n_steps,
+    pressure,
+    ptol,
+    ftol,
+    fire_params,
+    save_every,
+    out,
+    previous,
+    source,
+    progress,
+) -> ShearResult:
+    """The fixed-pressure protocol behind :func:`shear` (its docstring)."""
+    from jamlab.spheres.pressure_shear import shear_at_pressure
+
+    validation.positive("pressure", pressure)
+    validation.positive("ptol", ptol)
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    if previous is not None or save_every is not None:
+        raise ValueError("fixed-pressure shear has no checkpoints or resume yet")
+    if (gamma_max is None) == (n_steps is None):
+        raise ValueError("give exactly one of gamma_max and n_steps")
+    if n_steps is None:
+        total = n_steps_for(dgamma, gamma_max, packing.strain)
+    else:
+        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
+        total = n_steps
+        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, packing.strain)
+    res = shear_at_pressure(
+        packing,
+        dgamma,
+        pressure=pressure,
+        n_steps=total,
+        ftol=ftol,
+        ptol=ptol,
+        fire_params=fire_params,
+        progress=progress,
+    )
+    trace = res.trace()
+    trace.attrs.update(
+        {
+            "phi": float(res.columns["phi"][0]),
+            "box_length": float(res.columns["box_length"][0]),
+            "alpha": float(packing.alpha),
+            "monodisperse": bool(packing.monodisperse),
+            "jamlab_version": jamlab_version(),
+            "source": "" if source is None else str(source),
+        }
+    )
+    if out is not None:
+        from jamlab.spheres.io import write_packing
+        from jamlab.spheres.trace import write_trace
+
+        write_trace(out, trace, configuration=res.packing)
+        write_packing(checkpoint_paths(out)[0], res.packing, aqs_step=int(total))
+    return ShearResult(
+        trace=trace,
+        packing=res.packing,
+        n_fallback=0,
+        n_substepped=0,
+        n_cleanup=0,
+        n_not_converged=res.n_not_converged,
+        time=res.time,
     )

@@ -7,6 +7,7 @@ import numpy as np
 
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
 from jamlab.spheres.potential import NeighborList, Packing, evaluate
+from jamlab.spheres.rigidity import jammed_verdict, pressure_floor
 from jamlab.spheres.trace import TRACE_COLUMNS, Trace
 
 
@@ -26,12 +27,44 @@ def observe(packing: Packing, nl: NeighborList) -> tuple[dict[str, float], np.nd
         "z": 2.0 * ci.size / n,
         "z_nr": 2.0 * n_c_kept / n_kept if n_kept else 0.0,
         "max_force": ev.max_force,
+        # what the jammed verdict needs, from this same contact pass (resolved in make_trace,
+        # where the run's ftol is known)
+        "rigidity": (packing.dim, n, packing.box.length, n_kept, n_c_kept, ev.pressure),
     }
     return row, keep
 
 
-# the columns measured at a minimum (the jumps are differences between rows)
-ROW_KEYS = tuple(c for c in TRACE_COLUMNS if c not in ("energy_jump", "stress_jump"))
+# the columns measured at a minimum (the jumps are differences between rows); ``jammed`` holds,
+# while the run goes, the rigidity tuple of :func:`observe` (a bool for resumed rows)
+ROW_KEYS = tuple(c for c in TRACE_COLUMNS if c not in ("energy_jump", "stress_jump")) + ("jammed",)
+
+
+def resumed_rows(previous: Trace, last: dict) -> dict[str, list]:
+    """The rows of a trace being continued (columns :data:`ROW_KEYS`); ``last``: the
+    :func:`observe` row of the configuration it continues from (its rigidity counts serve the
+    next lean step). A trace without the ``jammed`` column (format version 1) gives ``None``
+    flags, and the continued trace then has no ``jammed`` column (unknown for its first rows)."""
+    rows = {k: list(getattr(previous, k)) for k in ROW_KEYS if k != "jammed"}
+    flags = previous.jammed
+    rows["jammed"] = [None] * len(rows["gamma"]) if flags is None else [bool(f) for f in flags]
+    rows["jammed"][-1] = last["rigidity"] if flags is not None else None
+    return rows
+
+
+def jammed_flags(rows: dict[str, list], ftol: float) -> np.ndarray | None:
+    """The ``jammed`` column: :func:`~jamlab.spheres.rigidity.jammed_verdict` of each row's
+    backbone counts and pressure against ``p_floor(ftol)``; ``None`` if a row is unknown."""
+    out = []
+    for value in rows.get("jammed", []):
+        if value is None:
+            return None
+        if isinstance(value, bool | np.bool_):
+            out.append(bool(value))
+            continue
+        dim, n, length, n_kept, n_c_kept, p = value
+        floor = pressure_floor(n, dim, length, ftol)
+        out.append(not jammed_verdict(dim, n_kept, n_c_kept, p, floor))
+    return np.asarray(out, dtype=bool)
 
 
 def append_row(
@@ -43,14 +76,30 @@ def append_row(
         rows[k].append(row[k])
     rows["iterations"].append(int(iterations))
     rows["plastic"].append(bool(plastic))
+    flags = rows.setdefault("jammed", [])
+    rigidity = row.get("rigidity")
+    if rigidity is None and flags and isinstance(flags[-1], tuple):
+        # the lean step keeps the previous minimum's backbone (lean.py): its size is known,
+        # its contacts follow from z_nr = 2 N_c'/N'
+        dim, n, length, n_kept, _, _ = flags[-1]
+        n_c_kept = int(round(0.5 * row["z_nr"] * n_kept))
+        rigidity = (dim, n, length, n_kept, n_c_kept, row["pressure"])
+    flags.append(rigidity)
 
 
 def make_trace(rows: dict[str, list], attrs: dict, counters: dict) -> Trace:
     """The :class:`~jamlab.spheres.trace.Trace` of the rows, with the run's attributes and
-    counters."""
-    trace = Trace.from_rows(rows, attrs=dict(attrs))
+    counters; ``jammed`` judged at ``attrs["ftol"]``, ``phi`` the constant ``attrs["phi"]``
+    (constant volume)."""
+    full = dict(rows)
+    full["jammed"] = jammed_flags(rows, float(attrs["ftol"]))
+    full["phi"] = np.full(len(rows["gamma"]), float(attrs["phi"]))
+    trace = Trace.from_rows(full, attrs=dict(attrs))
     trace.attrs.update(counters)
     trace.attrs["n_plastic"] = int(np.count_nonzero(trace.plastic))
+    trace.attrs["protocol"] = "constant-volume"
+    if trace.jammed is not None:
+        trace.attrs["n_unjammed"] = int(np.count_nonzero(~trace.jammed))
     return trace
 
 

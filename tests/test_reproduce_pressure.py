@@ -1,0 +1,74 @@
+"""The fixed-pressure part of ``reproduce`` (issue 18): the studies a scale with pressures runs,
+and τ(p)'s counts re-derived here with h5py and numpy from a small real run."""
+
+from __future__ import annotations
+
+import glob
+from dataclasses import replace
+
+import h5py
+import numpy as np
+import pytest
+
+from jamlab.reproduce import SCALES
+from jamlab.reproduce.ensembles import RunSet
+from jamlab.reproduce.measurements import pressure_tau_estimates
+from jamlab.reproduce.scales import Scale, pressure_run_name, studies
+from jamlab.reproduce.table import parameters, pressure_tau_rows
+from jamlab.runs import Execution, run_study
+
+
+def test_medium_scale_studies():
+    m = SCALES["medium"]
+    st = studies(m)
+    assert m.dgamma == 1e-5 and set(m.jamming_n) == {500, 1000}
+    for p in (1e-2, 1e-3, 1e-4):
+        s = st[pressure_run_name(p)]
+        assert s.pressure == p and s.phi == ("jamming",) and s.dgamma == 1e-5
+        assert set(s.n) <= {500, 1000}
+    assert st["jamming"].pressure is None  # the paper's protocol stays at constant volume
+    assert "h" in m.expected
+    # every scale's projected cost is in the report header
+    text = parameters(m, __import__("pathlib").Path("runs"))["projected cost of every scale"]
+    assert all(name in text for name in SCALES)
+
+
+def test_a_scale_with_pressures_needs_their_sizes():
+    with pytest.raises(ValueError, match="fixed-pressure"):
+        replace(SCALES["tiny"], pressures=(1e-3,))
+
+
+def test_pressure_tau_counts_from_a_small_run(tmp_path):
+    scale: Scale = replace(
+        SCALES["tiny"], pressures=(1e-3,), pressure_n=(16,), pressure_samples=2,
+        pressure_gamma_max=0.03, min_tail=3,
+    )
+    name = pressure_run_name(1e-3)
+    study = studies(scale)[name]
+    run_study(study, tmp_path / name, Execution(workers=0))
+    est = pressure_tau_estimates(RunSet(tmp_path), scale)[1e-3]
+    sizes, steps, x_steps, p_start = [], 0, 0, []
+    for f in sorted(glob.glob(str(tmp_path / name / "samples" / "*" / "*" / "*.h5"))):
+        with h5py.File(f, "r") as h5:
+            t = {k: h5["trace"][k][()] for k in h5["trace"]}
+        de, pl, jm = t["energy_jump"][1:], t["plastic"][1:].astype(bool), t["jammed"]
+        ok = jm[:-1] & jm[1:]
+        mask = pl & (de < 0) & ok
+        sizes.append(-de[mask])
+        p_start.append(t["pressure"][:-1][mask])
+        steps += de.size
+        x_steps += int((~ok).sum())
+        assert np.all(np.abs(t["pressure"] - 1e-3) <= 1e-9)  # at the target at every minimum
+    sizes = np.concatenate(sizes)
+    assert est.samples == 2 and est.steps == steps == 60
+    assert est.n_avalanches == sizes.size and est.n_steps_excluded == x_steps
+    assert est.jammed_known
+    if sizes.size:
+        assert est.pooled.counts.sum() == sizes.size
+        p_all = np.concatenate(p_start)
+        assert est.fit_pressures is not None
+        assert est.fit_pressures[1] >= p_all.min() and est.fit_pressures[2] <= p_all.max()
+    row = pressure_tau_rows({1e-3: est})[0]
+    assert row.quantity.startswith("τ at fixed pressure p = 0.001")
+    assert f"{sizes.size} avalanches" in row.samples
+    assert f"excluded as unjammed: {x_steps} of {steps} steps" in row.samples
