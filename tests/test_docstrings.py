@@ -23,6 +23,7 @@ ENTRY_POINTS = [
     "jamlab.theory.jumps.jump_distribution",
     "jamlab.theory.cascade.sample_cascade_jumps",
     "jamlab.runs.load.open_run",
+    "jamlab.spheres.aqs.driver.shear",
 ]
 
 SECTIONS = ("Parameters", "Returns", "Examples")

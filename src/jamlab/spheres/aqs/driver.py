@@ -106,6 +106,45 @@ def shear(
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
     is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` and ``params`` do not apply, and there is
     no checkpoint or resume yet). Every trace has the ``jammed`` column.
+
+    Parameters
+    ----------
+    packing : Packing
+        The start (any pair law); minimised first if ``max|F_i| ≥ ftol``.
+    dgamma : float
+        The strain step ``δγ > 0``.
+    gamma_max, n_steps : float or int
+        Give exactly one: the final strain or the number of steps.
+    minimizer, ftol, classify, params, fire_params
+        The step method and its tolerances (see above and :class:`AQSParameters`).
+    save_every, out, previous, source, progress, after_step, keep_avalanches, \
+avalanche_threshold, pressure, ptol
+        Checkpoints, resume, bookkeeping and options (see above).
+
+    Returns
+    -------
+    ShearResult
+        ``trace`` (:class:`~jamlab.spheres.trace.Trace`: ``γ, E, Σ, p, z, z_nr, max|F|``,
+        iterations, ``ΔE``, ``ΔΣ``, ``plastic``, ``jammed`` per row), the final ``packing`` and
+        counters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from jamlab.spheres import prepare, shear
+    >>> start = prepare(64, 3, 0.8, seed=1).packing       # an UNSAT packing, φ = 0.8
+    >>> tr = shear(start, 1e-4, n_steps=50).trace
+    >>> tr.n_steps, round(float(tr.gamma[-1]), 12), bool(tr.jammed.all())
+    (50, 0.005, True)
+    >>> bool((tr.max_force < 1e-12).all()), int(tr.plastic.sum())
+    (True, 0)
+
+    Along an elastic branch ``Σ = dE/dγ``: the trapezoid rule holds far below ``|ΔE|``.
+
+    >>> de = np.diff(tr.energy)
+    >>> trapezoid = 0.5 * np.diff(tr.gamma) * (tr.shear_stress[1:] + tr.shear_stress[:-1])
+    >>> bool(np.abs(de - trapezoid).max() < 1e-3 * np.abs(de).min())
+    True
     """
     if pressure is not None:
         return _shear_at_pressure(
