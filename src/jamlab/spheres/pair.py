@@ -39,7 +39,6 @@ __all__ = [
     "pair_terms",
     "pair_sigmas",
     "kernel_law",
-    "pair_energy",
 ]
 
 HARMONIC = 2.0
@@ -117,10 +116,3 @@ def kernel_law(diameters: np.ndarray, alpha: float) -> tuple[np.ndarray | None, 
 def pair_sigmas(diameters: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """``σ_ij = (D_i + D_j)/2`` for index arrays (numpy form of :func:`pair_sigma`)."""
     return 0.5 * (diameters[i] + diameters[j])
-
-
-def pair_energy(r: np.ndarray, sigma: np.ndarray, alpha: float = HARMONIC) -> np.ndarray:
-    """``V(r)`` elementwise (numpy; for tests, plots and documentation)."""
-    r = np.asarray(r, dtype=np.float64)
-    h = np.clip(1.0 - r / np.asarray(sigma, dtype=np.float64), 0.0, None)
-    return h**alpha
