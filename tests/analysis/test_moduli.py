@@ -90,3 +90,38 @@ def test_errors():
         moduli_from_stress_jumps([np.zeros((2, 3)), np.zeros((3, 3))], [1e-3, 2e-3])
     with pytest.raises(ValueError, match="positive"):
         fit_log_slope([1.0, 2.0], [1.0, -1.0], [0.1, 0.1])
+
+
+@pytest.mark.parametrize("overlapping", [True, False])
+def test_unjammed_minima_are_left_out_as_a_loop_would(overlapping: bool) -> None:
+    """``jammed=``: against a plain loop over samples and differences (a difference is used when
+    every minimum it spans is jammed; a sample with none at a lag is left out of that lag)."""
+    rng = np.random.default_rng(7)
+    stress = rng.normal(size=(5, 40)).cumsum(axis=1)
+    jammed = rng.random((5, 40)) > 0.08
+    jammed[3] = False  # a sample that is never jammed: no differences at all
+    dgamma0, lags = 1e-3, [1, 2, 5]
+    mom = moduli_from_trace(stress, dgamma0, lags, overlapping=overlapping, jammed=jammed)
+    for k, m in enumerate(lags):
+        per1, per2, dropped = [], [], 0
+        for s in range(stress.shape[0]):
+            starts = range(0, stress.shape[1] - m, 1 if overlapping else m)
+            used = []
+            for n in starts:
+                if all(jammed[s, n : n + m + 1]):
+                    used.append((stress[s, n + m] - stress[s, n]) / (m * dgamma0))
+                else:
+                    dropped += 1
+            if used:
+                per1.append(np.mean(used))
+                per2.append(np.mean(np.square(used)))
+        assert mom.mu1[k] == pytest.approx(np.mean(per1), rel=1e-12)
+        assert mom.mu1_sq[k] == pytest.approx(np.mean(per2), rel=1e-12)
+        assert mom.mu1_err[k] == pytest.approx(np.std(per1, ddof=1) / np.sqrt(len(per1)), rel=1e-10)
+        assert mom.n_excluded[k] == dropped
+    # all jammed: the same numbers as without flags
+    plain = moduli_from_trace(stress, dgamma0, lags, overlapping=overlapping)
+    every = moduli_from_trace(stress, dgamma0, lags, overlapping=overlapping,
+                              jammed=np.ones_like(jammed))
+    np.testing.assert_array_equal(plain.mu1_sq, every.mu1_sq)
+    assert plain.n_excluded is None and list(every.n_excluded) == [0, 0, 0]

@@ -49,6 +49,9 @@ class ModulusMoments:
     n_samples: int
     n_differences: NDArray[np.int64]
     overlapping: bool
+    n_excluded: NDArray[np.int64] | None = None
+    """Differences left out at each ``δγ`` because they span an unjammed minimum, of the
+    ``n_samples × n_differences`` there (``None``: no ``jammed`` flags were given)."""
 
 
 def _mean_and_error(per_sample: FloatArray) -> tuple[float, float]:
@@ -58,10 +61,22 @@ def _mean_and_error(per_sample: FloatArray) -> tuple[float, float]:
     return mean, err
 
 
-def _moments_of_jumps(jumps: FloatArray, dgamma: float) -> tuple[float, float, float, float]:
-    """Moments from ``jumps`` of shape (samples, differences) at one strain step."""
-    m1 = jumps.mean(axis=1) / dgamma
-    m2 = (jumps**2).mean(axis=1) / dgamma**2
+def _moments_of_jumps(
+    jumps: FloatArray, dgamma: float, keep: NDArray[np.bool_] | None = None
+) -> tuple[float, float, float, float]:
+    """Moments from ``jumps`` of shape (samples, differences) at one strain step; with ``keep``
+    (same shape) only the kept differences, and only samples that keep at least one."""
+    if keep is None:
+        m1 = jumps.mean(axis=1) / dgamma
+        m2 = (jumps**2).mean(axis=1) / dgamma**2
+    else:
+        count = keep.sum(axis=1)
+        used = count > 0
+        if not used.any():
+            return (float("nan"),) * 4
+        kept = np.where(keep, jumps, 0.0)[used]
+        m1 = kept.sum(axis=1) / count[used] / dgamma
+        m2 = (kept**2).sum(axis=1) / count[used] / dgamma**2
     return (*_mean_and_error(m1), *_mean_and_error(m2))
 
 
@@ -71,6 +86,7 @@ def moduli_from_trace(
     lags: ArrayLike,
     *,
     overlapping: bool = True,
+    jammed: ArrayLike | None = None,
 ) -> ModulusMoments:
     """Moments at ``δγ = m·δγ_0`` from fine traces ``Σ(γ_0 + n δγ_0)`` by subsampling.
 
@@ -80,10 +96,23 @@ def moduli_from_trace(
     variance, correlated) or ``n = 0, m, 2m, …`` (``overlapping=False``: independent increments
     of one path). Each sample's mean of ``ΔΣ/δγ`` and ``ΔΣ²/δγ²`` is averaged over samples
     (module docstring for the error).
+
+    ``jammed`` (optional, the traces' per-minimum flags, same shape as ``shear_stress``): a
+    difference ``Σ_{n+m} − Σ_n`` is used only if every minimum ``n … n+m`` is jammed — a
+    difference across a floppy state is not an elastic response (``docs/analysis.md``); a sample
+    with no such difference at a lag is left out of that lag's average.
     """
     stress = np.atleast_2d(np.asarray(shear_stress, dtype=np.float64))
     if stress.ndim != 2:
         raise ValueError(f"shear_stress must be 1-D or (samples, steps+1), got {stress.shape}")
+    unjammed_before = None
+    if jammed is not None:
+        flags = np.atleast_2d(np.asarray(jammed))
+        if flags.shape != stress.shape:
+            raise ValueError(f"jammed has shape {flags.shape}, shear_stress {stress.shape}")
+        # unjammed_before[:, k]: unjammed minima among 0 … k−1
+        unjammed_before = np.zeros((stress.shape[0], stress.shape[1] + 1), dtype=np.int64)
+        np.cumsum(~flags.astype(bool), axis=1, out=unjammed_before[:, 1:])
     if not strain_step > 0:
         raise ValueError(f"strain_step={strain_step!r} must be > 0")
     lags = np.atleast_1d(np.asarray(lags))
@@ -92,12 +121,19 @@ def moduli_from_trace(
         raise ValueError(f"lags must be integers in [1, {n_points - 1}], got {lags}")
     out = []
     counts = []
+    excluded = []
     for m in lags.astype(int):
         jumps = stress[:, m:] - stress[:, :-m]
+        keep = None
+        if unjammed_before is not None:
+            # no unjammed minimum among n … n+m
+            keep = (unjammed_before[:, m + 1:] - unjammed_before[:, : n_points - m]) == 0
         if not overlapping:
             jumps = jumps[:, ::m]
-        out.append(_moments_of_jumps(jumps, m * strain_step))
+            keep = None if keep is None else keep[:, ::m]
+        out.append(_moments_of_jumps(jumps, m * strain_step, keep))
         counts.append(jumps.shape[1])
+        excluded.append(0 if keep is None else int(keep.size - keep.sum()))
     arr = np.array(out)
     return ModulusMoments(
         strain_step=lags.astype(np.float64) * strain_step,
@@ -108,6 +144,7 @@ def moduli_from_trace(
         n_samples=stress.shape[0],
         n_differences=np.array(counts, dtype=np.int64),
         overlapping=overlapping,
+        n_excluded=None if jammed is None else np.array(excluded, dtype=np.int64),
     )
 
 

@@ -61,11 +61,7 @@ def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
     pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
     pr = np.asarray(ds.pressure.sel(phi=label, N=n).values)[done]
-    jammed = None
-    if "jammed" in ds:
-        flags = np.asarray(ds.jammed.sel(phi=label, N=n).values)[done]
-        if flags.size and np.all(np.isfinite(flags)):
-            jammed = flags > 0.5
+    jammed = jammed_flags(ds, label, n)
     if not ej.size:
         return AvalancheSet(np.empty(0), np.empty(0), 0, int(done.sum()), True, 0, 0, np.empty(0))
     sizes = avalanche_sizes(ej, pl, jammed=jammed)
@@ -91,6 +87,17 @@ def avalanche_sizes_of(ds: Any, label: str, n: int) -> tuple[np.ndarray, int, in
     """``(sizes, number of AQS steps, number of samples)`` of :func:`avalanche_set`."""
     a = avalanche_set(ds, label, n)
     return a.sizes, a.steps, a.samples
+
+
+def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:
+    """The ``jammed`` flag of every minimum of the finished samples, ``(samples, steps+1)``;
+    ``None`` for runs made before trace format 2 (no flags)."""
+    if "jammed" not in ds:
+        return None
+    flags = np.asarray(ds.jammed.sel(phi=label, N=n).values)[finished(ds, label, n)]
+    if flags.size and np.all(np.isfinite(flags)):
+        return flags > 0.5
+    return None
 
 
 def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set, finished, intensive_stress
+from jamlab.reproduce.ensembles import avalanche_set, finished, intensive_stress, jammed_flags
 from jamlab.reproduce.scales import UNSAT_PHI, Scale
 
 __all__ = [
@@ -220,7 +220,9 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
         for n in ns:
             st = intensive_stress(ds, label, n)
             if st.shape[0] >= 2:
-                moments[label][n] = moduli_from_trace(st, scale.dgamma, scale.moduli_lags)
+                # differences across an unjammed minimum are not elastic responses: left out
+                moments[label][n] = moduli_from_trace(st, scale.dgamma, scale.moduli_lags,
+                                                      jammed=jammed_flags(ds, label, n))
         slopes[label] = None
         if moments[label]:
             n_big = max(moments[label])

@@ -198,6 +198,15 @@ def phi_j_data(e: PhiJEstimate) -> dict[str, Any]:
     return {"phi_j": dict(mean=e.mean, sem=e.sem, n=e.n)}
 
 
+def _moduli_exclusion(m: Any) -> str:
+    """How many stress differences the jammed flags left out (at the smallest and largest lag)."""
+    if m is None or m.n_excluded is None:
+        return "no jammed flags in these runs: no difference excluded"
+    total = m.n_samples * m.n_differences
+    return (f"differences across an unjammed minimum excluded: {m.n_excluded[0]} of {total[0]} "
+            f"at the smallest δγ, {m.n_excluded[-1]} of {total[-1]} at the largest")
+
+
 def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
     """Slope of ``log⟨μ_1²⟩`` per label (theory −1), then ``⟨μ_1⟩`` at both ends of the lags."""
     rows = []
@@ -217,7 +226,7 @@ def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
             samples=f"{m.n_samples if m else 0} samples",
             comparisons=(Comparison("theory", -1.0),
                          Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
-            note="error indicative: the lags of one trace are correlated",
+            note="error indicative: the lags of one trace are correlated; " + _moduli_exclusion(m),
         ))
     for label in MODULI_LABELS:
         if not r.moments[label]:
