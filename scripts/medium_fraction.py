@@ -1,0 +1,74 @@
+"""Run a measured fraction of the ``medium`` reproduce scale, and project the rest from it.
+
+A session cannot host the ~10-hour ``jamlab reproduce --scale medium``. This script runs some of
+its run directories (``--studies``, by name; default the fixed-pressure ensemble at p = 1e-4,
+the costliest pressure) into ``--runs``, exactly as ``jamlab reproduce --scale medium --runs
+RUNS`` would (same studies, seeds and layout, so a later full run reuses these samples), then
+prints per finished sample its worker wall time (the ``seconds`` stored with it), the τ fit of the
+scale's rule from the finished samples (``jamlab.reproduce.measurements.tau_estimate``: jammed
+steps only, S = −ΔH at fixed pressure), and the scale's projected cost with the measured
+seconds per sample put in place of the benchmark-based estimate for the studies run.
+
+    PYTHONPATH=src nice -n 10 python scripts/medium_fraction.py --runs medium-runs \\
+        --studies pressure-1e-04 --workers 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jamlab.reproduce.measurements import tau_estimate
+from jamlab.reproduce.scales import SCALES, studies
+from jamlab.runs import Execution, open_run, run_study
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=Path, default=Path("medium-runs"))
+    ap.add_argument("--studies", nargs="+", default=["pressure-1e-04"])
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--analyse-only", action="store_true", help="do not run, only report")
+    args = ap.parse_args(argv)
+    scale = SCALES["medium"]
+    all_studies = studies(scale)
+    unknown = [s for s in args.studies if s not in all_studies]
+    if unknown:
+        ap.error(f"unknown studies {unknown}; the medium scale has {sorted(all_studies)}")
+    for name in args.studies:
+        study = all_studies[name]
+        if not args.analyse_only:
+            t0 = time.perf_counter()
+            summary = run_study(study, args.runs / name, Execution(workers=args.workers),
+                                log=print)
+            print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
+                  f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
+        ds = open_run(args.runs / name)
+        done = ds.status.values == "done"
+        seconds = np.asarray(ds.seconds.values)[done]
+        n_values = list(study.n)
+        print(f"\n# {name}: N = {n_values}, {int(done.sum())} of {done.size} samples finished, "
+              f"{study.dgamma:g} x {int(round(study.gamma_max / study.dgamma))} steps each"
+              + ("" if study.pressure is None else f", fixed p = {study.pressure:g}"))
+        if seconds.size:
+            print(f"worker wall time per sample: {', '.join(f'{s:.0f}' for s in seconds)} s "
+                  f"(mean {seconds.mean():.0f} s)")
+            total = done.size * seconds.mean()
+            print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
+                  "of one core")
+        est = tau_estimate("jamming" if "jamming" in study.phi else repr(study.phi[0]),
+                           [(ds, n) for n in n_values], scale)
+        fit = est.fit
+        if fit is None:
+            print(f"tau: no fit ({est.n_avalanches} avalanches)")
+        else:
+            print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
+                  f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
