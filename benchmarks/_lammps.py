@@ -56,6 +56,22 @@ def write_data(path: Path, packing: sp.Packing) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+def harmonic_header(timestep: float = 0.1) -> str:
+    """The start of every AQS input: the data file ``data.txt``, the paper's harmonic pair law
+    (``harmonic/cut``, ``ε = 1``, ``σ = 1``), the neighbour list and the time step. The caller
+    adds the minimiser, thermo output (``thermo_modify norm no``) and the loop."""
+    return f"""units lj
+atom_style atomic
+boundary p p p
+read_data data.txt
+pair_style harmonic/cut
+pair_coeff 1 1 1.0 1.0
+neighbor 0.3 bin
+neigh_modify delay 0 every 1 check yes
+timestep {timestep!r}
+"""
+
+
 def run_script(exe: str, env: dict[str, str], script: str, workdir: Path) -> tuple[str, float]:
     """Run the LAMMPS input ``script`` in ``workdir``; return (the log text, wall seconds).
 

@@ -43,7 +43,7 @@ REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "reference"
 START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
+from _lammps import find_lammps, harmonic_header, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
 PARAMS = aqs.AQSParameters()
 SUMMARY: dict[str, dict] = {}  # name -> best seconds per step of each competitor (compare)
@@ -60,16 +60,7 @@ def lammps_aqs(
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         write_data(work / "data.txt", packing)
-        script = f"""units lj
-atom_style atomic
-boundary p p p
-read_data data.txt
-pair_style harmonic/cut
-pair_coeff 1 1 1.0 1.0
-neighbor 0.3 bin
-neigh_modify delay 0 every 1 check yes
-timestep 0.1
-min_style fire
+        script = harmonic_header() + f"""min_style fire
 min_modify norm max tmax {tmax!r}
 variable sig equal -pxy*vol
 thermo_style custom step pe press pxy v_sig fmax

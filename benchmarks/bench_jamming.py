@@ -42,7 +42,7 @@ from jamlab.spheres.barostat import minimize_enthalpy
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _lammps import find_lammps, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
+from _lammps import find_lammps, harmonic_header, run_script, write_data  # noqa: E402  (benchmarks run as scripts)
 
 DGAMMA = 1e-5
 FTOL = 1e-12
@@ -60,16 +60,7 @@ def lammps_steps(lmp, packing: sp.Packing, steps: int, pressure: float | None) -
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         write_data(work / "data.txt", packing)
-        script = f"""units lj
-atom_style atomic
-boundary p p p
-read_data data.txt
-pair_style harmonic/cut
-pair_coeff 1 1 1.0 1.0
-neighbor 0.3 bin
-neigh_modify delay 0 every 1 check yes
-timestep 0.1
-{minimiser}
+        script = harmonic_header() + f"""{minimiser}
 {relax}
 thermo_style custom step pe press pxy vol fmax
 thermo_modify norm no

@@ -3,32 +3,17 @@ polish at fixed box); skipped when LAMMPS is not installed (``benchmarks/_lammps
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import re
-from pathlib import Path
 
 import pytest
 
 from jamlab.spheres import jam
 from jamlab.spheres.barostat import minimize_enthalpy
+from lammps_helpers import LAMMPS_MARKS, LMP, benchmark_module
 
-HELPERS = Path(__file__).resolve().parents[2] / "benchmarks" / "_lammps.py"
-
-
-def _helpers():
-    spec = importlib.util.spec_from_file_location("_lammps", HELPERS)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-lm = _helpers() if HELPERS.is_file() else None
-LMP = lm.find_lammps() if lm else None
-pytestmark = [
-    pytest.mark.lammps,
-    pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (LAMMPS_BIN, /tmp/lmpvenv)"),
-]
+lm = benchmark_module("_lammps")
+pytestmark = LAMMPS_MARKS
 
 SCRIPT = """
 units lj

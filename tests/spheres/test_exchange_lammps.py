@@ -5,7 +5,6 @@ as in ``benchmarks/_lammps.py``)."""
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import re
 from pathlib import Path
 
@@ -14,23 +13,10 @@ import pytest
 
 import jamlab.spheres as sp
 from jamlab.spheres import exchange as ex
+from lammps_helpers import LAMMPS_MARKS, LMP, benchmark_module
 
-HELPERS = Path(__file__).resolve().parents[2] / "benchmarks" / "_lammps.py"
-
-
-def _helpers():
-    spec = importlib.util.spec_from_file_location("_lammps_helpers", HELPERS)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-lmp_helpers = _helpers()
-LMP = lmp_helpers.find_lammps()
-pytestmark = [
-    pytest.mark.lammps,
-    pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (LAMMPS_BIN, /tmp/lmpvenv)"),
-]
+lmp_helpers = benchmark_module("_lammps")
+pytestmark = LAMMPS_MARKS
 
 SCRIPT = """
 units lj

