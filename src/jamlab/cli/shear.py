@@ -54,6 +54,34 @@ def check_resume(
         )
 
 
+def check_resume_pressure(
+    previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float
+) -> None:
+    """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
+    ``ftol``, target pressure and ``ptol``, and an input with the same N, d, seed, strain and box
+    side (attribute ``input_box_length``: row 0 is already at the target pressure)."""
+    attrs = previous.attrs
+    if attrs.get("protocol") != "fixed-pressure":
+        raise ValueError("--pressure given, but the run being resumed is at constant volume")
+    for name, key, given in (("dgamma", "dgamma", dgamma), ("ftol", "ftol", ftol),
+                             ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol)):
+        if attrs.get(key) != given:
+            raise ValueError(
+                f"--{name} {given} differs from the run being resumed ({attrs.get(key)})"
+            )
+    recorded = (attrs.get("N"), attrs.get("dim"), attrs.get("seed"), float(previous.gamma[0]),
+                attrs.get("input_box_length"))
+    given_values = (packing.n, packing.dim, -1 if packing.seed is None else packing.seed,
+                    packing.strain, float(packing.box.length))
+    names = ("N", "dim", "seed", "strain", "box length")
+    differ = [k for k, a, b in zip(names, recorded, given_values, strict=True) if a != b]
+    if differ:
+        raise ValueError(
+            "the configuration is not the one the run being resumed started from "
+            f"(different {', '.join(differ)})"
+        )
+
+
 def resume_save_every(previous: Any, save_every: int | None) -> int | None:
     """The ``--save-every`` of a resumed run: the one the trace was made with (attribute
     ``save_every``, 0 for none; older traces have none and take any). Its save points are the
@@ -191,8 +219,6 @@ def register(app: typer.Typer) -> None:
         if pressure is not None:
             validation.positive("--pressure", pressure)
             validation.positive("--ptol", ptol)
-            if resume or save_every is not None:
-                raise ValueError("--pressure has no --resume or --save-every yet")
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -214,7 +240,14 @@ def register(app: typer.Typer) -> None:
                 raise FileNotFoundError(f"--resume needs {out} from an earlier run")
             previous = read_trace(out)
             packing = read_packing(config)
-            check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
+            if pressure is None:
+                if previous.attrs.get("protocol") == "fixed-pressure":
+                    raise ValueError("the run being resumed is at fixed pressure: give its "
+                                     f"--pressure {previous.attrs.get('pressure_target')}")
+                check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
+            else:
+                check_resume_pressure(previous, packing, dgamma=dgamma, ftol=ftol,
+                                      pressure=pressure, ptol=ptol)
             save_every = resume_save_every(previous, save_every)
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")

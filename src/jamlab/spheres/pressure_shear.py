@@ -90,6 +90,7 @@ class PressureShearResult:
     attrs: dict = field(default_factory=dict)
     threshold: float = math.nan
     time: float = 0.0
+    confirmed: np.ndarray | None = None  # per row: a candidate step confirmed as a jump
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -102,7 +103,8 @@ class PressureShearResult:
         """The run as a :class:`~jamlab.spheres.trace.Trace` whose ``energy`` column is the
         enthalpy ``H`` (so its ``energy_jump`` is ``ΔH`` and the analysis tools apply as they
         are), with its ``jammed`` and ``phi`` columns; ``converged`` shows as ``max_force`` or
-        the pressure, ``E`` and ``box_length`` are not in that format."""
+        the pressure; ``E``, ``box_length``, ``volume_steps``, ``converged`` and the flag
+        confirmations are its group ``fixed_pressure`` (what a resumed run needs)."""
         c = self.columns
         return Trace(
             gamma=c["gamma"],
@@ -119,6 +121,14 @@ class PressureShearResult:
             jammed=c["jammed"],
             phi=c["phi"],
             attrs={**self.attrs, "energy_column": "enthalpy"},
+            fixed_pressure={
+                "energy": c["energy"],
+                "box_length": c["box_length"],
+                "volume_steps": c["volume_steps"],
+                "converged": c["converged"],
+                "confirmed": (np.zeros(c["gamma"].shape, dtype=bool) if self.confirmed is None
+                              else self.confirmed),
+            },
         )
 
 
@@ -187,6 +197,9 @@ def shear_at_pressure(
     extrapolate_volume: bool = True,
     progress: Callable[[int, int], None] | None = None,
     observer: Callable[[int, Packing], None] | None = None,
+    previous: Trace | None = None,
+    save_every: int | None = None,
+    on_save: Callable[[int, PressureShearResult], None] | None = None,
 ) -> PressureShearResult:
     """AQS shear at fixed pressure ``pressure`` in steps ``δγ`` up to ``γ_max`` (the strain
     increment from the input's strain) or for ``n_steps`` steps (module docstring).
@@ -196,6 +209,14 @@ def shear_at_pressure(
     last two minima (dilatancy is smooth on elastic stretches). A step that does not converge is
     recorded with ``converged=False`` and the run goes on from it. ``observer(n, packing)`` (if
     given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
+
+    Checkpoints and resume: every ``save_every`` steps (and not after the last)
+    ``on_save(n, result)`` receives the run so far (its plastic flags provisional: they are
+    judged on the whole run). ``previous``: the trace of such a result (with its group
+    ``fixed_pressure``), continued from ``packing`` — its last minimum, not minimised again; the
+    steps count from ``previous``'s row 0 and ``n_steps``/``gamma_max`` are those of the whole
+    run. A step depends only on the last minimum and the last two box sides, so the continued
+    run equals the uninterrupted one bit for bit (``tests/spheres/test_pressure_shear.py``).
     """
     if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
@@ -209,24 +230,31 @@ def shear_at_pressure(
         if not (isinstance(n_steps, int) and n_steps >= 1):
             raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
         total = n_steps
+    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     kw = dict(ftol=ftol, ptol=ptol, max_iter=max_iter, params=fire_params)
     t0 = time.perf_counter()
-    gamma0 = packing.strain
-    res = minimize_enthalpy(packing, pressure, **kw)
-    rows = {k: [] for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")}
-
-    def append(gamma: float, row: dict) -> None:
-        rows["gamma"].append(float(gamma))
-        for k, v in row.items():
-            rows[k].append(v)
-
-    append(gamma0, _row(res, ftol))
-    cur = res.packing
-    if observer is not None:
-        observer(0, cur)
+    names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
-    n_candidates = 0
-    for n in range(1, total + 1):
+    if previous is None:
+        gamma0 = packing.strain
+        res = minimize_enthalpy(packing, pressure, **kw)
+        rows = {k: [] for k in names}
+        _append(rows, gamma0, _row(res, ftol))
+        cur = res.packing
+        n_candidates = 0
+        first = 1
+        if observer is not None:
+            observer(0, cur)
+    else:
+        rows, confirmed_before, n_candidates = _resumed_rows(previous, names)
+        gamma0 = rows["gamma"][0]
+        first = len(rows["gamma"])
+        if first > total:
+            raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
+        confirmed[:first] = confirmed_before
+        cur = packing
+    for n in range(first, total + 1):
         target = gamma0 + n * dgamma
         guess = None
         if extrapolate_volume and n >= 2:
@@ -245,17 +273,53 @@ def shear_at_pressure(
                 )
                 row["iterations"] += extra
         cur = res.packing
-        append(target, row)
+        _append(rows, target, row)
         if observer is not None:
             observer(n, cur)
         if progress is not None:
             progress(n, total)
+        if on_save is not None and save_every is not None and n % save_every == 0 and n < total:
+            on_save(n, _result(rows, confirmed[: n + 1], cur, n_candidates, t0, dgamma, total,
+                               gamma0, pressure, ptol, ftol, plastic_floor, confirm_substeps,
+                               packing))
+    return _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol,
+                   ftol, plastic_floor, confirm_substeps, packing)
+
+
+def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
+    rows["gamma"].append(float(gamma))
+    for k, v in row.items():
+        rows[k].append(v)
+
+
+def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np.ndarray, int]:
+    """The rows, confirmations and candidate count of a fixed-pressure trace being continued."""
+    fp = previous.fixed_pressure
+    if fp is None or previous.jammed is None or previous.phi is None:
+        raise ValueError("the trace has no fixed-pressure columns (group fixed_pressure): it was "
+                         "not written by a fixed-pressure run that can be resumed")
+    source = {
+        "gamma": previous.gamma, "energy": fp["energy"], "enthalpy": previous.energy,
+        "shear_stress": previous.shear_stress, "pressure": previous.pressure, "phi": previous.phi,
+        "box_length": fp["box_length"], "z": previous.z, "z_nr": previous.z_nr,
+        "jammed": previous.jammed, "max_force": previous.max_force,
+        "iterations": previous.iterations, "volume_steps": fp["volume_steps"],
+        "converged": fp["converged"],
+    }
+    rows = {k: source[k].tolist() for k in names}
+    return rows, np.asarray(fp["confirmed"], dtype=bool), int(previous.attrs["n_candidates"])
+
+
+def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol, ftol,
+            plastic_floor, confirm_substeps, packing) -> PressureShearResult:
+    """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
         dtype = np.int64 if k in ("iterations", "volume_steps") else np.float64
         if k in ("jammed", "converged"):
             dtype = np.bool_
         cols[k] = np.asarray(v, dtype=dtype)
+    confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
     g, h, s = cols["gamma"], cols["enthalpy"], cols["shear_stress"]
     hj = np.full(g.shape, np.nan)
     sj = np.full(g.shape, np.nan)
@@ -297,4 +361,5 @@ def shear_at_pressure(
         attrs=attrs,
         threshold=float(threshold),
         time=time.perf_counter() - t0,
+        confirmed=confirmed,
     )

@@ -31,6 +31,12 @@ paper's ``ΔE_{n-1}``). Files are written atomically (temporary file, fsync, ``o
 Optional group ``avalanches`` (``shear(..., keep_avalanches=True)``, :attr:`Trace.avalanches`):
 one row per plastic step with its anatomy and the displacement field in CSR form
 (``docs/formats.md``, :mod:`jamlab.spheres.aqs.anatomy`).
+
+Optional group ``fixed_pressure`` (fixed-pressure runs, :attr:`Trace.fixed_pressure`): the
+per-row columns of that protocol that the columns above do not hold — ``energy`` (``E``; the
+trace's ``energy`` is ``H`` there), ``box_length``, ``volume_steps``, ``converged`` and
+``confirmed`` (the plastic-flag confirmation of each step), one value per row. With them (and the
+configuration group) a fixed-pressure run resumes bit for bit.
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ import numpy as np
 from jamlab.files import atomic_write_hdf5
 
 __all__ = [
+    "FIXED_PRESSURE_COLUMNS",
     "OPTIONAL_COLUMNS",
     "Trace",
     "TRACE_COLUMNS",
@@ -76,6 +83,13 @@ OPTIONAL_COLUMNS: tuple[str, ...] = ("jammed", "phi")
 
 _DTYPES = {"iterations": np.int64, "plastic": np.bool_, "jammed": np.bool_}
 
+FIXED_PRESSURE_COLUMNS: tuple[str, ...] = (
+    "energy", "box_length", "volume_steps", "converged", "confirmed",
+)
+"""Columns of the optional group ``fixed_pressure`` (module docstring)."""
+_FIXED_PRESSURE_DTYPES = {"energy": np.float64, "box_length": np.float64,
+                          "volume_steps": np.int64, "converged": np.bool_, "confirmed": np.bool_}
+
 
 @dataclass(frozen=True, eq=False)
 class Trace:
@@ -100,6 +114,7 @@ class Trace:
     jammed: np.ndarray | None = None
     phi: np.ndarray | None = None
     avalanches: dict | None = None
+    fixed_pressure: dict | None = None
 
     def __post_init__(self) -> None:
         n = None
@@ -120,13 +135,26 @@ class Trace:
         object.__setattr__(self, "attrs", dict(self.attrs))
         if self.avalanches is not None:
             object.__setattr__(self, "avalanches", dict(self.avalanches))
+        if self.fixed_pressure is not None:
+            group = {}
+            for key in FIXED_PRESSURE_COLUMNS:
+                if key not in self.fixed_pressure:
+                    raise ValueError(f"fixed_pressure lacks the column {key}")
+                arr = np.array(self.fixed_pressure[key], dtype=_FIXED_PRESSURE_DTYPES[key])
+                if arr.shape != (n,):
+                    raise ValueError(f"fixed_pressure column {key} has shape {arr.shape}, "
+                                     f"expected ({n},)")
+                arr.setflags(write=False)
+                group[key] = arr
+            object.__setattr__(self, "fixed_pressure", group)
 
     def with_avalanches(self, avalanches: dict | None) -> Trace:
         """The same trace with the group ``avalanches`` (``shear(..., keep_avalanches=True)``;
         ``docs/formats.md``): 1-D datasets of one row per plastic step, the CSR displacement
         field, and an ``attrs`` dict."""
         return Trace(
-            **self.columns(), **self.optional_columns(), attrs=self.attrs, avalanches=avalanches
+            **self.columns(), **self.optional_columns(), attrs=self.attrs, avalanches=avalanches,
+            fixed_pressure=self.fixed_pressure,
         )
 
     @property
@@ -168,7 +196,9 @@ class Trace:
     def head(self, rows: int) -> Trace:
         """The first ``rows`` rows (without the ``avalanches`` group)."""
         cols = {**self.columns(), **self.optional_columns()}
-        return Trace(**{k: v[:rows] for k, v in cols.items()}, attrs=self.attrs)
+        fp = self.fixed_pressure
+        return Trace(**{k: v[:rows] for k, v in cols.items()}, attrs=self.attrs,
+                     fixed_pressure=None if fp is None else {k: v[:rows] for k, v in fp.items()})
 
 
 def _attr_value(value: object) -> object:
@@ -207,6 +237,10 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
             group.attrs["strain"] = float(configuration.box.strain)
             group.attrs["seed"] = int(-1 if configuration.seed is None else configuration.seed)
             group.attrs["step"] = int(trace.n_steps)
+        if trace.fixed_pressure is not None:
+            group = h5.create_group("fixed_pressure")
+            for key, value in trace.fixed_pressure.items():
+                group.create_dataset(key, data=value)
         if trace.avalanches is not None:
             group = h5.create_group("avalanches")
             for key, value in trace.avalanches.items():
@@ -286,7 +320,16 @@ def read_trace(path: str | os.PathLike) -> Trace:
             avalanches["attrs"] = {
                 k: (v.item() if isinstance(v, np.generic) else v) for k, v in group.attrs.items()
             }
+        fixed_pressure = None
+        group = h5.get("fixed_pressure")
+        if isinstance(group, h5py.Group):
+            fixed_pressure = {}
+            for key in FIXED_PRESSURE_COLUMNS:
+                item = group.get(key)
+                if not (isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"):
+                    raise ValueError(f"not a jamlab AQS trace (fixed_pressure/{key}): {path}")
+                fixed_pressure[key] = item[()]
     try:
-        return Trace(**cols, attrs=attrs, avalanches=avalanches)
+        return Trace(**cols, attrs=attrs, avalanches=avalanches, fixed_pressure=fixed_pressure)
     except ValueError as exc:
         raise ValueError(f"invalid AQS trace {path}: {exc}") from None

@@ -337,16 +337,58 @@ def _shear_at_pressure(
     validation.positive("ptol", ptol)
     if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
-    if previous is not None or save_every is not None:
-        raise ValueError("fixed-pressure shear has no checkpoints or resume yet")
+    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if save_every is not None and out is None:
+        raise ValueError("save_every needs an output path (out=...)")
+    start_strain = packing.strain if previous is None else float(previous.gamma[0])
     if (gamma_max is None) == (n_steps is None):
         raise ValueError("give exactly one of gamma_max and n_steps")
     if n_steps is None:
-        total = n_steps_for(dgamma, gamma_max, packing.strain)
+        total = n_steps_for(dgamma, gamma_max, start_strain)
     else:
         validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
         total = n_steps
-        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, packing.strain)
+        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
+    if previous is not None:
+        if previous.attrs.get("protocol") != "fixed-pressure":
+            raise ValueError("the trace to resume is not a fixed-pressure run")
+        if not math.isclose(packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15):
+            raise ValueError(
+                f"configuration strain {packing.strain} does not match the trace's last strain "
+                f"{previous.gamma[-1]}"
+            )
+    extra_attrs = {
+        "alpha": float(packing.alpha),
+        "monodisperse": bool(packing.monodisperse),
+        "jamlab_version": jamlab_version(),
+        "source": "" if source is None else str(source),
+        "save_every": int(0 if save_every is None else save_every),
+        # the input's box side (row 0 is already at the target pressure), for resume checks
+        "input_box_length": float(packing.box.length if previous is None
+                                  else previous.attrs["input_box_length"]),
+    }
+
+    def finished(result) -> Trace:
+        trace = result.trace()
+        trace.attrs.update({
+            "phi": float(result.columns["phi"][0]),
+            "box_length": float(result.columns["box_length"][0]),
+            **extra_attrs,
+        })
+        return trace
+
+    def save(n: int, result) -> None:
+        # the trace so far with its last minimum: one atomic rename (as at constant volume)
+        from jamlab.spheres.io import write_packing
+        from jamlab.spheres.trace import write_trace
+
+        last, snapshots = checkpoint_paths(out)
+        snapshots.mkdir(exist_ok=True)
+        write_packing(snapshots / f"step_{n:08d}.h5", result.packing, aqs_step=int(n))
+        write_trace(out, finished(result), configuration=result.packing)
+        write_packing(last, result.packing, aqs_step=int(n))
+
     res = shear_at_pressure(
         packing,
         dgamma,
@@ -356,22 +398,19 @@ def _shear_at_pressure(
         ptol=ptol,
         fire_params=fire_params,
         progress=progress,
+        previous=previous,
+        save_every=save_every,
+        on_save=save if out is not None else None,
     )
-    trace = res.trace()
-    trace.attrs.update(
-        {
-            "phi": float(res.columns["phi"][0]),
-            "box_length": float(res.columns["box_length"][0]),
-            "alpha": float(packing.alpha),
-            "monodisperse": bool(packing.monodisperse),
-            "jamlab_version": jamlab_version(),
-            "source": "" if source is None else str(source),
-        }
-    )
+    trace = finished(res)
     if out is not None:
         from jamlab.spheres.io import write_packing
         from jamlab.spheres.trace import write_trace
 
+        if save_every is not None:
+            checkpoint_paths(out)[1].mkdir(exist_ok=True)
+            write_packing(checkpoint_paths(out)[1] / f"step_{total:08d}.h5", res.packing,
+                          aqs_step=int(total))
         write_trace(out, trace, configuration=res.packing)
         write_packing(checkpoint_paths(out)[0], res.packing, aqs_step=int(total))
     return ShearResult(

@@ -1,0 +1,86 @@
+"""Fixed-pressure AQS with checkpoints: an interrupted run resumed from its trace file equals the
+uninterrupted run in every column (bit for bit), through the library and through ``jamlab shear
+--pressure --save-every … --resume``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cli_helpers import jamlab
+from jamlab.cli.shear import resume_configuration
+from jamlab.spheres import jam
+from jamlab.spheres.aqs import shear
+from jamlab.spheres.io import write_packing
+from jamlab.spheres.trace import FIXED_PRESSURE_COLUMNS, read_trace
+
+P, DG, STEPS, EVERY = 1e-3, 1e-4, 60, 20
+
+
+class Interrupt(Exception):
+    pass
+
+
+@pytest.fixture(scope="module")
+def start():
+    r = jam(32, 3, seed=5, p_target=1e-4)
+    assert r.ok
+    return r.packing
+
+
+def _same(a, b) -> None:
+    for name in ("gamma", "energy", "shear_stress", "pressure", "z", "z_nr", "max_force",
+                 "iterations", "energy_jump", "stress_jump", "plastic", "jammed", "phi"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for name in FIXED_PRESSURE_COLUMNS:
+        np.testing.assert_array_equal(a.fixed_pressure[name], b.fixed_pressure[name],
+                                      err_msg=name)
+    for key in ("n_plastic", "n_candidates", "plastic_threshold", "n_steps", "gamma_max",
+                "input_box_length", "save_every"):
+        assert a.attrs[key] == b.attrs[key], key
+
+
+def test_resumed_run_equals_the_uninterrupted_one(start, tmp_path):
+    whole = shear(start, DG, n_steps=STEPS, pressure=P, out=tmp_path / "a.h5", save_every=EVERY)
+    assert whole.trace.attrs["n_candidates"] > 0  # the confirmation state is exercised
+
+    def stop(n, total):
+        if n == 2 * EVERY + 5:  # killed between the second save point and the end
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        shear(start, DG, n_steps=STEPS, pressure=P, out=tmp_path / "b.h5", save_every=EVERY,
+              progress=stop)
+    partial = read_trace(tmp_path / "b.h5")
+    assert partial.n_steps == 2 * EVERY
+    resumed = shear(resume_configuration(tmp_path / "b.h5", partial), DG, n_steps=STEPS,
+                    pressure=P, previous=partial, out=tmp_path / "b.h5", save_every=EVERY)
+    _same(whole.trace, resumed.trace)
+    _same(read_trace(tmp_path / "a.h5"), read_trace(tmp_path / "b.h5"))
+    np.testing.assert_array_equal(whole.packing.positions, resumed.packing.positions)
+
+
+def test_cli_resume_at_fixed_pressure(start, tmp_path):
+    config = tmp_path / "c.h5"
+    write_packing(config, start)
+    args = ["--dgamma", DG, "--gamma-max", STEPS * DG, "--pressure", P, "--save-every", EVERY]
+    r = jamlab("shear", config, *args, "--out", tmp_path / "whole.h5")
+    assert r.returncode == 0, r.stderr
+
+    def stop(n, total):
+        if n == EVERY + 3:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        shear(start, DG, n_steps=STEPS, pressure=P, out=tmp_path / "cut.h5", save_every=EVERY,
+              progress=stop, source=str(config))
+    r = jamlab("shear", config, *args, "--out", tmp_path / "cut.h5", "--resume")
+    assert r.returncode == 0, r.stderr
+    _same(read_trace(tmp_path / "whole.h5"), read_trace(tmp_path / "cut.h5"))
+    # another pressure, or no --pressure, is refused with one line
+    other = ["--dgamma", DG, "--gamma-max", STEPS * DG, "--pressure", 2 * P, "--save-every", EVERY]
+    r = jamlab("shear", config, *other, "--out", tmp_path / "cut.h5", "--resume")
+    assert r.returncode == 2 and "differs from the run being resumed" in r.stderr
+    r = jamlab("shear", config, "--dgamma", DG, "--gamma-max", STEPS * DG, "--out",
+               tmp_path / "cut.h5", "--resume")
+    assert r.returncode == 2 and "at fixed pressure" in r.stderr
