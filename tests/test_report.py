@@ -78,6 +78,8 @@ def test_verdict_rule_against_hand_arithmetic():
     # exactly on the boundary counts as agreement
     assert verdict(1.0 + AGREEMENT_SIGMAS * 0.1, 0.1, 1.0).startswith("agrees")
     assert verdict(math.nan, 0.1, 1.0) == "no data"
+    assert verdict(1.0, 0.1, math.nan, 0.1) == "no data"  # a measured reference missing
+    assert verdict(1.0, 0.1, 1.0, math.nan) == "no data"
     assert verdict(1.0, 0.0, 1.0) == "agrees (exact)"
     assert verdict(1.1, 0.0, 1.0).startswith("differs")
 

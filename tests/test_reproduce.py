@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow  # one tiny reproduction, ~20-40 s on one core
 
 SCALE = SCALES["tiny"]
 FIGURES = ("fig1", "fig2", "fig3", "fig3_exact", "fig4", "fig5", "fig6", "fig7",
-           "theory_vs_cascade")
+           "theory_vs_cascade", "criticality", "finite_size")
 
 
 @pytest.fixture(scope="module")

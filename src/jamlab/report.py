@@ -14,7 +14,8 @@ report:
   combined σ is printed with it;
 - a **target** (the issue's acceptance windows, e.g. ``|τ − 1| ≤ 0.15``) is **met** if
   ``|ours − reference| ≤ tolerance``;
-- **no data** when our value could not be computed (too few samples or events).
+- **no data** when our value, or a measured reference, could not be computed (too few samples
+  or events).
 """
 
 from __future__ import annotations
@@ -121,8 +122,8 @@ class ReportMeta:
 def verdict(value: float, error: float, reference: float, reference_err: float = 0.0) -> str:
     """``"agrees (1.2σ)"``, ``"differs (3.4σ)"`` or ``"no data"`` by the rule of the module
     docstring (``AGREEMENT_SIGMAS`` combined standard deviations)."""
-    if not (math.isfinite(value) and math.isfinite(error)):
-        return "no data"
+    if not all(math.isfinite(x) for x in (value, error, reference, reference_err)):
+        return "no data"  # ours or the reference (e.g. a fit that could not be made) missing
     sigma = math.hypot(error, reference_err)
     diff = abs(value - reference)
     if sigma == 0.0:

@@ -93,6 +93,8 @@ def plot_distributions(
                 else sum(s.size for s in samples)
             )
             x, dens = _log_density(samples, per, *ranges[name])
+            if x.size < 2:
+                continue
             top.loglog(x, dens, "o-", ms=3, lw=0.8, label=f"N={n} ({len(obs)} packings)")
             grid = np.geomspace(*ranges[name], 200)
             cdf = empirical_cdf(samples, grid)
@@ -106,7 +108,7 @@ def plot_distributions(
                     np.exp(anchor) * (xs / xs[5]) ** a_ref,
                     "k--",
                     lw=1,
-                    label=f"reference {_LABEL[name]} = {ref}",
+                    label=f"reference {_LABEL[name]} = {ref:.5g}",
                 )
                 fit = fits.get(name)
                 if fit is not None:
@@ -175,7 +177,9 @@ def plot_local_exponents(
                 capsize=2,
                 label=f"N={n}",
             )
-        ax.axhline(REFERENCE[name], color="k", ls="--", lw=1, label=f"reference {REFERENCE[name]}")
+        ax.axhline(
+            REFERENCE[name], color="k", ls="--", lw=1, label=f"reference {REFERENCE[name]:.5g}"
+        )
         fit = fits.get(name)
         if fit is not None:
             ax.axvspan(*fit.window, color="0.9", zorder=0, label="fit window")
