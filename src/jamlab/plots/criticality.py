@@ -144,7 +144,7 @@ def plot_distributions(
         top.set_xlabel(_X[name])
         top.set_ylabel("density per gap and particle" if name == "gamma" else "density P(f)")
         bottom.set_xlabel(_X[name])
-        bottom.set_ylabel("cumulative F (pooled)")
+        bottom.set_ylabel("cumulative F (per N)")
         bottom.set_ylim(bottom=1e-6)
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)

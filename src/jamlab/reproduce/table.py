@@ -307,7 +307,7 @@ def finite_size_rows(r: FiniteSizeResult) -> list[Row]:
             continue
         per_n = "; ".join(
             f"N = {n}: {k} samples, {a} avalanches, ⟨S⟩ = {m:.3g} ε, S_c = "
-            f"{format_value(c, e)} ε"
+            f"{c:.3g} ± {e:.2g} ε"
             for n, k, a, m, c, e in zip(sc.n, sc.samples, sc.avalanches, sc.mean, sc.cutoff,
                                         sc.cutoff_err, strict=True))
         text = (f"{format_value(sc.beta, sc.beta_err)} (95% CI [{sc.beta_ci95[0]:.2f}, "
