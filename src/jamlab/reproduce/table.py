@@ -35,6 +35,7 @@ from jamlab.reproduce.measurements import (
     PhiJEstimate,
     TauEstimate,
     predicted_tau,
+    sigma_from_ci95,
 )
 from jamlab.reproduce.scales import SCALES, Scale
 from jamlab.reproduce.theory_checks import TheoryChecks
@@ -185,8 +186,6 @@ def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
     return data
 
 
-_Z_95 = 1.959963984540054
-
 _EXPONENT_TITLES = {
     "theta_e": ("θ_e, small-force exponent of the extended contacts", "f/⟨f⟩"),
     "theta_l": ("θ_l, small-force exponent of the localized contacts (bucklers' weakest)",
@@ -196,8 +195,8 @@ _EXPONENT_TITLES = {
 
 
 def _sigma95(ci: tuple[float, float]) -> float:
-    """1σ from a 95 % interval: its half width over 1.96."""
-    return (ci[1] - ci[0]) / (2 * _Z_95)
+    """1σ from a 95 % interval (:func:`~jamlab.reproduce.measurements.sigma_from_ci95`)."""
+    return sigma_from_ci95(*ci)
 
 
 def _sizes_text(r: PackingCriticality) -> str:
