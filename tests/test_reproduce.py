@@ -221,6 +221,27 @@ def test_criticality_and_finite_size_rows(tiny):
         assert row["value_text"].startswith("n/a (need avalanches at two sizes")
 
 
+def test_per_sample_sizes_recounted_from_the_files(tiny):
+    """The finite-size input: each sample's avalanches (plastic, ΔE < 0, between jammed minima),
+    recounted here with numpy from the sample files."""
+    from jamlab.reproduce.ensembles import avalanche_set
+    from jamlab.runs import open_run
+
+    out = tiny[0]
+    for run, phi, n in (("jamming", "jamming", SCALE.jamming_n[0]),
+                        ("unsat", "0.8", SCALE.unsat_n[0])):
+        got = avalanche_set(open_run(out / "runs" / run), phi, n).per_sample
+        want = []
+        for smp in _traces(out / "runs" / run, phi, n):
+            t = smp["trace"]
+            de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+            jm = t["jammed"].astype(bool)
+            want.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
+        assert len(got) == len(want)
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
+
+
 def test_second_call_reuses_the_runs(tiny, tmp_path):
     out, result, _, _ = tiny
     runs = result.data["runs"]

@@ -271,6 +271,7 @@ def reproduce(
             f"{sum(v.failed for v in summaries.values())} failed "
             f"(the wall time covers only this invocation)")} | table.parameters(scale, runs_dir),
         notes=table.notes(scale),
+        sections=dict(table.SECTION_TEXT),
     )
     paths = write_report(out, rows, figs, meta, extra=data)
     log(f"report written: {paths['html']} ({seconds:.0f} s)")

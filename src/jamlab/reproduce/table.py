@@ -41,6 +41,9 @@ from jamlab.reproduce.scales import SCALES, Scale
 from jamlab.reproduce.theory_checks import TheoryChecks
 
 __all__ = [
+    "CRITICALITY_SECTION",
+    "FINITE_SIZE_SECTION",
+    "SECTION_TEXT",
     "TARGETS",
     "coordination_data",
     "coordination_rows",
@@ -203,6 +206,24 @@ def _sizes_text(r: PackingCriticality) -> str:
     return ", ".join(f"N = {n}: {k}" for n, k in sorted(r.packings.items()))
 
 
+CRITICALITY_SECTION = "Jamming criticality: θ_e, θ_l, γ and the τ_J they predict"
+FINITE_SIZE_SECTION = "Finite-size scaling of avalanches"
+SECTION_TEXT = {
+    CRITICALITY_SECTION: (
+        "The small-force and gap exponents of the jamming ensemble's own initial packings "
+        "(SPEC §6; docs/criticality.md), and the τ_J they predict through τ_J = 1 + γ = "
+        "(3 + θ_e)/(2 + θ_e) beside the τ fitted from the avalanches of the same samples. "
+        "These packings are small (the N are given in each row): the exponents are far from "
+        "asymptotic at such N."),
+    FINITE_SIZE_SECTION: (
+        "Mean size ⟨S⟩ and cut-off S_c = ⟨S²⟩/⟨S⟩ against N (jammed steps only), β of "
+        "S_c ~ N^β by a weighted fit with a bootstrap over samples, and the collapse "
+        "P(S) S^τ against S/N^β (docs/analysis.md §6). With two sizes β is only a rough "
+        "number."),
+}
+"""The report's two criticality sections (headings and introductory text)."""
+
+
 def criticality_rows(r: PackingCriticality, tau: TauEstimate) -> list[Row]:
     """``θ_e``, ``θ_l``, ``γ`` of the jamming ensemble's own packings against ``SPEC.md`` §6, then
     the ``τ_J`` they predict (``1 + γ`` and ``(3 + θ_e)/(2 + θ_e)``) against the τ fitted from
@@ -239,6 +260,7 @@ def criticality_rows(r: PackingCriticality, tau: TauEstimate) -> list[Row]:
             comparisons=(Comparison("SPEC §6", REFERENCE[name]),),
             note="small N: the window sits close to the finite-size cut-off; docs/criticality.md "
                  "shows θ_e and γ still moving with N up to N = 4000",
+            section=CRITICALITY_SECTION,
         ))
     theory = tau_jamming()
     t_fit = tau.fit
@@ -258,7 +280,7 @@ def criticality_rows(r: PackingCriticality, tau: TauEstimate) -> list[Row]:
         error=_sigma95(g.ci95) if g is not None else nan,
         value_text=(f"{1 + g.value:.3f} (95% CI [{1 + g.ci95[0]:.3f}, {1 + g.ci95[1]:.3f}])"
                     if g is not None else "n/a"),
-        samples=samples, comparisons=comparisons, note=note,
+        samples=samples, comparisons=comparisons, note=note, section=CRITICALITY_SECTION,
     ))
     t = r.fits.get("theta_e")
     if t is not None:
@@ -270,7 +292,7 @@ def criticality_rows(r: PackingCriticality, tau: TauEstimate) -> list[Row]:
     rows.append(Row(
         quantity="τ_J predicted by (3 + θ_e)/(2 + θ_e) (θ_e of the same packings)",
         reference_text=tau_ref, value=value, error=err, value_text=text,
-        samples=samples, comparisons=comparisons, note=note,
+        samples=samples, comparisons=comparisons, note=note, section=CRITICALITY_SECTION,
     ))
     return rows
 
@@ -302,7 +324,8 @@ def finite_size_rows(r: FiniteSizeResult) -> list[Row]:
                 quantity=f"β of the avalanche cut-off S_c = ⟨S²⟩/⟨S⟩ ~ N^β, {title}",
                 reference_text="no value in the paper", value=float("nan"),
                 error=float("nan"), value_text=f"n/a ({r.reasons.get(label, 'no data')})",
-                samples="", comparisons=(Comparison("β of the best collapse", float("nan")),)))
+                samples="", comparisons=(Comparison("β of the best collapse", float("nan")),),
+                section=FINITE_SIZE_SECTION))
             continue
         per_n = "; ".join(
             f"N = {n}: {k} samples, {a} avalanches, ⟨S⟩ = {m:.3g} ε, S_c = "
@@ -327,6 +350,7 @@ def finite_size_rows(r: FiniteSizeResult) -> list[Row]:
             note=("two sizes give β only roughly: a line through two cut-offs, its bootstrap "
                   "interval likely too narrow" if two else
                   "bootstrap over samples, widened by √(χ²/dof) when > 1"),
+            section=FINITE_SIZE_SECTION,
         ))
     return rows
 
