@@ -15,8 +15,8 @@ import pytest
 from jamlab.analysis.criticality import ExponentFit
 from jamlab.analysis.finite_size import fit_cutoff_scaling
 from jamlab.reproduce.criticality import FiniteSizeResult, PackingCriticality
+from jamlab.reproduce.criticality_table import criticality_rows, finite_size_rows
 from jamlab.reproduce.measurements import TauEstimate
-from jamlab.reproduce.table import criticality_rows, finite_size_rows
 
 Z = 1.959963984540054
 

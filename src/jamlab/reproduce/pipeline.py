@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from jamlab.report import Figure, ReportMeta, Row, write_report
-from jamlab.reproduce import figures, table
+from jamlab.reproduce import criticality_table, figures, table
 from jamlab.reproduce.coordination import coordination
 from jamlab.reproduce.criticality import finite_size_scaling, packing_criticality
 from jamlab.reproduce.ensembles import RunSet
@@ -109,11 +109,12 @@ PARTS: dict[str, Part] = {
     "theory": Part(lambda c: theory_checks(c.scale),
                    lambda r, s: (table.theory_rows(r, s) + table.exponent_rows(r),
                                  table.theory_data(r))),
-    "criticality": Part(_criticality, lambda r, s: (table.criticality_rows(*r),
-                                                    table.criticality_data(*r))),
+    "criticality": Part(_criticality, lambda r, s: (criticality_table.criticality_rows(*r),
+                                                    criticality_table.criticality_data(*r))),
     "finite_size": Part(lambda c: finite_size_scaling(c.runs["jamming"], c.runs["unsat"],
                                                       c.result("avalanches"), c.scale),
-                        lambda r, s: (table.finite_size_rows(r), table.finite_size_data(r))),
+                        lambda r, s: (criticality_table.finite_size_rows(r),
+                                      criticality_table.finite_size_data(r))),
 }
 """The analysis in independent parts, in report order of their rows."""
 
@@ -271,7 +272,7 @@ def reproduce(
             f"{sum(v.failed for v in summaries.values())} failed "
             f"(the wall time covers only this invocation)")} | table.parameters(scale, runs_dir),
         notes=table.notes(scale),
-        sections=dict(table.SECTION_TEXT),
+        sections=dict(criticality_table.SECTION_TEXT),
     )
     paths = write_report(out, rows, figs, meta, extra=data)
     log(f"report written: {paths['html']} ({seconds:.0f} s)")
