@@ -84,32 +84,27 @@ class PackingCriticality:
 
 def _fit_each(observables: list[Any], scale: Scale) -> tuple[dict[str, Any], dict[str, str]]:
     """Each exponent on its own (one that cannot be fitted does not stop the others)."""
-    from jamlab.analysis.criticality import (
-        DEFAULT_RULES,
-        choose_window,
-        criticality_samples,
-        fit_exponent,
-    )
+    from jamlab.analysis.criticality import measure_exponents
 
     fits: dict[str, Any] = {}
     reasons: dict[str, str] = {}
-    samples = criticality_samples(observables)
     for name in EXPONENTS:
         if len(observables) < 2:
             fits[name], reasons[name] = None, f"{len(observables)} packing(s): no interval"
             continue
         try:
-            window = choose_window(samples[name], DEFAULT_RULES[name])
-            fit = fit_exponent(samples[name], window, n_boot=scale.n_boot, seed=scale.seed)
+            fit = measure_exponents(observables, n_boot=scale.n_boot, seed=scale.seed,
+                                    names=(name,))[name]
         except ValueError as exc:
             fits[name], reasons[name] = None, str(exc)
             continue
+        window = fit.window
         if fit.n_in_window < MIN_IN_WINDOW:
             fits[name], reasons[name] = None, (
                 f"{fit.n_in_window} values in the window [{window[0]:.2g}, {window[1]:.2g}], "
                 f"fewer than {MIN_IN_WINDOW}")
             continue
-        fits[name] = fit.negated() if name == "gamma" else fit
+        fits[name] = fit
     return fits, reasons
 
 
