@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis.anatomy import nonaffine_displacements
+from jamlab.analysis.finite_size import cutoff_size
 from jamlab.plots.anatomy import avalanche_figure
 from jamlab.spheres import jam, prepare
 from jamlab.spheres.aqs import shear
@@ -183,7 +184,7 @@ def report(a, args) -> None:
             s = a["S"][mn]
             if s.size:
                 print(
-                    f"{n:<5d} {s.size:6d}   {s.mean():.3e}   {(s**2).mean() / s.mean():.3e}"
+                    f"{n:<5d} {s.size:6d}   {s.mean():.3e}   {cutoff_size(s):.3e}"
                     f"       {s.mean() / n:.3e}   {np.median(a['n_eff'][mn]):.1f}"
                 )
 

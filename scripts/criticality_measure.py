@@ -47,6 +47,7 @@ from jamlab.analysis.criticality import (
 from jamlab.plots.criticality import plot_distributions, plot_finite_size, plot_local_exponents
 from jamlab.spheres.io import read_packing, write_packing
 from jamlab.spheres.packing import jam, relax
+from jamlab.theory import tau_jamming
 
 ROOT = Path(__file__).resolve().parent.parent
 FIXED = {"theta_e": (0.02, 0.1), "theta_l": (0.02, 0.05), "gamma": (1e-4, 1e-2)}
@@ -268,7 +269,9 @@ def main() -> None:
         n: measure_exponents(g, windows=FIXED, n_boot=args.n_boot) for n, g in groups.items()
     }
     args.figures.mkdir(parents=True, exist_ok=True)
-    plot_distributions(groups, rule_main, args.figures / "criticality_distributions.png")
+    plot_distributions(
+        groups, rule_main, args.figures / "criticality_distributions.png", fit_n=main_n
+    )
     plot_local_exponents(local, rule_main, args.figures / "criticality_local_exponents.png")
     plot_finite_size(groups, fits_by_n, args.figures / "criticality_finite_size.png")
     results["gap_diagnostics"] = {
@@ -281,8 +284,7 @@ def main() -> None:
     results["rules"] = {k: [r.per_packing, r.upper] for k, r in DEFAULT_RULES.items()}
     results["tau_j"] = {
         str(n): {
-            "from_theta_e": (3 + t["rule"]["theta_e"]["value"])
-            / (2 + t["rule"]["theta_e"]["value"]),
+            "from_theta_e": tau_jamming(t["rule"]["theta_e"]["value"]),
             "from_gamma": 1 + t["rule"]["gamma"]["value"],
         }
         for n, t in results["by_n"].items()

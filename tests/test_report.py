@@ -78,6 +78,8 @@ def test_verdict_rule_against_hand_arithmetic():
     # exactly on the boundary counts as agreement
     assert verdict(1.0 + AGREEMENT_SIGMAS * 0.1, 0.1, 1.0).startswith("agrees")
     assert verdict(math.nan, 0.1, 1.0) == "no data"
+    assert verdict(1.0, 0.1, math.nan, 0.1) == "no data"  # a measured reference missing
+    assert verdict(1.0, 0.1, 1.0, math.nan) == "no data"
     assert verdict(1.0, 0.0, 1.0) == "agrees (exact)"
     assert verdict(1.1, 0.0, 1.0).startswith("differs")
 
@@ -147,3 +149,26 @@ def test_write_report_refuses_missing_figures(tmp_path):
     with pytest.raises(FileNotFoundError, match="missing"):
         write_report(tmp_path, [], [Figure("a", "A", "figures/none.png", "")], meta)
     assert not (tmp_path / "index.html").exists()
+
+
+def test_sections_get_their_own_heading_and_table(tmp_path):
+    rows = [
+        Row("s1", "1", 1.0, 0.1, "1.0", "", section="Second"),
+        Row("main1", "1", 1.0, 0.1, "1.0", ""),
+        Row("s2", "1", 1.0, 0.1, "1.0", "", section="Second"),
+        Row("t1", "1", 1.0, 0.1, "1.0", "", section="Third"),
+    ]
+    meta = ReportMeta("T", "tiny", 0.0, sections={"Second": "intro **text**"})
+    paths = write_report(tmp_path, rows, [], meta)
+    md = paths["markdown"].read_text()
+    # the main table first, then the sections in order of appearance, each with its rows
+    assert md.index("## Numbers") < md.index("| main1 |") < md.index("## Second") \
+        < md.index("intro **text**") < md.index("| s1 |") < md.index("| s2 |") \
+        < md.index("## Third") < md.index("| t1 |")
+    html = paths["html"].read_text()
+    p = parse_html(html)
+    assert p.errors == [] and p.stack == []
+    assert html.count("<table>") == 3 and "<h2>Second</h2>" in html
+    assert "intro <strong>text</strong>" in html
+    assert html.index("<h2>Numbers</h2>") < html.index(">main1<") < html.index("<h2>Second</h2>")
+    assert json.loads(paths["json"].read_text())["rows"][0]["section"] == "Second"

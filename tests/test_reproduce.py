@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow  # one tiny reproduction, ~20-40 s on one core
 
 SCALE = SCALES["tiny"]
 FIGURES = ("fig1", "fig2", "fig3", "fig3_exact", "fig4", "fig5", "fig6", "fig7",
-           "theory_vs_cascade")
+           "theory_vs_cascade", "criticality")  # finite_size: needs two N (tiny has one)
 
 
 @pytest.fixture(scope="module")
@@ -211,8 +211,46 @@ def test_theory_rows(tiny):
     exact = float(exact_jump_R(q, y, 0.3, 0.0)[0])
     assert f"{exact:.4f}" in check["reference_text"]
     assert abs(check["value"] - exact) < 5 * check["error"]
-    tau = _row(rows, "τ_J")
+    tau = _row(rows, "τ_J = (3+θ)/(2+θ)")  # (the criticality rows "τ_J predicted by …" follow)
     assert tau["value"] == pytest.approx((3 + 0.42311) / (2 + 0.42311), rel=1e-12)
+
+
+def test_criticality_and_finite_size_rows(tiny):
+    out, _, data, rows = tiny
+    packings = len(_traces(out / "runs" / "jamming", "jamming", SCALE.jamming_n[0]))
+    crit = data["data"]["criticality"]
+    assert crit["packings"] == {str(SCALE.jamming_n[0]): packings}
+    assert crit["counts"]["packings"] == packings
+    # N = 32, 3 packings: too few values in any window; every exponent says so, no verdict
+    for start in ("θ_e,", "θ_l,", "γ,"):
+        row = _row(rows, start)
+        assert row["value_text"].startswith("n/a (") and row["verdicts"] == ["SPEC §6: no data"]
+    for start in ("τ_J predicted by 1 + γ", "τ_J predicted by (3"):
+        assert all(v.endswith("no data") for v in _row(rows, start)["verdicts"])
+    for title in ("at jamming", "at φ = 0.75", "at φ = 0.80"):
+        row = _row(rows, f"β of the avalanche cut-off S_c = ⟨S²⟩/⟨S⟩ ~ N^β, τ {title}")
+        assert row["value_text"].startswith("n/a (need avalanches at two sizes")
+
+
+def test_per_sample_sizes_recounted_from_the_files(tiny):
+    """The finite-size input: each sample's avalanches (plastic, ΔE < 0, between jammed minima),
+    recounted here with numpy from the sample files."""
+    from jamlab.reproduce.ensembles import avalanche_set
+    from jamlab.runs import open_run
+
+    out = tiny[0]
+    for run, phi, n in (("jamming", "jamming", SCALE.jamming_n[0]),
+                        ("unsat", "0.8", SCALE.unsat_n[0])):
+        got = avalanche_set(open_run(out / "runs" / run), phi, n).per_sample
+        want = []
+        for smp in _traces(out / "runs" / run, phi, n):
+            t = smp["trace"]
+            de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+            jm = t["jammed"].astype(bool)
+            want.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
+        assert len(got) == len(want)
+        for g, w in zip(got, want, strict=True):
+            np.testing.assert_array_equal(g, w)
 
 
 def test_second_call_reuses_the_runs(tiny, tmp_path):

@@ -14,7 +14,8 @@ report:
   combined σ is printed with it;
 - a **target** (the issue's acceptance windows, e.g. ``|τ − 1| ≤ 0.15``) is **met** if
   ``|ours − reference| ≤ tolerance``;
-- **no data** when our value could not be computed (too few samples or events).
+- **no data** when our value, or a measured reference, could not be computed (too few samples
+  or events).
 """
 
 from __future__ import annotations
@@ -85,6 +86,7 @@ class Row:
     samples: str
     comparisons: tuple[Comparison, ...] = ()
     note: str = ""
+    section: str = ""  # "" = the main table; otherwise a table of its own under this heading
 
     @property
     def verdicts(self) -> list[str]:
@@ -116,13 +118,20 @@ class ReportMeta:
     seconds: float
     parameters: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    sections: dict[str, str] = field(default_factory=dict)  # heading → introductory text
+
+
+def _sections(rows: Sequence[Row]) -> list[tuple[str, list[Row]]]:
+    """The rows grouped by section, the main table ("") first, then in order of appearance."""
+    order = [""] + list(dict.fromkeys(r.section for r in rows if r.section))
+    return [(name, [r for r in rows if r.section == name]) for name in order]
 
 
 def verdict(value: float, error: float, reference: float, reference_err: float = 0.0) -> str:
     """``"agrees (1.2σ)"``, ``"differs (3.4σ)"`` or ``"no data"`` by the rule of the module
     docstring (``AGREEMENT_SIGMAS`` combined standard deviations)."""
-    if not (math.isfinite(value) and math.isfinite(error)):
-        return "no data"
+    if not all(math.isfinite(x) for x in (value, error, reference, reference_err)):
+        return "no data"  # ours or the reference (e.g. a fit that could not be made) missing
     sigma = math.hypot(error, reference_err)
     diff = abs(value - reference)
     if sigma == 0.0:
@@ -159,15 +168,21 @@ def markdown(rows: Sequence[Row], figures: Sequence[Figure], meta: ReportMeta) -
     lines = [f"# {meta.title}", "", f"Scale **{meta.scale}**, wall time {meta.seconds:.0f} s.", ""]
     for k, v in meta.parameters.items():
         lines.append(f"- {k}: {v}")
-    lines += ["", "## Numbers", "", "| quantity | paper / reference | ours | samples | verdict |",
-              "|---|---|---|---|---|"]
-    for r in rows:
-        verdicts = "; ".join(r.verdicts) + (f" — {r.note}" if r.note else "")
-        lines.append(
-            "| " + " | ".join(_md_cell(c) for c in
-                             (r.quantity, r.reference_text, r.value_text, r.samples, verdicts))
-            + " |"
-        )
+    for name, group in _sections(rows):
+        if name and not group:
+            continue
+        lines += ["", f"## {name or 'Numbers'}", ""]
+        if name and meta.sections.get(name):
+            lines += [meta.sections[name], ""]
+        lines += ["| quantity | paper / reference | ours | samples | verdict |",
+                  "|---|---|---|---|---|"]
+        for r in group:
+            verdicts = "; ".join(r.verdicts) + (f" — {r.note}" if r.note else "")
+            lines.append(
+                "| " + " | ".join(_md_cell(c) for c in
+                                 (r.quantity, r.reference_text, r.value_text, r.samples, verdicts))
+                + " |"
+            )
     lines += ["", f"Verdict rules: {VERDICT_RULES}", ""]
     for note in meta.notes:
         lines += [note, ""]
@@ -211,26 +226,32 @@ def html_page(rows: Sequence[Row], figures: Sequence[Figure], meta: ReportMeta) 
         "<ul>",
     ]
     out += [f"<li>{esc(k)}: {esc(v)}</li>" for k, v in meta.parameters.items()]
-    out += [
-        "</ul>",
-        "<h2>Numbers</h2>",
-        "<table>",
-        "<thead><tr><th>quantity</th><th>paper / reference</th><th>ours</th><th>samples</th>"
-        "<th>verdict</th></tr></thead>",
-        "<tbody>",
-    ]
-    for r in rows:
-        v = r.verdicts
-        cls = "differs" if any("differs" in s or "not met" in s for s in v) else (
-            "agrees" if v and all("agrees" in s or ": met" in s for s in v) else "")
-        verdict_html = "<br>".join(esc(s) for s in v) + (
-            f"<br><em>{esc(r.note)}</em>" if r.note else "")
-        out.append(
-            f"<tr><td>{esc(r.quantity)}</td><td>{esc(r.reference_text)}</td>"
-            f"<td>{esc(r.value_text)}</td><td>{esc(r.samples)}</td>"
-            f'<td class="{cls}">{verdict_html}</td></tr>'
-        )
-    out += ["</tbody>", "</table>", f"<p>Verdict rules: {_strong(VERDICT_RULES)}</p>"]
+    out.append("</ul>")
+    for name, group in _sections(rows):
+        if name and not group:
+            continue
+        out.append(f"<h2>{esc(name or 'Numbers')}</h2>")
+        if name and meta.sections.get(name):
+            out.append(f"<p>{_strong(meta.sections[name])}</p>")
+        out += [
+            "<table>",
+            "<thead><tr><th>quantity</th><th>paper / reference</th><th>ours</th><th>samples</th>"
+            "<th>verdict</th></tr></thead>",
+            "<tbody>",
+        ]
+        for r in group:
+            v = r.verdicts
+            cls = "differs" if any("differs" in s or "not met" in s for s in v) else (
+                "agrees" if v and all("agrees" in s or ": met" in s for s in v) else "")
+            verdict_html = "<br>".join(esc(s) for s in v) + (
+                f"<br><em>{esc(r.note)}</em>" if r.note else "")
+            out.append(
+                f"<tr><td>{esc(r.quantity)}</td><td>{esc(r.reference_text)}</td>"
+                f"<td>{esc(r.value_text)}</td><td>{esc(r.samples)}</td>"
+                f'<td class="{cls}">{verdict_html}</td></tr>'
+            )
+        out += ["</tbody>", "</table>"]
+    out.append(f"<p>Verdict rules: {_strong(VERDICT_RULES)}</p>")
     out += [f"<p>{_strong(n)}</p>" for n in meta.notes]
     out.append("<h2>Figures</h2>")
     for f in figures:

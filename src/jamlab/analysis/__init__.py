@@ -15,6 +15,14 @@ from jamlab.analysis.avalanches import (
     jumps_from_trace,
     noise_floor,
 )
+from jamlab.analysis.finite_size import (
+    Collapse,
+    CutoffScaling,
+    collapse,
+    collapse_quality,
+    cutoff_size,
+    fit_cutoff_scaling,
+)
 from jamlab.analysis.histograms import LogHistogram, log_histogram
 from jamlab.analysis.moduli import (
     ModulusMoments,
@@ -35,6 +43,12 @@ from jamlab.analysis.powerlaw import (
 )
 
 __all__ = [
+    "Collapse",
+    "CutoffScaling",
+    "collapse",
+    "collapse_quality",
+    "cutoff_size",
+    "fit_cutoff_scaling",
     "Exclusions",
     "exclusions",
     "jammed_steps",

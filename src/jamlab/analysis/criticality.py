@@ -125,14 +125,17 @@ def measure_exponents(
     method: str = "cdf",
     n_boot: int = 1000,
     seed: int = 0,
+    names: Sequence[str] | None = None,
 ) -> dict[str, ExponentFit]:
     """``θ_e``, ``θ_l`` and ``γ`` (sign flipped from the gap fit) pooled over ``observables``,
     each on ``windows[name]`` if given, else on the window of ``rules[name]``
-    (:data:`DEFAULT_RULES`)."""
+    (:data:`DEFAULT_RULES`); only those in ``names`` if given."""
     rules = DEFAULT_RULES if rules is None else rules
     windows = {} if windows is None else windows
     out: dict[str, ExponentFit] = {}
     for name, samples in criticality_samples(observables).items():
+        if names is not None and name not in names:
+            continue
         window = windows.get(name) or choose_window(samples, rules[name])
         fit = fit_exponent(samples, window, method=method, n_boot=n_boot, seed=seed)
         out[name] = fit.negated() if name == "gamma" else fit

@@ -67,7 +67,8 @@ def reproduce_command(
 
 
 def figure_command(
-    name: Annotated[str, typer.Argument(help="fig1 … fig7, fig3_exact or theory_vs_cascade.")],
+    name: Annotated[str, typer.Argument(
+        help="fig1 … fig7, fig3_exact, theory_vs_cascade, criticality or finite_size.")],
     out: Annotated[Path, typer.Option("--out", help="Output PNG file.")],
     runs: Annotated[
         Path | None,

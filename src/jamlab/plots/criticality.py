@@ -45,20 +45,41 @@ def _log_density(samples: Sequence[np.ndarray], per: float, lo: float, hi: float
     return centers[ok], dens[ok]
 
 
+FORCE_RESOLUTION = 1e-3
+"""Forces below this fraction of their mean are not resolved at ``ftol = 1e-12`` (measured by
+polishing to ``1e-14``, ``docs/criticality.md`` "Resolution"); the figures shade the region."""
+GAP_RESOLUTION = 1e-7
+"""Gaps below a few overlaps (``h ≲ 1e-7`` at ``p ≈ 1e-7``) are not resolved (near-contacts)."""
+
+
 def plot_distributions(
     groups: Mapping[int, Sequence[PackingObservables]],
     fits: Mapping[str, ExponentFit],
     out: str | os.PathLike,
+    fit_n: int | None = None,
 ) -> None:
     """Three columns (extended forces, localized forces, gaps); top row the density on log-log
     axes per ``N`` with the ``SPEC.md`` §6 reference slope (``P(f) ~ f^θ``, ``g(h) ~ h^(−γ)``;
-    ``g`` per backbone particle); bottom row the pooled CDF with the fitted power law
-    ``F ~ x^(1+a)`` over its window (shaded) and the reference slope."""
+    ``g`` per backbone particle); bottom row the CDF per ``N`` with the fitted power law
+    ``F ~ x^(1+a)`` over its window (shaded) and the reference slope.
+
+    ``fits`` were made on the packings of ``groups[fit_n]`` (``None``: all of ``groups`` pooled);
+    the fit line is drawn on the CDF of those packings and its legend names them. The regions
+    below the resolution (``f/⟨f⟩ <`` :data:`FORCE_RESOLUTION`, ``h <`` :data:`GAP_RESOLUTION`)
+    are hatched as unresolved."""
     plt = _plt()
     fig, axes = plt.subplots(2, 3, figsize=(14, 8.5))
     names = ("theta_e", "theta_l", "gamma")
     ranges = {"theta_e": (1e-4, 5.0), "theta_l": (1e-4, 5.0), "gamma": (1e-8, 0.5)}
+    resolution = {"theta_e": FORCE_RESOLUTION, "theta_l": FORCE_RESOLUTION,
+                  "gamma": GAP_RESOLUTION}
     largest = max(groups)
+    if fit_n is not None and fit_n not in groups:
+        raise ValueError(f"fit_n={fit_n} is not one of the sizes {sorted(groups)}")
+    fit_obs = list(groups[fit_n]) if fit_n is not None else [o for n in sorted(groups)
+                                                             for o in groups[n]]
+    fit_who = (f"N = {fit_n}, {len(fit_obs)} packings" if fit_n is not None else
+               f"N = {', '.join(map(str, sorted(groups)))} pooled, {len(fit_obs)} packings")
     for col, name in enumerate(names):
         top, bottom = axes[0, col], axes[1, col]
         ref = REFERENCE[name]
@@ -72,11 +93,14 @@ def plot_distributions(
                 else sum(s.size for s in samples)
             )
             x, dens = _log_density(samples, per, *ranges[name])
+            if x.size < 2:
+                continue
             top.loglog(x, dens, "o-", ms=3, lw=0.8, label=f"N={n} ({len(obs)} packings)")
             grid = np.geomspace(*ranges[name], 200)
             cdf = empirical_cdf(samples, grid)
             bottom.loglog(grid, np.where(cdf > 0, cdf, np.nan), "-", lw=1.2, label=f"N={n}")
             if n == largest:
+                fit_samples = criticality_samples(fit_obs)[name]
                 xs = np.geomspace(ranges[name][0] * 10, ranges[name][1] / 10, 10)
                 anchor = np.interp(np.log(xs[5]), np.log(x), np.log(dens))
                 top.loglog(
@@ -84,14 +108,14 @@ def plot_distributions(
                     np.exp(anchor) * (xs / xs[5]) ** a_ref,
                     "k--",
                     lw=1,
-                    label=f"reference {_LABEL[name]} = {ref}",
+                    label=f"reference {_LABEL[name]} = {ref:.5g}",
                 )
                 fit = fits.get(name)
                 if fit is not None:
                     lo, hi = fit.window
                     a = -fit.value if name == "gamma" else fit.value
                     xw = np.geomspace(lo, hi, 20)
-                    c_mid = float(empirical_cdf(samples, [np.sqrt(lo * hi)])[0])
+                    c_mid = float(empirical_cdf(fit_samples, [np.sqrt(lo * hi)])[0])
                     mid = np.sqrt(lo * hi)
                     bottom.loglog(
                         xw,
@@ -99,13 +123,18 @@ def plot_distributions(
                         "r-",
                         lw=2.5,
                         alpha=0.7,
-                        label=f"fit {_LABEL[name]} = {fit.value:.3f} "
+                        label=f"fit ({fit_who}): {_LABEL[name]} = {fit.value:.3f} "
                         f"[{fit.ci95[0]:.3f}, {fit.ci95[1]:.3f}]",
                     )
                     bottom.loglog(
                         grid, c_mid * (grid / mid) ** (1 + a_ref), "k--", lw=1, label="reference"
                     )
                     bottom.axvspan(lo, hi, color="0.9", zorder=0)
+        what = "f/⟨f⟩" if name != "gamma" else "h"
+        for ax in (top, bottom):
+            ax.axvspan(ranges[name][0], resolution[name], facecolor="none", hatch="//",
+                       edgecolor="tab:red", alpha=0.35, lw=0, zorder=0,
+                       label=f"unresolved ({what} < {resolution[name]:g})" if ax is top else None)
         title = {
             "theta_e": "extended contact forces",
             "theta_l": "localized contact forces (weakest of each buckler)",
@@ -115,7 +144,7 @@ def plot_distributions(
         top.set_xlabel(_X[name])
         top.set_ylabel("density per gap and particle" if name == "gamma" else "density P(f)")
         bottom.set_xlabel(_X[name])
-        bottom.set_ylabel("cumulative F (pooled)")
+        bottom.set_ylabel("cumulative F (per N)")
         bottom.set_ylim(bottom=1e-6)
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
@@ -148,7 +177,9 @@ def plot_local_exponents(
                 capsize=2,
                 label=f"N={n}",
             )
-        ax.axhline(REFERENCE[name], color="k", ls="--", lw=1, label=f"reference {REFERENCE[name]}")
+        ax.axhline(
+            REFERENCE[name], color="k", ls="--", lw=1, label=f"reference {REFERENCE[name]:.5g}"
+        )
         fit = fits.get(name)
         if fit is not None:
             ax.axvspan(*fit.window, color="0.9", zorder=0, label="fit window")

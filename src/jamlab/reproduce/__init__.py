@@ -21,6 +21,8 @@ compute them, and each is re-derived independently in ``tests/test_reproduce.py`
 - :mod:`~jamlab.reproduce.coordination`: coordination exponents (with
   :mod:`~jamlab.reproduce.cache`, the ``.npz`` cache of coordination curves);
 - :mod:`~jamlab.reproduce.theory_checks`: no-jump probabilities, printed vs exact vs sampled;
+- :mod:`~jamlab.reproduce.criticality`: θ_e, θ_l, γ of the jamming ensemble's packings and the
+  finite-size scaling of the avalanches (rendered by :mod:`~jamlab.reproduce.criticality_table`);
 - :mod:`~jamlab.reproduce.table` and :mod:`~jamlab.reproduce.figures`: rendering the results as
   table rows (against :mod:`jamlab.paper`, the paper's reference values) and figures;
 - :mod:`~jamlab.reproduce.pipeline`: :func:`reproduce` and :func:`make_figure`.

@@ -39,7 +39,8 @@ class AvalancheSet:
     before trace format 2 have not: then nothing is excluded); ``n_steps_excluded``,
     ``n_avalanches_excluded``: steps and would-be avalanches that start or end unjammed
     (:func:`jamlab.analysis.exclusions`); ``minimum_pressures``: the pressure of every minimum
-    of the finished samples (what the ensemble actually sampled)."""
+    of the finished samples (what the ensemble actually sampled); ``per_sample``: the sizes of
+    each finished sample (``sizes`` is their concatenation)."""
 
     sizes: np.ndarray
     pressures: np.ndarray
@@ -49,6 +50,7 @@ class AvalancheSet:
     n_steps_excluded: int
     n_avalanches_excluded: int
     minimum_pressures: np.ndarray
+    per_sample: tuple[np.ndarray, ...] = ()
 
 
 def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
@@ -65,7 +67,8 @@ def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
     if not ej.size:
         return AvalancheSet(np.empty(0), np.empty(0), 0, int(done.sum()), True, 0, 0, np.empty(0))
     sizes = avalanche_sizes(ej, pl, jammed=jammed)
-    pressures = pr[:, :-1][classify_steps(ej, pl, jammed=jammed)]
+    counted = classify_steps(ej, pl, jammed=jammed)
+    pressures = pr[:, :-1][counted]
     if jammed is None:
         n_st, n_av = 0, 0
     else:
@@ -80,6 +83,7 @@ def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
         n_st,
         n_av,
         pr[np.isfinite(pr)],
+        tuple(-row[m] for row, m in zip(ej, counted, strict=True)),
     )
 
 

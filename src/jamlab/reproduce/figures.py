@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.reproduce.coordination import CoordinationResult
+from jamlab.reproduce.criticality import FiniteSizeResult, PackingCriticality
 from jamlab.reproduce.measurements import (
     ModuliResult,
     OneTrace,
@@ -35,6 +36,9 @@ __all__ = [
     "fig6",
     "fig7",
     "theory_vs_cascade",
+    "criticality",
+    "finite_size",
+    "criticality_captions",
 ]
 
 TITLES = {
@@ -47,6 +51,8 @@ TITLES = {
     "fig6": "Fig. 6 — mean stress–strain curve",
     "fig7": "Fig. 7 — moments of the shear modulus vs δγ",
     "theory_vs_cascade": "Theory vs cascade — probability of no jump",
+    "criticality": "Criticality — contact forces and gaps of the jamming ensemble's packings",
+    "finite_size": "Finite-size scaling — ⟨S⟩, S_c against N and the collapse P(S) S^τ",
 }
 """Figure titles, in report order."""
 
@@ -167,6 +173,52 @@ def theory_vs_cascade(th: TheoryChecks, figdir: Path) -> Path:
         title=f"y(q) = 2.5 q, q_max = 0.9; cascade and recursion with k = {th.k} levels, "
               f"{th.n} samples per point")
     return path
+
+
+def criticality(r: PackingCriticality, figdir: Path) -> Path | None:
+    """``P(f)``, ``g(h)`` and their CDFs per N of the jamming ensemble's initial packings, with
+    the pooled fits (:func:`jamlab.plots.criticality.plot_distributions`)."""
+    from jamlab.plots.criticality import plot_distributions
+
+    if not r.observables:
+        return None
+    path = figdir / "criticality.png"
+    plot_distributions(r.observables, {k: f for k, f in r.fits.items() if f is not None}, path)
+    return path
+
+
+def finite_size(r: FiniteSizeResult, figdir: Path) -> Path | None:
+    """``⟨S⟩``, ``S_c`` against N and the collapse, per φ label."""
+    from jamlab.plots.finite_size import plot_finite_size_scaling
+
+    if all(v is None for v in r.scaling.values()):
+        return None
+    path = figdir / "finite_size.png"
+    titles = {"jamming": "at jamming", "0.75": "φ = 0.75", "0.8": "φ = 0.80"}
+    plot_finite_size_scaling(r.scaling, r.collapse, titles, path)
+    return path
+
+
+def criticality_captions(crit: PackingCriticality | None,
+                         fss: FiniteSizeResult | None) -> dict[str, str]:
+    """Captions of the two criticality figures."""
+    sizes = ", ".join(f"N = {n}: {k}" for n, k in sorted(crit.packings.items())) if crit else ""
+    return {
+        "criticality": (
+            "Extended and localized contact forces f/⟨f⟩ and gaps h of the initial packings of "
+            f"the jamming ensemble ({sizes} packings, p ≈ p_target): densities per N (top) with "
+            "the SPEC §6 reference slopes, CDFs per N (bottom) with the fit of all N pooled (red,"
+            " its window shaded grey). Hatched: below the resolution (forces < 1e-3 ⟨f⟩ at "
+            "ftol = 1e-12, gaps < 1e-7). Small N: far from the asymptotic regime "
+            "(docs/criticality.md)."),
+        "finite_size": (
+            "Top: mean size ⟨S⟩ and cut-off S_c = ⟨S²⟩/⟨S⟩ (ε, total) against N, error bars "
+            "from a bootstrap over samples, dashed the weighted power-law fits. Bottom: P(S)S^τ "
+            "against S/N^β at the fitted β and the report's τ (jammed steps only, log bins with "
+            "≥ 3 avalanches). With two sizes β is only a rough estimate."
+            + (" Missing: " + "; ".join(f"{k}: {v}" for k, v in fss.reasons.items())
+               if fss is not None and fss.reasons else "")),
+    }
 
 
 def captions(

@@ -43,6 +43,7 @@ __all__ = [
     "one_trace",
     "phi_j_estimate",
     "predicted_tau",
+    "sigma_from_ci95",
     "pressure_tau_estimates",
     "tau_estimate",
     "pressure_summary",
@@ -76,13 +77,18 @@ def fit_tau(sizes: np.ndarray, scale: Scale) -> Any:
                          n_boot=scale.n_boot, seed=scale.seed)
 
 
+def sigma_from_ci95(low: float, high: float) -> float:
+    """Our 1σ from a 95 % interval: its width over ``2 × 1.96``."""
+    return (high - low) / (2 * _Z_95)
+
+
 def tau_sigma(fit: Any) -> float:
     """Our 1σ of a τ fit: half the 95 % bootstrap interval over 1.96 (the asymptotic standard
     error without a bootstrap interval; NaN without a fit)."""
     if fit is None:
         return math.nan
     if math.isfinite(fit.ci_low) and math.isfinite(fit.ci_high):
-        return (fit.ci_high - fit.ci_low) / (2 * _Z_95)
+        return sigma_from_ci95(fit.ci_low, fit.ci_high)
     return fit.tau_stderr
 
 

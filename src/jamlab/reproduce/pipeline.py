@@ -17,8 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from jamlab.report import Figure, ReportMeta, Row, write_report
-from jamlab.reproduce import figures, table
+from jamlab.reproduce import criticality_table, figures, table
 from jamlab.reproduce.coordination import coordination
+from jamlab.reproduce.criticality import finite_size_scaling, packing_criticality
 from jamlab.reproduce.ensembles import RunSet
 from jamlab.reproduce.measurements import (
     moduli,
@@ -85,6 +86,12 @@ def _stress_strain_data(s: Any, scale: Scale) -> tuple[list[Row], dict[str, Any]
     return [], ({} if s is None else {"stress_strain": dict(samples=s.samples)})
 
 
+def _criticality(c: _Analysis) -> Any:
+    r = packing_criticality(c.runs["jamming"], c.runs.path / "jamming", c.scale)
+    c.log(f"criticality of {sum(r.packings.values())} jamming packings ({r.seconds:.1f} s CPU)")
+    return r, c.result("avalanches")["jamming"]
+
+
 PARTS: dict[str, Part] = {
     "avalanches": Part(_avalanches, lambda r, s: (table.tau_rows(r), table.tau_data(r))),
     "pressure_tau": Part(lambda c: pressure_tau_estimates(c.runs, c.scale),
@@ -102,13 +109,20 @@ PARTS: dict[str, Part] = {
     "theory": Part(lambda c: theory_checks(c.scale),
                    lambda r, s: (table.theory_rows(r, s) + table.exponent_rows(r),
                                  table.theory_data(r))),
+    "criticality": Part(_criticality, lambda r, s: (criticality_table.criticality_rows(*r),
+                                                    criticality_table.criticality_data(*r))),
+    "finite_size": Part(lambda c: finite_size_scaling(c.runs["jamming"], c.runs["unsat"],
+                                                      c.result("avalanches"), c.scale),
+                        lambda r, s: (criticality_table.finite_size_rows(r),
+                                      criticality_table.finite_size_data(r))),
 }
 """The analysis in independent parts, in report order of their rows."""
 
 FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
                "fig3_exact": "theory", "fig4": "trace",
                "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
-               "theory_vs_cascade": "theory"}
+               "theory_vs_cascade": "theory", "criticality": "criticality",
+               "finite_size": "finite_size"}
 """Which part makes which figure."""
 
 _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
@@ -121,6 +135,8 @@ _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir),
     "fig7": lambda c: figures.fig7(c.result("moduli"), c.scale, c.figdir),
     "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir),
+    "criticality": lambda c: figures.criticality(c.result("criticality")[0], c.figdir),
+    "finite_size": lambda c: figures.finite_size(c.result("finite_size"), c.figdir),
 }
 
 
@@ -140,7 +156,8 @@ def _analyse(c: _Analysis) -> tuple[list[Row], dict[str, Any], list[Figure]]:
             if path is not None:
                 files[key] = path
     caps = figures.captions(c.scale, c.result("coordination"), c.result("avalanches"),
-                            c.result("theory"))
+                            c.result("theory")) | figures.criticality_captions(
+        c.result("criticality")[0], c.result("finite_size"))
     figs = [Figure(key, figures.TITLES[key], files[key].relative_to(c.out).as_posix(), caps[key])
             for key in figures.TITLES if key in files]
     return rows, data, figs
@@ -255,6 +272,7 @@ def reproduce(
             f"{sum(v.failed for v in summaries.values())} failed "
             f"(the wall time covers only this invocation)")} | table.parameters(scale, runs_dir),
         notes=table.notes(scale),
+        sections=dict(criticality_table.SECTION_TEXT),
     )
     paths = write_report(out, rows, figs, meta, extra=data)
     log(f"report written: {paths['html']} ({seconds:.0f} s)")
@@ -284,6 +302,7 @@ def make_figure(
     runs = Path(runs)
     part = FIGURE_PART[name]
     needs = {"avalanches": ("jamming", "unsat"), "moduli": ("jamming", "unsat"),
+             "criticality": ("jamming", "unsat"), "finite_size": ("jamming", "unsat"),
              "trace": ("jamming",), "stress_strain": ("stress-strain",)}.get(part, ())
     for run in needs:
         if not (runs / run / "manifest.json").is_file():

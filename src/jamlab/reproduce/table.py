@@ -46,6 +46,8 @@ __all__ = [
     "notes",
     "parameters",
     "phi_j_data",
+    "pressure_text",
+    "TAU_TITLES",
     "phi_j_row",
     "tau_data",
     "tau_rows",
@@ -59,7 +61,7 @@ __all__ = [
 TARGETS = {"tau_unsat": 0.15, "tau_jamming": 0.2, "slope": 0.2}
 """Acceptance windows of issue 8 at the quick scale (|τ−1|, |τ−1.41|, |slope+1|)."""
 
-_TAU_TITLES = {
+TAU_TITLES = {
     "jamming": "τ at jamming (constant volume from p_target, the paper's protocol)",
     "0.75": "τ at φ = 0.75",
     "0.8": "τ at φ = 0.80",
@@ -68,7 +70,8 @@ _MODULI_TITLES = {"jamming": "at jamming (constant volume, the paper's protocol)
                   "0.75": "at φ = 0.75"}
 
 
-def _p_text(q: tuple[float, float, float] | None) -> str:
+def pressure_text(q: tuple[float, float, float] | None) -> str:
+    """``median … [10–90 %: …, …]`` of a pressure summary, or ``none``."""
     if q is None:
         return "none"
     return f"median {q[0]:.2g} [10–90 %: {q[1]:.2g}, {q[2]:.2g}]"
@@ -79,9 +82,9 @@ def tau_samples_text(e: TauEstimate) -> str:
     and (at jamming) of every minimum sampled."""
     text = (f"{e.samples} samples, {e.steps} steps, {e.n_avalanches} avalanches; "
             f"{e.exclusion_text}; p at the start of the fitted avalanches (S ≥ x_min): "
-            f"{_p_text(e.fit_pressures)}")
+            f"{pressure_text(e.fit_pressures)}")
     if e.label == "jamming":
-        text += f"; p of all minima sampled: {_p_text(e.sampled_pressures)}"
+        text += f"; p of all minima sampled: {pressure_text(e.sampled_pressures)}"
     return text
 
 
@@ -101,7 +104,7 @@ def fit_text(fit: Any, sigma: float) -> str:
 def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
     """One row per τ: against the paper's fit, the theory and the issue's target window."""
     rows = []
-    for label, title in _TAU_TITLES.items():
+    for label, title in TAU_TITLES.items():
         e = estimates[label]
         paper, paper_err = PAPER_TAU[label]
         theory = predicted_tau(label)
