@@ -27,7 +27,7 @@ from scipy.special import log_ndtr
 
 from jamlab.theory.parisi import ParisiFunction
 
-__all__ = ["SKGroundState", "SKStepSolution", "sk_ground_state", "sk_k_rsb"]
+__all__ = ["SKGroundState", "SKStepSolution", "sk_ground_state", "sk_k_rsb", "sk_top_exponents"]
 
 #: Parisi's T = 0 SK energy per spin, -0.7631667 (Crisanti & Rizzo 2002; Oppermann et al. 2007)
 SK_ENERGY_REFERENCE = -0.7631667
@@ -53,8 +53,10 @@ def _layout(q: np.ndarray, y: np.ndarray, ppsd: float = _PPSD) -> _Layout:
     v = np.diff(qe)
     sd = np.sqrt(v)
     k = q.size
-    span = 10.0 + 2.0 * float(np.sum(y * v))
-    hs = [min(float(sd[-1]) / ppsd, 0.05)]
+    # h and the span quantised (a power of 2, an integer) so that the layout of an optimum
+    # does not move under parameter changes of the size of the optimiser's last steps
+    span = math.ceil(10.0 + 2.0 * float(np.sum(y * v)))
+    hs = [2.0 ** math.floor(math.log2(min(float(sd[-1]) / ppsd, 0.05)))]
     for i in range(k - 2, -1, -1):  # the output grid of level i; its input is level i + 1's
         target = min(float(sd[i]), float(sd[i - 1])) / ppsd if i > 0 else hs[-1]
         hs.append(hs[-1] * max(1, math.floor(target / hs[-1])))
@@ -189,6 +191,32 @@ def _from_params(p: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return 1.0 - u, np.cumsum(np.exp(p[k - 1:])), s, u
 
 
+def _newton_polish(obj, p: np.ndarray, steps: int = 4, eps: float = 1e-5) -> np.ndarray:
+    """Newton steps with the Hessian from central differences of the exact gradient (BFGS stalls
+    at gradients ~1e-6 for k >~ 10: the top levels' parameters are weakly curved); a step is
+    kept only if it lowers the gradient's largest component."""
+    f, g = obj(p)
+    for _ in range(steps):
+        n = p.size
+        hess = np.empty((n, n))
+        for j in range(n):
+            d = np.zeros(n)
+            d[j] = eps
+            hess[:, j] = (obj(p + d)[1] - obj(p - d)[1]) / (2.0 * eps)
+        hess = 0.5 * (hess + hess.T)
+        try:
+            step = np.linalg.solve(hess, -g)
+        except np.linalg.LinAlgError:
+            break
+        f2, g2 = obj(p + step)
+        if not (np.abs(g2).max() < np.abs(g).max() and f2 <= f + 1e-13):
+            break
+        p, f, g = p + step, f2, g2
+        if np.abs(g).max() < 1e-12:
+            break
+    return p
+
+
 def sk_k_rsb(k: int, start: SKStepSolution | None = None) -> SKStepSolution:
     """Minimise ``Q`` over ``k``-step functions (``q_1 = 0``: ``y > 0`` from ``q = 0`` on, the
     zero-field SK optimum) by BFGS with exact gradients (reverse mode through the discretised
@@ -226,6 +254,8 @@ def sk_k_rsb(k: int, start: SKStepSolution | None = None) -> SKStepSolution:
         res = optimize.minimize(obj, p, jac=True, method="BFGS",
                                 options={"gtol": 1e-10, "maxiter": 5000})
         p = res.x
+    if np.abs(res.jac).max() > 1e-10:
+        p = _newton_polish(obj, p)
     q, y, _, _ = _from_params(p, k)
     lay = _layout(q, y)
     phi, gq, gy = _phi0_grad(q, y, lay, grad=True)
@@ -240,11 +270,27 @@ class SKGroundState:
 
     ``energy``: the ``k → ∞`` extrapolation of the k-step energies ``energies`` (``E_k = E_∞ +
     a k^{-p}`` through the last three ``k``), ``energy_error`` the change from the previous
-    triple; ``y``: the Parisi function (``ParisiFunction.tabulated`` through
-    the level midpoints of the largest ``k``); ``mu``, ``mu_error``: exponent of
-    ``y ≈ A (1-q)^(-μ) + B`` fitted to ``y(q_i) ≈ √(y_{i-1} y_i)`` at the top (up to) five
-    breakpoints (``nan`` for ``k < 5``); ``local_mu``: ``-Δ log y / Δ log(1-q)`` between
-    neighbouring breakpoints (tends to ``μ`` at the top); ``steps``: every ``SKStepSolution``.
+    triple; ``y``: the Parisi function (``ParisiFunction.tabulated`` through the level midpoints
+    of the largest ``k``).
+
+    The exponent of ``y ≈ A (1-q)^(-μ)`` near ``q = 1``, from the top step ``(u_k, y_k)``
+    (``u_k = 1 - q_k``, ``y_k`` its value) of the optimal ``k``-step functions: near ``q = 1``
+    the zero-temperature Parisi equation is invariant under ``1 - q → λ(1 - q)``, ``h → √λ h``,
+    ``y → y/λ^μ`` with ``μ = 1/2``, so the top of the ladder is one shape at the scale ``u_k →
+    0`` and ``y_k ∝ u_k^{-μ}`` across ``k``. Two estimates that converge from either side
+    (observed for ``k = 6 .. 13``, docs/theory-vs-cascade.md §10):
+
+    - ``mu_upper``: ``-Δ log y_k / Δ log u_k`` between ``k_max - 1`` and ``k_max`` (no
+      correction to scaling; decreases with ``k``);
+    - ``mu_lower``: ``μ`` of ``y_k = A u_k^{-μ} + B`` least-squares fitted on the last five ``k``
+      (the constant ``B`` over-corrects; increases with ``k``);
+
+    ``mu`` is their midpoint and ``mu_error`` half their distance (``nan`` for ``k_max < 7``).
+    ``mu_fit_error``: the standard error of the fitted ``μ``. ``local_mu``: the within-``k``
+    local exponents ``-Δ log y/Δ log(1-q)`` between neighbouring breakpoints of ``k_max``, with
+    ``y(q_i) ≈ √(y_{i-1} y_i)`` (bottom to top; their top entry is biased by the top level's
+    shape, ~0.504 at ``k = 13``). ``max_gradient``: the largest ``|∂Q/∂q_i|``, ``|∂Q/∂y_i|``
+    over the optima (stationarity); ``steps``: every ``SKStepSolution``.
     """
 
     energy: float
@@ -254,12 +300,33 @@ class SKGroundState:
     y: ParisiFunction
     mu: float
     mu_error: float
+    mu_lower: float
+    mu_upper: float
+    mu_fit_error: float
     local_mu: np.ndarray
+    max_gradient: float
     steps: list[SKStepSolution] = field(repr=False)
 
 
-def sk_ground_state(k_max: int = 6) -> SKGroundState:
-    """Zero-temperature SK Parisi solution from ``k = 1 .. k_max`` step functions (module doc)."""
+def sk_top_exponents(steps: list[SKStepSolution]) -> tuple[float, float, float]:
+    """``(mu_upper, mu_lower, mu_fit_error)`` from the top steps of consecutive ``k``-step
+    solutions (:class:`SKGroundState`); needs the last six ``k`` consecutive and ``>= 2``."""
+    top = [s for s in steps if s.k >= 2][-6:]
+    if len(top) < 6 or [s.k for s in top] != list(range(top[0].k, top[0].k + 6)):
+        return float("nan"), float("nan"), float("nan")
+    u = np.array([1.0 - s.q[-1] for s in top])
+    yk = np.array([s.y[-1] for s in top])
+    upper = float(-math.log(yk[-1] / yk[-2]) / math.log(u[-1] / u[-2]))
+    popt, pcov = optimize.curve_fit(lambda x, a, m, b: a * x ** (-m) + b, u[1:], yk[1:],
+                                    p0=[1.0, 0.5, 0.0], maxfev=20000)
+    return upper, float(popt[1]), float(math.sqrt(max(pcov[1, 1], 0.0)))
+
+
+def sk_ground_state(k_max: int = 9) -> SKGroundState:
+    """Zero-temperature SK Parisi solution from ``k = 1 .. k_max`` step functions (module doc;
+    ``k_max = 9`` takes ~30 s, ``13`` ~3 min on one core)."""
+    if k_max < 3:
+        raise ValueError(f"k_max must be >= 3 (the energy extrapolation), got {k_max}")
     steps: list[SKStepSolution] = []
     prev = None
     for k in range(1, k_max + 1):
@@ -279,21 +346,15 @@ def sk_ground_state(k_max: int = 6) -> SKGroundState:
 
     fits = [fit(slice(j, j + 3)) for j in range(max(0, len(ks) - 4), len(ks) - 2)]
     e_inf, p = fits[-1]
-    err = float(np.std([f[0] for f in fits])) if len(fits) > 1 else abs(es[-1] - e_inf)
+    err = abs(fits[-1][0] - fits[-2][0]) if len(fits) > 1 else abs(es[-1] - e_inf)
     top = steps[-1]
     qe = np.append(top.q, 1.0)
     mid = 0.5 * (qe[1:] + qe[:-1])
     yfun = ParisiFunction.tabulated(mid, top.y, q_max=float(mid[-1]))
-    # exponent: y at the breakpoints, y(q_i) ≈ √(y_{i-1} y_i) (the step values interlace the
-    # continuous y), fitted by A (1-q)^(-μ) + B on the top (up to) five breakpoints
     qb = top.q[1:]
     yb = np.sqrt(top.y[:-1] * top.y[1:])
-    sel = slice(max(0, qb.size - 5), qb.size)
-    mu, mu_err = float("nan"), float("nan")
     local_mu = -np.diff(np.log(yb)) / np.diff(np.log1p(-qb))
-    if qb[sel].size >= 4:
-        popt, pcov = optimize.curve_fit(lambda q, a, m, b: a * (1 - q) ** (-m) + b, qb[sel],
-                                        yb[sel], p0=[0.5, 0.5, 0.0], maxfev=20000)
-        mu, mu_err = float(popt[1]), float(math.sqrt(max(pcov[1, 1], 0.0)))
+    upper, lower, fit_err = sk_top_exponents(steps)
     return SKGroundState(e_inf, err, dict(zip(ks.astype(int).tolist(), es.tolist(), strict=True)),
-                         p, yfun, mu, mu_err, local_mu, steps)
+                         p, yfun, 0.5 * (upper + lower), 0.5 * abs(upper - lower), lower, upper,
+                         fit_err, local_mu, max(s.gradient for s in steps), steps)
