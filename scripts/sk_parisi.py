@@ -1,6 +1,6 @@
 """The SK zero-temperature Parisi solution and its jump law (docs/theory-vs-cascade.md §10).
 
-    .venv/bin/python scripts/sk_parisi.py [--k-max 13] [--out docs/figures/cascade/sk_tables.md]
+    .venv/bin/python scripts/sk_parisi.py [--k-max 16] [--out docs/figures/cascade/sk_tables.md]
 
 Prints and writes: the k-step energies (with the time per k and the stationarity of each
 optimum), the k → ∞ extrapolation against Parisi's -0.7631667, the exponent of y(q) near q = 1
@@ -35,7 +35,7 @@ from jamlab.theory.sk import (  # noqa: E402
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--k-max", type=int, default=13)
+    ap.add_argument("--k-max", type=int, default=16)
     ap.add_argument("--out", default="docs/figures/cascade/sk_tables.md")
     args = ap.parse_args()
     t0 = time.perf_counter()

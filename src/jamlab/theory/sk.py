@@ -12,8 +12,10 @@ At ``T → 0`` with ``y(q) = β x(q)`` finite, Parisi's formula for the ground-s
 solved exactly level by level (Cole–Hopf):
 ``φ(q_i, h) = (1/y_i) log E[exp(y_i φ(q_{i+1}, h + √(q_{i+1} - q_i) ξ))]``, the top level in closed
 form, ``φ(0, 0) = E[φ(q_1, √q_1 ξ)]`` and ``½ ∫ q y = ¼ Σ_i y_i (q_{i+1}² - q_i²)``.
-:func:`sk_k_rsb` minimises ``Q`` over the ``2k`` parameters; :func:`sk_ground_state` extrapolates
-the ``k``-step energies to ``k → ∞`` and returns the Parisi function of the largest ``k``.
+:func:`sk_k_rsb` minimises ``Q`` over the ``2k - 1`` free parameters with exact (reverse-mode)
+gradients of the discretised recursion; :func:`sk_ground_state` extrapolates the ``k``-step energies
+to ``k → ∞``, estimates the exponent of ``y`` near ``q = 1`` and returns the Parisi function of the
+largest ``k`` (docs/theory-vs-cascade.md §10).
 """
 
 from __future__ import annotations
@@ -290,7 +292,7 @@ class SKGroundState:
     the zero-temperature Parisi equation is invariant under ``1 - q → λ(1 - q)``, ``h → √λ h``,
     ``y → y/λ^μ`` with ``μ = 1/2``, so the top of the ladder is one shape at the scale ``u_k →
     0`` and ``y_k ∝ u_k^{-μ}`` across ``k``. Two estimates that converge from either side
-    (observed for ``k = 6 .. 13``, docs/theory-vs-cascade.md §10):
+    (observed for ``k_max = 7 .. 16``, docs/theory-vs-cascade.md §10; a bracket, not a bound):
 
     - ``mu_upper``: ``-Δ log y_k / Δ log u_k`` between ``k_max - 1`` and ``k_max`` (no
       correction to scaling; decreases with ``k``);
@@ -336,7 +338,7 @@ def sk_top_exponents(steps: list[SKStepSolution]) -> tuple[float, float, float]:
 
 def sk_ground_state(k_max: int = 9) -> SKGroundState:
     """Zero-temperature SK Parisi solution from ``k = 1 .. k_max`` step functions (module doc;
-    ``k_max = 9`` takes ~30 s, ``13`` ~3 min on one core)."""
+    ``k_max = 9`` takes ~20 s, ``16`` ~2 min of one core)."""
     if k_max < 3:
         raise ValueError(f"k_max must be >= 3 (the energy extrapolation), got {k_max}")
     steps: list[SKStepSolution] = []
