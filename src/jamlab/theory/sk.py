@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -196,8 +197,8 @@ def _from_params(p: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return 1.0 - u, np.cumsum(np.exp(p[k - 1:])), s, u
 
 
-def _newton_polish(obj, p: np.ndarray, rounds: int = 3, steps: int = 8,
-                   eps: float = 1e-5) -> np.ndarray:
+def _newton_polish(obj: Callable[[np.ndarray], tuple[float, np.ndarray]], p: np.ndarray,
+                   rounds: int = 3, steps: int = 8, eps: float = 1e-5) -> np.ndarray:
     """Newton steps with the Hessian from central differences of the exact gradient. BFGS stops
     ("precision loss") with ``Q`` still ~1e-9 above its minimum for k >~ 12: the Hessian's
     condition number grows to ~1e5 (the top levels are weakly curved) and the top breakpoints
@@ -235,7 +236,8 @@ def sk_k_rsb(k: int, start: SKStepSolution | None = None) -> SKStepSolution:
     zero-field SK optimum) by BFGS with exact gradients (reverse mode through the discretised
     recursion) over ``2k - 1`` unconstrained parameters. The grids are held fixed during a BFGS
     run (so ``Q`` is smooth in the parameters) and rebuilt for the solution until they no longer
-    change. ``start``: a ``(k-1)``-step solution to start from (a level added at the top)."""
+    change; then Newton steps (``k >= 3``; BFGS alone stalls ~1e-9 above the minimum at large
+    ``k``). ``start``: a ``(k-1)``-step solution to start from (a level added at the top)."""
     if k < 1:
         raise ValueError(f"k must be >= 1, got {k}")
     t0 = time.perf_counter()
