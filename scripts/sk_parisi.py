@@ -20,6 +20,8 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import numpy as np  # noqa: E402
+
 from jamlab.theory import (  # noqa: E402
     ParisiFunction,
     exact_jump_law,
@@ -61,8 +63,11 @@ def main() -> None:
            "upper: -Δlog y_k/Δlog u_k between k-1 and k; lower: μ of y_k = A u_k^-μ + B fitted "
            "on the last five k (± its standard error); μ = midpoint ± half-distance "
            "(SKGroundState.mu, .mu_error).", "",
-           "| k | u_k | y_k | y_k √u_k | upper | lower (fit ± se) | μ ± err | 1/2 inside |",
-           "|---|---|---|---|---|---|---|---|"]
+           "within k: -Δlog y/Δlog(1-q) between the top three breakpoints of that k "
+           "(y(q_i) ≈ √(y_(i-1) y_i)).", "",
+           "| k | u_k | y_k | y_k √u_k | within k | upper | lower (fit ± se) | μ ± err "
+           "| 1/2 inside |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for s in gs.steps[1:]:
         up, lo, se = sk_top_exponents(gs.steps[:s.k])
         u = 1.0 - s.q[-1]
@@ -71,8 +76,12 @@ def main() -> None:
             cells = (f"{up:.6f} | {lo:.6f} ± {se:.6f} | {mid:.5f} ± {half:.5f} | "
                      f"{'yes' if abs(mid - 0.5) < half else 'NO'}")
         else:
-            cells = "| | |"
-        md.append(f"| {s.k} | {u:.6g} | {s.y[-1]:.5f} | {s.y[-1] * u ** 0.5:.5f} | {cells} |")
+            cells = " | | | "
+        qb, yb = s.q[1:], np.sqrt(s.y[:-1] * s.y[1:])
+        loc = -np.diff(np.log(yb)) / np.diff(np.log1p(-qb))
+        within = " ".join(f"{v:.4f}" for v in loc[-2:])
+        md.append(f"| {s.k} | {u:.6g} | {s.y[-1]:.5f} | {s.y[-1] * u ** 0.5:.5f} | {within} | "
+                  f"{cells} |")
     md += ["", f"Within k = {gs.steps[-1].k} (y(q_i) ≈ √(y_(i-1) y_i) at the breakpoints): local "
            "exponents -Δlog y/Δlog(1-q) between neighbouring breakpoints, bottom to top: "
            + ", ".join(f"{m:.4f}" for m in gs.local_mu) + ".", "",
