@@ -111,28 +111,22 @@ def pairs_within(
 
 def pair_force(r: ArrayLike, sigma: ArrayLike, alpha: float = 2.0) -> FloatArray:
     """Contact force ``f = −V'(r) = α (1 − r/σ)^(α−1)/σ`` for ``r < σ`` (0 otherwise) of
-    ``V(r) = (1 − r/σ)^α``."""
+    ``V(r) = (1 − r/σ)^α`` (:func:`jamlab.spheres.pair.contact_force`, where the law lives)."""
+    from jamlab.spheres.pair import contact_force
+
     if not (math.isfinite(alpha) and alpha > 1):
         raise ValueError(f"pair exponent alpha must be > 1, got {alpha!r}")
-    r = np.asarray(r, dtype=np.float64)
-    sigma = np.asarray(sigma, dtype=np.float64)
-    overlap = np.clip(1.0 - r / sigma, 0.0, None)
-    return alpha * overlap ** (alpha - 1.0) / sigma
+    return contact_force(r, sigma, alpha)
 
 
 def backbone_mask(n: int, i: ArrayLike, j: ArrayLike, dim: int) -> NDArray[np.bool_]:
     """Particles kept after removing, repeatedly, those with fewer than ``d + 1`` contacts among
-    the kept ones (``SPEC.md`` §3); ``i, j`` are the contacts."""
-    i = np.asarray(i, dtype=np.intp)
-    j = np.asarray(j, dtype=np.intp)
-    keep = np.ones(n, dtype=bool)
-    while True:
-        live = keep[i] & keep[j]
-        count = np.bincount(i[live], minlength=n) + np.bincount(j[live], minlength=n)
-        drop = keep & (count < dim + 1)
-        if not drop.any():
-            return keep
-        keep &= ~drop
+    the kept ones (``SPEC.md`` §3); ``i, j`` are the contacts
+    (:func:`jamlab.spheres.contacts.backbone_mask`)."""
+    from jamlab.spheres.contacts import backbone_mask as remove_rattlers_from
+
+    return remove_rattlers_from(np.asarray(i, dtype=np.intp), np.asarray(j, dtype=np.intp), n,
+                                dim + 1)
 
 
 def bucklers(

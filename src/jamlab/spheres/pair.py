@@ -38,6 +38,7 @@ __all__ = [
     "pair_sigma",
     "pair_terms",
     "pair_sigmas",
+    "contact_force",
     "kernel_law",
 ]
 
@@ -111,6 +112,15 @@ def kernel_law(diameters: np.ndarray, alpha: float) -> tuple[np.ndarray | None, 
     ``α = 2``, so that the paper's system runs the specialised harmonic monodisperse kernels."""
     d = np.ascontiguousarray(diameters, dtype=np.float64)
     return (None if np.all(d == 1.0) else d), (None if alpha == 2.0 else float(alpha))
+
+
+def contact_force(r: np.ndarray, sigma: np.ndarray, alpha: float) -> np.ndarray:
+    """Numpy form of ``−V'``: the repulsive force ``f = (α/σ)(1 − r/σ)^(α−1)`` of pairs at
+    ``r < σ`` (0 beyond), for arrays (analysis code; kernels use :func:`pair_terms`)."""
+    r = np.asarray(r, dtype=np.float64)
+    sigma = np.asarray(sigma, dtype=np.float64)
+    overlap = np.clip(1.0 - r / sigma, 0.0, None)
+    return alpha * overlap ** (alpha - 1.0) / sigma
 
 
 def pair_sigmas(diameters: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
