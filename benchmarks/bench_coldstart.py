@@ -9,7 +9,9 @@ run (so nothing is written into the trees, and no cache of an earlier run is see
   ``jamlab prepare --n 64 --phi 0.8 --seed 1 --quiet --out X`` and
   ``jamlab shear X --dgamma 1e-4 --gamma-max 2e-3 --out T`` (as on a fresh install);
 - **warm**: the same two commands again with the cache filled;
-- **warm start-up**: ``jamlab --help`` and ``jamlab inspect X``;
+- **warm start-up**: ``jamlab --help`` and ``jamlab inspect X`` — of the file as ``prepare``
+  wrote it (summary stored, :mod:`jamlab.summary`) and of a copy without the stored summary
+  (computed with the kernels, as for older files);
 - **install step** ``jamlab warmup`` (:mod:`jamlab.warmup`; the README's set-up command runs it)
   from an emptied cache, then the **first prepare + shear after it** — the first run of a user who
   installed as the README says (a tree without the command prints FAILED there).
@@ -42,6 +44,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import h5py
 
 # the ``jamlab`` console script, run as ``python -c`` so that PYTHONPATH decides which tree
 LAUNCH = "import sys; from jamlab.cli import main; sys.argv[0] = 'jamlab'; main()"
@@ -103,6 +107,14 @@ class Tree:
         self.record("warm shear", self.jamlab("shear", str(config), *shear, "--out", str(trace)))
         self.record("warm --help", self.jamlab("--help"))
         self.record("warm inspect", self.jamlab("inspect", str(config)))
+        # the same file without the stored summary (an older file, another program's): computed
+        plain = self.work / f"plain-{k}.h5"
+        shutil.copy(config, plain)
+        with h5py.File(plain, "r+") as h5:
+            for name in ("summary", "summary_key"):
+                if name in h5.attrs:
+                    del h5.attrs[name]
+        self.record("warm inspect, computed", self.jamlab("inspect", str(plain)))
         self.times.setdefault("cold prepare+shear", []).append(
             tuple(a + b for a, b in zip(self.times["cold prepare"][-1],
                                         self.times["cold shear"][-1], strict=True))
@@ -158,7 +170,8 @@ def main() -> None:
         )
         print(header)
         for name in ("cold prepare", "cold shear", "cold prepare+shear", "warm prepare",
-                     "warm shear", "warm --help", "warm inspect", "install: warmup",
+                     "warm shear", "warm --help", "warm inspect", "warm inspect, computed",
+                     "install: warmup",
                      "then prepare+shear"):
             row = f"{name:20s}" + "".join(f"| {summary(t.times[name]):33s}" for t in trees)
             if len(trees) == 2:

@@ -12,45 +12,22 @@ from typing import Annotated
 import typer
 
 from jamlab import validation
+from jamlab.summary import SUMMARY_KEYS, compute_summary, stored_summary
 
-INSPECT_KEYS = (
-    "n",
-    "dim",
-    "phi",
-    "strain",
-    "energy",
-    "shear_stress",
-    "pressure",
-    "z",
-    "z_nr",
-    "n_rattlers",
-    "n_contacts_nr",
-    "max_force",
-)
+INSPECT_KEYS = SUMMARY_KEYS
+"""What ``jamlab inspect`` prints (:data:`jamlab.summary.SUMMARY_KEYS`)."""
 
 
 def inspect_packing(path: Path) -> dict[str, float | int]:
-    """The numbers ``jamlab inspect`` prints (keys :data:`INSPECT_KEYS`)."""
-    import jamlab.spheres as sp
+    """The numbers ``jamlab inspect`` prints (keys :data:`INSPECT_KEYS`): the summary stored in
+    the file when it is valid for its contents and the current code (:mod:`jamlab.summary`),
+    else computed."""
+    stored = stored_summary(path)
+    if stored is not None:
+        return stored
     from jamlab.spheres.io import read_packing
 
-    packing = read_packing(path)
-    nl = sp.NeighborList(packing, skin=0.0)
-    rattlers = sp.remove_rattlers(packing, nl)
-    return {
-        "n": packing.n,
-        "dim": packing.dim,
-        "phi": packing.phi,
-        "strain": packing.strain,
-        "energy": sp.energy(packing, nl),
-        "shear_stress": sp.shear_stress(packing, nl),
-        "pressure": sp.pressure(packing, nl),
-        "z": sp.coordination(packing, nl),
-        "z_nr": rattlers.z_nr,
-        "n_rattlers": rattlers.n_rattlers,
-        "n_contacts_nr": rattlers.n_contacts_nr,
-        "max_force": sp.max_force(packing, nl),
-    }
+    return compute_summary(read_packing(path))
 
 
 def register(app: typer.Typer) -> None:

@@ -40,8 +40,17 @@ FORMAT_VERSION = 1
 
 def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: object) -> Path:
     """Write ``packing`` to the HDF5 file ``path`` atomically; ``extra_attrs`` are stored as
-    additional root attributes (numbers or strings). Returns the path."""
+    additional root attributes (numbers or strings). Returns the path.
+
+    The file also stores the summary ``jamlab inspect`` prints (:mod:`jamlab.summary`: root
+    attributes ``summary``, ``summary_key``), so that inspecting it needs no numba kernel."""
     from jamlab import __version__
+    from jamlab.summary import file_key, summary_text
+
+    try:
+        summary = summary_text(packing)
+    except (ValueError, FloatingPointError, MemoryError):  # inspect will compute (and report) it
+        summary = None
 
     def fill(h5: h5py.File) -> None:
         h5.create_dataset("positions", data=np.asarray(packing.positions, dtype=np.float64))
@@ -57,6 +66,9 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
         h5.attrs["format_version"] = FORMAT_VERSION
         for key, value in extra_attrs.items():
             h5.attrs[key] = value
+        if summary is not None:
+            h5.attrs["summary"] = summary
+            h5.attrs["summary_key"] = file_key(h5)  # last: it covers everything above
 
     return atomic_write_hdf5(path, fill)
 
