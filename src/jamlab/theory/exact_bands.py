@@ -37,10 +37,12 @@ class BandedRecursion:
 
     ``q``, ``y``: the levels (as :class:`jamlab.theory.exact.CascadeRecursion`); ``dgamma``:
     only ``|δγ|`` enters. ``points_per_sd``: lattice points per ``σ`` (1.3 is spectrally
-    accurate to ``~1e-14``).
+    accurate to ``~1e-14``); ``points_per_scale``: per width of the ``f_i``'s structure
+    (``ℓ_{i+1}``, and ``min(σ_k, 1/y_k)`` at the top).
     """
 
-    def __init__(self, q: Any, y: Any, dgamma: float, *, points_per_sd: float = 1.3) -> None:
+    def __init__(self, q: Any, y: Any, dgamma: float, *, points_per_sd: float = 1.3,
+                 points_per_scale: float = 6.0) -> None:
         from jamlab.theory.cascade import validate_levels
 
         qa, ya = validate_levels(q, y)
@@ -60,7 +62,10 @@ class BandedRecursion:
             b = self.sigma[i] / points_per_sd
             if i > 0:
                 b = min(b, self.sigma[i - 1] / points_per_sd)
-            b = min(b, (self.ell[i + 1] if i + 1 < k else self.sigma[-1]) / 6.0)
+            # f_{i+1} varies on ℓ_{i+1}; the top level's f_k' and F_k also on 1/y_k (a
+            # logistic step of that width when y_k σ_k > 1)
+            top = min(self.sigma[-1], 1.0 / ya[-1])
+            b = min(b, (self.ell[i + 1] if i + 1 < k else top) / points_per_scale)
             bound[i] = b
         h = float(bound.min())
         t = 2 ** np.floor(np.log2(bound / h)).astype(np.int64)
