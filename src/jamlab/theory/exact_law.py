@@ -437,7 +437,9 @@ def exact_jump_law(
     :func:`jamlab.theory.sample_cascade_jumps` with ``k=``); otherwise the continuum limit is
     computed from :func:`continuum_levels` with ``levels`` and ``2·levels`` levels (Richardson);
     ``q_cut`` (required when ``q_max = 1``) merges the clusters above ``q_cut`` into one level.
-    ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`.
+    ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`. The uniform grid resolves
+    the law only at ``|ΔE| ≳ 10 |δγ|√(1 - q_cut)``; for the law of ``ΔE`` at smaller ``|ΔE|``
+    (and without a cut-off) use :func:`exact_energy_jump_law`.
     """
     from jamlab.theory.cascade import validate_levels
 
