@@ -91,3 +91,20 @@ def test_bad_input():
         exact_energy_jump_law(pf, 0.1, levels=4)
     with pytest.raises(ValueError, match="R is defined"):
         exact_energy_jump_law(pf, 0.1).R(0.01)
+
+
+def test_large_dgamma_strong_top_level():
+    """At δγ = 0.5 the default cut-off is lowered to keep y_k δγ √(1 - q_k) <= 100 (μ_J:
+    1 - q_cut ≈ 2.7e-9); the law is finite, a probability, monotone, and moving the cut-off to
+    1 - 1e-8 changes R at r >= 0.03 by less than 1e-5."""
+    pf = ParisiFunction.power_law(MU_J)
+    law = exact_energy_jump_law(pf, 0.5)
+    assert 1e-9 < 1 - law.q_top < 1e-8
+    x = -0.5 * np.logspace(-3, 1, 30)
+    R = np.asarray(law.R(x))
+    assert np.all(np.isfinite(R)) and np.all(np.isfinite(np.asarray(law.pdf(x))))
+    assert np.all(R > -1e-12) and np.all(R < 1 + 1e-12)
+    assert np.all(np.diff(R) >= -1e-12)  # R(x) = P(ΔE >= x) grows as x falls
+    other = exact_energy_jump_law(pf, 0.5, q_cut=1 - 1e-8)
+    xs = -0.5 * np.array([0.03, 0.1, 0.3, 1.0])
+    assert np.max(np.abs(np.asarray(other.R(xs)) - np.asarray(law.R(xs)))) < 1e-5

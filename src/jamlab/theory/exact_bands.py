@@ -38,11 +38,12 @@ class BandedRecursion:
     ``q``, ``y``: the levels (as :class:`jamlab.theory.exact.CascadeRecursion`); ``dgamma``:
     only ``|δγ|`` enters. ``points_per_sd``: lattice points per ``σ`` (1.3 is spectrally
     accurate to ``~1e-14``); ``points_per_scale``: per width of the ``f_i``'s structure
-    (``ℓ_{i+1}``, and ``min(σ_k, 1/y_k)`` at the top).
+    (``ℓ_{i+1}``, and ``min(σ_k, 1/y_k)`` at the top); ``max_points``: largest window of one
+    level (the top level's window has ``~12 (y_k σ_k)²`` points).
     """
 
     def __init__(self, q: Any, y: Any, dgamma: float, *, points_per_sd: float = 1.3,
-                 points_per_scale: float = 6.0) -> None:
+                 points_per_scale: float = 6.0, max_points: int = 4_000_000) -> None:
         from jamlab.theory.cascade import validate_levels
 
         qa, ya = validate_levels(q, y)
@@ -72,7 +73,7 @@ class BandedRecursion:
         for i in range(1, k):  # non-increasing strides, each dividing the one below
             t[i] = min(t[i], t[i - 1])
         self.h, self.t = h, t
-        self._levels()
+        self._levels(max_points)
 
     # ------------------------------------------------------------------ f_i on windows
     def _lookup(self, i: int, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -92,7 +93,7 @@ class BandedRecursion:
             dv[right] = df[-1]
         return fv, dv
 
-    def _levels(self) -> None:
+    def _levels(self, max_points: int) -> None:
         k, h, ya = self.k, self.h, self.y
         self._lo = [0] * k
         self._f: list[np.ndarray] = [np.empty(0)] * k
@@ -101,6 +102,12 @@ class BandedRecursion:
             ti = int(self.t[i])
             half = _WIN * self.ell[i] + 2.0 * self.tilt[i]
             m = int(math.ceil(half / (ti * h)))
+            if 2 * m + 1 > max_points:
+                raise ValueError(
+                    f"exact recursion (bands): level {i + 1} needs {2 * m + 1} lattice points "
+                    f"(more than {max_points}): y_k |δγ| √(1 - q_k) = "
+                    f"{ya[-1] * self.sigma[-1]:.3g} is too large; lower the top level (a smaller "
+                    "q_cut)")
             idx = np.arange(-m, m + 1, dtype=np.int64) * ti
             z = idx * h
             if i == k - 1:
@@ -120,11 +127,18 @@ class BandedRecursion:
                 fe, de = self._lookup(i + 1, ext)
                 win = np.lib.stride_tricks.sliding_window_view(fe, 2 * M + 1)
                 dwin = np.lib.stride_tricks.sliding_window_view(de, 2 * M + 1)
-                centre = fe[M:M + idx.size]
-                e = np.exp(r * (win - centre[:, None])) * kern[None, :]
-                s = e.sum(axis=1)
-                f = r * centre + np.log(s)
-                df = r * np.einsum("ij,ij->i", e, dwin) / s
+                with np.errstate(divide="ignore"):
+                    logk = np.log(kern)
+                f = np.empty(idx.size)
+                df = np.empty(idx.size)
+                rows = max(1, 4_000_000 // kern.size)
+                for a in range(0, idx.size, rows):  # log-sum-exp centred on each row's maximum
+                    ex = r * win[a:a + rows] + logk[None, :]
+                    top = ex.max(axis=1)
+                    e = np.exp(ex - top[:, None])
+                    s = e.sum(axis=1)
+                    f[a:a + rows] = top + np.log(s)
+                    df[a:a + rows] = r * np.einsum("ij,ij->i", e, dwin[a:a + rows]) / s
             self._lo[i] = int(idx[0])
             self._f[i] = f
             self._df[i] = df

@@ -42,6 +42,8 @@ __all__ = [
 MIN_ONE_MINUS_Q_CUT = 1e-13
 #: default merging cut-off of :func:`exact_energy_jump_law` when ``q_max = 1``
 Q_CUT_ENERGY = 1.0 - 1e-12
+#: largest ``y_k |δγ| √(1 - q_k)`` of the merged top level the default cut-off allows
+TOP_COUPLING_MAX = 100.0
 
 
 def _lobatto(a: float, b: float, n: int) -> np.ndarray:
@@ -476,6 +478,25 @@ def exact_jump_law(
     return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top)
 
 
+def _default_q_cut(y: Any, d: float) -> float:
+    """``1 - 1e-12``, or lower where the merged top level would have ``y_k d √(1 - q_k)`` above
+    :data:`TOP_COUPLING_MAX` (its window costs ``~12 (y_k σ_k)²`` points)."""
+
+    def coupling(e: float) -> float:
+        one_m_q = 10.0 ** -e
+        return float(y.Y(1.0 - one_m_q)) / one_m_q * d * math.sqrt(one_m_q)
+
+    if float(y.q_max) < 1.0 or coupling(12.0) <= TOP_COUPLING_MAX:
+        return Q_CUT_ENERGY
+    lo, hi = 1.0, 12.0  # coupling(lo) <= max < coupling(hi), in e = -log10(1 - q)
+    if coupling(lo) > TOP_COUPLING_MAX:
+        return 1.0 - 10.0 ** -lo
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if coupling(mid) <= TOP_COUPLING_MAX else (lo, mid)
+    return 1.0 - 10.0 ** -lo
+
+
 class ExactEnergyJumpLaw:
     """The exact law of ``ΔE`` alone, on the multi-band grid (:func:`exact_energy_jump_law`).
 
@@ -548,9 +569,11 @@ def exact_energy_jump_law(
     :class:`jamlab.theory.exact_bands.BandedRecursion` (its cost does not grow as ``q_top → 1``)
     with :func:`geometric_levels` (``levels`` and ``2·levels``, Richardson) for a continuous
     ``ParisiFunction``; discrete input (arrays ``(q, y)``, a step function) as in
-    :func:`exact_jump_law`. Without a cut-off (``q_max = 1``) the clusters above ``q_cut``
-    (default ``1 - 1e-12``) are merged into one level; this changes ``R`` only at
-    ``|ΔE| ≲ 10 |δγ|√(1 - q_cut)`` (measured error law in the docs).
+    :func:`exact_jump_law`. Without a cut-off (``q_max = 1``) the clusters above ``q_cut`` are
+    merged into one level; this changes ``R`` only at ``|ΔE| ≲ 10 |δγ|√(1 - q_cut)`` (measured in
+    the docs). Default ``q_cut``: ``1 - 1e-12``, lowered (with a cost bound) until the merged
+    level has ``y |δγ| √(1 - q_cut) <= 100`` (for ``μ_J`` that bites at ``|δγ| > 0.2``: ``1 - q_cut
+    = 3e-9`` at ``δγ = 0.5``); the one used is the attribute ``q_top``.
     """
     from jamlab.theory.cascade import validate_levels
 
@@ -568,7 +591,7 @@ def exact_energy_jump_law(
         K = int(levels)
         if K < 8:
             raise ValueError(f"levels must be >= 8, got {levels}")
-        q_top = _top_level(y, q_cut, Q_CUT_ENERGY)
+        q_top = _top_level(y, q_cut, _default_q_cut(y, abs(dg)))
         recs = [BandedRecursion(*geometric_levels(y, n, q_top), dg) for n in (K, 2 * K)]
         return ExactEnergyJumpLaw(recs, dg, q_top)
     return ExactEnergyJumpLaw([BandedRecursion(qa, ya, dg)], dg, float(qa[-1]))
