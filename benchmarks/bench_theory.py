@@ -5,6 +5,8 @@
 2. Exact continuum law (``exact_jump_law``, k → ∞ by Richardson from 64 and 128 graded levels):
    P(ΔE|δγ) at 200 points for one δγ, from scratch (target <= 10 s on one core), with the change
    against 128/256 levels (convergence).
+3. The same on the multi-band grid (``exact_energy_jump_law``, no cut-off, 200 points down to
+   |ΔE| = 1e-3 δγ, Richardson from 256 and 512 levels geometric in 1 - q), same target.
 
     .venv/bin/python benchmarks/bench_theory.py
 
@@ -24,7 +26,12 @@ from pathlib import Path
 
 import numpy as np  # noqa: E402
 
-from jamlab.theory import ParisiFunction, exact_jump_law, jump_distribution  # noqa: E402
+from jamlab.theory import (  # noqa: E402
+    ParisiFunction,
+    exact_energy_jump_law,
+    exact_jump_law,
+    jump_distribution,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "theory"))
 from _mp_reference import PowerLawReference, pdf_cdf  # noqa: E402
@@ -85,6 +92,23 @@ def main() -> None:
             f"(target {TARGET_EXACT_S:g} s, ratio {el / TARGET_EXACT_S:.2f}); "
             f"change with twice the levels: R {change:.1e}, pdf {rel:.1e} relative"
         )
+
+    # the multi-band grid (exact_energy_jump_law): no cut-off, down to |dE| = 1e-3 dgamma
+    dE = -dg * np.logspace(-3, 0.5, 200)
+    pf = ParisiFunction.power_law(MU)
+    t0 = time.perf_counter()
+    law = exact_energy_jump_law(pf, dg)
+    p = np.asarray(law.pdf(dE))
+    el = time.perf_counter() - t0
+    ref = exact_energy_jump_law(pf, dg, levels=512)
+    change = float(np.max(np.abs(np.asarray(ref.R(dE)) - np.asarray(law.R(dE)))))
+    rel = float(np.max(np.abs(np.asarray(ref.pdf(dE)) / p - 1)))
+    print(
+        f"exact continuum P(dE|dgamma={dg:g}), 200 points down to |dE| = 1e-3 dgamma, multi-band "
+        f"grid, power law mu_J, no cut-off (1 - q_cut = {1 - law.q_top:.2g}): {el:.2f} s "
+        f"(target {TARGET_EXACT_S:g} s, ratio {el / TARGET_EXACT_S:.2f}); "
+        f"change with twice the levels: R {change:.1e}, pdf {rel:.1e} relative"
+    )
 
 
 if __name__ == "__main__":

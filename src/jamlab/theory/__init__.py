@@ -31,7 +31,9 @@ from jamlab.theory.cascade import sample_cascade_jumps as sample_cascade_jumps  
 from jamlab.theory.cascade import sample_cascade_tree as sample_cascade_tree  # noqa: E402
 from jamlab.theory.exact import exact_jump_R as exact_jump_R  # noqa: E402
 from jamlab.theory.exact import one_level_R as one_level_R  # noqa: E402
+from jamlab.theory.exact_law import ExactEnergyJumpLaw as ExactEnergyJumpLaw  # noqa: E402
 from jamlab.theory.exact_law import ExactJumpLaw as ExactJumpLaw  # noqa: E402
+from jamlab.theory.exact_law import exact_energy_jump_law as exact_energy_jump_law  # noqa: E402
 from jamlab.theory.exact_law import exact_jump_law as exact_jump_law  # noqa: E402
 from jamlab.theory.sk import SKGroundState as SKGroundState  # noqa: E402
 from jamlab.theory.sk import sk_ground_state as sk_ground_state  # noqa: E402

@@ -24,14 +24,26 @@ import numpy as np
 from numpy.polynomial import chebyshev as C
 
 from jamlab.theory.exact import CascadeRecursion
+from jamlab.theory.exact_bands import BandedRecursion
 
 __all__ = [
+    "MIN_ONE_MINUS_Q_CUT",
+    "ExactEnergyJumpLaw",
     "ExactJumpLaw",
     "JumpOverlapLaw",
     "ScalarJumpLaw",
     "continuum_levels",
+    "exact_energy_jump_law",
     "exact_jump_law",
+    "geometric_levels",
 ]
+
+#: smallest ``1 - q_cut`` accepted: ``1 - q`` of a float64 ``q`` near 1 has absolute error 1e-16
+MIN_ONE_MINUS_Q_CUT = 1e-13
+#: default merging cut-off of :func:`exact_energy_jump_law` when ``q_max = 1``
+Q_CUT_ENERGY = 1.0 - 1e-12
+#: largest ``y_k |δγ| √(1 - q_k)`` of the merged top level the default cut-off allows
+TOP_COUPLING_MAX = 100.0
 
 
 def _lobatto(a: float, b: float, n: int) -> np.ndarray:
@@ -226,13 +238,7 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     levels uniform in ``q``, half where ``y`` rises, geometrically where it diverges); ``y_i`` is
     the mean of ``y`` over ``[q_i, q_{i+1}]`` (as :meth:`ParisiFunction.discretise`).
     """
-    qm = float(y.q_max)
-    if q_cut is not None:
-        if not 0.0 < float(q_cut) < 1.0:
-            raise ValueError(f"q_cut must lie in (0, 1), got {q_cut!r}")
-        qm = min(qm, float(q_cut))
-    if qm >= 1.0:
-        raise ValueError("continuum levels need a cut-off: q_max < 1 or q_cut < 1")
+    qm = _top_level(y, q_cut)
     y0 = float(y.y(0.0))
     ym = float(y.y(qm))
     rise = ym - y0
@@ -254,6 +260,13 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     q = 0.5 * (lo + hi)
     q[0] = 0.0
     q[-1] = qm
+    return _step_values(y, q, qm)
+
+
+def _step_values(y: Any, q: np.ndarray, qm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Levels ``q`` (``q_1 = 0``, ``q_K = qm``) and ``y_i`` = the mean of ``y`` over
+    ``[q_i, q_{i+1}]``, the top one over ``[qm, 1]``; levels with no rise of ``y`` merged."""
+    K = q.size
     Yq = np.asarray(y.Y(q), dtype=np.float64)
     yv = np.empty(K)
     yv[:-1] = (Yq[:-1] - Yq[1:]) / np.diff(q)
@@ -262,6 +275,47 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
         raise ValueError("y vanishes on the first level; a cascade needs y_1 > 0")
     keep = np.concatenate(([True], np.diff(yv) > 1e-12 * yv[1:]))
     return q[keep], yv[keep]
+
+
+def _top_level(y: Any, q_cut: float | None, q_cut_default: float | None = None) -> float:
+    qm = float(y.q_max)
+    if q_cut is None and qm >= 1.0:
+        q_cut = q_cut_default
+    if q_cut is not None:
+        qc = float(q_cut)
+        if not 0.0 < qc < 1.0 or not 1.0 - qc >= MIN_ONE_MINUS_Q_CUT:
+            raise ValueError(f"q_cut must lie in (0, 1 - {MIN_ONE_MINUS_Q_CUT:g}], got {q_cut!r}")
+        qm = min(qm, qc)
+    if qm >= 1.0:
+        raise ValueError("continuum levels need a cut-off: q_max < 1 or q_cut < 1")
+    return qm
+
+
+def geometric_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``K`` levels ``(q, y)`` approximating a continuous ``ParisiFunction``, geometric in
+    ``1 - q`` (for :func:`exact_energy_jump_law`).
+
+    Level edges equidistribute ``s(q) = ¼ q/q_top + ¾ log(1 - q)/log(1 - q_top)``: a quarter of
+    the levels uniform in ``q``, three quarters at a fixed number per decade of ``1 - q`` down to
+    ``1 - q_top``, so every scale ``ℓ = |δγ|√(1 - q)`` of the law gets the same resolution
+    (:func:`continuum_levels` puts half its levels within a factor 10 of ``y(q_top)``, which
+    leaves the decades between unresolved when ``y`` diverges). ``q_top = min(q_max, q_cut)``;
+    ``y_i`` and the top level as in :func:`continuum_levels`.
+    """
+    qm = _top_level(y, q_cut)
+    L = math.log1p(-qm)
+    t = np.arange(K, dtype=np.float64) / (K - 1)
+    lo = np.zeros(K)
+    hi = np.full(K, qm)
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        big = 0.25 * mid / qm + 0.75 * np.log1p(-mid) / L > t
+        hi = np.where(big, mid, hi)
+        lo = np.where(big, lo, mid)
+    q = 0.5 * (lo + hi)
+    q[0] = 0.0
+    q[-1] = qm
+    return _step_values(y, q, qm)
 
 
 class ExactJumpLaw:
@@ -385,7 +439,9 @@ def exact_jump_law(
     :func:`jamlab.theory.sample_cascade_jumps` with ``k=``); otherwise the continuum limit is
     computed from :func:`continuum_levels` with ``levels`` and ``2·levels`` levels (Richardson);
     ``q_cut`` (required when ``q_max = 1``) merges the clusters above ``q_cut`` into one level.
-    ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`.
+    ``grid``: options of :class:`jamlab.theory.exact.CascadeRecursion`. The uniform grid resolves
+    the law only at ``|ΔE| ≳ 10 |δγ|√(1 - q_cut)``; for the law of ``ΔE`` at smaller ``|ΔE|``
+    (and without a cut-off) use :func:`exact_energy_jump_law`.
     """
     from jamlab.theory.cascade import validate_levels
 
@@ -420,3 +476,122 @@ def exact_jump_law(
     parts = [_DiscreteLaw(*coarse, dg, grid), _DiscreteLaw(*fine, dg, grid)]
     q_top = float(fine[0][-1])
     return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top)
+
+
+def _default_q_cut(y: Any, d: float) -> float:
+    """``1 - 1e-12``, or lower where the merged top level would have ``y_k d √(1 - q_k)`` above
+    :data:`TOP_COUPLING_MAX` (its window costs ``~12 (y_k σ_k)²`` points)."""
+
+    def coupling(e: float) -> float:
+        one_m_q = 10.0 ** -e
+        return float(y.Y(1.0 - one_m_q)) / one_m_q * d * math.sqrt(one_m_q)
+
+    if float(y.q_max) < 1.0 or coupling(12.0) <= TOP_COUPLING_MAX:
+        return Q_CUT_ENERGY
+    lo, hi = 1.0, 12.0  # coupling(lo) <= max < coupling(hi), in e = -log10(1 - q)
+    if coupling(lo) > TOP_COUPLING_MAX:
+        return 1.0 - 10.0 ** -lo
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if coupling(mid) <= TOP_COUPLING_MAX else (lo, mid)
+    return 1.0 - 10.0 ** -lo
+
+
+class ExactEnergyJumpLaw:
+    """The exact law of ``ΔE`` alone, on the multi-band grid (:func:`exact_energy_jump_law`).
+
+    Attributes: ``dgamma``, ``p_no_jump`` (``R(0)``), ``levels`` (the finer ``(q, y)`` used),
+    ``q_top`` (the top level: ``q_max``, or the merging cut-off ``q_cut``), ``continuum``,
+    ``R_error`` (Richardson estimate for ``R(0)``; 0 for a discrete cascade). Methods as
+    :class:`ExactJumpLaw`: ``R``, ``pdf``, ``cdf``, ``sf``.
+    """
+
+    def __init__(self, recs: list[BandedRecursion], dgamma: float, q_top: float) -> None:
+        self.dgamma = float(dgamma)
+        self._recs = recs
+        self.continuum = len(recs) == 2
+        self.levels = (recs[-1].q.copy(), recs[-1].y.copy())
+        self.q_top = float(q_top)
+        r0 = [float(r.R(0.0)[0]) for r in recs]
+        self.p_no_jump = float(self._mix(np.array([[v] for v in r0]))[0])
+        self.R_error = abs(r0[1] - r0[0]) / 3.0 if self.continuum else 0.0
+
+    def _mix(self, vals: np.ndarray) -> np.ndarray:
+        return vals[0] if vals.shape[0] == 1 else (4.0 * vals[1] - vals[0]) / 3.0
+
+    def _both(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        out = [r.R_and_pdf(x) for r in self._recs]
+        return (self._mix(np.array([o[0] for o in out])), self._mix(np.array([o[1] for o in out])))
+
+    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
+        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        if np.any(a > 0):
+            raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
+        return _ret(self._both(a.ravel())[0].reshape(a.shape))
+
+    def pdf(self, dE: Any) -> np.ndarray | float:
+        """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.zeros(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = self._both(flat[neg])[1]
+        return _ret(out.reshape(a.shape))
+
+    def cdf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.ones(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = 1.0 - self._both(flat[neg])[0]
+        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
+
+    def sf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' > ΔE)``."""
+        return _ret(1.0 - np.asarray(self.cdf(dE)))
+
+
+def exact_energy_jump_law(
+    y: Any,
+    dgamma: float,
+    *,
+    levels: int = 256,
+    q_cut: float | None = None,
+) -> ExactEnergyJumpLaw:
+    """The exact law of ``ΔE`` (``R``, ``pdf``, ``cdf``) down to small ``|ΔE|``, also without a
+    cut-off (``docs/theory-vs-cascade.md`` §8).
+
+    Same law as :func:`exact_jump_law` (same ``R`` and ``pdf``), computed on the multi-band grid of
+    :class:`jamlab.theory.exact_bands.BandedRecursion` (its cost does not grow as ``q_top → 1``)
+    with :func:`geometric_levels` (``levels`` and ``2·levels``, Richardson) for a continuous
+    ``ParisiFunction``; discrete input (arrays ``(q, y)``, a step function) as in
+    :func:`exact_jump_law`. Without a cut-off (``q_max = 1``) the clusters above ``q_cut`` are
+    merged into one level; this changes ``R`` only at ``|ΔE| ≲ 10 |δγ|√(1 - q_cut)`` (measured in
+    the docs). Default ``q_cut``: ``1 - 1e-12``, lowered (with a cost bound) until the merged
+    level has ``y |δγ| √(1 - q_cut) <= 100`` (for ``μ_J`` that bites at ``|δγ| > 0.2``: ``1 - q_cut
+    = 3e-9`` at ``δγ = 0.5``); the one used is the attribute ``q_top``.
+    """
+    from jamlab.theory.cascade import validate_levels
+
+    try:
+        dg = float(dgamma)
+    except (TypeError, ValueError):
+        raise ValueError(f"dgamma must be a real number, got {dgamma!r}") from None
+    if not math.isfinite(dg) or dg == 0.0:
+        raise ValueError(f"dgamma must be finite and nonzero, got {dgamma!r}")
+    if isinstance(y, tuple):
+        qa, ya = validate_levels(*y)
+    elif y.step_levels is not None:
+        qa, ya = validate_levels(*y.step_levels)
+    else:
+        K = int(levels)
+        if K < 8:
+            raise ValueError(f"levels must be >= 8, got {levels}")
+        q_top = _top_level(y, q_cut, _default_q_cut(y, abs(dg)))
+        recs = [BandedRecursion(*geometric_levels(y, n, q_top), dg) for n in (K, 2 * K)]
+        return ExactEnergyJumpLaw(recs, dg, q_top)
+    return ExactEnergyJumpLaw([BandedRecursion(qa, ya, dg)], dg, float(qa[-1]))
