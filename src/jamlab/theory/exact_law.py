@@ -318,7 +318,55 @@ def geometric_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     return _step_values(y, q, qm)
 
 
-class ExactJumpLaw:
+def _richardson(values: list[np.ndarray]) -> np.ndarray:
+    """The one value of a discrete cascade, or the Richardson extrapolation ``(4 v_2K − v_K)/3``
+    of the step approximations on ``K`` and ``2K`` levels (error ``∝ K⁻²``, §8)."""
+    return values[0] if len(values) == 1 else (4.0 * values[1] - values[0]) / 3.0
+
+
+class _EnergyLaw:
+    """``R``, ``pdf``, ``cdf``, ``sf`` of ``ΔE`` from a subclass's ``_R_values(x)`` and
+    ``_pdf_values(x)`` (1-D arrays, ``x <= 0``): written once for both exact laws."""
+
+    def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
+        raise NotImplementedError
+
+    def _pdf_values(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
+        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        if np.any(a > 0):
+            raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
+        return _ret(self._R_values(a.ravel()).reshape(a.shape))
+
+    def pdf(self, dE: Any) -> np.ndarray | float:
+        """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.zeros(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = self._pdf_values(flat[neg])
+        return _ret(out.reshape(a.shape))
+
+    def cdf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
+        a = np.asarray(dE, dtype=np.float64)
+        flat = a.ravel()
+        out = np.ones(flat.size)
+        neg = flat < 0
+        if np.any(neg):
+            out[neg] = 1.0 - self._R_values(flat[neg])
+        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
+
+    def sf(self, dE: Any) -> np.ndarray | float:
+        """``P(ΔE' > ΔE)``."""
+        return _ret(1.0 - np.asarray(self.cdf(dE)))
+
+
+class ExactJumpLaw(_EnergyLaw):
     """The exact law of a static jump (see the module docstring). Build with
     :func:`exact_jump_law`.
 
@@ -357,41 +405,13 @@ class ExactJumpLaw:
         )
 
     def _combine(self, get: Any) -> np.ndarray:
-        vals = [np.asarray(get(p), dtype=np.float64) for p in self._parts]
-        if len(vals) == 1:
-            return vals[0]
-        return (4.0 * vals[1] - vals[0]) / 3.0
+        return _richardson([np.asarray(get(p), dtype=np.float64) for p in self._parts])
 
-    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
-        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        if np.any(a > 0):
-            raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
-        return _ret(self._combine(lambda p: p.rec.R(a.ravel())).reshape(a.shape))
+    def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
+        return self._combine(lambda p: p.rec.R(x))
 
-    def pdf(self, dE: Any) -> np.ndarray | float:
-        """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.zeros(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = self._combine(lambda p: p.rec.dE_pdf(flat[neg]))
-        return _ret(out.reshape(a.shape))
-
-    def cdf(self, dE: Any) -> np.ndarray | float:
-        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.ones(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = 1.0 - self._combine(lambda p: p.rec.R(flat[neg]))
-        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
-
-    def sf(self, dE: Any) -> np.ndarray | float:
-        """``P(ΔE' > ΔE)``."""
-        return _ret(1.0 - np.asarray(self.cdf(dE)))
+    def _pdf_values(self, x: np.ndarray) -> np.ndarray:
+        return self._combine(lambda p: p.rec.dE_pdf(x))
 
 
 class _TrivialLaw(ExactJumpLaw):
@@ -497,7 +517,7 @@ def _default_q_cut(y: Any, d: float) -> float:
     return 1.0 - 10.0 ** -lo
 
 
-class ExactEnergyJumpLaw:
+class ExactEnergyJumpLaw(_EnergyLaw):
     """The exact law of ``ΔE`` alone, on the multi-band grid (:func:`exact_energy_jump_law`).
 
     Attributes: ``dgamma``, ``p_no_jump`` (``R(0)``), ``levels`` (the finer ``(q, y)`` used),
@@ -517,42 +537,17 @@ class ExactEnergyJumpLaw:
         self.R_error = abs(r0[1] - r0[0]) / 3.0 if self.continuum else 0.0
 
     def _mix(self, vals: np.ndarray) -> np.ndarray:
-        return vals[0] if vals.shape[0] == 1 else (4.0 * vals[1] - vals[0]) / 3.0
+        return _richardson(list(vals))
 
     def _both(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         out = [r.R_and_pdf(x) for r in self._recs]
         return (self._mix(np.array([o[0] for o in out])), self._mix(np.array([o[1] for o in out])))
 
-    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
-        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        if np.any(a > 0):
-            raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
-        return _ret(self._both(a.ravel())[0].reshape(a.shape))
+    def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
+        return self._both(x)[0]
 
-    def pdf(self, dE: Any) -> np.ndarray | float:
-        """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.zeros(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = self._both(flat[neg])[1]
-        return _ret(out.reshape(a.shape))
-
-    def cdf(self, dE: Any) -> np.ndarray | float:
-        """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.ones(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = 1.0 - self._both(flat[neg])[0]
-        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
-
-    def sf(self, dE: Any) -> np.ndarray | float:
-        """``P(ΔE' > ΔE)``."""
-        return _ret(1.0 - np.asarray(self.cdf(dE)))
+    def _pdf_values(self, x: np.ndarray) -> np.ndarray:
+        return self._both(x)[1]
 
 
 def exact_energy_jump_law(
