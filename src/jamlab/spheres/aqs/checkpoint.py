@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jamlab.spheres.aqs.record import make_trace
 from jamlab.spheres.potential import Packing
-from jamlab.spheres.trace import write_trace
+from jamlab.spheres.trace import Trace, write_trace
 
 
 def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
@@ -17,18 +16,11 @@ def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
     return out.with_name(f"{stem}.last.h5"), out.with_name(f"{stem}.configs")
 
 
-def save_checkpoint(
-    out: str | Path,
-    rows: dict[str, list],
-    attrs: dict,
-    counters: dict,
-    packing: Packing,
-    step: int,
-    snapshot: bool,
-) -> None:
-    """Write the trace so far together with its last configuration ``packing`` (one atomic
-    rename: the checkpoint pair), then ``<stem>.last.h5`` (a convenience copy) and, if
-    ``snapshot``, the step snapshot (:func:`checkpoint_paths`)."""
+def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
+                    snapshot: bool) -> None:
+    """Write ``trace`` (the run so far) together with its last configuration ``packing`` (one
+    atomic rename: the checkpoint pair), then ``<stem>.last.h5`` (a convenience copy) and, if
+    ``snapshot``, the step snapshot (:func:`checkpoint_paths`). Both protocols save this way."""
     from jamlab.spheres.io import write_packing
 
     last, snapshots = checkpoint_paths(out)
@@ -38,5 +30,5 @@ def save_checkpoint(
     # the trace carries its last configuration: one atomic rename writes the checkpoint pair, so
     # a SIGKILL at any moment leaves a resumable trace (jamlab.cli.shear.resume_configuration);
     # <stem>.last.h5 is written after it for the user (a convenience copy, never needed to resume)
-    write_trace(out, make_trace(rows, attrs, counters), configuration=packing)
+    write_trace(out, trace, configuration=packing)
     write_packing(last, packing, aqs_step=int(step))

@@ -28,7 +28,7 @@ from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.aqs.steps import Step, Stepper
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
-from jamlab.spheres.trace import Trace, write_trace
+from jamlab.spheres.trace import Trace
 
 __all__ = ["MINIMIZERS", "ShearResult", "checkpoint_paths", "n_steps_for", "shear"]
 
@@ -164,21 +164,7 @@ avalanche_threshold, pressure, ptol
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
-    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
-        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
-    if (gamma_max is None) == (n_steps is None):
-        raise ValueError("give exactly one of gamma_max and n_steps")
-    start_strain = packing.strain if previous is None else float(previous.gamma[0])
-    if n_steps is None:
-        total = n_steps_for(dgamma, gamma_max, start_strain)
-    else:
-        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
-        total = n_steps
-        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
-    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
-        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
-    if save_every is not None and out is None:
-        raise ValueError("save_every needs an output path (out=...)")
+    total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
     params = AQSParameters() if params is None else params
     fire_params = FireParameters() if fire_params is None else fire_params
 
@@ -202,11 +188,6 @@ avalanche_threshold, pressure, ptol
         first = 1
     else:
         gamma0 = float(previous.gamma[0])
-        if not math.isclose(packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15):
-            raise ValueError(
-                f"configuration strain {packing.strain} does not match the trace's last strain "
-                f"{previous.gamma[-1]}"
-            )
         cur = packing
         last_row, backbone = observe(cur, nl)
         rows = resumed_rows(previous, last_row)
@@ -289,7 +270,7 @@ avalanche_threshold, pressure, ptol
         if progress is not None:
             progress(n, total)
         if out is not None and save_every is not None and n % save_every == 0 and n < total:
-            save_checkpoint(out, rows, attrs, counters, cur, n, snapshot=True)
+            save_checkpoint(out, make_trace(rows, attrs, counters), cur, n, snapshot=True)
             # a restart point: from here on the run is what `--resume` from this checkpoint
             # computes, bit for bit (docs/aqs.md, "Checkpoints and resume")
             counters["n_factorisations"] += 1
@@ -301,9 +282,8 @@ avalanche_threshold, pressure, ptol
             recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
         )
     if out is not None:
-        save_checkpoint(out, rows, attrs, counters, cur, total, snapshot=save_every is not None)
-        if recorder is not None:
-            write_trace(out, trace, configuration=cur)  # the same pair, with the avalanches
+        # the final trace (with the avalanches, if kept) and its last minimum
+        save_checkpoint(out, trace, cur, total, snapshot=save_every is not None)
     return ShearResult(
         trace=trace,
         packing=cur,
@@ -313,6 +293,36 @@ avalanche_threshold, pressure, ptol
         n_not_converged=int(np.count_nonzero(trace.max_force >= ftol)),
         time=elapsed,
     )
+
+
+def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous) -> int:
+    """The number of strain steps of a run, after checking what both protocols take alike:
+    ``ftol``, exactly one of ``gamma_max``/``n_steps`` (``δγ`` resolvable at the strain),
+    ``save_every`` (with an output path), and for a resumed run a configuration at the strain
+    of the trace's last row."""
+    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    if (gamma_max is None) == (n_steps is None):
+        raise ValueError("give exactly one of gamma_max and n_steps")
+    start_strain = packing.strain if previous is None else float(previous.gamma[0])
+    if n_steps is None:
+        total = n_steps_for(dgamma, gamma_max, start_strain)
+    else:
+        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
+        total = n_steps
+        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
+    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if save_every is not None and out is None:
+        raise ValueError("save_every needs an output path (out=...)")
+    if previous is not None and not math.isclose(
+        packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15
+    ):
+        raise ValueError(
+            f"configuration strain {packing.strain} does not match the trace's last strain "
+            f"{previous.gamma[-1]}"
+        )
+    return total
 
 
 def _shear_at_pressure(
@@ -335,29 +345,9 @@ def _shear_at_pressure(
 
     validation.positive("pressure", pressure)
     validation.positive("ptol", ptol)
-    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
-        raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
-    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
-        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
-    if save_every is not None and out is None:
-        raise ValueError("save_every needs an output path (out=...)")
-    start_strain = packing.strain if previous is None else float(previous.gamma[0])
-    if (gamma_max is None) == (n_steps is None):
-        raise ValueError("give exactly one of gamma_max and n_steps")
-    if n_steps is None:
-        total = n_steps_for(dgamma, gamma_max, start_strain)
-    else:
-        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
-        total = n_steps
-        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
-    if previous is not None:
-        if previous.attrs.get("protocol") != "fixed-pressure":
-            raise ValueError("the trace to resume is not a fixed-pressure run")
-        if not math.isclose(packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15):
-            raise ValueError(
-                f"configuration strain {packing.strain} does not match the trace's last strain "
-                f"{previous.gamma[-1]}"
-            )
+    total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
+    if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
+        raise ValueError("the trace to resume is not a fixed-pressure run")
     extra_attrs = {
         "alpha": float(packing.alpha),
         "monodisperse": bool(packing.monodisperse),
@@ -379,15 +369,7 @@ def _shear_at_pressure(
         return trace
 
     def save(n: int, result) -> None:
-        # the trace so far with its last minimum: one atomic rename (as at constant volume)
-        from jamlab.spheres.io import write_packing
-        from jamlab.spheres.trace import write_trace
-
-        last, snapshots = checkpoint_paths(out)
-        snapshots.mkdir(exist_ok=True)
-        write_packing(snapshots / f"step_{n:08d}.h5", result.packing, aqs_step=int(n))
-        write_trace(out, finished(result), configuration=result.packing)
-        write_packing(last, result.packing, aqs_step=int(n))
+        save_checkpoint(out, finished(result), result.packing, n, snapshot=True)
 
     res = shear_at_pressure(
         packing,
@@ -404,15 +386,7 @@ def _shear_at_pressure(
     )
     trace = finished(res)
     if out is not None:
-        from jamlab.spheres.io import write_packing
-        from jamlab.spheres.trace import write_trace
-
-        if save_every is not None:
-            checkpoint_paths(out)[1].mkdir(exist_ok=True)
-            write_packing(checkpoint_paths(out)[1] / f"step_{total:08d}.h5", res.packing,
-                          aqs_step=int(total))
-        write_trace(out, trace, configuration=res.packing)
-        write_packing(checkpoint_paths(out)[0], res.packing, aqs_step=int(total))
+        save_checkpoint(out, trace, res.packing, total, snapshot=save_every is not None)
     return ShearResult(
         trace=trace,
         packing=res.packing,
