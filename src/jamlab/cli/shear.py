@@ -55,16 +55,21 @@ def check_resume(
 
 
 def check_resume_pressure(
-    previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float
+    previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float,
+    minimizer: str = "linear",
 ) -> None:
     """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
-    ``ftol``, target pressure and ``ptol``, and an input with the same N, d, seed, strain and box
-    side (attribute ``input_box_length``: row 0 is already at the target pressure)."""
+    ``ftol``, target pressure, ``ptol`` and minimiser (``linear``: the Newton inner minimiser,
+    recorded as ``enthalpy-nested-newton``; ``fire``: ``enthalpy-nested-fire``), and an input
+    with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
+    already at the target pressure)."""
     attrs = previous.attrs
     if attrs.get("protocol") != "fixed-pressure":
         raise ValueError("--pressure given, but the run being resumed is at constant volume")
     for name, key, given in (("dgamma", "dgamma", dgamma), ("ftol", "ftol", ftol),
-                             ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol)):
+                             ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol),
+                             ("minimizer", "minimizer", "enthalpy-nested-"
+                              + ("newton" if minimizer == "linear" else "fire"))):
         if attrs.get(key) != given:
             raise ValueError(
                 f"--{name} {given} differs from the run being resumed ({attrs.get(key)})"
@@ -156,7 +161,9 @@ def register(app: typer.Typer) -> None:
         minimizer: Annotated[
             str,
             typer.Option(
-                "--minimizer", help="'linear' (linear response + Newton, FIRE fallback) or 'fire'."
+                "--minimizer",
+                help="'linear' (linear response + Newton, FIRE fallback; at fixed pressure the "
+                "Newton inner minimiser) or 'fire'.",
             ),
         ] = "linear",
         ftol: Annotated[
@@ -247,7 +254,7 @@ def register(app: typer.Typer) -> None:
                 check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
             else:
                 check_resume_pressure(previous, packing, dgamma=dgamma, ftol=ftol,
-                                      pressure=pressure, ptol=ptol)
+                                      pressure=pressure, ptol=ptol, minimizer=minimizer)
             save_every = resume_save_every(previous, save_every)
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")

@@ -37,10 +37,11 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from jamlab.spheres.box import Box
-from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.potential import Packing, pressure
 from jamlab.spheres.rigidity import pressure_floor
 
@@ -99,6 +100,7 @@ class EnthalpyResult:
     converged: bool
     time: float
     ftol: float
+    slope: float = math.nan  # the last secant slope dp/d ln L (NaN: none measured)
 
     @property
     def phi(self) -> float:
@@ -121,11 +123,22 @@ def minimize_enthalpy(
     max_iter: int = 1_000_000,
     params: FireParameters | None = None,
     length_guess: float | None = None,
+    slope_guess: float | None = None,
+    relax: Callable[..., MinimizeResult] | None = None,
+    parent: Packing | None = None,
 ) -> EnthalpyResult:
     """Minimise ``H = E + p_t V`` over positions and the box side at fixed strain.
 
     ``length_guess`` (optional): box side to start the outer iteration from (e.g. extrapolated
     along an AQS run); the configuration is rescaled to it before the first minimisation.
+    ``slope_guess`` (optional, < 0): ``dp/d ln L`` for the first secant step instead of the
+    affine slope (e.g. the relaxed slope of the previous AQS step, returned as ``slope``: along
+    a branch the bulk modulus barely changes, so one volume step usually suffices).
+    ``relax(packing, ftol=, max_iter=, params=)``: the fixed-box minimiser (default FIRE,
+    :func:`jamlab.spheres.fire.minimize`; :class:`jamlab.spheres.newton_relax.NewtonRelaxer`,
+    which is also told the minimum each start was made from: ``parent`` — the minimum
+    ``packing`` was sheared from, if it is one — for the first, the minimum being rescaled for
+    the volume steps).
     Non-convergence is reported (``converged=False``), not raised.
     """
     if not (isinstance(target_pressure, int | float) and math.isfinite(target_pressure)):
@@ -145,9 +158,15 @@ def minimize_enthalpy(
     t0 = time.perf_counter()
     pt = float(target_pressure)
     tol = pressure_tolerance(packing, pt, ftol, ptol)
+
+    def inner(start: Packing, made_from: Packing | None):
+        if relax is None:
+            return minimize(start, ftol=ftol, max_iter=max_iter, params=params)
+        return relax(start, ftol=ftol, max_iter=max_iter, params=params, parent=made_from)
+
     if length_guess is not None:
         packing = rescale_box(packing, length_guess)
-    res = minimize(packing, ftol=ftol, max_iter=max_iter, params=params)
+    res = inner(packing, parent)
     iterations = res.iterations
     cur = res.packing
     p = pressure(cur)
@@ -155,6 +174,7 @@ def minimize_enthalpy(
     lo, hi = -math.inf, math.inf  # ln L with p > p_t (too dense) / p < p_t (too loose)
     lo_state: tuple[float, float, Packing] | None = None  # the loosest state with p > p_t
     prev: tuple[float, float] | None = None  # the last state that carries pressure
+    last_slope = math.nan
     n_loose = 0
     steps = 0
     while res.converged and abs(p - pt) > tol and steps < max_volume_steps:
@@ -170,12 +190,15 @@ def minimize_enthalpy(
             slope = math.nan
             if prev is not None and prev[0] != s:
                 slope = (p - prev[1]) / (s - prev[0])
+            elif slope_guess is not None:
+                slope = float(slope_guess)
             if not (math.isfinite(slope) and slope < 0):
                 slope = _affine_slope(cur, p)
             if not (math.isfinite(slope) and slope < 0):
                 slope = DEFAULT_SLOPE
             s_new = s - (p - pt) / slope
             prev = (s, p)
+            last_slope = slope
             n_loose = 0
         elif lo_state is not None:
             # (almost) unjammed here: step from the loosest state that carried more than p_t
@@ -193,14 +216,18 @@ def minimize_enthalpy(
             s_new = 0.5 * (lo + hi)
         if s_new == s:
             break  # the bracket closed to rounding: not resolvable at this ftol
-        res = minimize(
-            rescale_box(base, math.exp(s_new)), ftol=ftol, max_iter=max_iter, params=params
-        )
+        res = inner(rescale_box(base, math.exp(s_new)), base)
         iterations += res.iterations
         steps += 1
         cur = res.packing
+        if prev is not None and res.converged:
+            p_new = pressure(cur)
+            if prev[0] != s_new and p_new > _CARRIES * pt:
+                last_slope = (p_new - prev[1]) / (s_new - prev[0])
+            p = p_new
+        else:
+            p = pressure(cur)
         s = s_new
-        p = pressure(cur)
     energy = float(res.energy)
     return EnthalpyResult(
         packing=cur,
@@ -215,4 +242,5 @@ def minimize_enthalpy(
         converged=bool(res.converged and abs(p - pt) <= tol),
         time=time.perf_counter() - t0,
         ftol=float(ftol),
+        slope=float(last_slope),
     )

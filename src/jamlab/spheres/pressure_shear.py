@@ -52,11 +52,16 @@ import numpy as np
 from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.barostat import minimize_enthalpy
 from jamlab.spheres.fire import FireParameters
+from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
 from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace
 
-__all__ = ["PRESSURE_COLUMNS", "PressureShearResult", "shear_at_pressure"]
+__all__ = ["MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult", "shear_at_pressure"]
+
+MINIMIZERS: tuple[str, ...] = ("newton", "fire")
+"""Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
+NewtonRelaxer`, FIRE where Newton does not apply) and ``fire`` (plain FIRE every time)."""
 
 PRESSURE_COLUMNS: tuple[str, ...] = (
     "gamma",
@@ -159,20 +164,29 @@ def _residual(h0: float, s0: float, row: dict, step: float) -> float:
 
 
 def _jump_in_substeps(
-    start: Packing, step: float, r_step: float, k: int, pressure: float, kw: dict
+    start: Packing, step: float, r_step: float, k: int, pressure: float, kw: dict,
+    slope: float | None = None,
 ) -> tuple[bool, int]:
     """Redo the step from ``start`` in ``k`` substeps: True when one substep keeps at least a
     quarter of the step's residual (a jump); a kink leaves ``≈ r_step / k²`` per substep. Also
-    returns the FIRE iterations spent."""
+    returns the FIRE iterations spent. ``slope``: ``dp/d ln L`` to start each volume iteration
+    with (the run's), and each substep's box side starts from the extrapolation of the last two
+    (as the steps do) — guesses only: the minima are those of the plain iteration, to its
+    tolerance. Without ``slope`` (plain FIRE) no guesses are made, as before."""
     cur = start
     ev = evaluate(cur)
     h, s = ev.energy + pressure * cur.box.volume, ev.shear_stress
     largest = 0.0
     iterations = 0
+    lengths = [cur.box.length]
     for _ in range(k):
-        res = minimize_enthalpy(affine_shear(cur, step / k), pressure, **kw)
+        guess = (2.0 * lengths[-1] - lengths[-2]
+                 if len(lengths) >= 2 and slope is not None else None)
+        res = minimize_enthalpy(affine_shear(cur, step / k), pressure, parent=cur,
+                                length_guess=guess, slope_guess=slope, **kw)
         iterations += res.iterations
         cur = res.packing
+        lengths.append(cur.box.length)
         ev = evaluate(cur)
         h2, s2 = ev.energy + pressure * cur.box.volume, ev.shear_stress
         r = h2 - h - (step / k) * s - 0.5 * (step / k) * (s2 - s)
@@ -195,6 +209,7 @@ def shear_at_pressure(
     plastic_floor: float = 0.1,
     confirm_substeps: int = 16,
     extrapolate_volume: bool = True,
+    minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
     observer: Callable[[int, Packing], None] | None = None,
     previous: Trace | None = None,
@@ -232,7 +247,15 @@ def shear_at_pressure(
         total = n_steps
     if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
-    kw = dict(ftol=ftol, ptol=ptol, max_iter=max_iter, params=fire_params)
+    if minimizer not in MINIMIZERS:
+        raise ValueError(f"minimizer must be one of {', '.join(MINIMIZERS)}, got {minimizer!r}")
+    relaxer = NewtonRelaxer() if minimizer == "newton" else None
+    if relaxer is not None and previous is not None:
+        # a resumed trace is one run: its counters cover every step
+        for k in RELAX_COUNTERS:
+            relaxer.counters[k] = int(previous.attrs.get(k, 0))
+    kw = dict(ftol=ftol, ptol=ptol, max_iter=max_iter, params=fire_params, relax=relaxer)
+    slope = None  # dp/d ln L of the last step (Newton path: the first secant step's slope)
     t0 = time.perf_counter()
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
@@ -260,8 +283,11 @@ def shear_at_pressure(
         if extrapolate_volume and n >= 2:
             guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
         res = minimize_enthalpy(
-            affine_shear(cur, target - cur.strain), pressure, length_guess=guess, **kw
+            affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
+            slope_guess=slope, parent=cur, **kw
         )
+        if relaxer is not None and math.isfinite(res.slope):
+            slope = res.slope
         row = _row(res, ftol)
         if confirm_substeps > 1:
             step = target - rows["gamma"][-1]
@@ -269,7 +295,8 @@ def shear_at_pressure(
             if abs(r) > plastic_floor * step**2:
                 n_candidates += 1
                 confirmed[n], extra = _jump_in_substeps(
-                    cur, step, r, confirm_substeps, pressure, kw
+                    cur, step, r, confirm_substeps, pressure, kw,
+                    slope if relaxer is not None else None,
                 )
                 row["iterations"] += extra
         cur = res.packing
@@ -278,12 +305,18 @@ def shear_at_pressure(
             observer(n, cur)
         if progress is not None:
             progress(n, total)
-        if on_save is not None and save_every is not None and n % save_every == 0 and n < total:
-            on_save(n, _result(rows, confirmed[: n + 1], cur, n_candidates, t0, dgamma, total,
-                               gamma0, pressure, ptol, ftol, plastic_floor, confirm_substeps,
-                               packing))
+        if save_every is not None and n % save_every == 0 and n < total:
+            # a restart point: the solver state (stored factor, slope) is dropped, as a run
+            # resumed from this checkpoint starts without it
+            slope = None
+            if relaxer is not None:
+                relaxer.reset()
+            if on_save is not None:
+                on_save(n, _result(rows, confirmed[: n + 1], cur, n_candidates, t0, dgamma,
+                                   total, gamma0, pressure, ptol, ftol, plastic_floor,
+                                   confirm_substeps, packing, minimizer, relaxer))
     return _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol,
-                   ftol, plastic_floor, confirm_substeps, packing)
+                   ftol, plastic_floor, confirm_substeps, packing, minimizer, relaxer)
 
 
 def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
@@ -311,7 +344,7 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
 
 
 def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol, ftol,
-            plastic_floor, confirm_substeps, packing) -> PressureShearResult:
+            plastic_floor, confirm_substeps, packing, minimizer, relaxer) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
@@ -344,7 +377,7 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         "gamma_max": float(gamma0 + total * dgamma),
         "n_steps": int(total),
         "ftol": float(ftol),
-        "minimizer": "enthalpy-nested-fire",
+        "minimizer": f"enthalpy-nested-{minimizer}",
         "N": int(packing.n),
         "dim": int(packing.dim),
         "seed": int(-1 if packing.seed is None else packing.seed),
@@ -354,6 +387,8 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         "n_candidates": int(n_candidates),
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
+        # of this process's part of the run (a resumed run counts from its restart)
+        **({k: int(relaxer.counters[k]) for k in RELAX_COUNTERS} if relaxer is not None else {}),
     }
     return PressureShearResult(
         columns={k: cols[k] for k in PRESSURE_COLUMNS},

@@ -147,7 +147,10 @@ avalanche_threshold, pressure, ptol
     True
     """
     if pressure is not None:
+        if minimizer not in MINIMIZERS:
+            raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
         return _shear_at_pressure(
+            minimizer,
             packing,
             dgamma,
             gamma_max,
@@ -326,6 +329,7 @@ def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, prev
 
 
 def _shear_at_pressure(
+    minimizer,
     packing,
     dgamma,
     gamma_max,
@@ -340,7 +344,9 @@ def _shear_at_pressure(
     source,
     progress,
 ) -> ShearResult:
-    """The fixed-pressure protocol behind :func:`shear` (its docstring)."""
+    """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
+    ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
+    FIRE."""
     from jamlab.spheres.pressure_shear import shear_at_pressure
 
     validation.positive("pressure", pressure)
@@ -379,6 +385,7 @@ def _shear_at_pressure(
         ftol=ftol,
         ptol=ptol,
         fire_params=fire_params,
+        minimizer="newton" if minimizer == "linear" else "fire",
         progress=progress,
         previous=previous,
         save_every=save_every,

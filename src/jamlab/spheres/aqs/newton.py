@@ -67,12 +67,15 @@ def damped_newton(
     ftol: float,
     params: AQSParameters,
     initial: tuple[np.ndarray, object] | None = None,
+    forcing: float = 1e-9,
 ) -> NewtonResult:
     """Damped Newton ``x ← x + α K(x)⁻¹ F_b(x)`` on the ``free`` particles until
     ``max |F_b| < ftol``; ``F_b`` and ``K`` from ``model``, ``initial`` its forces at ``start``
     if already known.
 
-    Each solve is PCG preconditioned by ``precond`` (a nearby ``K⁻¹``: the stored
+    Each solve is PCG to a residual ``max(ftol/4, forcing · max|F_b|)`` (``forcing``: the
+    inexact-Newton forcing term; the default 1e-9 makes every solve practically exact),
+    preconditioned by ``precond`` (a nearby ``K⁻¹``: the stored
     factorisation); ``α ∈ {1, ½, ¼, ⅛}`` is the first that lowers ``max |F_b|`` (a contact
     that opens or closes makes the Hessian jump and the full step overshoot; the damping stops
     the iteration from cycling between contact sets). Fails (tests: :mod:`jamlab.spheres.aqs`)
@@ -102,7 +105,7 @@ def damped_newton(
         prev = fmax
         k = model.hessian(current, state)
         # the next force check decides; 0.25 ftol leaves room for the O(dx²) remainder
-        atol = max(0.25 * ftol, 1e-9 * fmax)
+        atol = max(0.25 * ftol, forcing * fmax)
         dx, ok, cg_its = pcg(k, f.ravel(), precond, atol, params.max_cg, d)
         cg_total += cg_its
         if not ok:

@@ -1,0 +1,328 @@
+"""Newton relaxation at fixed box from a nearby configuration, FIRE where Newton cannot.
+
+The inner minimiser of fixed-pressure AQS (:mod:`jamlab.spheres.pressure_shear`) when
+``minimizer="newton"``. Along an elastic stretch every inner problem starts next to a minimum
+(the last one, sheared by ``δγ`` and rescaled by ``ΔL/L ~ 1e-6``), where a Newton iteration on
+the pair potential converges in two or three steps while FIRE needs thousands
+(``docs/aqs.md``, "Fixed pressure: the Newton inner minimiser").
+
+**Iteration: an active set of contacts.** The harmonic pair energy is smooth only while the
+set of overlapping pairs stays the same, and near jamming the affine step alone opens the
+weakest contacts (overlaps ``≲ δγ``) that the minimum closes again, while a few gaps close. So:
+(1) :func:`jamlab.spheres.aqs.newton.damped_newton` minimises the energy of the *network* of
+the reference minimum's backbone contacts (every pair a spring, in tension too: smooth, two or
+three Newton steps), on the free backbone (rattlers and one pinned particle held), each solve
+PCG preconditioned by a stored factorisation (:func:`jamlab.spheres.aqs.linalg.factorise`,
+SuperLU ``LDLᵀ`` with its inertia test) of the backbone Hessian at a parent minimum, corrected by
+Woodbury terms for the pairs where the network differs from the factor's contacts
+(:meth:`jamlab.spheres.aqs.linalg.Factor.update`, as the constant-volume fast path does); (2) the
+network is replaced by the backbone pairs that overlap at that point, and (1) is repeated until
+the network's minimum overlaps exactly its own pairs (``max_active_sets`` rounds) — then it is
+a stationary point of the pair potential on the backbone; (3) the rattlers are moved out of
+their overlaps (:func:`free_rattlers`; a rattler that cannot be freed — it joins the backbone
+at the minimum — is left to FIRE from the backbone's minimum, "rattler polish"). The factor is
+refreshed every ``refactor_every`` calls, after every FIRE fallback, and whenever the parent
+minimum's backbone is not the factor's. **The parent matters:** the first active set decides
+which minimum the iteration reaches, so it is the contact network of the minimum the start was
+made from (``parent``, given by the fixed-pressure driver for every inner problem: the last
+minimum for a step, the last substep's minimum for a substep of the plastic-flag
+confirmation, the minimum being rescaled for a volume step) — not the last minimum returned,
+which for a substep is the end of the whole step (a first version did that; its substeps
+reached the post-event minimum in the first substep).
+
+**Acceptance — when is the Newton point a minimum?** All of: each Newton iteration converged
+(``max |F| < ftol/2`` on the free particles, contracting, inside the linear-response basin of
+its first step), **every PCG solve met only positive curvature** (a direction of negative
+curvature of ``K`` in a Krylov space preconditioned by a positive definite factor of a nearby
+minimum fails the solve; the last solve is with the Hessian of the final contact set), the
+factor positive definite, the rattlers freed, and an independent full evaluation
+(:func:`jamlab.spheres.potential.evaluate`) giving ``max_i |F_i| < ftol`` over *all*
+particles. Anything else — every plastic step, where the branch ends and no minimum is near, a
+rattler caged by the step (it joins the backbone), a backbone particle left under-coordinated —
+falls back to FIRE (:func:`jamlab.spheres.fire.minimize`) from the same start. Where both
+apply they find the same minimum (``tests/spheres/test_newton_relax.py``; the statistics of
+whole runs: ``docs/aqs.md``).
+
+**State and resume.** The stored factor is the only state; :meth:`NewtonRelaxer.reset` drops it.
+The fixed-pressure driver resets at every checkpoint, so a resumed run equals the uninterrupted
+one bit for bit.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from jamlab.spheres.aqs.linalg import Factor, factorise
+from jamlab.spheres.aqs.network import backbone_mask, contact_list, pair_keys
+from jamlab.spheres.aqs.newton import NetworkModel, damped_newton
+from jamlab.spheres.aqs.parameters import AQSParameters
+from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
+from jamlab.spheres.neighbors import NeighborList
+from jamlab.spheres.potential import Packing, evaluate
+
+__all__ = ["NewtonRelaxer", "RELAX_COUNTERS", "free_rattlers"]
+
+RELAX_COUNTERS: tuple[str, ...] = (
+    "n_newton_calls",
+    "n_newton_accepted",
+    "n_newton_iterations",
+    "n_cg_iterations",
+    "n_contact_changes",
+    "n_fire_fallbacks",
+    "n_rattler_polish",
+    "n_factorisations",
+)
+
+
+def _better(overlap, i: int, x: np.ndarray, step: np.ndarray, u: float):
+    """``x + α step`` for the first ``α ∈ {1, ½, …, 1/32}`` that lowers the overlap energy below
+    ``u``, with its overlaps; ``None`` if none does."""
+    for alpha in (1.0, 0.5, 0.25, 0.125, 0.0625, 0.03125):
+        trial = x + alpha * step
+        dr, r, sig = overlap(i, trial)
+        s = 1.0 - r / sig
+        if 0.5 * float(s @ s) < u:
+            return trial, dr, r, sig
+    return None
+
+
+def free_rattlers(
+    packing: Packing, backbone: np.ndarray, max_iter: int = 40
+) -> Packing | None:
+    """Move every rattler (``~backbone``) that overlaps something to a place where it overlaps
+    nothing, all other particles held; ``None`` if one cannot be freed (caged).
+
+    Each such rattler in turn (Gauss–Seidel: a rattler's new place is seen by the next)
+    minimises its own overlap energy ``U = Σ_c ½ (1 − r_c/σ_c)²`` (harmonic pair energy, up to
+    the scale ``ε``) in its cage of fixed neighbours: a Gauss–Newton step (the least-squares
+    move that clears every linearised overlap), and where that does not lower ``U`` (opposite
+    overlaps: the pushes cancel and only the curvature of the cage walls leads out — the case
+    where the averaged pushes of :func:`~jamlab.spheres.aqs.continuation.relax_rattlers`
+    stall) a step along the lowest eigenvector of the Hessian of ``U``; each with
+    backtracking until ``U`` decreases. Freed means ``U = 0`` exactly: no pair
+    of the rattler overlaps, so it carries no force and exerts none."""
+    rattlers = np.flatnonzero(~backbone)
+    if rattlers.size == 0:
+        return packing
+    pos = np.array(packing.positions)
+    box, diam = packing.box, packing.diameters
+    d = packing.dim
+
+    def overlap(i: int, x: np.ndarray):
+        dr = box.minimum_image(x - pos)
+        dr[i] = np.inf
+        r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+        sig = 0.5 * (diam[i] + diam)
+        hit = np.flatnonzero(r < sig)
+        return dr[hit], r[hit], sig[hit]
+
+    for i in rattlers:
+        x = pos[i].copy()
+        dr, r, sig = overlap(i, x)
+        for _ in range(max_iter):
+            if r.size == 0:
+                break
+            s = 1.0 - r / sig
+            u = 0.5 * float(s @ s)
+            n = dr / r[:, None]
+            # Gauss–Newton: the least-squares move that makes every linearised overlap vanish
+            step = np.linalg.lstsq(n, sig - r, rcond=None)[0]
+            trial = _better(overlap, i, x, step, u)
+            if trial is None:
+                # the pushes cancel (opposite overlaps): out along the cage walls' curvature,
+                # the lowest eigenvector of the Hessian of U, by the sideways distance that
+                # would clear the largest overlap o (r grows as t²/2r: t = √(2 σ o)), twice
+                h = np.zeros((d, d))
+                for a in range(r.size):
+                    nn = np.outer(n[a], n[a])
+                    h += nn / sig[a] ** 2 - (s[a] / (sig[a] * r[a])) * (np.eye(d) - nn)
+                v = np.linalg.eigh(h)[1][:, 0]
+                t = 2.0 * float(np.sqrt(2.0 * np.max(sig * (sig - r))))
+                trial = _better(overlap, i, x, v * t, u)
+                if trial is None:
+                    trial = _better(overlap, i, x, -v * t, u)
+                if trial is None:
+                    return None
+            x, dr, r, sig = trial
+        if r.size:
+            return None
+        pos[i] = x
+    return packing.with_positions(pos)
+
+
+@dataclass(eq=False)
+class NewtonRelaxer:
+    """Fixed-box minimiser for a sequence of nearby configurations (module docstring).
+
+    Call it as ``relaxer(packing, ftol, max_iter, params)`` (the signature of
+    :func:`jamlab.spheres.fire.minimize`'s core arguments; ``params`` are FIRE's, for the
+    fallback). ``counters`` (:data:`RELAX_COUNTERS`) accumulate over calls."""
+
+    aqs_params: AQSParameters = field(default_factory=AQSParameters)
+    refactor_every: int = 10
+    max_active_sets: int = 8
+    rattler_iterations: int = 40
+    forcing: float = 1e-3  # inexact Newton: each solve to 1e-3 of the force (then ftol/4)
+    fac: Factor | None = None
+    age: int = 0
+    reference: Packing | None = None  # the last minimum returned
+    counters: dict = field(default_factory=lambda: dict.fromkeys(RELAX_COUNTERS, 0))
+    _known: list = field(default_factory=list)  # [(minimum, its contacts and backbone)]
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.refactor_every, int) and self.refactor_every >= 1):
+            raise ValueError(f"refactor_every must be an integer >= 1, got {self.refactor_every!r}")
+
+    def reset(self) -> None:
+        """Forget the stored factorisation and the known minima (a restart point)."""
+        self.fac, self.age, self.reference = None, 0, None
+        self._known.clear()
+
+    def __call__(
+        self,
+        packing: Packing,
+        ftol: float = 1e-12,
+        max_iter: int = 1_000_000,
+        params: FireParameters | None = None,
+        parent: Packing | None = None,
+    ) -> MinimizeResult:
+        """The minimum reached from ``packing``. ``parent``: the minimum ``packing`` was made
+        from (by an affine shear or rescaling); its contacts are the first active set and its
+        backbone the free set. Without it, the last minimum returned is taken as the parent
+        (a first call without either is FIRE's)."""
+        t0 = time.perf_counter()
+        self.counters["n_newton_calls"] += 1
+        parent = self.reference if parent is None else parent
+        result = (None if parent is None
+                  else self._newton(packing, parent, ftol, t0, max_iter, params))
+        if result is not None and result.converged:
+            self.counters["n_newton_accepted"] += 1
+        else:
+            self.counters["n_fire_fallbacks"] += 1
+            self.fac, self.age = None, 0
+            result = minimize(packing, ftol=ftol, max_iter=max_iter, params=params)
+        self.reference = result.packing if result.converged else None
+        return result
+
+    def _network(self, minimum: Packing) -> tuple:
+        """``(ci, cj, backbone)`` of a minimum (the last few are kept)."""
+        for known, data in self._known:
+            if known is minimum:
+                return data
+        nl = NeighborList(minimum)
+        ci, cj, cd = contact_list(minimum, nl)
+        data = (ci, cj, backbone_mask(ci, cj, minimum.n, minimum.dim), cd, nl)
+        self._known.insert(0, (minimum, data))
+        del self._known[4:]
+        return data
+
+    def _factor(self, parent: Packing) -> Factor | None:
+        """A positive definite factor on ``parent``'s backbone: the stored one, or one made at
+        ``parent`` (when there is none, it is ``refactor_every`` calls old, or its backbone is
+        not the parent's)."""
+        ci, cj, backbone, cd, nl = self._network(parent)
+        if (self.fac is None or self.age >= self.refactor_every
+                or not np.array_equal(self.fac.backbone, backbone)):
+            self.fac = factorise(parent, nl, backbone, (ci, cj, cd))
+            self.age = 0
+            self.counters["n_factorisations"] += 1
+        self.age += 1
+        fac = self.fac
+        if fac.lu is None or not fac.positive_definite or fac.free.size == 0:
+            return None
+        return fac
+
+    def _active_set(
+        self, packing: Packing, fac: Factor, nl: NeighborList, pairs: tuple, ftol: float
+    ) -> tuple[Packing | None, Packing | None]:
+        """The minimum near ``packing`` on ``fac``'s backbone, starting from the network
+        ``pairs``: the minimum of a contact network (smooth; Newton converges in two or three
+        steps), then the network replaced by the backbone pairs that overlap there, until the
+        network's minimum overlaps exactly its own pairs; then the rattlers are moved out of
+        their overlaps (at a minimum they carry no force). Returns ``(minimum, None)``;
+        ``(None, None)`` when the iteration fails; ``(None, network minimum)`` when a rattler
+        cannot be freed (:func:`free_rattlers`; caged: at the minimum it joins the backbone).
+        A backbone particle that loses contacts in a round leaves the backbone (a new factor on
+        the smaller one)."""
+        bb = fac.backbone
+        ci, cj = pairs
+        keep = bb[ci] & bb[cj]
+        ci, cj = ci[keep], cj[keep]
+        keys = np.sort(pair_keys(ci, cj, packing.n))
+        start = packing
+        # a margin below ftol for the free particles (the full evaluation decides)
+        inner = 0.5 * ftol
+        for _ in range(self.max_active_sets):
+            # the factor corrected (Woodbury) for the network's pairs that are not its own
+            dr = start.box.minimum_image(start.positions[ci] - start.positions[cj])
+            fac.update(ci, cj, dr, self.aqs_params.max_corrections)
+            res = damped_newton(start, fac.free, NetworkModel(ci, cj, fac), fac.solve, inner,
+                                self.aqs_params, forcing=self.forcing)
+            self.counters["n_newton_iterations"] += res.iterations
+            self.counters["n_cg_iterations"] += res.cg_iterations
+            if not res.ok:
+                return None, None
+            ci, cj, _ = contact_list(res.packing, nl)
+            keep = bb[ci] & bb[cj]
+            ci, cj = ci[keep], cj[keep]
+            new_keys = np.sort(pair_keys(ci, cj, packing.n))
+            if np.array_equal(new_keys, keys):
+                break
+            self.counters["n_contact_changes"] += 1
+            keys, start = new_keys, res.packing
+            shrunk = backbone_mask(ci, cj, packing.n, packing.dim)
+            if not np.array_equal(shrunk, bb):
+                # a backbone particle lost contacts (it is a rattler now): factorise on the
+                # smaller backbone at this point, whose Hessian is otherwise singular there
+                bb = shrunk
+                keep = bb[ci] & bb[cj]
+                ci, cj = ci[keep], cj[keep]
+                keys = np.sort(pair_keys(ci, cj, packing.n))
+                dr = start.box.minimum_image(start.positions[ci] - start.positions[cj])
+                fac = self.fac = factorise(start, nl, bb, (ci, cj, dr))
+                self.age = 1
+                self.counters["n_factorisations"] += 1
+                if fac.lu is None or not fac.positive_definite or fac.free.size == 0:
+                    return None, None
+        else:
+            return None, None
+        moved = free_rattlers(res.packing, bb, self.rattler_iterations)
+        return moved, (res.packing if moved is None else None)
+
+    def _newton(
+        self, packing: Packing, parent: Packing, ftol: float, t0: float, max_iter: int,
+        params: FireParameters | None,
+    ) -> MinimizeResult | None:
+        if packing.alpha != 2.0:
+            return None  # (α ≠ 2: the continued law's springs and tests assume the harmonic law)
+        if parent.n != packing.n or parent.dim != packing.dim:
+            return None
+        fac = self._factor(parent)
+        if fac is None:
+            return None
+        nl = NeighborList(packing)
+        ci, cj = self._network(parent)[:2]
+        moved, caged = self._active_set(packing, fac, nl, (ci, cj), ftol)
+        if caged is not None:
+            # the backbone is at its minimum, a rattler is caged: FIRE from there (it relaxes the
+            # rattler, and the backbone where the rattler joins it, in far fewer iterations
+            # than from the start)
+            self.counters["n_rattler_polish"] += 1
+            return minimize(caged, ftol=ftol, max_iter=max_iter, params=params)
+        if moved is None:
+            return None
+        ev = evaluate(moved)
+        if not ev.max_force < ftol:
+            return None
+        return MinimizeResult(
+            packing=moved,
+            energy=float(ev.energy),
+            max_force=float(ev.max_force),
+            iterations=0,
+            converged=True,
+            time=time.perf_counter() - t0,
+            ftol=float(ftol),
+        )
