@@ -48,6 +48,8 @@ def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict
         ("constant_volume", ("jam_s",)),
         ("fixed_pressure", ("jam_s", "to_pressure_s")),
     ):
+        if not all(proto in r for r in results):
+            continue  # (a benchmark of one protocol only)
         codes = sorted({c for r in results for c in r[proto]})
         prep = [sum(r[k] for k in prep_keys) for r in results]
         pa, pb = power_law(ns, [max(p, 1e-3) for p in prep])
@@ -74,12 +76,23 @@ def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("bench_json", type=Path)
+    ap.add_argument("bench_json", type=Path, nargs="+",
+                    help="one or more benchmark JSONs with the same N: a protocol is taken from "
+                    "the last file that has it (e.g. an older full run and a newer "
+                    "--fixed-pressure-only run)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[500, 1000, 2000, 4000])
     ap.add_argument("--samples", type=int, default=300)
     ap.add_argument("--steps", type=int, default=1000)
     args = ap.parse_args()
-    data = json.loads(args.bench_json.read_text())
+    files = [json.loads(f.read_text()) for f in args.bench_json]
+    data = files[0]
+    for other in files[1:]:
+        if [r["N"] for r in other["results"]] != [r["N"] for r in data["results"]]:
+            raise SystemExit("the benchmark files measure different N")
+        if other["pressure"] != data["pressure"] or other["dgamma"] != data["dgamma"]:
+            raise SystemExit("the benchmark files use different p or dgamma")
+        for mine, theirs in zip(data["results"], other["results"], strict=True):
+            mine.update({k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine})
     rows = project(data, args.sizes, args.samples, args.steps)
     ns = [r["N"] for r in data["results"]]
     print(

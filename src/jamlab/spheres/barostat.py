@@ -16,8 +16,9 @@ on ``s = ln L`` by a safeguarded secant iteration (first slope from the affine r
 bracket and bisection once the target is bracketed; from a state that carries less than
 ``p_t/10`` — unjammed, or jammed at a much lower pressure — the step is taken from the loosest
 known state with ``p > p_t``, or, if there is none, the box is compressed by steps
-``p_t/|DEFAULT_SLOPE| · 2^k``; at most 0.01 in ``ln L`` per step), the inner one by the
-compiled FIRE of :func:`jamlab.spheres.fire.minimize` at fixed box, unchanged.
+``p_t/|DEFAULT_SLOPE| · 2^k``; at most 0.01 in ``ln L`` per step), the inner one at fixed box
+by ``relax``: the compiled FIRE of :func:`jamlab.spheres.fire.minimize` (default), or the
+Newton relaxer of :mod:`jamlab.spheres.newton_relax` (fixed-pressure AQS's default).
 
 Why not FIRE with the box as an extra degree of freedom (LAMMPS ``fix box/relax iso``): that
 needs a box "mass" to tune, mixes a force and a pressure tolerance in one dynamics, and every
