@@ -54,6 +54,7 @@ def residual_ratio(packing, dgamma: float) -> float:
 
 
 def test_linear_response_predicts_an_elastic_step_to_second_order(jammed64):
+    assert residual_ratio(jammed64, 1e-6) < 1e-4  # measured 4.4e-5 (the FIRE floor)
     r1 = residual_ratio(jammed64, 1e-5)
     r2 = residual_ratio(jammed64, 2e-5)
     # measured: 2.5e-4 and 5.0e-4 (N = 64, p = 1e-3, seed 1); the FIRE floor (ftol 1e-15) is
