@@ -7,10 +7,13 @@ Per size N, state ('jamming': ``jam(N, 3, seed, p_target=1e-7)``; 'phi0.8': ``pr
 0.8, seed)``) and seed: ``shear(..., keep_avalanches=True)`` with a hook marking whether the
 minima before and after each plastic step are jammed (``jamlab.spheres.rigidity.is_jammed``;
 the trace's ``jammed`` column is used instead if the trace has one). Only plastic steps between
-two jammed minima count; S = −ΔE. Prints per state the histogram of S per class (localized
-/ extended, PR·N ≤ 10; and 'bucklers/rattlers only'), the fraction of events and of total S per
-class, and ⟨S⟩, S_c = ⟨S²⟩/⟨S⟩ against N. Saves the pooled rows (``events.npz``) and a figure
-of the largest extended and the largest localized avalanche.
+two jammed minima count; S = −ΔE. The anatomy (PR·N, class, max |u|, figures) is that of the
+event field: the step's non-affine displacement minus the linear elastic response of the minimum
+before (``docs/criticality.md``); ``elastic_fraction`` is what was subtracted. Prints per state
+the histogram of S per class (localized / extended, PR·N ≤ 10; and 'bucklers/rattlers only'),
+the fraction of events and of total S per class, and ⟨S⟩, S_c = ⟨S²⟩/⟨S⟩ against N. Saves the
+pooled rows (``events.npz``) and a figure of the largest extended and the largest localized
+avalanche.
 """
 
 from __future__ import annotations
@@ -21,11 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis.anatomy import nonaffine_displacements
+from jamlab.analysis.anatomy import event_field, nonaffine_displacements
 from jamlab.analysis.finite_size import cutoff_size
 from jamlab.plots.anatomy import avalanche_figure
 from jamlab.spheres import jam, prepare
 from jamlab.spheres.aqs import shear
+from jamlab.spheres.aqs.anatomy import elastic_nonaffine_response
+from jamlab.spheres.contacts import backbone_mask, contacts
 from jamlab.spheres.rigidity import is_jammed
 
 
@@ -45,6 +50,10 @@ def run_one(n, state, seed, steps, dgamma):
             u = nonaffine_displacements(
                 before.positions, after.positions, after.box.length, before.strain, after.strain
             )
+            ci, cj, _ = contacts(before)
+            keep = backbone_mask(ci, cj, before.n, before.dim + 1)
+            el = elastic_nonaffine_response(before, after.strain - before.strain, keep)
+            u, _ = event_field(u, el, keep)
             fields[count[0]] = (np.array(before.positions), u, after.box.length)
 
     res = shear(packing, dgamma, n_steps=steps, keep_avalanches=True, after_step=hook)
@@ -89,6 +98,7 @@ def main() -> None:
             "n_opened",
             "n_closed",
             "max_u",
+            "elastic_fraction",
             "jammed",
         )
     }
@@ -117,6 +127,7 @@ def main() -> None:
                     ("n_opened", av["n_opened"]),
                     ("n_closed", av["n_closed"]),
                     ("max_u", av["max_displacement"]),
+                    ("elastic_fraction", av["elastic_fraction"]),
                     ("jammed", jam_ok),
                 ):
                     rows[key].extend(list(val))
@@ -169,14 +180,19 @@ def report(a, args) -> None:
             h, _ = np.histogram(a["S"][c], bins=bins)
             print(f"  {name:24s} " + " ".join(f"{v:5d}" for v in h))
         tot_n, tot_s = max(int(m.sum()), 1), max(float(a["S"][m].sum()), 1e-300)
-        print("class                  events  fraction  fraction of S  med PR·N  med opened+closed")
+        print(
+            "class                  events  fraction  fraction of S  med PR·N  med opened+closed"
+            "  med elastic_fraction"
+        )
+        ef = a["elastic_fraction"] if "elastic_fraction" in a else np.full(a["S"].size, np.nan)
         for name, c in classes.items():
             med = float(np.median(a["n_eff"][c])) if c.any() else float("nan")
             nch = a["n_opened"][c] + a["n_closed"][c]
             mch = float(np.median(nch)) if c.any() else float("nan")
+            mef = float(np.median(ef[c])) if c.any() else float("nan")
             print(
                 f"  {name:22s} {int(c.sum()):6d} {c.sum() / tot_n:9.3f} "
-                f"{a['S'][c].sum() / tot_s:14.3f} {med:9.1f} {mch:9.0f}"
+                f"{a['S'][c].sum() / tot_s:14.3f} {med:9.1f} {mch:9.0f} {mef:12.2e}"
             )
         print("N     events   <S>         S_c=<S^2>/<S>   <S>/N       median PR·N")
         for n in args.sizes:

@@ -12,6 +12,7 @@ from jamlab.analysis.anatomy import (
     buckler_mask,
     contact_changes,
     event_anatomy,
+    event_field,
     is_localized,
     lees_edwards_minimum_image,
     moved_particles,
@@ -119,6 +120,43 @@ def test_event_anatomy_and_moved_particles():
     idx, vec = moved_particles(an.u, 0.1)
     np.testing.assert_array_equal(idx, [1])
     np.testing.assert_allclose(vec, [[0.0, 0.0, 0.4]], atol=1e-15)
+
+
+def test_event_field_takes_out_the_elastic_part_and_the_translation():
+    rng = np.random.default_rng(7)
+    n = 6
+    keep = np.array([True, True, True, True, False, True])
+    event = np.zeros((n, 3))
+    event[2] = [0.3, -0.1, 0.2]
+    event[keep] -= event[keep].mean(axis=0)  # an event of zero backbone mean
+    elastic = rng.normal(size=(n, 3)) * 1e-2
+    elastic[~keep] = 0.0
+    t = np.array([1e-3, -2e-3, 5e-4])
+    u = event + elastic + t
+    ev, fraction = event_field(u, elastic, keep)
+    np.testing.assert_allclose(ev, event, atol=1e-15)
+    assert fraction == pytest.approx(((elastic + t) ** 2).sum() / (u**2).sum(), rel=1e-12)
+    # no linear response (NaN): nothing subtracted, and the fraction says so
+    ev, fraction = event_field(u, np.full((n, 3), np.nan), keep)
+    np.testing.assert_array_equal(ev, u)
+    assert np.isnan(fraction)
+    # through event_anatomy: the numbers are those of the event field, the raw one is kept
+    xb = np.array([[0.5, 0.5, 0.5], [1.5, 0.5, 0.5], [0.5, 1.5, 0.5], [2.5, 2.5, 2.5]])
+    xa = xb + [[0.01, 0, 0], [0.01, 0, 0], [0.01, 0, 0.4], [0.01, 0, 0]]
+    el = np.zeros((4, 3))
+    el[2] = [0.0, 0.0, 0.1]
+    pairs = (np.array([0]), np.array([1]))
+    k4 = np.ones(4, bool)
+    an = event_anatomy(xb, xa, 3.0, 0.0, 0.0, pairs, pairs, k4, k4, elastic=el)
+    expect = np.zeros((4, 3))
+    expect[2, 2] = 0.3
+    expect -= expect.mean(axis=0)  # the translation 0.01 e_x and the mean of the event go
+    np.testing.assert_allclose(an.u, expect, atol=1e-15)
+    np.testing.assert_allclose(an.raw, xa - xb, atol=1e-15)
+    s2 = (expect**2).sum(axis=1)
+    assert an.participation == pytest.approx(s2.sum() ** 2 / (4 * (s2**2).sum()))
+    raw = xa - xb
+    assert an.elastic_fraction == pytest.approx(((raw - expect) ** 2).sum() / (raw**2).sum())
 
 
 def test_avalanche_figure_draws_the_scaled_field(tmp_path):

@@ -129,4 +129,29 @@ def brute_jammed_state(packing, ftol: float) -> dict:
     n_c = int(np.sum(alive[i] & alive[j]))
     floor = 10.0 * ftol * n / L**d
     jammed = n_kept > 0 and n_c >= d * (n_kept - 1) + 1 and p > floor
-    return {"n_kept": n_kept, "n_c": n_c, "p": p, "floor": floor, "jammed": jammed}
+    return {
+        "n_kept": n_kept, "n_c": n_c, "p": p, "floor": floor, "jammed": jammed, "backbone": alive,
+    }  # fmt: skip
+
+
+def brute_elastic_response(
+    pos: np.ndarray,
+    L: float,
+    gamma: float,
+    keep: np.ndarray,
+    dgamma: float,
+    diameters: np.ndarray | None = None,
+    alpha: float = 2.0,
+) -> np.ndarray:
+    """``u^el = δγ H⁺ Ξ`` of the minimum ``pos`` (in ``[0, L)^d``) by dense least squares on the
+    system with the non-``keep`` particles (rattlers) deleted: the hand-written dense Hessian
+    and ``∂F/∂γ`` of :func:`brute_force`; the minimum-norm solution has no translation (zero
+    mean over the kept particles). Deleted particles get 0."""
+    n, dim = pos.shape
+    keep = np.asarray(keep, dtype=bool)
+    diam = np.ones(n) if diameters is None else np.asarray(diameters, dtype=float)
+    b = brute_force(pos[keep], L, gamma, diam[keep], alpha)
+    sol = np.linalg.lstsq(b["hessian"], dgamma * b["dforce_dstrain"].ravel(), rcond=1e-12)[0]
+    u = np.zeros((n, dim))
+    u[keep] = sol.reshape(-1, dim)
+    return u

@@ -1,12 +1,13 @@
 """The avalanche records of a trace (``shear(..., keep_avalanches=True)``) against a brute-force
 diff of the stored configurations before and after each plastic step: every pair, explicit
-periodic images (``spheres_brute``), rattlers and bucklers counted by hand."""
+periodic images (``spheres_brute``), rattlers and bucklers counted by hand, the elastic response
+of the minimum before by dense least squares on the hand-written Hessian."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from spheres_brute import brute_force, image_shifts, pair_terms
+from spheres_brute import brute_elastic_response, brute_force, image_shifts, pair_terms
 
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import checkpoint_paths, shear
@@ -86,17 +87,23 @@ def test_records_match_brute_force_diff(run):
         b, a = config(n - 1), config(n)
         L, dim, diam = b.box.length, b.dim, np.asarray(b.diameters)
         g0, g1 = b.strain, a.strain
-        u = displacement_by_hand(b.positions, a.positions, L, g0, g1)
+        raw = displacement_by_hand(b.positions, a.positions, L, g0, g1)
+        c0, c1 = contact_set(b.positions, L, g0, diam), contact_set(a.positions, L, g1, diam)
+        keep0, keep1 = rattlers_by_hand(c0, b.n, dim), rattlers_by_hand(c1, a.n, dim)
+        # the event: raw minus the linear elastic response, minus the backbone-mean translation
+        el = brute_elastic_response(wrap(b.positions, L, g0), L, g0, keep0, g1 - g0, diam, b.alpha)
+        u = raw - el
+        u -= u[keep0].mean(axis=0)
+        fraction = ((raw - u) ** 2).sum() / (raw**2).sum()
+        assert av["elastic_fraction"][row] == pytest.approx(fraction, rel=1e-6)
         s2 = (u**2).sum(axis=1)
         pr = s2.sum() ** 2 / (len(s2) * (s2**2).sum())
         assert av["participation"][row] == pytest.approx(pr, rel=1e-9)
         assert av["n_eff"][row] == pytest.approx(pr * b.n, rel=1e-9)
         assert av["max_displacement"][row] == pytest.approx(np.sqrt(s2.max()), rel=1e-9)
         assert bool(av["localized"][row]) == (pr * b.n <= av["attrs"]["n_eff_max"])
-        c0, c1 = contact_set(b.positions, L, g0, diam), contact_set(a.positions, L, g1, diam)
         assert av["n_opened"][row] == len(c0 - c1)
         assert av["n_closed"][row] == len(c1 - c0)
-        keep0, keep1 = rattlers_by_hand(c0, b.n, dim), rattlers_by_hand(c1, a.n, dim)
         zb = np.zeros(b.n, int)
         for i, j in c0:
             if keep0[i] and keep0[j]:
@@ -152,3 +159,30 @@ def test_cli_keep_avalanches_writes_the_same_group(run, tmp_path):
     for key in ("step", "n_opened", "n_closed", "moved_offsets", "moved_index"):
         np.testing.assert_array_equal(got[key], ref[key])
     np.testing.assert_allclose(got["participation"], ref["participation"], rtol=1e-9)
+
+
+def test_resume_from_a_trace_without_elastic_fraction(run, tmp_path):
+    """A trace written before ``elastic_fraction`` existed still loads and resumes: its rows get
+    NaN there (their fields were not corrected), the new rows are those of the whole run."""
+    import h5py
+
+    res, trace, _ = run
+    packing = sp.prepare(64, 3, 0.8, seed=3).packing
+    out = tmp_path / "old.h5"
+    shear(packing, 2e-3, n_steps=30, keep_avalanches=True, out=out, save_every=1)
+    with h5py.File(out, "r+") as f:
+        del f["avalanches/elastic_fraction"]
+    old = read_trace(out)
+    assert "elastic_fraction" not in old.avalanches
+    n_old = old.avalanches["step"].size
+    last, _ = checkpoint_paths(out)
+    shear(read_packing(last), 2e-3, n_steps=60, keep_avalanches=True, out=out, save_every=1,
+          previous=old)  # fmt: skip
+    got = read_trace(out).avalanches
+    ref = trace.avalanches
+    np.testing.assert_array_equal(got["step"], ref["step"])
+    assert np.all(np.isnan(got["elastic_fraction"][:n_old]))
+    np.testing.assert_allclose(got["elastic_fraction"][n_old:], ref["elastic_fraction"][n_old:],
+                               rtol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(got["participation"], ref["participation"], rtol=1e-6)
+    assert np.all(np.isfinite(ref["elastic_fraction"]))

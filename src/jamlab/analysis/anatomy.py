@@ -4,10 +4,15 @@ Given the minima before and after a step (positions, box side ``L``, strains ``�
 ``γ_a``), the contact lists ``(i, j)`` of both, their backbone masks (rattlers removed) and,
 optionally, the buckler mask before the step:
 
-- the **non-affine displacement field** of the event, ``u_i = x_i^a − (x_i^b + (γ_a − γ_b) y_i^b
+- the **non-affine displacement field** of the step, ``u_i = x_i^a − (x_i^b + (γ_a − γ_b) y_i^b
   e_x)`` reduced by the Lees–Edwards minimum image at ``γ_a`` (:func:`nonaffine_displacements`);
-- the **participation ratio** ``PR = (Σ|u_i|²)² / (N Σ|u_i|⁴)`` (``1`` when every particle
-  moves the same amount, ``1/N`` when one particle moves), and ``N_eff = PR·N``;
+- the **event field** ``u^ev = u − u^el − t``: ``u`` without the linear elastic non-affine
+  response of the minimum before, ``u^el = δγ K⁺ Ξ`` (:func:`elastic_response`), and without the
+  uniform translation ``t`` (the backbone mean of ``u − u^el``, :func:`event_field`); the
+  ``elastic_fraction`` ``Σ|u^el + t|² / Σ|u|²`` says how much was subtracted. Every number below
+  is measured on ``u^ev``;
+- the **participation ratio** ``PR = (Σ|u_i|²)² / (N Σ|u_i|⁴)`` (``u = u^ev``; ``1`` when every
+  particle moves the same amount, ``1/N`` when one particle moves), and ``N_eff = PR·N``;
 - the **largest displacement** ``max_i |u_i|``;
 - the contacts **opened** (in the list before, not after) and **closed** (after, not before);
 - whether it **involves only bucklers/rattlers** (:func:`only_bucklers_rattlers`);
@@ -22,6 +27,18 @@ falling into or out of the cage, changes no contact between two ordinary backbon
 event with an elastic (Eshelby-like) far field ``|u| ∝ r^(1−d)`` has ``Σ|u|²`` and ``Σ|u|⁴``
 dominated by the core, so its ``N_eff`` stays of order the core size whatever ``N``; an extended
 (system-spanning) rearrangement has ``N_eff ∝ N``.
+
+**Elastic response.** In a step ``δγ`` a minimum ``x`` with Hessian ``H`` and ``Ξ = ∂F/∂γ`` (at
+fixed reduced coordinates) follows its branch as ``x(γ + δγ) = x + δγ y e_x + u^el + O(δγ²)``,
+``H u^el = δγ Ξ`` (the forces ``F + δγ Ξ − H u^el`` vanish). ``H`` and ``Ξ`` are taken over the
+contacts between backbone particles (rattlers removed: they carry no force at a minimum and
+follow whatever the backbone does), solved with one backbone particle pinned (removing the
+``d`` translations), then shifted to zero mean over the backbone; rattlers get ``u^el = 0``.
+If the pinned backbone Hessian is not positive definite (the minimum before is not rigid:
+floppy modes, e.g. an unjammed state at jamming) there is no linear response: ``u^el`` is NaN,
+nothing is subtracted (``u^ev = u``) and ``elastic_fraction`` is NaN. A plastic event is what
+the linear response does not predict, so ``u^ev`` is the event plus the ``O(δγ²)`` remainder
+of the elastic step (and of the translation ``t``, which is no displacement of the packing).
 
 The analysis package never imports ``jamlab.spheres``: the Lees–Edwards minimum image is written
 here (:func:`lees_edwards_minimum_image`, the rule of ``jamlab.spheres.box.Box.minimum_image``;
@@ -40,6 +57,8 @@ __all__ = [
     "EventAnatomy",
     "buckler_mask",
     "contact_changes",
+    "elastic_response",
+    "event_field",
     "event_anatomy",
     "is_localized",
     "lees_edwards_minimum_image",
@@ -167,13 +186,78 @@ def moved_particles(
     return idx.astype(np.int64), u[idx]
 
 
+def elastic_response(
+    hessian: object, xi: ArrayLike, dgamma: float, backbone: ArrayLike
+) -> NDArray[np.float64]:
+    """The linear elastic non-affine response ``u^el = δγ K⁺ Ξ`` of a minimum (module
+    docstring), array ``(N, d)``. ``hessian``: the ``dN × dN`` Hessian (SciPy sparse or dense,
+    row ``d·i + a``) of the contacts between backbone particles; ``xi``: ``Ξ = ∂F/∂γ`` ``(N, d)``
+    of the same contacts; ``backbone``: boolean mask ``(N,)``. Sparse LU (SuperLU, symmetric
+    mode, no row pivoting) with the first backbone particle pinned; the signs of its pivots are
+    those of the eigenvalues (Sylvester), so a pinned Hessian that is not positive definite
+    gives NaN everywhere. Zero mean over the backbone; rattlers ``0``."""
+    import scipy.sparse as sps  # here: SciPy's import costs every command's start-up
+    import scipy.sparse.linalg as spla
+
+    xi = np.asarray(xi, dtype=np.float64)
+    keep = np.asarray(backbone, dtype=bool)
+    n, dim = xi.shape
+    if keep.shape != (n,):
+        raise ValueError(f"backbone mask must have shape ({n},), got {keep.shape}")
+    u = np.zeros((n, dim))
+    idx = np.flatnonzero(keep)
+    if idx.size < 2:
+        return u
+    free = idx[1:]
+    dofs = (free[:, None] * dim + np.arange(dim)).ravel()
+    k = sps.csr_matrix(hessian)[dofs][:, dofs].tocsc()
+    try:
+        lu = spla.splu(
+            k,
+            permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+    except RuntimeError:  # exactly singular
+        return np.full((n, dim), np.nan)
+    if not (np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0)):
+        return np.full((n, dim), np.nan)
+    u[free] = lu.solve(float(dgamma) * xi[free].ravel()).reshape(-1, dim)
+    u[keep] -= u[keep].mean(axis=0)
+    return u
+
+
+def event_field(
+    u: ArrayLike, elastic: ArrayLike, backbone: ArrayLike
+) -> tuple[NDArray[np.float64], float]:
+    """``(u^ev, elastic_fraction)``: ``u^ev = u − u^el − t`` with ``t`` the mean of ``u − u^el``
+    over the ``backbone`` (the translation that fits best), ``elastic_fraction =
+    Σ|u − u^ev|² / Σ|u|²``. A non-finite ``elastic`` (no linear response): ``(u, NaN)``."""
+    u = np.asarray(u, dtype=np.float64)
+    el = np.asarray(elastic, dtype=np.float64)
+    keep = np.asarray(backbone, dtype=bool)
+    if el.shape != u.shape:
+        raise ValueError(f"elastic field must have shape {u.shape}, got {el.shape}")
+    if not np.all(np.isfinite(el)):
+        return u.copy(), float("nan")
+    r = u - el
+    if keep.any():
+        r = r - r[keep].mean(axis=0)
+    total = float(np.sum(u * u))
+    sub = float(np.sum((u - r) ** 2))
+    return r, (sub / total if total > 0 else float("nan"))
+
+
 @dataclass(frozen=True, eq=False)
 class EventAnatomy:
-    """The anatomy of one event (module docstring): displacement field ``u`` ``(N, d)``,
-    ``participation`` ratio, ``max_displacement``, ``opened``/``closed`` pairs ``(k, 2)``,
-    ``only_bucklers_rattlers``, ``localized``."""
+    """The anatomy of one event (module docstring): event field ``u`` ``(N, d)`` (``u^ev``;
+    the raw non-affine field when no elastic response was given), ``raw`` (the non-affine
+    field of the step), ``elastic_fraction``, ``participation`` ratio, ``max_displacement``,
+    ``opened``/``closed`` pairs ``(k, 2)``, ``only_bucklers_rattlers``, ``localized``."""
 
     u: NDArray[np.float64]
+    raw: NDArray[np.float64]
+    elastic_fraction: float
     participation: float
     max_displacement: float
     opened: NDArray[np.int64]
@@ -199,10 +283,17 @@ def event_anatomy(
     backbone_after: ArrayLike,
     bucklers_before: ArrayLike | None = None,
     n_eff_max: float = N_EFF_LOCALIZED,
+    elastic: ArrayLike | None = None,
 ) -> EventAnatomy:
     """All the numbers of the module docstring for one step. ``bucklers_before=None``: computed
-    from ``pairs_before`` and ``backbone_before`` (:func:`buckler_mask`)."""
-    u = nonaffine_displacements(before, after, length, strain_before, strain_after)
+    from ``pairs_before`` and ``backbone_before`` (:func:`buckler_mask`). ``elastic``: ``u^el``
+    of the minimum before (:func:`elastic_response`), subtracted by :func:`event_field`;
+    ``None``: nothing subtracted (``u = raw``, ``elastic_fraction = 0``)."""
+    raw = nonaffine_displacements(before, after, length, strain_before, strain_after)
+    if elastic is None:
+        u, fraction = raw, 0.0
+    else:
+        u, fraction = event_field(raw, elastic, backbone_before)
     n, dim = u.shape
     if bucklers_before is None:
         bucklers_before = buckler_mask(*pairs_before, backbone_before, dim)
@@ -210,6 +301,8 @@ def event_anatomy(
     pr = participation_ratio(u)
     return EventAnatomy(
         u=u,
+        raw=raw,
+        elastic_fraction=fraction,
         participation=pr,
         max_displacement=float(np.sqrt(np.max(np.einsum("ij,ij->i", u, u)))),
         opened=opened,

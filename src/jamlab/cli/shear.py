@@ -190,14 +190,15 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option(
                 "--keep-avalanches",
-                help="Record the anatomy of every plastic step (trace group 'avalanches').",
+                help="Record the anatomy of every plastic step, elastic response subtracted "
+                "(trace group 'avalanches'; docs/criticality.md).",
             ),
         ] = False,
         avalanche_threshold: Annotated[
             float,
             typer.Option(
                 "--avalanche-threshold",
-                help="Keep the displacements |u| above this (units of the mean diameter).",
+                help="Keep the event displacements |u| above this (units of the mean diameter).",
             ),
         ] = 1e-3,
         pressure: Annotated[

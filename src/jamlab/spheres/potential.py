@@ -145,24 +145,44 @@ def stress_tensor(packing: Packing, neighbors: NeighborList | None = None) -> np
     return virial(packing, neighbors) / packing.box.volume
 
 
-def hessian(packing: Packing, neighbors: NeighborList | None = None) -> scipy.sparse.csr_matrix:
+def _contacts_within(
+    packing: Packing, neighbors: NeighborList | None, backbone: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The contacts of ``packing``; with a mask ``backbone``, only those with both ends in it."""
+    ci, cj, cd = contacts(packing, neighbors)
+    if backbone is None:
+        return ci, cj, cd
+    keep = np.asarray(backbone, dtype=bool)
+    if keep.shape != (packing.n,):
+        raise ValueError(f"backbone mask must have shape ({packing.n},), got {keep.shape}")
+    live = keep[ci] & keep[cj]
+    return ci[live], cj[live], np.ascontiguousarray(cd[live])
+
+
+def hessian(
+    packing: Packing, neighbors: NeighborList | None = None, backbone: np.ndarray | None = None
+) -> scipy.sparse.csr_matrix:
     """Sparse Hessian ``H_{ia,jb} = ∂²E/∂r_ia ∂r_jb`` (``dN × dN``, row ``d·i + a``), CSR.
 
     Pair block ``B = V''(r) n nᵀ + (V'(r)/r)(1 − n nᵀ)``: ``H_ii = Σ_j B_ij``, ``H_ij = −B_ij``.
+    ``backbone`` (boolean mask ``(N,)``): only the contacts between two of its particles.
     """
     import scipy.sparse  # here, not at the top: SciPy's import costs every command's start-up
 
-    ci, cj, cd = contacts(packing, neighbors)
+    ci, cj, cd = _contacts_within(packing, neighbors, backbone)
     rows, cols, vals = K.hessian_coo(ci, cj, cd, *packing.kernel_law)
     size = packing.n * packing.dim
     return scipy.sparse.coo_matrix((vals, (rows, cols)), shape=(size, size)).tocsr()
 
 
-def dforce_dstrain(packing: Packing, neighbors: NeighborList | None = None) -> np.ndarray:
+def dforce_dstrain(
+    packing: Packing, neighbors: NeighborList | None = None, backbone: np.ndarray | None = None
+) -> np.ndarray:
     """``Ξ_i = ∂F_i/∂γ`` under affine shear at fixed reduced coordinates, shape ``(N, d)``.
 
     ``Ξ_i = −Σ_j B_ij e_x y_ij``. With the Hessian ``H``, the non-affine response of a minimum is
-    ``H du/dγ = Ξ`` (linear response) and ``dΣ/dγ = ∂²E/∂γ² − Ξ·H⁻¹Ξ``.
+    ``H du/dγ = Ξ`` (linear response) and ``dΣ/dγ = ∂²E/∂γ² − Ξ·H⁻¹Ξ``. ``backbone``: as in
+    :func:`hessian`.
     """
-    ci, cj, cd = contacts(packing, neighbors)
+    ci, cj, cd = _contacts_within(packing, neighbors, backbone)
     return K.dforce_dstrain(packing.n, ci, cj, cd, *packing.kernel_law)

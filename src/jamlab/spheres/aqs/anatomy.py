@@ -1,16 +1,28 @@
 """The avalanche records of an AQS run (``shear(..., keep_avalanches=True)``): for every plastic
 step the anatomy of :mod:`jamlab.analysis.anatomy` measured on the minima before and after it,
-collected into the trace group ``avalanches`` (``docs/formats.md``)."""
+collected into the trace group ``avalanches`` (``docs/formats.md``). The anatomy numbers are
+those of the event field: the step's non-affine displacement without the linear elastic
+response of the minimum before (:func:`elastic_nonaffine_response`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from jamlab.analysis.anatomy import N_EFF_LOCALIZED, event_anatomy, moved_particles
+from jamlab.analysis.anatomy import (
+    N_EFF_LOCALIZED,
+    elastic_response,
+    event_anatomy,
+    moved_particles,
+)
 from jamlab.spheres.contacts import backbone_mask, contacts
-from jamlab.spheres.potential import Packing
+from jamlab.spheres.potential import Packing, dforce_dstrain, hessian
 
-__all__ = ["AVALANCHE_COLUMNS", "MOVED_THRESHOLD", "AvalancheRecorder"]
+__all__ = [
+    "AVALANCHE_COLUMNS",
+    "MOVED_THRESHOLD",
+    "AvalancheRecorder",
+    "elastic_nonaffine_response",
+]
 
 MOVED_THRESHOLD = 1e-3
 """Default ``|u|`` (units of the mean diameter) above which a particle's displacement is kept."""
@@ -28,14 +40,34 @@ AVALANCHE_COLUMNS: tuple[str, ...] = (
     "only_bucklers_rattlers",
     "localized",
     "n_moved",
+    "elastic_fraction",
 )
+
+
+def elastic_nonaffine_response(
+    packing: Packing, dgamma: float, backbone: np.ndarray | None = None
+) -> np.ndarray:
+    """``u^el = δγ K⁺ Ξ`` of the minimum ``packing`` (:func:`jamlab.analysis.anatomy.
+    elastic_response`), Hessian and ``∂F/∂γ`` of the contacts between ``backbone`` particles
+    (default: rattlers removed from the contact list, ``d + 1`` contacts)."""
+    if backbone is None:
+        ci, cj, _ = contacts(packing)
+        backbone = backbone_mask(ci, cj, packing.n, packing.dim + 1)
+    return elastic_response(
+        hessian(packing, backbone=backbone),
+        dforce_dstrain(packing, backbone=backbone),
+        dgamma,
+        backbone,
+    )
 
 
 class AvalancheRecorder:
     """The hook ``(previous minimum, new minimum, step)`` of :func:`~jamlab.spheres.aqs.shear`
     that measures every plastic step; ``first_row``: the trace row of the first step it sees.
-    ``threshold``: displacements ``|u_i| > threshold`` are kept (CSR: ``moved_offsets``,
-    ``moved_index``, ``moved_displacement``); ``n_eff_max``: the localized/extended rule."""
+    ``threshold``: event displacements ``|u_i| > threshold`` are kept (CSR: ``moved_offsets``,
+    ``moved_index``, ``moved_displacement``); ``n_eff_max``: the localized/extended rule.
+    ``previous``: the group of a resumed trace; rows written before ``elastic_fraction``
+    existed get NaN there (their fields were not corrected)."""
 
     def __init__(
         self,
@@ -54,8 +86,9 @@ class AvalancheRecorder:
         self.dim: int | None = None
         if previous is not None:
             offsets = np.asarray(previous["moved_offsets"])
+            rows = offsets.size - 1
             for k in AVALANCHE_COLUMNS:
-                self.rows[k] = list(previous[k])
+                self.rows[k] = list(previous[k]) if k in previous else [np.nan] * rows
             for a, b in zip(offsets[:-1], offsets[1:], strict=True):
                 self.index.append(np.asarray(previous["moved_index"][a:b]))
                 self.vectors.append(np.asarray(previous["moved_displacement"][a:b]))
@@ -70,6 +103,7 @@ class AvalancheRecorder:
         b0, b1 = contacts(before), contacts(after)
         keep0 = backbone_mask(b0[0], b0[1], before.n, dim + 1)
         keep1 = backbone_mask(b1[0], b1[1], after.n, dim + 1)
+        elastic = elastic_nonaffine_response(before, after.strain - before.strain, keep0)
         an = event_anatomy(
             before.positions,
             after.positions,
@@ -81,6 +115,7 @@ class AvalancheRecorder:
             keep0,
             keep1,
             n_eff_max=self.n_eff_max,
+            elastic=elastic,
         )
         idx, vec = moved_particles(an.u, self.threshold)
         r = self.rows
@@ -95,6 +130,7 @@ class AvalancheRecorder:
         r["only_bucklers_rattlers"].append(an.only_bucklers_rattlers)
         r["localized"].append(an.localized)
         r["n_moved"].append(idx.size)
+        r["elastic_fraction"].append(an.elastic_fraction)
         self.index.append(idx)
         self.vectors.append(vec)
 
