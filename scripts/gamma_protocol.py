@@ -2,7 +2,7 @@
 
     PYTHONPATH=src nice -n 10 python scripts/gamma_protocol.py [--generate] \
         [--data /work/data/gamma_protocol] [--reference /work/data/criticality/n1000] \
-        [--seeds 20] [--protocols quench066 dilute060 ...] [--json OUT.json]
+        [--seeds 40] [--protocols quench066 dilute060 ...] [--json OUT.json]
 
 1. (``--generate``) jams the missing packings of each protocol (N = 1000, d = 3,
    ``p_target = 1e-7``, ``ftol = 1e-12``, seeds 1…k) into ``DATA/<protocol>/jam_n1000_sS.h5``,
@@ -266,7 +266,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=Path("/work/data/gamma_protocol"))
     ap.add_argument("--reference", type=Path, default=Path("/work/data/criticality/n1000"))
-    ap.add_argument("--seeds", type=int, default=20)
+    ap.add_argument("--seeds", type=int, default=40)
     ap.add_argument("--protocols", nargs="+", default=list(PROTOCOLS), choices=list(PROTOCOLS))
     ap.add_argument("--generate", action="store_true")
     ap.add_argument("--n-boot", type=int, default=1000)
