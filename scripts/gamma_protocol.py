@@ -114,11 +114,11 @@ def load(root: Path, seeds: int) -> tuple[list, list[dict]]:
     for seed in range(1, seeds + 1):
         path = packing_path(root, seed)
         if not path.exists():
-            raise SystemExit(f"gamma_protocol: error: missing packing {path} (run --generate)")
+            raise ValueError(f"missing packing {path} (run --generate)")
         with h5py.File(path, "r") as h5:
             a = dict(h5.attrs)
         if not bool(a.get("ok", True)):
-            raise SystemExit(f"gamma_protocol: error: {path} is not ok: {a.get('reason', '')}")
+            raise ValueError(f"{path} is not ok: {a.get('reason', '')}")
         pk = read_packing(path)
         o = packing_observables(pk.positions, pk.box.length, pk.strain)
         obs.append(o)
@@ -280,7 +280,10 @@ def main() -> None:
         generate(args.data, args.protocols, args.seeds)
     if BASELINE not in args.protocols:
         ap.error(f"--protocols must include the baseline {BASELINE}")
-    loaded = {name: load(args.data / name, args.seeds) for name in args.protocols}
+    try:
+        loaded = {name: load(args.data / name, args.seeds) for name in args.protocols}
+    except ValueError as exc:
+        ap.error(str(exc))
     results: dict = {
         "n": N,
         "seeds": args.seeds,
