@@ -4,10 +4,10 @@
         [--data /work/data/criticality] [--n1000 24] [--n4000 10] [--n256 20] [--generate]
 
 1. (``--generate``) jams the missing packings with ``jamlab.spheres.packing.jam`` (d = 3,
-   ``p_target = 1e-7``, ``ftol = 1e-12``), seeds 1…k, into ``DATA/nNNN/jam_nNNN_sS.h5``: N = 256
-   and 1000 with the window search (the ``jamlab prepare`` default), N = 4000 with
-   ``search="halve"`` (the window search does not meet its rule at N = 4000, p = 1e-7:
-   ``docs/packings.md``). Existing files are kept, so an interrupted run resumes. Each N = 1000
+   ``p_target = 1e-7``, ``ftol = 1e-12``), seeds 1…k, into ``DATA/nNNN/jam_nNNN_sS.h5``, with
+   the current ``jam`` at every N (the stored N = 4000 packings were made with the old
+   ``search="halve"``, since removed from ``jam``: regenerating them gives packings of today's
+   protocol, not those files). Existing files are kept, so an interrupted run resumes. Each N = 1000
    packing takes ~0.5–2 min, each N = 4000 one 5–16 min on a shared core.
 2. Measures ``θ_e``, ``θ_l``, ``γ`` per N and for all N = 1000 packings with the stated window
    rule (``jamlab.analysis.criticality.DEFAULT_RULES``), the window-CDF fit and, as cross-checks,
@@ -56,14 +56,13 @@ SPANS = {"theta_e": (1e-4, 1.0), "theta_l": (1e-4, 1.0), "gamma": (1e-7, 1e-1)}
 
 
 def generate(data: Path, n: int, seeds: int) -> None:
-    search = "halve" if n >= 4000 else "window"
     for seed in range(1, seeds + 1):
         path = data / f"n{n}" / f"jam_n{n}_s{seed}.h5"
         if path.exists():
             continue
         path.parent.mkdir(parents=True, exist_ok=True)
         t0 = time.process_time()
-        res = jam(n, 3, seed, p_target=1e-7, ftol=1e-12, search=search)
+        res = jam(n, 3, seed, p_target=1e-7, ftol=1e-12)
         write_packing(path, res.packing, **res.attrs())
         print(
             f"jammed N={n} seed={seed} ok={res.ok} p={res.state.pressure:.3e} "
