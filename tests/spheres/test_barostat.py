@@ -81,3 +81,52 @@ def test_bad_input(packings):
         minimize_enthalpy(packings[1], 1e-13)
     with pytest.raises(ValueError, match="ptol"):
         minimize_enthalpy(packings[1], 1e-3, ptol=0.0)
+
+
+def test_a_pressure_jump_across_the_box_side_is_resolved_by_following_one_branch(monkeypatch):
+    """p(L) of the relaxed minima jumps across some L* (a denser branch A that ends just above
+    L*, a looser B that ends just below it, the minimiser falling from one to the other): the
+    bisection between them closes without reaching p_t (this stopped a medium-scale sample,
+    N = 500, p = 1e-4, step 277). Model: the branch is the packing's ``seed``, ``p`` a line in
+    ``ln L`` per branch, and a stand-in minimiser that keeps the parent's branch while it exists.
+    The target lies on A, inside A's range: following A from its loosest state must reach it."""
+    import jamlab.spheres.barostat as B
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.fire import MinimizeResult
+    from jamlab.spheres.state import Packing
+
+    pt, s_star, width = 1e-4, math.log(5.0), 2e-4
+    a_end, b_end = s_star + width, s_star - width  # A exists below a_end, B above b_end
+
+    def p_of(branch, s):
+        # A: p_t reached at s* + width/2 (inside A's range); B: below p_t down to its end
+        if branch == 0:
+            return pt * (1.0 - 20.0 * (s - s_star - 0.5 * width))
+        return pt * (0.5 - 20.0 * (s - s_star))
+
+    def branch_at(parent_branch, s):
+        if parent_branch == 0 and s >= a_end:
+            return 1
+        if parent_branch == 1 and s <= b_end:
+            return 0
+        return parent_branch
+
+    def fake_pressure(packing, neighbors=None):
+        return p_of(packing.seed, math.log(packing.box.length))
+
+    calls = []
+
+    def relax(start, ftol, max_iter, params, parent=None):
+        s = math.log(start.box.length)
+        branch = branch_at(start.seed if parent is None else parent.seed, s)
+        calls.append((s, branch))
+        out = Packing(start.positions, Box(start.box.length, 3), seed=branch)
+        return MinimizeResult(out, 0.0, 0.0, 1, True, 0.0, ftol)
+
+    monkeypatch.setattr(B, "pressure", fake_pressure)
+    start = Packing(np.full((4, 3), 1.0) * np.arange(4)[:, None], Box(5.0, 3), seed=1)
+    res = B.minimize_enthalpy(start, pt, ptol=1e-6, relax=relax)
+    assert res.converged, calls
+    assert res.packing.seed == 0  # on branch A, where p_t lies
+    assert abs(res.pressure - pt) <= 1e-6 * pt
+    assert abs(math.log(res.packing.box.length) - (s_star + 0.5 * width)) < 1e-6

@@ -13,7 +13,10 @@ the explicit volume dependence counts). So ``H`` is stationary over ``L`` exactl
 relaxed pressure equals the target, and it is a minimum since ``p(L)`` decreases with ``L`` along
 a branch (positive bulk modulus). The outer problem is one-dimensional and monotone: it is solved
 on ``s = ln L`` by a safeguarded secant iteration (first slope from the affine response, a
-bracket and bisection once the target is bracketed; from a state that carries less than
+bracket and bisection once the target is bracketed — and where the bracket shrinks below what
+the tolerance can resolve without reaching ``p_t``, ``p(L)`` jumps there (two branches, the
+minimiser falling from one to the other): the iteration restarts from the looser state, then the
+denser one, following that branch alone; from a state that carries less than
 ``p_t/10`` — unjammed, or jammed at a much lower pressure — the step is taken from the loosest
 known state with ``p > p_t``, or, if there is none, the box is compressed by steps
 ``p_t/|DEFAULT_SLOPE| · 2^k``; at most 0.01 in ``ln L`` per step), the inner one at fixed box
@@ -173,17 +176,20 @@ def minimize_enthalpy(
     p = pressure(cur)
     s = math.log(cur.box.length)
     lo, hi = -math.inf, math.inf  # ln L with p > p_t (too dense) / p < p_t (too loose)
-    lo_state: tuple[float, float, Packing] | None = None  # the loosest state with p > p_t
+    lo_state: tuple | None = None  # (ln L, p, minimum, result): the loosest state with p > p_t
+    hi_state: tuple | None = None  # the same, the densest state with p < p_t
     prev: tuple[float, float] | None = None  # the last state that carries pressure
     last_slope = math.nan
     n_loose = 0
     steps = 0
+    restarts = 0
     while res.converged and abs(p - pt) > tol and steps < max_volume_steps:
         if p > pt:
             if s > lo:
-                lo, lo_state = s, (s, p, cur)
+                lo, lo_state = s, (s, p, cur, res)
         else:
-            hi = min(hi, s)
+            if s < hi:
+                hi, hi_state = s, (s, p, cur, res)
         base = cur
         if p > _CARRIES * pt:
             # Newton/secant from here; the affine slope is steeper than the relaxed one, so the
@@ -203,7 +209,7 @@ def minimize_enthalpy(
             n_loose = 0
         elif lo_state is not None:
             # (almost) unjammed here: step from the loosest state that carried more than p_t
-            s_lo, p_lo, base = lo_state
+            s_lo, p_lo, base, _ = lo_state
             slope = _affine_slope(base, p_lo)
             if not (math.isfinite(slope) and slope < 0):
                 slope = DEFAULT_SLOPE
@@ -215,8 +221,23 @@ def minimize_enthalpy(
         s_new = min(max(s_new, s - _MAX_STEP), s + _MAX_STEP)
         if math.isfinite(lo) and math.isfinite(hi) and not lo < s_new < hi:
             s_new = 0.5 * (lo + hi)
-        if s_new == s:
-            break  # the bracket closed to rounding: not resolvable at this ftol
+        known = last_slope if math.isfinite(last_slope) else DEFAULT_SLOPE
+        narrow = math.isfinite(lo) and math.isfinite(hi) and (hi - lo) * abs(known) < tol
+        if s_new == s or narrow:
+            # the bracket is narrower than p_t's tolerance can resolve (or closed to rounding)
+            # while its ends differ by more: p(L) jumps across it (a denser and a looser
+            # branch, the minimiser falling from one to the other there). Follow one branch
+            # instead: restart from the looser state (p < p_t), then from the denser one,
+            # with a fresh bracket and every later step from the last state of that branch
+            if restarts >= 2:
+                break  # not resolvable (reported as not converged)
+            start_state = hi_state if restarts == 0 else lo_state
+            restarts += 1
+            if start_state is None:
+                break
+            s, p, cur, res = start_state
+            lo, hi, lo_state, hi_state, prev = -math.inf, math.inf, None, None, None
+            continue
         res = inner(rescale_box(base, math.exp(s_new)), base)
         iterations += res.iterations
         steps += 1
