@@ -14,6 +14,18 @@ import math
 import numpy as np
 
 
+def wrap(pos: np.ndarray, L: float, gamma: float) -> np.ndarray:
+    """Into [0, L)^d: crossing y by k boxes moves x by −k γ L, then the other axes modulo L."""
+    pos = np.array(pos, dtype=float)
+    k = np.floor(pos[:, 1] / L)
+    pos[:, 1] -= k * L
+    pos[:, 0] -= k * gamma * L
+    for a in range(pos.shape[1]):
+        if a != 1:
+            pos[:, a] -= np.floor(pos[:, a] / L) * L
+    return pos
+
+
 def image_shifts(L: float, dim: int, gamma: float) -> np.ndarray:
     """All lattice vectors that can bring two points of ``[0, L)^d`` within distance 1."""
     kx = math.ceil(abs(gamma)) + 2

@@ -7,24 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spheres_brute import brute_elastic_response, brute_force, image_shifts, pair_terms
+from spheres_brute import brute_elastic_response, brute_force, image_shifts, pair_terms, wrap
 
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import checkpoint_paths, shear
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.trace import read_trace
-
-
-def wrap(pos: np.ndarray, L: float, gamma: float) -> np.ndarray:
-    """Into [0, L)^d: crossing y by k boxes moves x by −k γ L, then x and z modulo L."""
-    pos = np.array(pos, dtype=float)
-    k = np.floor(pos[:, 1] / L)
-    pos[:, 1] -= k * L
-    pos[:, 0] -= k * gamma * L
-    for a in range(pos.shape[1]):
-        if a != 1:
-            pos[:, a] -= np.floor(pos[:, a] / L) * L
-    return pos
 
 
 def contact_set(pos, L, gamma, diam) -> set[tuple[int, int]]:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spheres_brute import brute_elastic_response, brute_force, brute_jammed_state
+from spheres_brute import brute_elastic_response, brute_force, brute_jammed_state, wrap
 
 import jamlab.spheres as sp
 from jamlab.analysis.anatomy import event_field, nonaffine_displacements
@@ -17,18 +17,6 @@ from jamlab.spheres.aqs.anatomy import elastic_nonaffine_response
 from jamlab.spheres.contacts import backbone_mask, contacts
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.state import affine_shear
-
-
-def wrap(pos: np.ndarray, L: float, gamma: float) -> np.ndarray:
-    """Into [0, L)^d: crossing y by k boxes moves x by −k γ L, then the other axes modulo L."""
-    pos = np.array(pos, dtype=float)
-    k = np.floor(pos[:, 1] / L)
-    pos[:, 1] -= k * L
-    pos[:, 0] -= k * gamma * L
-    for a in range(pos.shape[1]):
-        if a != 1:
-            pos[:, a] -= np.floor(pos[:, a] / L) * L
-    return pos
 
 
 @pytest.fixture(scope="module")
