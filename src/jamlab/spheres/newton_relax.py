@@ -10,7 +10,7 @@ the pair potential converges in two or three steps while FIRE needs thousands
 set of overlapping pairs stays the same, and near jamming the affine step alone opens the
 weakest contacts (overlaps ``≲ δγ``) that the minimum closes again, while a few gaps close. So:
 (1) :func:`jamlab.spheres.aqs.newton.damped_newton` minimises the energy of the *network* of
-the reference minimum's backbone contacts (every pair a spring, in tension too: smooth, two or
+the parent minimum's backbone contacts (every pair a spring, in tension too: smooth, two or
 three Newton steps), on the free backbone (rattlers and one pinned particle held), each solve
 PCG preconditioned by a stored factorisation (:func:`jamlab.spheres.aqs.linalg.factorise`,
 SuperLU ``LDLᵀ`` with its inertia test) of the backbone Hessian at a parent minimum, corrected by
@@ -43,9 +43,10 @@ falls back to FIRE (:func:`jamlab.spheres.fire.minimize`) from the same start. W
 apply they find the same minimum (``tests/spheres/test_newton_relax.py``; the statistics of
 whole runs: ``docs/aqs.md``).
 
-**State and resume.** The stored factor is the only state; :meth:`NewtonRelaxer.reset` drops it.
-The fixed-pressure driver resets at every checkpoint, so a resumed run equals the uninterrupted
-one bit for bit.
+**State and resume.** The stored factor, the last minimum returned and a small cache of the
+parents' contact networks are the state; :meth:`NewtonRelaxer.reset` drops them. The
+fixed-pressure driver resets at every checkpoint, so a resumed run equals the uninterrupted one
+bit for bit.
 """
 
 from __future__ import annotations
@@ -153,6 +154,18 @@ def free_rattlers(
     return packing.with_positions(pos)
 
 
+def _backbone_pairs(ci: np.ndarray, cj: np.ndarray, backbone: np.ndarray, n: int):
+    """The pairs ``(ci, cj)`` with both ends on the backbone, and their sorted keys."""
+    keep = backbone[ci] & backbone[cj]
+    ci, cj = ci[keep], cj[keep]
+    return ci, cj, np.sort(pair_keys(ci, cj, n))
+
+
+def _usable(fac: Factor) -> bool:
+    """A factor that can precondition: factorised, positive definite, something free."""
+    return fac.lu is not None and fac.positive_definite and fac.free.size > 0
+
+
 @dataclass(eq=False)
 class NewtonRelaxer:
     """Fixed-box minimiser for a sequence of nearby configurations (module docstring).
@@ -208,7 +221,8 @@ class NewtonRelaxer:
         return result
 
     def _network(self, minimum: Packing) -> tuple:
-        """``(ci, cj, backbone)`` of a minimum (the last few are kept)."""
+        """``(ci, cj, backbone, separations, neighbour list)`` of a minimum (the last few are
+        kept: a step's volume iterations and substeps ask for the same parents again)."""
         for known, data in self._known:
             if known is minimum:
                 return data
@@ -230,10 +244,7 @@ class NewtonRelaxer:
             self.age = 0
             self.counters["n_factorisations"] += 1
         self.age += 1
-        fac = self.fac
-        if fac.lu is None or not fac.positive_definite or fac.free.size == 0:
-            return None
-        return fac
+        return self.fac if _usable(self.fac) else None
 
     def _active_set(
         self, packing: Packing, fac: Factor, nl: NeighborList, pairs: tuple, ftol: float
@@ -248,10 +259,7 @@ class NewtonRelaxer:
         A backbone particle that loses contacts in a round leaves the backbone (a new factor on
         the smaller one)."""
         bb = fac.backbone
-        ci, cj = pairs
-        keep = bb[ci] & bb[cj]
-        ci, cj = ci[keep], cj[keep]
-        keys = np.sort(pair_keys(ci, cj, packing.n))
+        ci, cj, keys = _backbone_pairs(*pairs, bb, packing.n)
         start = packing
         # a margin below ftol for the free particles (the full evaluation decides)
         inner = 0.5 * ftol
@@ -265,10 +273,7 @@ class NewtonRelaxer:
             self.counters["n_cg_iterations"] += res.cg_iterations
             if not res.ok:
                 return None, None
-            ci, cj, _ = contact_list(res.packing, nl)
-            keep = bb[ci] & bb[cj]
-            ci, cj = ci[keep], cj[keep]
-            new_keys = np.sort(pair_keys(ci, cj, packing.n))
+            ci, cj, new_keys = _backbone_pairs(*contact_list(res.packing, nl)[:2], bb, packing.n)
             if np.array_equal(new_keys, keys):
                 break
             self.counters["n_contact_changes"] += 1
@@ -278,14 +283,12 @@ class NewtonRelaxer:
                 # a backbone particle lost contacts (it is a rattler now): factorise on the
                 # smaller backbone at this point, whose Hessian is otherwise singular there
                 bb = shrunk
-                keep = bb[ci] & bb[cj]
-                ci, cj = ci[keep], cj[keep]
-                keys = np.sort(pair_keys(ci, cj, packing.n))
+                ci, cj, keys = _backbone_pairs(ci, cj, bb, packing.n)
                 dr = start.box.minimum_image(start.positions[ci] - start.positions[cj])
                 fac = self.fac = factorise(start, nl, bb, (ci, cj, dr))
                 self.age = 1
                 self.counters["n_factorisations"] += 1
-                if fac.lu is None or not fac.positive_definite or fac.free.size == 0:
+                if not _usable(fac):
                     return None, None
         else:
             return None, None
@@ -308,8 +311,8 @@ class NewtonRelaxer:
         moved, caged = self._active_set(packing, fac, nl, (ci, cj), ftol)
         if caged is not None:
             # the backbone is at its minimum, a rattler is caged: FIRE from there (it relaxes the
-            # rattler, and the backbone where the rattler joins it, in far fewer iterations
-            # than from the start)
+            # rattler, and the backbone where the rattler joins it; ≈ 1.4k iterations measured
+            # at N = 500, p = 1e-4, against 2–3k from the start)
             self.counters["n_rattler_polish"] += 1
             return minimize(caged, ftol=ftol, max_iter=max_iter, params=params)
         if moved is None:
