@@ -63,13 +63,15 @@ def check_resume_pressure(
     recorded as ``enthalpy-nested-newton``; ``fire``: ``enthalpy-nested-fire``), and an input
     with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
     already at the target pressure)."""
+    from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, minimizer_attribute
+
     attrs = previous.attrs
     if attrs.get("protocol") != "fixed-pressure":
         raise ValueError("--pressure given, but the run being resumed is at constant volume")
     for name, key, given in (("dgamma", "dgamma", dgamma), ("ftol", "ftol", ftol),
                              ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol),
-                             ("minimizer", "minimizer", "enthalpy-nested-"
-                              + ("newton" if minimizer == "linear" else "fire"))):
+                             ("minimizer", "minimizer",
+                              minimizer_attribute(FROM_AQS_OPTION[minimizer]))):
         if attrs.get(key) != given:
             raise ValueError(
                 f"--{name} {given} differs from the run being resumed ({attrs.get(key)})"

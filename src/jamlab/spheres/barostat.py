@@ -242,13 +242,9 @@ def minimize_enthalpy(
         iterations += res.iterations
         steps += 1
         cur = res.packing
-        if prev is not None and res.converged:
-            p_new = pressure(cur)
-            if prev[0] != s_new and p_new > _CARRIES * pt:
-                last_slope = (p_new - prev[1]) / (s_new - prev[0])
-            p = p_new
-        else:
-            p = pressure(cur)
+        p = pressure(cur)
+        if res.converged and prev is not None and prev[0] != s_new and p > _CARRIES * pt:
+            last_slope = (p - prev[1]) / (s_new - prev[0])  # the secant over this step
         s = s_new
     energy = float(res.energy)
     return EnthalpyResult(

@@ -57,11 +57,21 @@ from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rat
 from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace
 
-__all__ = ["MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult", "shear_at_pressure"]
+__all__ = ["FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult",
+           "minimizer_attribute", "shear_at_pressure"]
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
 NewtonRelaxer`, FIRE where Newton does not apply) and ``fire`` (plain FIRE every time)."""
+
+FROM_AQS_OPTION: dict[str, str] = {"linear": "newton", "fire": "fire"}
+"""The inner minimiser for each ``minimizer`` option of :func:`jamlab.spheres.aqs.shear` (and
+``jamlab shear --minimizer``)."""
+
+
+def minimizer_attribute(minimizer: str) -> str:
+    """The trace attribute ``minimizer`` of a fixed-pressure run with this inner minimiser."""
+    return f"enthalpy-nested-{minimizer}"
 
 PRESSURE_COLUMNS: tuple[str, ...] = (
     "gamma",
@@ -255,7 +265,7 @@ def shear_at_pressure(
         for k in RELAX_COUNTERS:
             relaxer.counters[k] = int(previous.attrs.get(k, 0))
     kw = dict(ftol=ftol, ptol=ptol, max_iter=max_iter, params=fire_params, relax=relaxer)
-    slope = None  # dp/d ln L of the last step (Newton path: the first secant step's slope)
+    slope = None  # dp/d ln L of the last step (Newton path only; plain FIRE makes no guesses)
     t0 = time.perf_counter()
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
@@ -295,8 +305,7 @@ def shear_at_pressure(
             if abs(r) > plastic_floor * step**2:
                 n_candidates += 1
                 confirmed[n], extra = _jump_in_substeps(
-                    cur, step, r, confirm_substeps, pressure, kw,
-                    slope if relaxer is not None else None,
+                    cur, step, r, confirm_substeps, pressure, kw, slope
                 )
                 row["iterations"] += extra
         cur = res.packing
@@ -377,7 +386,7 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         "gamma_max": float(gamma0 + total * dgamma),
         "n_steps": int(total),
         "ftol": float(ftol),
-        "minimizer": f"enthalpy-nested-{minimizer}",
+        "minimizer": minimizer_attribute(minimizer),
         "N": int(packing.n),
         "dim": int(packing.dim),
         "seed": int(-1 if packing.seed is None else packing.seed),
@@ -387,7 +396,7 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         "n_candidates": int(n_candidates),
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
-        # of this process's part of the run (a resumed run counts from its restart)
+        # the Newton relaxer's counters, over the whole run (a resumed one starts from its trace's)
         **({k: int(relaxer.counters[k]) for k in RELAX_COUNTERS} if relaxer is not None else {}),
     }
     return PressureShearResult(

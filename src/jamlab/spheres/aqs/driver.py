@@ -347,7 +347,7 @@ def _shear_at_pressure(
     """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
     ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
     FIRE."""
-    from jamlab.spheres.pressure_shear import shear_at_pressure
+    from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, shear_at_pressure
 
     validation.positive("pressure", pressure)
     validation.positive("ptol", ptol)
@@ -385,7 +385,7 @@ def _shear_at_pressure(
         ftol=ftol,
         ptol=ptol,
         fire_params=fire_params,
-        minimizer="newton" if minimizer == "linear" else "fire",
+        minimizer=FROM_AQS_OPTION[minimizer],
         progress=progress,
         previous=previous,
         save_every=save_every,
