@@ -82,13 +82,7 @@ class ScalarJumpLaw:
 
     def pdf(self, s: Any) -> np.ndarray | float:
         """Density of the jumps' part at ``s`` (0 on the wrong side of 0)."""
-        a = np.asarray(s, dtype=np.float64)
-        flat = self.sign * a.ravel()
-        out = np.zeros(flat.size)
-        pos = flat > 0
-        if np.any(pos):
-            out[pos] = self._pdf(flat[pos])
-        return _ret(out.reshape(a.shape))
+        return _ret(_one_sided(s, self.sign, lambda v: self._pdf(self.sign * v), 0.0))
 
     def cdf(self, s: Any) -> np.ndarray | float:
         """``P(X <= s)``, the atom at 0 included."""
@@ -168,6 +162,18 @@ class JumpOverlapLaw:
 
 def _ret(x: np.ndarray) -> np.ndarray | float:
     return float(x) if x.ndim == 0 else x
+
+
+def _one_sided(x: Any, side: int, values: Any, fill: float) -> np.ndarray:
+    """``values(x_i)`` where ``side · x_i > 0``, ``fill`` elsewhere (the shape of ``x``): a law
+    given on one side of 0 only."""
+    a = np.asarray(x, dtype=np.float64)
+    flat = a.ravel()
+    out = np.full(flat.size, fill)
+    on = side * flat > 0
+    if np.any(on):
+        out[on] = values(flat[on])
+    return out.reshape(a.shape)
 
 
 class _DiscreteLaw:
@@ -343,23 +349,12 @@ class _EnergyLaw:
 
     def pdf(self, dE: Any) -> np.ndarray | float:
         """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.zeros(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = self._pdf_values(flat[neg])
-        return _ret(out.reshape(a.shape))
+        return _ret(_one_sided(dE, -1, self._pdf_values, 0.0))
 
     def cdf(self, dE: Any) -> np.ndarray | float:
         """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
-        flat = a.ravel()
-        out = np.ones(flat.size)
-        neg = flat < 0
-        if np.any(neg):
-            out[neg] = 1.0 - self._R_values(flat[neg])
-        return _ret(np.clip(out, 0.0, 1.0).reshape(a.shape))
+        out = _one_sided(dE, -1, lambda v: 1.0 - self._R_values(v), 1.0)
+        return _ret(np.clip(out, 0.0, 1.0))
 
     def sf(self, dE: Any) -> np.ndarray | float:
         """``P(ΔE' > ΔE)``."""
