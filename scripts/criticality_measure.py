@@ -308,20 +308,22 @@ def main() -> None:
     for n, diag in results["gap_diagnostics"].items():
         print(
             f"N={n} gamma on {FIXED['gamma']}: "
-            + "  ".join(f"{k}={_cell(f, False)}" for k, f in diag.items())
+            + "  ".join(f"{k}={cell(f, False)}" for k, f in diag.items())
         )
     print(markdown(results))
     print(markdown_local(results))
     print(f"wrote {args.results} and {args.figures}/criticality_*.png")
 
 
-def _cell(f: dict, window: bool = True) -> str:
+def cell(f: dict, window: bool = True, low_format: str = ".2g") -> str:
+    """A table cell for one exponent fit ``{"value", "ci95", "window"}`` (the ``--json`` form):
+    ``value [lo, hi]``, and ``on [w0, w1]`` with ``window`` (``w0`` as ``low_format``)."""
     if "value" not in f:
         return "–"
     lo, hi = f["ci95"]
     text = f"{f['value']:.3f} [{lo:.3f}, {hi:.3f}]"
     if window:
-        text += f" on [{f['window'][0]:.2g}, {f['window'][1]:.2g}]"
+        text += f" on [{f['window'][0]:{low_format}}, {f['window'][1]:.2g}]"
     return text
 
 
@@ -360,8 +362,8 @@ def markdown(results: dict) -> str:
         for k, name in enumerate(("theta_e", "theta_l", "gamma")):
             lines.append(
                 f"| {n if k == 0 else ''} | {what if k == 0 else ''} | {name} | "
-                f"{_cell(t['rule'][name])} | {_cell(t['plain'][name], False)} | "
-                f"{_cell(t['mle'][name], False)} | {_cell(t['fixed'][name], False)} | "
+                f"{cell(t['rule'][name])} | {cell(t['plain'][name], False)} | "
+                f"{cell(t['mle'][name], False)} | {cell(t['fixed'][name], False)} | "
                 f"{results['reference'][name]} |"
             )
     return "\n".join(lines)

@@ -51,6 +51,7 @@ import h5py
 import numpy as np
 from scipy.stats import t as student_t
 
+from criticality_measure import cell  # (scripts/ is on the path of a script)
 from jamlab.analysis.criticality import (
     DEFAULT_RULES,
     REFERENCE,
@@ -233,13 +234,7 @@ def gamma_against_phi_j(protocols: dict) -> dict:
 
 
 def _cell(f: dict, window: bool = False) -> str:
-    if "value" not in f:
-        return "–"
-    lo, hi = f["ci95"]
-    text = f"{f['value']:.3f} [{lo:.3f}, {hi:.3f}]"
-    if window:
-        text += f" on [{f['window'][0]:.1e}, {f['window'][1]:.2g}]"
-    return text
+    return cell(f, window, low_format=".1e")
 
 
 def markdown(results: dict) -> str:
