@@ -2,19 +2,26 @@
 
 For each ``N``, target pressure ``p`` and packing seed: ``jam(N, 3, seed, p_target=min(p, 1e-4))``
 (cached in ``--cache``), one fixed-pressure step with FIRE (which brings it to ``p``), then
-``--steps`` steps of ``δγ`` with ``minimizer="newton"`` and ``"fire"``, alternating, best of
-``--repeat`` in CPU time (the machine is shared: CPU time, not wall). Printed per case: CPU
-ms/step of both, their ratio, the FIRE iterations, the Newton relaxer's counters, whether the
-plastic flags agree and the largest difference of the recorded enthalpy, stress and box side
-(the two minimisers must find the same minima); and the projection of a 1000-step sample.
+``--steps`` steps of ``δγ`` with each of ``--variants`` (named option sets: the Newton minimiser
+with the default confirmation of the plastic flag, with the chain confirmation of every candidate,
+without confirmation, and plain FIRE) and, with ``--old-src``, the default of another source tree
+(a subprocess), alternating, best of ``--repeat`` in CPU time (the machine is shared: CPU time,
+not wall). Printed per case (a markdown table): CPU ms/step of each, the ratios to the first,
+the plastic flags' counts and whether they agree with the first's, the candidate steps (and
+those continued by Newton), and the projection of a 1000-step sample.
 
     python benchmarks/bench_pressure.py --n 250 500 1000 --pressures 1e-3 1e-4 --seeds 1 2
+    python benchmarks/bench_pressure.py --n 1000 --pressures 1e-4 --seeds 1 2 3 \
+        --variants newton newton-chain --old-src /path/to/old/src
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import pickle
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -42,10 +49,38 @@ def start(n: int, p: float, seed: int, cache: Path):
     return pk
 
 
-def run(pk, dg, p, steps, minimizer):
+VARIANTS: dict[str, dict] = {
+    "newton": {"minimizer": "newton"},  # the default (confirm="continued")
+    "newton-chain": {"minimizer": "newton", "confirm": "chain"},
+    "newton-cheap": {"minimizer": "newton", "confirm_substeps": 0},
+    "fire": {"minimizer": "fire"},
+}
+"""Named option sets of :func:`shear_at_pressure`; ``old`` (``--old-src``) is the default of
+another source tree, run in a subprocess."""
+
+
+def run(pk, dg, p, steps, options):
     t = time.process_time()
-    r = shear_at_pressure(pk, dg, pressure=p, n_steps=steps, minimizer=minimizer)
+    r = shear_at_pressure(pk, dg, pressure=p, n_steps=steps, **options)
     return time.process_time() - t, r
+
+
+def run_old(src: str, pk_file: Path, dg: float, p: float, steps: int):
+    """The default of the tree ``src`` in a subprocess (kernels warmed first): CPU s, columns."""
+    code = (
+        "import pickle,sys,time\n"
+        "from jamlab.spheres.pressure_shear import shear_at_pressure\n"
+        f"pk=pickle.loads(open({str(pk_file)!r},'rb').read())\n"
+        f"shear_at_pressure(pk,{dg!r},pressure={p!r},n_steps=1)\n"
+        "t=time.process_time()\n"
+        f"r=shear_at_pressure(pk,{dg!r},pressure={p!r},n_steps={steps})\n"
+        "t=time.process_time()-t\n"
+        "sys.stdout.buffer.write(pickle.dumps((t,{k:v for k,v in r.columns.items()},"
+        "dict(r.attrs))))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": src}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True)
+    return pickle.loads(out.stdout)
 
 
 def main() -> None:
@@ -56,37 +91,50 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--variants", nargs="+", choices=sorted(VARIANTS), default=["newton", "fire"],
+                    help="option sets to time; the first is the reference of the ratios")
+    ap.add_argument("--old-src", default=None,
+                    help="also time the default of this source tree ('old', in a subprocess)")
     ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
     a = ap.parse_args()
+    names = list(a.variants) + (["old"] if a.old_src else [])
+    ref = names[0]
     print(f"fixed-pressure AQS, d=3, δγ={a.dgamma:g}, {a.steps} steps, CPU time, best of "
-          f"{a.repeat}")
-    print(f"{'N':>5} {'p':>6} {'seed':>4} | {'newton ms':>9} {'fire ms':>9} {'ratio':>6} | "
-          f"{'FIRE it N/F':>15} {'accepted':>9} {'cands':>5} {'plastic':>7} | "
-          f"{'same flags':>10} {'max dH':>8} {'max dL':>8} | {'1000 steps N/F':>14}")
+          f"{a.repeat} alternating rounds; ratio = variant's time / {ref}'s")
+    print("| N | p | seed | " + " | ".join(f"{m} ms/step" for m in names) + " | "
+          + " | ".join(f"{m}/{ref}" for m in names[1:]) + " | plastic | same flags as "
+          f"{ref} | candidates (continued) | {ref}: 1000-step sample |")
+    print("|" + "---|" * (3 + len(names) + len(names) - 1 + 4))
+    total = dict.fromkeys(names, 0.0)
     for n in a.n:
         for p in a.pressures:
             for seed in a.seeds:
                 pk = start(n, p, seed, a.cache)
-                best = {"newton": (np.inf, None), "fire": (np.inf, None)}
+                pk_file = a.cache / f"jam_n{n}_p{p:g}_s{seed}.pkl"
+                best: dict = {m: (np.inf, None) for m in names}
                 for _ in range(a.repeat):
-                    for m in ("newton", "fire"):
-                        t, r = run(pk, a.dgamma, p, a.steps, m)
+                    for m in names:
+                        if m == "old":
+                            t, cols, attrs = run_old(a.old_src, pk_file, a.dgamma, p, a.steps)
+                        else:
+                            t, r = run(pk, a.dgamma, p, a.steps, VARIANTS[m])
+                            cols, attrs = r.columns, r.attrs
                         if t < best[m][0]:
-                            best[m] = (t, r)
-                (tn, rn), (tf, rf) = best["newton"], best["fire"]
-                cn, cf = rn.columns, rf.columns
-                dh = float(np.max(np.abs(cn["enthalpy"] - cf["enthalpy"])))
-                dl = float(np.max(np.abs(cn["box_length"] - cf["box_length"])))
-                same = bool(np.array_equal(cn["plastic"], cf["plastic"]))
-                at = rn.attrs
-                print(f"{n:>5} {p:>6.0e} {seed:>4} | {1e3 * tn / a.steps:>9.1f} "
-                      f"{1e3 * tf / a.steps:>9.1f} {tf / tn:>6.2f} | "
-                      f"{int(cn['iterations'][1:].sum()):>7}/{int(cf['iterations'][1:].sum()):<7} "
-                      f"{at['n_newton_accepted']:>4}/{at['n_newton_calls']:<4} "
-                      f"{at['n_candidates']:>5} {at['n_plastic']:>3}/{rf.attrs['n_plastic']:<3} | "
-                      f"{str(same):>10} {dh:>8.1e} {dl:>8.1e} | "
-                      f"{tn / a.steps * 1000 / 60:>5.1f}/{tf / a.steps * 1000 / 60:<5.1f} min",
-                      flush=True)
+                            best[m] = (t, (cols, attrs))
+                for m in names:
+                    total[m] += best[m][0]
+                t0, (c0, at0) = best[ref]
+                plastic = "/".join(str(int(best[m][1][0]["plastic"].sum())) for m in names)
+                same = "/".join("yes" if np.array_equal(best[m][1][0]["plastic"], c0["plastic"])
+                                else "no" for m in names[1:])
+                print(f"| {n} | {p:.0e} | {seed} | "
+                      + " | ".join(f"{1e3 * best[m][0] / a.steps:.1f}" for m in names) + " | "
+                      + " | ".join(f"{best[m][0] / t0:.2f}" for m in names[1:])
+                      + f" | {plastic} | {same} | {at0.get('n_candidates', 0)} "
+                      f"({at0.get('n_candidates_continued', 0)}) | "
+                      f"{t0 / a.steps * 1000 / 60:.1f} min |", flush=True)
+    print("\nall cases, summed CPU time relative to " + ref + ": "
+          + ", ".join(f"{m} {total[m] / total[ref]:.2f}" for m in names[1:]))
 
 
 if __name__ == "__main__":

@@ -1,12 +1,14 @@
 """Fixed-pressure AQS with the Newton inner minimiser against plain FIRE on many samples.
 
 The same packings (``jam(N, 3, seed)``, brought to ``p`` by one FIRE fixed-pressure step) are
-sheared with both minimisers. Paired comparison per sample (plastic flags equal, the sizes
+sheared with both minimisers (``--compare minimizer``, the default) or with both confirmations
+of the plastic flag (``--compare confirm``: bisection against the 16-piece chain, Newton
+minimiser). Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
 
     python scripts/newton_vs_fire_pressure.py --n 250 --pressure 1e-3 --seeds 1-40 \
-        --steps 50 --dgamma 1e-4
+        --steps 50 --dgamma 1e-4 [--compare confirm]
 """
 
 from __future__ import annotations
@@ -27,6 +29,13 @@ def seeds(text: str) -> list[int]:
     return list(range(int(a), int(b or a) + 1))
 
 
+VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
+    "minimizer": (("newton", {"minimizer": "newton"}), ("fire", {"minimizer": "fire"})),
+    "confirm": (("bisect", {"confirm": "bisect"}), ("chain", {"confirm": "chain"})),
+}
+"""Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=250)
@@ -34,12 +43,16 @@ def main() -> None:
     ap.add_argument("--seeds", type=seeds, default=seeds("1-40"))
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--dgamma", type=float, default=1e-4)
+    ap.add_argument("--compare", choices=sorted(VARIANTS), default="minimizer")
     ap.add_argument("--save", default=None, help="write the pooled sizes (npz)")
     a = ap.parse_args()
-    sizes = {"newton": [], "fire": []}
-    flags = {"newton": 0, "fire": 0}
-    steps = {"newton": 0, "fire": 0}
-    cpu = {"newton": 0.0, "fire": 0.0}
+    (new, new_kw), (ref, ref_kw) = VARIANTS[a.compare]
+    options = {new: new_kw, ref: ref_kw}
+    sizes = {new: [], ref: []}
+    flags = {new: 0, ref: 0}
+    steps = {new: 0, ref: 0}
+    cpu = {new: 0.0, ref: 0.0}
+    candidates = {new: 0, ref: 0}
     same_flags = same_sizes = used = 0
     worst = 0.0
     for seed in a.seeds:
@@ -51,52 +64,57 @@ def main() -> None:
             continue
         used += 1
         runs = {}
-        for m in ("newton", "fire"):
+        for m in (new, ref):
             t = time.process_time()
             runs[m] = res = shear_at_pressure(first.packing, a.dgamma, pressure=a.pressure,
-                                              n_steps=a.steps, minimizer=m)
+                                              n_steps=a.steps, **options[m])
             cpu[m] += time.process_time() - t
+            candidates[m] += int(res.attrs["n_candidates"])
             tr = res.trace()
             ok = tr.jammed[1:] & tr.jammed[:-1]
             plastic = res["plastic"][1:]
             sizes[m].extend((-res["enthalpy_jump"][1:][plastic]).tolist())
             flags[m] += int(plastic.sum())
             steps[m] += int(ok.sum())
-        pn, pf = runs["newton"]["plastic"], runs["fire"]["plastic"]
+        pn, pf = runs[new]["plastic"], runs[ref]["plastic"]
         if np.array_equal(pn, pf):
             same_flags += 1
-            sn = -runs["newton"]["enthalpy_jump"][pn]
-            sf = -runs["fire"]["enthalpy_jump"][pf]
+            sn = -runs[new]["enthalpy_jump"][pn]
+            sf = -runs[ref]["enthalpy_jump"][pf]
             if sn.size:
                 d = float(np.max(np.abs(sn - sf) / np.abs(sf)))
                 worst = max(worst, d)
             same_sizes += int(sn.size == 0 or d < 1e-6)
-        print(f"seed {seed}: plastic newton {int(pn.sum())} fire {int(pf.sum())}", flush=True)
-    ks = ks_2samp(sizes["newton"], sizes["fire"]) if sizes["fire"] and sizes["newton"] else None
+        print(f"seed {seed}: plastic {new} {int(pn.sum())} {ref} {int(pf.sum())}"
+              + ("" if np.array_equal(pn, pf) else
+                 f" (differ at steps {np.flatnonzero(pn != pf).tolist()})"), flush=True)
+    ks = ks_2samp(sizes[new], sizes[ref]) if sizes[ref] and sizes[new] else None
     print(f"\nN={a.n}, p={a.pressure:g}, δγ={a.dgamma:g}, {a.steps} steps, {used} samples\n")
-    print("| | Newton | FIRE |\n|---|---|---|")
-    print(f"| plastic steps / jammed steps | {flags['newton']} / {steps['newton']} | "
-          f"{flags['fire']} / {steps['fire']} |")
-    for m in ("newton", "fire"):
+    print(f"| | {new} | {ref} |\n|---|---|---|")
+    print(f"| plastic steps / jammed steps | {flags[new]} / {steps[new]} | "
+          f"{flags[ref]} / {steps[ref]} |")
+    print(f"| candidate steps confirmed | {candidates[new]} | {candidates[ref]} |")
+    for m in (new, ref):
         s = np.asarray(sizes[m])
         sizes[m] = s
     mean = {m: (np.mean(sizes[m]), np.std(sizes[m]) / np.sqrt(max(1, sizes[m].size)))
             for m in sizes}
-    print(f"| ⟨S⟩ | {mean['newton'][0]:.4e} ± {mean['newton'][1]:.1e} | "
-          f"{mean['fire'][0]:.4e} ± {mean['fire'][1]:.1e} |")
-    print(f"| CPU s per sample | {cpu['newton'] / used:.2f} | {cpu['fire'] / used:.2f} |")
+    print(f"| ⟨S⟩ | {mean[new][0]:.4e} ± {mean[new][1]:.1e} | "
+          f"{mean[ref][0]:.4e} ± {mean[ref][1]:.1e} |")
+    print(f"| CPU s per sample | {cpu[new] / used:.2f} | {cpu[ref] / used:.2f} |")
+    print(f"\nCPU time {ref} / {new}: {cpu[ref] / cpu[new]:.2f}")
     print(f"\nsamples with identical plastic flags: {same_flags} / {used}; with identical sizes "
           f"(relative 1e-6): {same_sizes} / {used} (largest relative size difference {worst:.1e})")
     if ks is not None:
         print(f"two-sample KS on the sizes: D = {ks.statistic:.3f}, p-value = {ks.pvalue:.3f}")
-        # τ: x_min chosen on the FIRE sizes (KS rule), the same x_min for both
-        ref = fit_power_law(sizes["fire"], min_tail=50)
-        fits = {m: fit_power_law(sizes[m], x_min=ref.x_min) for m in sizes}
+        # τ: x_min chosen on the reference's sizes (KS rule), the same x_min for both
+        chosen = fit_power_law(sizes[ref], min_tail=50)
+        fits = {m: fit_power_law(sizes[m], x_min=chosen.x_min) for m in sizes}
         for m, f in fits.items():
             print(f"tau ({m}) = {f.tau:.3f} ± {f.tau_stderr:.3f} from {f.n_tail} sizes above "
                   f"S_min = {f.x_min:.3g}")
-        d = abs(fits["newton"].tau - fits["fire"].tau)
-        sig = float(np.hypot(fits["newton"].tau_stderr, fits["fire"].tau_stderr))
+        d = abs(fits[new].tau - fits[ref].tau)
+        sig = float(np.hypot(fits[new].tau_stderr, fits[ref].tau_stderr))
         print(f"difference {d:.3f} = {d / sig:.2f} sigma (independent-error sigma; the samples "
               "are the same packings, so this overstates the noise of a difference)")
     if a.save is not None:

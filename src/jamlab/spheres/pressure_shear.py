@@ -29,12 +29,17 @@ is a *candidate* when its trapezoid residual ``r_n = ΔH_n − ½ δγ ΔΣ_n`` 
 drop and a small ``S`` has ``r_n > 0``). A contact opening or closing inside the step (a kink)
 also breaks the rule, and near jamming by more than the affine estimate ``δγ²/16`` (non-affine
 displacements amplify the stiffness change): measured 0.15–0.22 ``δγ²`` at N = 64,
-p = 1e-3 (``docs/aqs.md``). So each candidate is redone from the previous minimum in
-``confirm_substeps`` (16) substeps: a jump keeps its residual in one substep (``≈ r_n``), a kink
-leaves ``≈ r_n/k²`` per substep; the step is **plastic** when one substep keeps more than
-``|r_n|/4``, it lies between two jammed minima, and ``|r_n| > max(10 σ, plastic_floor · δγ²)``
-(``σ`` the robust noise of ``r_n`` over the run's jammed steps,
-:func:`~jamlab.analysis.avalanches.noise_floor`). ``confirm_substeps=0`` skips the
+p = 1e-3 (``docs/aqs.md``). So a candidate is redone from the previous minimum in
+``confirm_substeps`` (16) pieces (:func:`jamlab.spheres.confirm.jump_in_chain`): a jump keeps its
+residual in one piece (``≈ r_n``), a kink leaves ``≲ r_n/k`` per piece; the step is **plastic**
+when one piece keeps more than ``|r_n|/4``, it lies between two jammed minima, and
+``|r_n| > max(10 σ, plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's
+jammed steps, :func:`~jamlab.analysis.avalanches.noise_floor`). With the Newton inner minimiser
+and ``confirm="continued"`` (the default) a candidate whose every inner problem Newton solved
+from the previous minimum's contact network — the branch continued through the step, no FIRE —
+is a kink and is not redone (a jump leaves the linear-response basin of the branch, where
+Newton fails and FIRE carries the event); measured against redoing every candidate
+(``confirm="chain"``) in ``docs/aqs.md``. ``confirm_substeps=0`` skips the
 confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
 ``S = −ΔH_n > 0`` of the flagged steps follow from
 :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
@@ -51,6 +56,7 @@ import numpy as np
 
 from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.barostat import minimize_enthalpy
+from jamlab.spheres.confirm import jump_in_chain, trapezoid_residual
 from jamlab.spheres.fire import FireParameters
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
@@ -59,6 +65,14 @@ from jamlab.spheres.trace import Trace
 
 __all__ = ["FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult",
            "minimizer_attribute", "shear_at_pressure"]
+
+CONFIRMS: tuple[str, ...] = ("continued", "chain")
+"""Which candidate steps are redone in ``confirm_substeps`` pieces (module docstring):
+``continued`` — those the Newton relaxer did not continue (it used FIRE in the step); ``chain``
+— all of them (the rule before; with plain FIRE both are ``chain``)."""
+
+CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued")
+"""Trace attributes: candidate steps, and those of them not redone because Newton continued."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
@@ -106,6 +120,7 @@ class PressureShearResult:
     threshold: float = math.nan
     time: float = 0.0
     confirmed: np.ndarray | None = None  # per row: a candidate step confirmed as a jump
+    continued: np.ndarray | None = None  # per row: every inner problem of the step was Newton's
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -168,41 +183,29 @@ def _row(res, ftol: float) -> dict:
     }
 
 
-def _residual(h0: float, s0: float, row: dict, step: float) -> float:
-    """Trapezoid residual ``ΔH − ½ δγ ΔΣ`` of one step."""
-    return row["enthalpy"] - h0 - step * s0 - 0.5 * step * (row["shear_stress"] - s0)
+def _advance(pressure: float, kw: dict, slope: float | None) -> Callable:
+    """The fixed-pressure step of :func:`jamlab.spheres.confirm.jump_in_chain`: affine shear by
+    ``dh``, then :func:`minimize_enthalpy` with the minimum it was made from as ``parent``.
+    ``slope`` (``dp/d ln L``, the run's) starts each volume iteration, and from the second piece
+    on the box side starts from the extrapolation of the chain's last two minima (as the steps
+    do) — guesses only: the minima are those of the plain iteration, to its tolerance. Without
+    ``slope`` (plain FIRE) no guesses are made."""
+    lengths: list[float] = []
 
-
-def _jump_in_substeps(
-    start: Packing, step: float, r_step: float, k: int, pressure: float, kw: dict,
-    slope: float | None = None,
-) -> tuple[bool, int]:
-    """Redo the step from ``start`` in ``k`` substeps: True when one substep keeps at least a
-    quarter of the step's residual (a jump); a kink leaves ``≈ r_step / k²`` per substep. Also
-    returns the FIRE iterations spent. ``slope``: ``dp/d ln L`` to start each volume iteration
-    with (the run's), and each substep's box side starts from the extrapolation of the last two
-    (as the steps do) — guesses only: the minima are those of the plain iteration, to its
-    tolerance. Without ``slope`` (plain FIRE) no guesses are made, as before."""
-    cur = start
-    ev = evaluate(cur)
-    h, s = ev.energy + pressure * cur.box.volume, ev.shear_stress
-    largest = 0.0
-    iterations = 0
-    lengths = [cur.box.length]
-    for _ in range(k):
-        guess = (2.0 * lengths[-1] - lengths[-2]
-                 if len(lengths) >= 2 and slope is not None else None)
-        res = minimize_enthalpy(affine_shear(cur, step / k), pressure, parent=cur,
+    def advance(cur: Packing, dh: float):
+        guess = None
+        if slope is not None and len(lengths) >= 2:
+            guess = 2.0 * lengths[-1] - lengths[-2]
+        res = minimize_enthalpy(affine_shear(cur, dh), pressure, parent=cur,
                                 length_guess=guess, slope_guess=slope, **kw)
-        iterations += res.iterations
-        cur = res.packing
-        lengths.append(cur.box.length)
-        ev = evaluate(cur)
-        h2, s2 = ev.energy + pressure * cur.box.volume, ev.shear_stress
-        r = h2 - h - (step / k) * s - 0.5 * (step / k) * (s2 - s)
-        largest = max(largest, abs(r))
-        h, s = h2, s2
-    return largest > 0.25 * abs(r_step), iterations
+        if not lengths:
+            lengths.append(cur.box.length)
+        lengths.append(res.packing.box.length)
+        ev = evaluate(res.packing)
+        return (res.packing, ev.energy + pressure * res.packing.box.volume, ev.shear_stress,
+                res.iterations)
+
+    return advance
 
 
 def shear_at_pressure(
@@ -218,6 +221,7 @@ def shear_at_pressure(
     max_iter: int = 1_000_000,
     plastic_floor: float = 0.1,
     confirm_substeps: int = 16,
+    confirm: str = "continued",
     extrapolate_volume: bool = True,
     minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
@@ -257,6 +261,11 @@ def shear_at_pressure(
         total = n_steps
     if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if confirm not in CONFIRMS:
+        raise ValueError(f"confirm must be one of {', '.join(CONFIRMS)}, got {confirm!r}")
+    if previous is not None and previous.attrs.get("confirm", "chain") != confirm:
+        raise ValueError(f"confirm={confirm!r} differs from the run being resumed "
+                         f"({previous.attrs.get('confirm', 'chain')!r})")
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {', '.join(MINIMIZERS)}, got {minimizer!r}")
     relaxer = NewtonRelaxer() if minimizer == "newton" else None
@@ -269,18 +278,19 @@ def shear_at_pressure(
     t0 = time.perf_counter()
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
+    continued = np.zeros(total + 1, dtype=bool)
     if previous is None:
         gamma0 = packing.strain
         res = minimize_enthalpy(packing, pressure, **kw)
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
         cur = res.packing
-        n_candidates = 0
+        counts = dict.fromkeys(CANDIDATE_COUNTS, 0)
         first = 1
         if observer is not None:
             observer(0, cur)
     else:
-        rows, confirmed_before, n_candidates = _resumed_rows(previous, names)
+        rows, confirmed_before, counts = _resumed_rows(previous, names)
         gamma0 = rows["gamma"][0]
         first = len(rows["gamma"])
         if first > total:
@@ -292,22 +302,31 @@ def shear_at_pressure(
         guess = None
         if extrapolate_volume and n >= 2:
             guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
+        fire_before = _fire_calls(relaxer)
         res = minimize_enthalpy(
             affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
             slope_guess=slope, parent=cur, **kw
         )
+        continued[n] = relaxer is not None and _fire_calls(relaxer) == fire_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
         row = _row(res, ftol)
         if confirm_substeps > 1:
             step = target - rows["gamma"][-1]
-            r = _residual(rows["enthalpy"][-1], rows["shear_stress"][-1], row, step)
+            r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
+                                   row["enthalpy"], row["shear_stress"], step)
             if abs(r) > plastic_floor * step**2:
-                n_candidates += 1
-                confirmed[n], extra = _jump_in_substeps(
-                    cur, step, r, confirm_substeps, pressure, kw, slope
-                )
-                row["iterations"] += extra
+                counts["n_candidates"] += 1
+                if confirm == "continued" and continued[n]:
+                    # Newton continued the branch through the step: a kink
+                    counts["n_candidates_continued"] += 1
+                else:
+                    ev = evaluate(cur)
+                    confirmed[n], extra = jump_in_chain(
+                        _advance(pressure, kw, slope), cur,
+                        ev.energy + pressure * cur.box.volume, ev.shear_stress, step, r,
+                        confirm_substeps)
+                    row["iterations"] += extra
         cur = res.packing
         _append(rows, target, row)
         if observer is not None:
@@ -321,11 +340,20 @@ def shear_at_pressure(
             if relaxer is not None:
                 relaxer.reset()
             if on_save is not None:
-                on_save(n, _result(rows, confirmed[: n + 1], cur, n_candidates, t0, dgamma,
-                                   total, gamma0, pressure, ptol, ftol, plastic_floor,
-                                   confirm_substeps, packing, minimizer, relaxer))
-    return _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol,
-                   ftol, plastic_floor, confirm_substeps, packing, minimizer, relaxer)
+                on_save(n, _result(rows, confirmed[: n + 1], continued[: n + 1], cur,
+                                   counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
+                                   plastic_floor, confirm_substeps, confirm, packing, minimizer,
+                                   relaxer))
+    return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
+                   pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
+                   minimizer, relaxer)
+
+
+def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
+    """How often the Newton relaxer has used FIRE so far (fallbacks and rattler polish)."""
+    if relaxer is None:
+        return -1
+    return relaxer.counters["n_fire_fallbacks"] + relaxer.counters["n_rattler_polish"]
 
 
 def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
@@ -335,7 +363,7 @@ def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
 
 
 def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np.ndarray, int]:
-    """The rows, confirmations and candidate count of a fixed-pressure trace being continued."""
+    """The rows, confirmations and candidate counts of a fixed-pressure trace being continued."""
     fp = previous.fixed_pressure
     if fp is None or previous.jammed is None or previous.phi is None:
         raise ValueError("the trace has no fixed-pressure columns (group fixed_pressure): it was "
@@ -349,11 +377,13 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
         "converged": fp["converged"],
     }
     rows = {k: source[k].tolist() for k in names}
-    return rows, np.asarray(fp["confirmed"], dtype=bool), int(previous.attrs["n_candidates"])
+    counts = {k: int(previous.attrs.get(k, 0)) for k in CANDIDATE_COUNTS}
+    return rows, np.asarray(fp["confirmed"], dtype=bool), counts
 
 
-def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, pressure, ptol, ftol,
-            plastic_floor, confirm_substeps, packing, minimizer, relaxer) -> PressureShearResult:
+def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
+            ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer
+            ) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
@@ -393,7 +423,8 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         "plastic_threshold": float(threshold),
         "n_plastic": int(plastic.sum()),
         "confirm_substeps": int(confirm_substeps),
-        "n_candidates": int(n_candidates),
+        "confirm": confirm,
+        **{k: int(v) for k, v in counts.items()},
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
         # the Newton relaxer's counters, over the whole run (a resumed one starts from its trace's)
@@ -406,4 +437,5 @@ def _result(rows, confirmed, cur, n_candidates, t0, dgamma, total, gamma0, press
         threshold=float(threshold),
         time=time.perf_counter() - t0,
         confirmed=confirmed,
+        continued=np.array(continued[: cols["gamma"].size], dtype=bool),
     )

@@ -28,12 +28,14 @@ from jamlab.spheres.potential import Packing
 @dataclass(frozen=True, eq=False)
 class NewtonResult:
     """``packing``: the minimum if ``ok``, else the last accepted iterate; ``iterations``:
-    Newton (or chord) steps; ``cg_iterations``: PCG iterations of all solves."""
+    Newton (or chord) steps; ``cg_iterations``: PCG iterations of all solves; ``reason``: why
+    it failed (empty if ``ok``)."""
 
     packing: Packing
     ok: bool
     iterations: int
     cg_iterations: int
+    reason: str = ""
 
 
 class ForceModel(Protocol):
@@ -93,6 +95,7 @@ def damped_newton(
     correction = np.zeros((free.size, d))
     cg_total = strikes = 0
     prev = math.inf
+    reason = "max_newton"
     for it in range(params.max_newton + 1):
         if fmax < ftol:
             return NewtonResult(current, True, it, cg_total)
@@ -101,6 +104,7 @@ def damped_newton(
         if it >= 2 and fmax > params.contraction * prev:
             strikes += 1
             if strikes > params.max_strikes:
+                reason = "no contraction"
                 break
         prev = fmax
         k = model.hessian(current, state)
@@ -109,6 +113,7 @@ def damped_newton(
         dx, ok, cg_its = pcg(k, f.ravel(), precond, atol, params.max_cg, d)
         cg_total += cg_its
         if not ok:
+            reason = "solve failed (negative curvature or max_cg)"
             break
         dx = dx.reshape(free.size, d)
         for alpha in (1.0, 0.5, 0.25, 0.125):
@@ -120,6 +125,7 @@ def damped_newton(
             if f_trial_max < fmax:
                 break
         else:
+            reason = "no damping lowers the force"
             break
         if it == 0:
             linear = float(np.max(np.abs(alpha * dx)))
@@ -127,6 +133,7 @@ def damped_newton(
             correction += alpha * dx
             # far from the linear prediction: not in the linear-response basin of this branch
             if float(np.max(np.abs(correction))) > params.linear_basin * linear + 1e-12:
+                reason = "left the linear-response basin"
                 break
         pos, current, f, state, fmax = trial_pos, trial, f_trial, state_trial, f_trial_max
-    return NewtonResult(current, False, it, cg_total)
+    return NewtonResult(current, False, it, cg_total, reason)

@@ -1,0 +1,58 @@
+"""Jump or kink: the confirmation of a candidate plastic step by redoing it in smaller steps.
+
+A step ``γ → γ + h`` from a minimum is a *candidate* when its trapezoid residual
+``r = ΔV − ½ h (Σ_0 + Σ_1)`` (``V`` the potential minimised — the enthalpy at fixed pressure, the
+energy at constant volume —, ``Σ = ∂V/∂γ`` the shear stress; :func:`trapezoid_residual`) is too
+large for a smooth branch. Two things give that: a **jump** (the minimum is left: the residual is
+the event's own ``−S``, independent of the step length) and a **kink** (a contact opens or
+closes on the branch: the stiffness changes inside the step and ``r ~ ΔG h²``). Redone in pieces of
+length ``h/k`` from the same minimum, a jump keeps its residual in the one piece that contains it,
+while a kink leaves at most ``≈ r/k`` in any piece: for a kink at fraction ``a`` of the step
+``r ∝ h² a(1 − a)`` and the piece containing it (at fraction ``a' = ka`` of the piece) keeps
+``(h/k)² a'(1 − a')``, at most ``r/k`` (``a → 0``) and typically ``r/k²``. The step is a jump when
+one piece of length ``h/k`` keeps more than ``share · |r|`` (``share = 1/4``, ``k = 16``).
+
+:func:`jump_in_chain` redoes the pieces one after the other and stops at the first that keeps
+more than the bound (the verdict is that of the whole chain; a jump in the middle costs half of
+it). Tried and not kept: a bisection (halve the step, examine only the halves above the bound,
+``2 log₂ k`` problems for a jump, 2–6 for a kink) — at N = 1000, p = 1e-4, δγ = 1e-5 (30 steps,
+the same 5 plastic steps) it was *slower*, 795 against 615 ms per step, because a jump is redone
+at every level and each time FIRE must carry it (53 FIRE fallbacks against 28).
+
+``advance(packing, dh) -> (minimum, V, Σ, iterations)`` is the protocol's step: affine shear by
+``dh`` from a minimum, then its minimisation (``packing`` is then the parent of that problem).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from jamlab.spheres.potential import Packing
+
+__all__ = ["Advance", "jump_in_chain", "trapezoid_residual"]
+
+Advance = Callable[[Packing, float], tuple[Packing, float, float, int]]
+
+
+def trapezoid_residual(v0: float, s0: float, v1: float, s1: float, step: float) -> float:
+    """``r = v1 − v0 − step s0 − ½ step (s1 − s0)`` — the trapezoid rule's residual of one step
+    (``O(step³)`` on a smooth branch; ``docs/aqs.md``)."""
+    return v1 - v0 - step * s0 - 0.5 * step * (s1 - s0)
+
+
+def jump_in_chain(
+    advance: Advance, start: Packing, v0: float, s0: float, step: float, r_step: float, k: int,
+    share: float = 0.25,
+) -> tuple[bool, int]:
+    """The step from ``start`` (at potential ``v0``, stress ``s0``) redone in ``k`` pieces one
+    after the other: True as soon as one keeps more than ``share · |r_step|`` (the rest are not
+    computed), False when none does; and the inner iterations spent."""
+    cur, v, s = start, v0, s0
+    iterations = 0
+    for _ in range(k):
+        cur, v2, s2, its = advance(cur, step / k)
+        iterations += its
+        if abs(trapezoid_residual(v, s, v2, s2, step / k)) > share * abs(r_step):
+            return True, iterations
+        v, s = v2, s2
+    return False, iterations
