@@ -2,8 +2,8 @@
 
 The same packings (``jam(N, 3, seed)``, brought to ``p`` by one FIRE fixed-pressure step) are
 sheared with both minimisers (``--compare minimizer``, the default) or with both confirmations
-of the plastic flag (``--compare confirm``: bisection against the 16-piece chain, Newton
-minimiser). Paired comparison per sample (plastic flags equal, the sizes
+of the plastic flag (``--compare confirm``: the candidates Newton continued not redone, against
+all redone; Newton minimiser). Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
 
@@ -31,7 +31,7 @@ def seeds(text: str) -> list[int]:
 
 VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "minimizer": (("newton", {"minimizer": "newton"}), ("fire", {"minimizer": "fire"})),
-    "confirm": (("bisect", {"confirm": "bisect"}), ("chain", {"confirm": "chain"})),
+    "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
