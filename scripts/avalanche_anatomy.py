@@ -153,6 +153,8 @@ def main() -> None:
             L,
             out / f"avalanche_{cls}.png",
             title=f"{cls}: {state} N={n} seed={seed}, S={s:.3g}, PR·N={neff:.1f}",
+            label=(r"$\log_{10}|u^{\mathrm{ev}}_i|$: event field, elastic response "
+                   r"subtracted (units of $\sigma$)"),
         )
     report(arr, args)
 

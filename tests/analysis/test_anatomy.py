@@ -167,7 +167,10 @@ def test_avalanche_figure_draws_the_scaled_field(tmp_path):
     rng = np.random.default_rng(2)
     pos = rng.uniform(0, 4.0, (20, 3))
     u = rng.normal(size=(20, 3)) * 1e-2
-    fig = avalanche_figure(pos, u, 4.0, tmp_path / "a.png", axes=(0, 2))
+    fig = avalanche_figure(pos, u, 4.0, tmp_path / "a.png", axes=(0, 2), label="event field")
+    # the colour bar says what is drawn, the title which projection
+    assert fig.axes[1].get_ylabel() == "event field"
+    assert "projection on the x–z plane" in fig.axes[0].get_title()
     (q,) = [c for c in fig.axes[0].get_children() if isinstance(c, Quiver)]
     scale = 0.5 / np.sqrt((u**2).sum(axis=1)).max()
     # arrows drawn in increasing |u| order; the set of (U, V) is the projected, scaled field

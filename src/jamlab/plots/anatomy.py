@@ -22,12 +22,14 @@ def avalanche_figure(
     diameters: np.ndarray | None = None,
     axes: tuple[int, int] = (0, 1),
     title: str = "",
+    label: str = r"$\log_{10} |u_i|$ (units of the diameter $\sigma$)",
 ) -> plt.Figure:
     """One avalanche: particles projected on ``axes`` (default the shear plane ``x``–``y``; in
     2D faint discs of their diameter, in higher dimensions dots at their centres) and the
     displacements ``u`` as arrows, scaled so that the largest is half a mean diameter long (the
-    factor is in the title); arrow colour ``log10 |u|``. Positions are drawn modulo ``L`` in
-    each projected axis (a projection: nothing is cut)."""
+    factor is in the title); arrow colour ``log10 |u|``, its colour bar titled ``label`` (say
+    what ``u`` is: e.g. the event field with the elastic response subtracted). Positions are
+    drawn modulo ``L`` in each projected axis (a projection: nothing is cut)."""
     pos = np.asarray(positions, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     a, b = axes
@@ -68,14 +70,16 @@ def avalanche_figure(
         cmap="viridis",
         width=0.004,
     )
-    fig.colorbar(q, ax=ax, shrink=0.8, label=r"$\log_{10} |u_i|$")
+    fig.colorbar(q, ax=ax, shrink=0.8, label=label)
     names = "xyzw"
     ax.set_xlim(-0.5, L + 0.5)
     ax.set_ylim(-0.5, L + 0.5)
     ax.set_aspect("equal")
     ax.set_xlabel(names[a] if a < 4 else f"axis {a}")
     ax.set_ylabel(names[b] if b < 4 else f"axis {b}")
-    ax.set_title(title + f"\narrows ×{scale:.3g} (max |u| = {umax:.3g})", fontsize=9)
+    plane = f"{names[a] if a < 4 else a}–{names[b] if b < 4 else b}"
+    ax.set_title(title + f"\nprojection on the {plane} plane; arrows ×{scale:.3g} "
+                 f"(max |u| = {umax:.3g})", fontsize=9)
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=150)
