@@ -93,7 +93,7 @@ def main() -> None:
     print(f"| | {new} | {ref} |\n|---|---|---|")
     print(f"| plastic steps / jammed steps | {flags[new]} / {steps[new]} | "
           f"{flags[ref]} / {steps[ref]} |")
-    print(f"| candidate steps (|r_H| > 0.1 δγ²) | {candidates[new]} | {candidates[ref]} |")
+    print(f"| candidate steps (abs r_H > 0.1 δγ²) | {candidates[new]} | {candidates[ref]} |")
     for m in (new, ref):
         s = np.asarray(sizes[m])
         sizes[m] = s
