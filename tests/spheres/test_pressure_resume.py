@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cli_helpers import jamlab
+from cli_helpers import jamlab, one_line_error
 from jamlab.cli.shear import resume_configuration
 from jamlab.spheres import jam
 from jamlab.spheres.aqs import shear
@@ -35,8 +35,8 @@ def _same(a, b) -> None:
     for name in FIXED_PRESSURE_COLUMNS:
         np.testing.assert_array_equal(a.fixed_pressure[name], b.fixed_pressure[name],
                                       err_msg=name)
-    for key in ("n_plastic", "n_candidates", "plastic_threshold", "n_steps", "gamma_max",
-                "input_box_length", "save_every"):
+    for key in ("n_plastic", "n_candidates", "n_candidates_continued", "confirm",
+                "plastic_threshold", "n_steps", "gamma_max", "input_box_length", "save_every"):
         assert a.attrs[key] == b.attrs[key], key
 
 
@@ -84,3 +84,38 @@ def test_cli_resume_at_fixed_pressure(start, tmp_path):
     r = jamlab("shear", config, "--dgamma", DG, "--gamma-max", STEPS * DG, "--out",
                tmp_path / "cut.h5", "--resume")
     assert r.returncode == 2 and "at fixed pressure" in r.stderr
+
+
+def test_cli_resume_keeps_the_confirmation_rule(start, tmp_path):
+    config = tmp_path / "c.h5"
+    write_packing(config, start)
+    args = ["--dgamma", DG, "--gamma-max", STEPS * DG, "--pressure", P, "--save-every", EVERY]
+
+    def stop(n, total):
+        if n == EVERY + 3:
+            raise Interrupt
+
+    # a run with the rule of before (every candidate redone), interrupted
+    with pytest.raises(Interrupt):
+        shear(start, DG, n_steps=STEPS, pressure=P, out=tmp_path / "cut.h5", save_every=EVERY,
+              progress=stop, source=str(config), confirm="chain")
+    assert read_trace(tmp_path / "cut.h5").attrs["confirm"] == "chain"
+    # resumed with the default rule: refused, one line naming the option
+    r = jamlab("shear", config, *args, "--out", tmp_path / "cut.h5", "--resume")
+    line = one_line_error(r)
+    assert "--confirm continued differs from the run being resumed (chain)" in line
+    # with its own rule: the same as the uninterrupted run
+    r = jamlab("shear", config, *args, "--confirm", "chain", "--out", tmp_path / "cut.h5",
+               "--resume")
+    assert r.returncode == 0, r.stderr
+    whole = shear(start, DG, n_steps=STEPS, pressure=P, save_every=EVERY, confirm="chain",
+                  out=tmp_path / "whole.h5")
+    resumed = read_trace(tmp_path / "cut.h5")
+    np.testing.assert_array_equal(resumed.plastic, whole.trace.plastic)
+    np.testing.assert_array_equal(resumed.energy, whole.trace.energy)
+    # --confirm is a fixed-pressure option, and has two values
+    r = jamlab("shear", config, "--dgamma", DG, "--gamma-max", STEPS * DG, "--confirm", "chain",
+               "--out", tmp_path / "x.h5")
+    assert "--confirm applies to fixed-pressure runs" in one_line_error(r)
+    r = jamlab("shear", config, *args, "--confirm", "bisect", "--out", tmp_path / "y.h5")
+    assert "--confirm must be 'continued' or 'chain'" in one_line_error(r)

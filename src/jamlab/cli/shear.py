@@ -56,12 +56,13 @@ def check_resume(
 
 def check_resume_pressure(
     previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float,
-    minimizer: str = "linear",
+    minimizer: str = "linear", confirm: str = "continued",
 ) -> None:
     """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
     ``ftol``, target pressure, ``ptol`` and minimiser (``linear``: the Newton inner minimiser,
-    recorded as ``enthalpy-nested-newton``; ``fire``: ``enthalpy-nested-fire``), and an input
-    with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
+    recorded as ``enthalpy-nested-newton``; ``fire``: ``enthalpy-nested-fire``), the same
+    ``confirm`` rule of the plastic flag (a trace without the attribute used ``chain``), and an
+    input with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
     already at the target pressure)."""
     from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, minimizer_attribute
 
@@ -71,11 +72,11 @@ def check_resume_pressure(
     for name, key, given in (("dgamma", "dgamma", dgamma), ("ftol", "ftol", ftol),
                              ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol),
                              ("minimizer", "minimizer",
-                              minimizer_attribute(FROM_AQS_OPTION[minimizer]))):
-        if attrs.get(key) != given:
-            raise ValueError(
-                f"--{name} {given} differs from the run being resumed ({attrs.get(key)})"
-            )
+                              minimizer_attribute(FROM_AQS_OPTION[minimizer])),
+                             ("confirm", "confirm", confirm)):
+        recorded = attrs.get(key, "chain" if key == "confirm" else None)
+        if recorded != given:
+            raise ValueError(f"--{name} {given} differs from the run being resumed ({recorded})")
     recorded = (attrs.get("N"), attrs.get("dim"), attrs.get("seed"), float(previous.gamma[0]),
                 attrs.get("input_box_length"))
     given_values = (packing.n, packing.dim, -1 if packing.seed is None else packing.seed,
@@ -215,6 +216,14 @@ def register(app: typer.Typer) -> None:
             float,
             typer.Option("--ptol", help="Relative pressure tolerance at fixed pressure."),
         ] = 1e-6,
+        confirm: Annotated[
+            str | None,
+            typer.Option(
+                "--confirm",
+                help="At fixed pressure: which candidate plastic steps are redone in pieces — "
+                "'continued' (those Newton did not continue; the default) or 'chain' (all).",
+            ),
+        ] = None,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -229,6 +238,11 @@ def register(app: typer.Typer) -> None:
         if pressure is not None:
             validation.positive("--pressure", pressure)
             validation.positive("--ptol", ptol)
+        if confirm is not None and pressure is None:
+            raise ValueError("--confirm applies to fixed-pressure runs: give --pressure too")
+        if confirm is not None and confirm not in ("continued", "chain"):
+            raise ValueError(f"--confirm must be 'continued' or 'chain', got {confirm!r}")
+        confirm = "continued" if confirm is None else confirm
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -257,7 +271,8 @@ def register(app: typer.Typer) -> None:
                 check_resume(previous, packing, dgamma=dgamma, ftol=ftol, minimizer=minimizer)
             else:
                 check_resume_pressure(previous, packing, dgamma=dgamma, ftol=ftol,
-                                      pressure=pressure, ptol=ptol, minimizer=minimizer)
+                                      pressure=pressure, ptol=ptol, minimizer=minimizer,
+                                      confirm=confirm)
             save_every = resume_save_every(previous, save_every)
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")
@@ -282,6 +297,7 @@ def register(app: typer.Typer) -> None:
             avalanche_threshold=avalanche_threshold,
             pressure=pressure,
             ptol=ptol,
+            confirm=confirm,
         )
         tr = result.trace
         protocol = minimizer if pressure is None else f"fixed p={pressure:g}"

@@ -82,6 +82,7 @@ def shear(
     avalanche_threshold: float | None = None,
     pressure: float | None = None,
     ptol: float = 1e-6,
+    confirm: str = "continued",
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
@@ -105,7 +106,9 @@ def shear(
     (:func:`jamlab.spheres.pressure_shear.shear_at_pressure`: positions and box side relaxed to
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
     is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` and ``params`` do not apply, and there is
-    no checkpoint or resume yet). Every trace has the ``jammed`` column.
+    no checkpoint or resume yet). ``confirm``: which candidate plastic steps a fixed-pressure run
+    redoes in pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`). Every trace has the
+    ``jammed`` column.
 
     Parameters
     ----------
@@ -118,7 +121,7 @@ def shear(
     minimizer, ftol, classify, params, fire_params
         The step method and its tolerances (see above and :class:`AQSParameters`).
     save_every, out, previous, source, progress, after_step, keep_avalanches, \
-avalanche_threshold, pressure, ptol
+avalanche_threshold, pressure, ptol, confirm
         Checkpoints, resume, bookkeeping and options (see above).
 
     Returns
@@ -164,6 +167,7 @@ avalanche_threshold, pressure, ptol
             previous,
             source,
             progress,
+            confirm,
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
@@ -343,6 +347,7 @@ def _shear_at_pressure(
     previous,
     source,
     progress,
+    confirm,
 ) -> ShearResult:
     """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
     ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
@@ -386,6 +391,7 @@ def _shear_at_pressure(
         ptol=ptol,
         fire_params=fire_params,
         minimizer=FROM_AQS_OPTION[minimizer],
+        confirm=confirm,
         progress=progress,
         previous=previous,
         save_every=save_every,
