@@ -70,6 +70,8 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=Path("fss-cache"))
     ap.add_argument("--figure", type=Path, default=None)
     ap.add_argument("--analyse-only", action="store_true")
+    ap.add_argument("--reverse", action="store_true",
+                    help="run the samples in reverse order (a second process on the same cache)")
     a = ap.parse_args()
     if len(a.samples) != len(a.n):
         ap.error("give one --samples count per --n")
@@ -77,8 +79,9 @@ def main() -> None:
     tasks = [(n, a.pressure, a.dgamma, a.steps, seed, a.cache)
              for n, k in zip(a.n, a.samples, strict=True) for seed in range(1, k + 1)]
     if not a.analyse_only:
+        order = tasks[::-1] if a.reverse else tasks
         with ProcessPoolExecutor(max_workers=a.workers) as ex:
-            for msg in ex.map(run_sample, tasks):
+            for msg in ex.map(run_sample, order):
                 print(msg, flush=True)
     sizes_by_n: dict[int, list[np.ndarray]] = {}
     cpu: dict[int, float] = {}
