@@ -90,7 +90,10 @@ def test_a_jump_smaller_than_a_quarter_of_the_residual_is_a_kink():
 @pytest.fixture(scope="module")
 def both_rules():
     r = jam(64, 3, seed=1, p_target=1e-4)
-    runs = {c: shear_at_pressure(r.packing, 1e-4, pressure=1e-3, n_steps=60, confirm=c)
+    # the chain rule redoes every candidate when it happens (its verdicts are what is compared);
+    # the continued rule with its default deferral redoes only those that can be plastic
+    runs = {c: shear_at_pressure(r.packing, 1e-4, pressure=1e-3, n_steps=60, confirm=c,
+                                 defer_confirmation=c == "continued")
             for c in ("continued", "chain")}
     return r.packing, runs
 
@@ -123,3 +126,32 @@ def test_resuming_with_another_confirmation_is_refused(both_rules):
                           previous=part.trace())
     with pytest.raises(ValueError, match="confirm must be one of"):
         shear_at_pressure(packing, 1e-4, pressure=1e-3, n_steps=2, confirm="bisect")
+
+
+
+def test_deferred_confirmation_gives_the_flags_of_the_immediate_one():
+    # a candidate is redone after the run only where the run's threshold lets it be plastic; the
+    # flags are those of redoing each candidate when it happens. (At N = 128, p = 1e-4,
+    # δγ = 1e-4 the threshold, 10 σ of the residuals, is ~8× the candidates' floor 0.1 δγ².)
+    r = jam(128, 3, seed=2, p_target=1e-4)
+    late, now = (shear_at_pressure(r.packing, 1e-4, pressure=1e-4, n_steps=60,
+                                   defer_confirmation=d) for d in (True, False))
+    assert late.attrs["confirm_deferred"] == 1 and now.attrs["confirm_deferred"] == 0
+    np.testing.assert_array_equal(late["plastic"], now["plastic"])
+    assert late["plastic"].sum() >= 2
+    skipped = late.attrs["n_candidates_below_threshold"]
+    assert skipped >= 3 and now.attrs["n_candidates_below_threshold"] == 0
+    assert late.attrs["n_candidates"] == now.attrs["n_candidates"]
+    # the skipped candidates are those of the run's own candidates (not continued by Newton)
+    # whose |r| the run's threshold rejects: not plastic either way
+    h, s, g = late["enthalpy"], late["shear_stress"], late["gamma"]
+    res = np.concatenate([[0.0], np.diff(h) - np.diff(g) * s[:-1]
+                          - 0.5 * np.diff(g) * np.diff(s)])
+    thr = late.attrs["plastic_threshold"]
+    assert thr > 0.1 * 1e-4**2
+    redo = (np.abs(res) > 0.1 * 1e-4**2) & ~late.continued
+    redo[0] = False
+    assert (redo & (np.abs(res) <= thr)).sum() == skipped
+    assert not late.confirmed[np.abs(res) <= thr].any()
+    # and every plastic step was redone (confirmed) in both
+    assert late.confirmed[late["plastic"]].all() and now.confirmed[now["plastic"]].all()

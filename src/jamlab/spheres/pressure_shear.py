@@ -39,7 +39,11 @@ and ``confirm="continued"`` (the default) a candidate whose every inner problem 
 from the previous minimum's contact network — the branch continued through the step, no FIRE —
 is a kink and is not redone (a jump leaves the linear-response basin of the branch, where
 Newton fails and FIRE carries the event); measured against redoing every candidate
-(``confirm="chain"``) in ``docs/aqs.md``. ``confirm_substeps=0`` skips the
+(``confirm="chain"``) in ``docs/aqs.md``. By default the redoing is deferred
+(``defer_confirmation``): a candidate is kept and, once the run's threshold is known, redone only
+if ``|r_n|`` passes it between two jammed minima — the others cannot be plastic whatever their
+verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two thirds of the candidates, since the noise of
+``r_n`` puts the threshold ~50× above the candidates' floor). ``confirm_substeps=0`` skips the
 confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
 ``S = −ΔH_n > 0`` of the flagged steps follow from
 :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
@@ -71,8 +75,11 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain")
 ``continued`` — those the Newton relaxer did not continue (it used FIRE in the step); ``chain``
 — all of them (the rule before; with plain FIRE both are ``chain``)."""
 
-CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued")
-"""Trace attributes: candidate steps, and those of them not redone because Newton continued."""
+CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
+                                     "n_candidates_below_threshold")
+"""Trace attributes: candidate steps, those of them not redone because Newton continued, and
+(``defer_confirmation``) those not redone because they cannot be plastic (``|r_n|`` at or below
+the run's final threshold, or an unjammed end)."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
@@ -119,7 +126,7 @@ class PressureShearResult:
     attrs: dict = field(default_factory=dict)
     threshold: float = math.nan
     time: float = 0.0
-    confirmed: np.ndarray | None = None  # per row: a candidate step confirmed as a jump
+    confirmed: np.ndarray | None = None  # per row: a redone candidate step confirmed as a jump
     continued: np.ndarray | None = None  # per row: every inner problem of the step was Newton's
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -222,6 +229,7 @@ def shear_at_pressure(
     plastic_floor: float = 0.1,
     confirm_substeps: int = 16,
     confirm: str = "continued",
+    defer_confirmation: bool = True,
     extrapolate_volume: bool = True,
     minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
@@ -246,6 +254,13 @@ def shear_at_pressure(
     steps count from ``previous``'s row 0 and ``n_steps``/``gamma_max`` are those of the whole
     run. A step depends only on the last minimum and the last two box sides, so the continued
     run equals the uninterrupted one bit for bit (``tests/spheres/test_pressure_shear.py``).
+
+    ``defer_confirmation`` (default): a candidate step to be redone is kept (its start minimum
+    and the volume slope) and redone only if it can be plastic — after the run, when the plastic
+    threshold of the whole run is known, those with ``|r_n|`` above it and both minima jammed;
+    at a checkpoint, all kept so far (so a resumed run needs nothing that the trace does not
+    hold). The flags are those of the immediate rule (``False``: every candidate redone when it
+    happens, e.g. to study the verdicts themselves); only the steps' order of work differs.
     """
     if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
@@ -279,6 +294,7 @@ def shear_at_pressure(
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
     continued = np.zeros(total + 1, dtype=bool)
+    pending: list = []  # candidates kept to be redone: (row, start minimum, slope, step, r)
     if previous is None:
         gamma0 = packing.strain
         res = minimize_enthalpy(packing, pressure, **kw)
@@ -321,21 +337,20 @@ def shear_at_pressure(
                     # Newton continued the branch through the step: a kink
                     counts["n_candidates_continued"] += 1
                 else:
-                    ev = evaluate(cur)
-                    confirmed[n], extra = jump_in_chain(
-                        _advance(pressure, kw, slope), cur,
-                        ev.energy + pressure * cur.box.volume, ev.shear_stress, step, r,
-                        confirm_substeps)
-                    row["iterations"] += extra
+                    pending.append((n, cur, slope, step, r))
         cur = res.packing
         _append(rows, target, row)
+        if pending and not defer_confirmation:
+            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps)
         if observer is not None:
             observer(n, cur)
         if progress is not None:
             progress(n, total)
         if save_every is not None and n % save_every == 0 and n < total:
-            # a restart point: the solver state (stored factor, slope) is dropped, as a run
-            # resumed from this checkpoint starts without it
+            # a restart point: every kept candidate is redone now (a resumed run starts without
+            # them), then the solver state (stored factor, slope) is dropped, as a run resumed
+            # from this checkpoint starts without it
+            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps)
             slope = None
             if relaxer is not None:
                 relaxer.reset()
@@ -343,10 +358,63 @@ def shear_at_pressure(
                 on_save(n, _result(rows, confirmed[: n + 1], continued[: n + 1], cur,
                                    counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
                                    plastic_floor, confirm_substeps, confirm, packing, minimizer,
-                                   relaxer))
+                                   relaxer, defer_confirmation))
+    if pending:
+        # the run's threshold is known now: redo only the kept candidates that can be plastic
+        can = _can_be_plastic(rows, dgamma, plastic_floor)
+        counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
+        _confirm([c for c in pending if can[c[0]]], rows, confirmed, pressure, kw,
+                 confirm_substeps)
     return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
                    pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
-                   minimizer, relaxer)
+                   minimizer, relaxer, defer_confirmation)
+
+
+def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
+             k: int) -> None:
+    """Redo each kept candidate ``(n, start minimum, slope, step, r)`` in ``k`` pieces
+    (:func:`jump_in_chain`): its verdict into ``confirmed[n]``, the pieces' iterations added to
+    row ``n``; empties ``pending``."""
+    for n, start, slope, step, r in pending:
+        ev = evaluate(start)
+        confirmed[n], extra = jump_in_chain(
+            _advance(pressure, kw, slope), start, ev.energy + pressure * start.box.volume,
+            ev.shear_stress, step, r, k)
+        rows["iterations"][n] += extra
+    pending.clear()
+
+
+def _plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,
+                       dgamma: float, plastic_floor: float) -> tuple[float, np.ndarray]:
+    """The run's threshold of the plastic flag and, per row, whether the step passes it (the
+    flag before the confirmation of candidates): ``|r_n| > max(10 σ, plastic_floor δγ²)`` between
+    two jammed minima (module docstring). NaN and no step with fewer than 3 jammed steps."""
+    passes = np.zeros(g.shape, dtype=bool)
+    if np.count_nonzero(jammed_steps(jammed)) < 3:
+        return math.nan, passes
+    nf = noise_floor(hj[1:], sj[1:], np.diff(g), jammed=jammed)
+    threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
+    resid = branch_residual(hj[1:], sj[1:], np.diff(g))
+    passes[1:] = jammed_steps(jammed) & (np.abs(resid) > threshold)
+    return threshold, passes
+
+
+def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(γ, ΔH_n, ΔΣ_n, jammed)`` of the rows (NaN jumps in row 0)."""
+    g = np.asarray(rows["gamma"], dtype=np.float64)
+    h = np.asarray(rows["enthalpy"], dtype=np.float64)
+    s = np.asarray(rows["shear_stress"], dtype=np.float64)
+    hj = np.full(g.shape, np.nan)
+    sj = np.full(g.shape, np.nan)
+    hj[1:] = np.diff(h) - np.diff(g) * s[:-1]
+    sj[1:] = np.diff(s)
+    return g, hj, sj, np.asarray(rows["jammed"], dtype=np.bool_)
+
+
+def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float) -> np.ndarray:
+    """Per row: the step passes the run's threshold (:func:`_plastic_threshold`)."""
+    g, hj, sj, jammed = _jumps(rows)
+    return _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor)[1]
 
 
 def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
@@ -382,8 +450,8 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
 
 
 def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
-            ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer
-            ) -> PressureShearResult:
+            ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
+            defer_confirmation) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
@@ -392,21 +460,11 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
             dtype = np.bool_
         cols[k] = np.asarray(v, dtype=dtype)
     confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
-    g, h, s = cols["gamma"], cols["enthalpy"], cols["shear_stress"]
-    hj = np.full(g.shape, np.nan)
-    sj = np.full(g.shape, np.nan)
-    hj[1:] = np.diff(h) - np.diff(g) * s[:-1]
-    sj[1:] = np.diff(s)
+    g, hj, sj, jammed = _jumps(rows)
     cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
-    plastic = np.zeros(g.shape, dtype=bool)
-    threshold = math.nan
-    if np.count_nonzero(jammed_steps(cols["jammed"])) >= 3:
-        nf = noise_floor(hj[1:], sj[1:], np.diff(g), jammed=cols["jammed"])
-        threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
-        resid = branch_residual(hj[1:], sj[1:], np.diff(g))
-        plastic[1:] = jammed_steps(cols["jammed"]) & (np.abs(resid) > threshold)
-        if confirm_substeps > 1:
-            plastic &= confirmed
+    threshold, plastic = _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor)
+    if confirm_substeps > 1:
+        plastic &= confirmed
     cols["plastic"] = plastic
     attrs = {
         "protocol": "fixed-pressure",
@@ -424,6 +482,7 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
         "n_plastic": int(plastic.sum()),
         "confirm_substeps": int(confirm_substeps),
         "confirm": confirm,
+        "confirm_deferred": int(bool(defer_confirmation)),
         **{k: int(v) for k, v in counts.items()},
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
