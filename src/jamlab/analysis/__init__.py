@@ -15,6 +15,15 @@ from jamlab.analysis.avalanches import (
     jumps_from_trace,
     noise_floor,
 )
+from jamlab.analysis.cutoff_powerlaw import (
+    CutoffPowerLawFit,
+    cutoff_power_law_cdf,
+    cutoff_power_law_logpdf,
+    fit_cutoff_power_law,
+    log_upper_gamma,
+    log_upper_gamma_array,
+    sample_cutoff_power_law,
+)
 from jamlab.analysis.finite_size import (
     Collapse,
     CutoffScaling,
@@ -43,6 +52,13 @@ from jamlab.analysis.powerlaw import (
 )
 
 __all__ = [
+    "CutoffPowerLawFit",
+    "cutoff_power_law_cdf",
+    "cutoff_power_law_logpdf",
+    "fit_cutoff_power_law",
+    "log_upper_gamma",
+    "log_upper_gamma_array",
+    "sample_cutoff_power_law",
     "Collapse",
     "CutoffScaling",
     "collapse",

@@ -1,0 +1,132 @@
+"""The power law with an exponential cut-off: its normalisation against mpmath and quadrature,
+its sampler against the density, and the fit's recovery of known parameters (coverage)."""
+
+from __future__ import annotations
+
+import math
+
+import mpmath as mp
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from jamlab.analysis.cutoff_powerlaw import (
+    cutoff_power_law_cdf,
+    cutoff_power_law_logpdf,
+    fit_cutoff_power_law,
+    log_upper_gamma,
+    sample_cutoff_power_law,
+)
+from jamlab.analysis.powerlaw import fit_power_law
+
+
+@pytest.mark.parametrize("a", [-2.3, -1.5, -1.0, -0.41, -1e-3, -3e-6, -1e-9, 0.0, 1e-9, 1e-6,
+                               2e-5, 0.3, 1.0, 2.2])
+def test_log_upper_gamma_against_mpmath(a):
+    mp.mp.dps = 40
+    for z in (1e-12, 1e-6, 1e-3, 0.1, 1.0, 5.0, 30.0, 49.9, 50.1, 200.0, 5000.0):
+        ref = float(mp.log(mp.gammainc(a, z)))
+        assert log_upper_gamma(a, z) == pytest.approx(ref, rel=1e-8, abs=1e-8), (a, z)
+
+
+@pytest.mark.parametrize("tau,x_c", [(1.41269, 1e-5), (1.0, 3e-7), (0.5, 1e-6), (2.5, 1e-4)])
+def test_density_integrates_to_one(tau, x_c):
+    x_min = 1e-8
+
+    # in t = log(x/x_min): ∫ p(x) dx = ∫ p(x_min e^t) x_min e^t dt (independent quadrature)
+    def f(t):
+        x = x_min * math.exp(t)
+        return math.exp(float(cutoff_power_law_logpdf(x, tau, x_c, x_min))) * x
+
+    total, err = integrate.quad(f, 0.0, math.log(x_c / x_min) + 60.0, limit=400)
+    assert total == pytest.approx(1.0, rel=1e-8)
+    assert cutoff_power_law_logpdf(0.5 * x_min, tau, x_c, x_min) == -np.inf
+
+
+def test_sampler_follows_the_density():
+    rng = np.random.default_rng(3)
+    for tau, x_c in ((1.4, 1e-5), (0.7, 1e-6)):
+        x_min = 1e-8
+        s = sample_cutoff_power_law(4000, tau, x_c, x_min, rng)
+        grid = x_min * np.exp(np.linspace(0.0, math.log(x_c / x_min) + 40.0, 20001))
+        dens = np.exp(cutoff_power_law_logpdf(grid, tau, x_c, x_min))
+        cdf = integrate.cumulative_trapezoid(dens, grid, initial=0.0)
+        cdf /= cdf[-1]
+        ks = stats.kstest(s, lambda v, g=grid, c=cdf: np.interp(v, g, c))
+        assert ks.pvalue > 0.01, (tau, x_c, ks)
+
+
+def test_fit_recovers_known_parameters_within_its_error():
+    # 100 synthetic sets of 1000 sizes, τ = 1.4, x_c = 300 x_min: the ±1.96 σ interval of τ
+    # holds the true value in ≥ 90 % of them (95 % expected), and the mean bias is small
+    rng = np.random.default_rng(11)
+    tau, x_c, x_min = 1.4, 3e-6, 1e-8
+    hits, taus = 0, []
+    for _ in range(100):
+        f = fit_cutoff_power_law(sample_cutoff_power_law(1000, tau, x_c, x_min, rng), x_min)
+        assert not f.at_bound
+        hits += abs(f.tau - tau) <= 1.96 * f.tau_stderr
+        taus.append(f.tau)
+    assert hits >= 90
+    assert abs(np.mean(taus) - tau) < 0.02
+
+
+def test_pure_power_law_data_give_the_pure_fit():
+    # without a cut-off in the data, x_c runs off (or far beyond the data) and τ is the pure MLE
+    rng = np.random.default_rng(5)
+    x = 1e-8 * rng.random(3000) ** (-1.0 / 0.5)  # τ = 1.5, pure
+    f = fit_cutoff_power_law(x, 1e-8)
+    pure = fit_power_law(x, x_min=1e-8)
+    assert f.x_c > 10 * x.max() or f.at_bound
+    assert f.tau == pytest.approx(pure.tau, abs=pure.tau_stderr)
+
+
+def test_bootstrap_interval_holds_the_estimate():
+    rng = np.random.default_rng(8)
+    x = sample_cutoff_power_law(600, 1.3, 1e-6, 1e-8, rng)
+    f = fit_cutoff_power_law(x, 1e-8, n_boot=40, seed=2)
+    assert f.ci_low < f.tau < f.ci_high and f.n_boot == 40 and f.ci_level == 0.95
+    # half the interval is of the size of the asymptotic error
+    assert 0.5 < (f.ci_high - f.ci_low) / (2 * 1.96 * f.tau_stderr) < 2.0
+
+
+@pytest.mark.parametrize("x,x_min,match", [
+    ([1.0] * 20 + [np.nan], 1.0, "NaN or inf"),
+    ([1.0] * 20, 0.0, "x_min must be"),
+    ([1.0] * 5, 0.5, "at least 10"),
+])
+def test_bad_input(x, x_min, match):
+    with pytest.raises(ValueError, match=match):
+        fit_cutoff_power_law(x, x_min)
+
+
+def test_cdf_and_loglik_agree_with_the_density():
+    tau, x_c, x_min = 1.3, 2e-6, 1e-8
+    for x in (2e-8, 1e-7, 1e-6, 1e-5):
+        ref, _ = integrate.quad(
+            lambda t: math.exp(float(cutoff_power_law_logpdf(x_min * math.exp(t), tau, x_c,
+                                                             x_min))) * x_min * math.exp(t),
+            0.0, math.log(x / x_min), limit=200)
+        assert cutoff_power_law_cdf(x, tau, x_c, x_min) == pytest.approx(ref, rel=1e-8)
+    rng = np.random.default_rng(4)
+    data = sample_cutoff_power_law(500, tau, x_c, x_min, rng)
+    f = fit_cutoff_power_law(data, x_min)
+    assert f.loglik == pytest.approx(
+        float(np.sum(cutoff_power_law_logpdf(data, f.tau, f.x_c, x_min))), rel=1e-10)
+    # the fit maximises it: nearby parameters do worse
+    for dt, dc in ((0.02, 1.0), (-0.02, 1.0), (0.0, 1.2), (0.0, 0.8)):
+        assert np.sum(cutoff_power_law_logpdf(data, f.tau + dt, f.x_c * dc, x_min)) < f.loglik
+
+
+def test_ks_rule_finds_the_start_of_the_law():
+    # a flat (log-uniform) part below x0 = 1e-8 and the cut-off law above it: the rule's x_min
+    # lies within a factor 3 of x0 and the bootstrap interval (the choice of x_min redone) holds
+    # the true τ
+    rng = np.random.default_rng(21)
+    law = sample_cutoff_power_law(1500, 1.45, 3e-6, 1e-8, rng)
+    flat = 1e-8 * 10 ** (-2 * rng.random(1500))
+    f = fit_cutoff_power_law(np.concatenate([flat, law]), n_boot=30, seed=1)
+    assert not f.x_min_fixed
+    assert 1e-8 / 3 < f.x_min < 3e-8
+    assert f.ci_low < 1.45 < f.ci_high
+    assert 0 < f.ks_distance < 0.05
