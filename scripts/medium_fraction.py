@@ -4,8 +4,9 @@ A session cannot host the ~10-hour ``jamlab reproduce --scale medium``. This scr
 its run directories (``--studies``, by name; default the fixed-pressure ensemble at p = 1e-4,
 the costliest pressure) into ``--runs``, exactly as ``jamlab reproduce --scale medium --runs
 RUNS`` would (same studies, seeds and layout, so a later full run reuses these samples), then
-prints per finished sample its worker wall time (the ``seconds`` stored with it), the τ fit of the
-scale's rule from the finished samples (``jamlab.reproduce.measurements.tau_estimate``: jammed
+prints per finished sample its worker wall time (the ``seconds`` stored with it), the τ fits of the
+report (the scale's rule, and at fixed pressure the fit with an exponential cut-off) from the
+finished samples (``jamlab.reproduce.measurements.tau_estimate``: jammed
 steps only, S = −ΔH at fixed pressure), and the scale's projected cost with the measured
 seconds per sample put in place of the benchmark-based estimate for the studies run.
 
@@ -21,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.reproduce.measurements import tau_estimate
+from jamlab.reproduce.ensembles import avalanche_set
+from jamlab.reproduce.measurements import fit_tau_cutoff, tau_estimate, tau_sigma
 from jamlab.reproduce.scales import SCALES, studies
 from jamlab.runs import Execution, open_run, run_study
 
@@ -59,14 +61,22 @@ def main(argv: list[str] | None = None) -> int:
             total = done.size * seconds.mean()
             print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
                   "of one core")
-        est = tau_estimate("jamming" if "jamming" in study.phi else repr(study.phi[0]),
-                           [(ds, n) for n in n_values], scale)
+        label = "jamming" if "jamming" in study.phi else repr(study.phi[0])
+        est = tau_estimate(label, [(ds, n) for n in n_values], scale)
         fit = est.fit
         if fit is None:
             print(f"tau: no fit ({est.n_avalanches} avalanches)")
         else:
             print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
                   f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
+        if study.pressure is not None:
+            sizes = np.concatenate([avalanche_set(ds, label, n).sizes for n in n_values])
+            cut = fit_tau_cutoff(sizes, scale)
+            print("tau with an exponential cut-off (the report's second row): "
+                  + ("no fit" if cut is None else
+                     f"{cut.tau:.3f} ± {tau_sigma(cut):.3f} (95 % [{cut.ci_low:.3f}, "
+                     f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
+                     f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
     return 0
 
 

@@ -5,8 +5,10 @@ largest size, ``S_min`` by the KS rule, a bootstrap interval that includes the c
 ``S_min``) gives one number; this script shows what it rests on: for each run directory (avalanches
 of the φ label ``jamming`` at ``--n``, jammed steps only, as the report counts them) the maximum-
 likelihood τ with ``S_min`` at the quantiles ``--quantiles`` of the sizes (its asymptotic error
-``(τ − 1)/√n_tail``), the rule's fit, and a figure: the complementary CDFs and the local τ
-against ``S_min``.
+``(τ − 1)/√n_tail``) beside the τ of a power law with an exponential cut-off at the same
+``S_min`` (:func:`jamlab.analysis.cutoff_powerlaw.fit_cutoff_power_law`: the cut-off ``S_c`` fitted
+too, so a finite-size bend of the tail does not tilt τ), the rule's fit, and a figure: the
+complementary CDFs and both local τ against ``S_min``.
 
     PYTHONPATH=src python scripts/tau_window.py RUNS/pressure-1e-04 RUNS/pressure-1e-03 \\
         --n 500 --figure docs/figures/tau_window_medium.png
@@ -19,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import fit_power_law
+from jamlab.analysis import fit_cutoff_power_law, fit_power_law
 from jamlab.reproduce.measurements import avalanche_set, fit_tau, tau_sigma
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_run
@@ -46,17 +48,24 @@ def main() -> None:
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
               f"(95 % [{rule.ci_low:.3f}, {rule.ci_high:.3f}]) on S ≥ {rule.x_min:.2e}, "
               f"{rule.n_tail} sizes\n")
-        print("| S_min (quantile) | sizes in the tail | τ (MLE, truncated at the largest) |")
-        print("|---|---|---|")
-        xs, ts, es = [], [], []
+        print("| S_min (quantile) | sizes in the tail | τ (MLE, truncated at the largest) "
+              "| τ with an exponential cut-off | its S_c |")
+        print("|---|---|---|---|---|")
+        xs, ts, es, tc, ec = [], [], [], [], []
         for q in a.quantiles:
             xm = float(s[min(int(q * s.size), s.size - 2)])
             f = fit_power_law(s, x_min=xm, x_max=float(s[-1]))
-            print(f"| {xm:.2e} ({q:g}) | {f.n_tail} | {f.tau:.3f} ± {f.tau_stderr:.3f} |")
+            c = fit_cutoff_power_law(s, xm) if (s >= xm).sum() >= 10 else None
+            cut = ("— | —" if c is None else f"{c.tau:.3f} ± {c.tau_stderr:.3f} | "
+                   + ("none resolved" if c.at_bound else f"{c.x_c:.2e}"))
+            print(f"| {xm:.2e} ({q:g}) | {f.n_tail} | {f.tau:.3f} ± {f.tau_stderr:.3f} | {cut} |")
             xs.append(xm)
             ts.append(f.tau)
             es.append(f.tau_stderr)
-        curves[run.name] = (s, np.array(xs), np.array(ts), np.array(es), rule)
+            tc.append(np.nan if c is None else c.tau)
+            ec.append(np.nan if c is None else c.tau_stderr)
+        curves[run.name] = (s, np.array(xs), np.array(ts), np.array(es), rule, np.array(tc),
+                            np.array(ec))
     if a.figure is not None and curves:
         import matplotlib
 
@@ -64,10 +73,13 @@ def main() -> None:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-        for name, (s, xs, ts, es, rule) in curves.items():
+        for name, (s, xs, ts, es, rule, tc, ec) in curves.items():
             (line,) = ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
                                    label=f"{name} ({s.size})")
-            ax[1].errorbar(xs, ts, yerr=es, fmt="o-", ms=3, color=line.get_color(), label=name)
+            ax[1].errorbar(xs, ts, yerr=es, fmt="o-", ms=3, color=line.get_color(),
+                           label=f"{name}: truncated power law")
+            ax[1].errorbar(xs * 1.08, tc, yerr=ec, fmt="s--", ms=3, mfc="none",
+                           color=line.get_color(), label=f"{name}: with exponential cut-off")
             ax[1].axvline(rule.x_min, color=line.get_color(), ls=":", lw=1)
         ax[0].set_xlabel("avalanche size S (ε)")
         ax[0].set_ylabel("P(size ≥ S)")
@@ -78,7 +90,7 @@ def main() -> None:
         ax[1].axhspan(1.52 - 0.075, 1.52 + 0.075, color="0.85", label="paper's fit 1.52 ± 0.075")
         ax[1].set_xlabel("S_min, lower end of the fit window (ε)")
         ax[1].set_ylabel("τ (MLE on S ≥ S_min)")
-        ax[1].set_title("local τ; dotted: S_min of the scale's rule")
+        ax[1].set_title("local τ on S ≥ S_min; dotted: S_min of the scale's rule", fontsize=9)
         ax[1].legend(fontsize=7)
         fig.tight_layout()
         a.figure.parent.mkdir(parents=True, exist_ok=True)

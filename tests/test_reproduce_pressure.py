@@ -10,6 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
+from jamlab.analysis import fit_cutoff_power_law
 from jamlab.reproduce import SCALES
 from jamlab.reproduce.ensembles import RunSet
 from jamlab.reproduce.measurements import pressure_tau_estimates
@@ -72,3 +73,32 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
     assert row.quantity.startswith("τ at fixed pressure p = 0.001")
     assert f"{sizes.size} avalanches" in row.samples
     assert f"excluded as unjammed: {x_steps} of {steps} steps" in row.samples
+    # the second row: the fit with an exponential cut-off, on the same sizes
+    cut_row = pressure_tau_rows({1e-3: est})[1]
+    assert "exponential cut-off" in cut_row.quantity
+    if sizes.size > 10:
+        ref = fit_cutoff_power_law(sizes, min_tail=10, max_candidates=20,
+                                   n_boot=scale.n_boot, seed=scale.seed)
+        assert est.cutoff.tau == ref.tau and est.cutoff.x_min == ref.x_min
+    else:
+        assert est.cutoff is None and cut_row.value_text == "n/a"
+
+
+def test_cutoff_tau_of_the_pressure_rows_is_the_analysis_fit():
+    # synthetic sizes through the scale's rule: the same numbers as the analysis function called
+    # directly, and a row that prints them
+    from jamlab.analysis import sample_cutoff_power_law
+    from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
+
+    scale = replace(SCALES["tiny"], min_tail=30, n_boot=10)
+    sizes = sample_cutoff_power_law(400, 1.4, 1e-6, 1e-8, np.random.default_rng(2))
+    cut = fit_tau_cutoff(sizes, scale)
+    ref = fit_cutoff_power_law(sizes, min_tail=30, max_candidates=20, n_boot=10,
+                               seed=scale.seed)
+    assert (cut.tau, cut.x_min, cut.ci_low) == (ref.tau, ref.x_min, ref.ci_low)
+    est = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
+                      cutoff=cut, cutoff_sigma=tau_sigma(cut))
+    row = pressure_tau_rows({1e-4: est})[1]
+    assert row.value == cut.tau and row.error == tau_sigma(cut)
+    assert f"{cut.tau:.3f}" in row.value_text and "S_c = " in row.value_text
+    assert fit_tau_cutoff(sizes[:30], scale) is None

@@ -12,6 +12,10 @@ Rules (``docs/reproduce.md``; each re-derived independently in ``tests/test_repr
   model with ``x_max`` = the largest size (τ may be ≤ 1 above jamming), ``x_min`` by the KS rule
   (tail ≥ ``min_tail``), 95 % percentile bootstrap with ``n_boot`` resamples and seed
   ``scale.seed``; our σ = (CI width)/(2·1.96);
+- ``τ`` at fixed pressure also with an exponential cut-off
+  (:func:`jamlab.analysis.fit_cutoff_power_law`, ``p(S) ∝ S^(−τ) e^(−S/S_c)``, ``x_min`` by the
+  KS rule with that model over at most 20 candidates, tail ≥ ``min_tail``, the same bootstrap):
+  the truncated fit's local τ rises with ``x_min`` where the finite-size cut-off bends the tail;
 - ``φ_J``: mean and standard error of ``phi_actual`` over the finished jamming samples (all N);
 - moduli: :func:`jamlab.analysis.moduli_from_trace` on the intensive stress ``Σ/L³`` of each
   finished sample (overlapping differences at the lags ``moduli_lags``, i.e. subsampling one fine
@@ -22,7 +26,7 @@ Rules (``docs/reproduce.md``; each re-derived independently in ``tests/test_repr
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -39,6 +43,7 @@ __all__ = [
     "StressStrain",
     "TauEstimate",
     "fit_tau",
+    "fit_tau_cutoff",
     "moduli",
     "one_trace",
     "phi_j_estimate",
@@ -77,6 +82,23 @@ def fit_tau(sizes: np.ndarray, scale: Scale) -> Any:
                          n_boot=scale.n_boot, seed=scale.seed)
 
 
+CUTOFF_CANDIDATES = 20
+"""Most candidate ``x_min`` of the cut-off fit's KS rule (each candidate is a 2-parameter MLE)."""
+
+
+def fit_tau_cutoff(sizes: np.ndarray, scale: Scale) -> Any:
+    """The τ fit with an exponential cut-off of the module rule, or None when there are not
+    more than ``max(min_tail, 10)`` sizes."""
+    from jamlab.analysis import fit_cutoff_power_law
+
+    tail = max(scale.min_tail, 10)  # the 2-parameter fit needs 10 at least
+    if sizes.size <= tail:
+        return None
+    return fit_cutoff_power_law(sizes, min_tail=tail,
+                                max_candidates=CUTOFF_CANDIDATES, n_boot=scale.n_boot,
+                                seed=scale.seed)
+
+
 def sigma_from_ci95(low: float, high: float) -> float:
     """Our 1σ from a 95 % interval: its width over ``2 × 1.96``."""
     return (high - low) / (2 * _Z_95)
@@ -110,6 +132,8 @@ class TauEstimate:
     n_avalanches_excluded: int = 0
     fit_pressures: tuple[float, float, float] | None = None
     sampled_pressures: tuple[float, float, float] | None = None
+    cutoff: Any = None  # the fit with an exponential cut-off (fixed-pressure ensembles)
+    cutoff_sigma: float = math.nan
 
     @property
     def exclusion_text(self) -> str:
@@ -176,9 +200,14 @@ def pressure_tau_estimates(runs: Any, scale: Scale) -> dict[float, TauEstimate]:
     ``scale.pressure_n``; empty for a scale without fixed-pressure ensembles."""
     from jamlab.reproduce.scales import pressure_run_name
 
-    return {p: tau_estimate("jamming", [(runs[pressure_run_name(p)], n)
-                                        for n in scale.pressure_n], scale)
-            for p in scale.pressures}
+    out = {}
+    for p in scale.pressures:
+        sources = [(runs[pressure_run_name(p)], n) for n in scale.pressure_n]
+        est = tau_estimate("jamming", sources, scale)
+        sizes = [avalanche_set(ds, "jamming", n).sizes for ds, n in sources]
+        cut = fit_tau_cutoff(np.concatenate(sizes) if sizes else np.empty(0), scale)
+        out[p] = replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut))
+    return out
 
 
 @dataclass(frozen=True)

@@ -148,7 +148,32 @@ def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
                 Comparison("the paper's fit", paper, paper_err),
             ),
         ))
+        c = e.cutoff
+        rows.append(Row(
+            quantity=(f"τ at fixed pressure p = {p:g}, power law with an exponential cut-off "
+                      "(S^−τ e^(−S/S_c), KS window)"),
+            reference_text=(f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
+                            f"constant-volume fit {paper} ± {paper_err}"),
+            value=c.tau if c is not None else float("nan"),
+            error=e.cutoff_sigma,
+            value_text=cutoff_fit_text(c, e.cutoff_sigma),
+            samples=f"the same {e.n_avalanches} avalanches",
+            comparisons=(
+                Comparison("theory τ_J (p → 0)", theory),
+                Comparison("τ_UNSAT", 1.0),
+                Comparison("the paper's fit", paper, paper_err),
+            ),
+        ))
     return rows
+
+
+def cutoff_fit_text(fit: Any, sigma: float) -> str:
+    """A fit with an exponential cut-off: ``τ ± σ (95% CI, x_min, S_c, tail)``, or ``n/a``."""
+    if fit is None:
+        return "n/a"
+    s_c = "none resolved" if fit.at_bound else f"{fit.x_c:.3g} ε"
+    return (f"{fit.tau:.3f} ± {sigma:.3f} (95% CI [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
+            f"x_min = {fit.x_min:.3g} ε, S_c = {s_c}, tail {fit.n_tail})")
 
 
 def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
@@ -156,10 +181,14 @@ def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
     out = {}
     for p, e in estimates.items():
         f = e.fit
+        c = e.cutoff
         out[f"{p:g}"] = dict(
             tau=None if f is None else f.tau, sigma=e.sigma, n_avalanches=e.n_avalanches,
             steps=e.steps, samples=e.samples, n_steps_excluded=e.n_steps_excluded,
-            fit_pressures=e.fit_pressures)
+            fit_pressures=e.fit_pressures,
+            cutoff=None if c is None else dict(
+                tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
+                x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail))
     return {"tau_pressure": out} if out else {}
 
 
