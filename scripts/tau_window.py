@@ -72,7 +72,7 @@ def main() -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+        fig, ax = plt.subplots(1, 2, figsize=(13, 4.4))
         for name, (s, xs, ts, es, rule, tc, ec) in curves.items():
             (line,) = ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
                                    label=f"{name} ({s.size})")
@@ -90,8 +90,9 @@ def main() -> None:
         ax[1].axhspan(1.52 - 0.075, 1.52 + 0.075, color="0.85", label="paper's fit 1.52 ± 0.075")
         ax[1].set_xlabel("S_min, lower end of the fit window (ε)")
         ax[1].set_ylabel("τ (MLE on S ≥ S_min)")
+        ax[1].set_ylim(0.85, 1.9)
         ax[1].set_title("local τ on S ≥ S_min; dotted: S_min of the scale's rule", fontsize=9)
-        ax[1].legend(fontsize=7)
+        ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
         fig.tight_layout()
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)

@@ -79,13 +79,14 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 13.5 CPU-hours ≈ 6.7 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
+    "≈ 13.3 CPU-hours ≈ 6.6 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
     "constant volume ≈ 12 CPU-h from benchmarks/bench_jamming.py (δγ = 1e-5, loaded machine: "
-    "≈ 4 s/step at N = 500, ≈ 10 s/step at N = 1000, 3 samples each); fixed pressure ≈ 1.4 CPU-h "
+    "≈ 4 s/step at N = 500, ≈ 10 s/step at N = 1000, 3 samples each); fixed pressure ≈ 1.2 CPU-h "
     "from the measured fraction (scripts/medium_fraction.py, 20 samples per p at N = 500: mean "
-    "135 s per 1000-step sample at p = 1e-4, 47 s at 1e-3; 69 s at 1e-2 from the 4-sample run) "
-    "— τ with an exponential cut-off 1.397 ± 0.045 (p = 1e-4) and 1.144 ± 0.023 (1e-3), "
-    "with a window systematic of about ±0.1 (the truncated power law: 1.601 ± 0.072, 1.207 ± 0.122)"
+    "135 s per 1000-step sample at p = 1e-4, 47 s at 1e-3, 28 s at 1e-2) "
+    "— τ with an exponential cut-off 1.397 ± 0.045 (p = 1e-4), 1.144 ± 0.023 (1e-3), "
+    "1.213 ± 0.070 (1e-2), with a window systematic of about ±0.1 (the truncated power law: "
+    "1.601 ± 0.072, 1.207 ± 0.122, 1.256 ± 0.082)"
 )
 
 """The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4 (N = 500) and the
