@@ -65,7 +65,7 @@ from jamlab.spheres.fire import FireParameters
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
 from jamlab.spheres.rigidity import is_jammed
-from jamlab.spheres.trace import Trace
+from jamlab.spheres.trace import Trace, jump_columns
 
 __all__ = ["FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult",
            "minimizer_attribute", "shear_at_pressure"]
@@ -402,12 +402,7 @@ def _plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np
 def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(γ, ΔH_n, ΔΣ_n, jammed)`` of the rows (NaN jumps in row 0)."""
     g = np.asarray(rows["gamma"], dtype=np.float64)
-    h = np.asarray(rows["enthalpy"], dtype=np.float64)
-    s = np.asarray(rows["shear_stress"], dtype=np.float64)
-    hj = np.full(g.shape, np.nan)
-    sj = np.full(g.shape, np.nan)
-    hj[1:] = np.diff(h) - np.diff(g) * s[:-1]
-    sj[1:] = np.diff(s)
+    hj, sj = jump_columns(g, rows["enthalpy"], rows["shear_stress"])
     return g, hj, sj, np.asarray(rows["jammed"], dtype=np.bool_)
 
 

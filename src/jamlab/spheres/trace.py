@@ -56,6 +56,7 @@ __all__ = [
     "OPTIONAL_COLUMNS",
     "Trace",
     "TRACE_COLUMNS",
+    "jump_columns",
     "write_trace",
     "read_trace",
     "read_trace_configuration",
@@ -89,6 +90,20 @@ FIXED_PRESSURE_COLUMNS: tuple[str, ...] = (
 """Columns of the optional group ``fixed_pressure`` (module docstring)."""
 _FIXED_PRESSURE_DTYPES = {"energy": np.float64, "box_length": np.float64,
                           "volume_steps": np.int64, "converged": np.bool_, "confirmed": np.bool_}
+
+
+def jump_columns(gamma, energy, stress) -> tuple[np.ndarray, np.ndarray]:
+    """The per-step jumps of a trace, NaN in row 0: ``ΔE_n − (γ_n − γ_{n−1}) Σ_{n−1}`` (the
+    energy change less its elastic work at the previous stress; ``energy`` may be the enthalpy
+    at fixed pressure) and ``ΔΣ_n``. The one implementation of these columns."""
+    g = np.asarray(gamma, dtype=np.float64)
+    e = np.asarray(energy, dtype=np.float64)
+    s = np.asarray(stress, dtype=np.float64)
+    ej = np.full(g.shape, np.nan)
+    sj = np.full(g.shape, np.nan)
+    ej[1:] = np.diff(e) - np.diff(g) * s[:-1]
+    sj[1:] = np.diff(s)
+    return ej, sj
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,13 +189,7 @@ class Trace:
     @classmethod
     def from_rows(cls, rows: dict[str, list], attrs: dict | None = None) -> Trace:
         """Build from per-column lists (``energy_jump``, ``stress_jump`` are derived)."""
-        gamma = np.asarray(rows["gamma"], dtype=np.float64)
-        energy = np.asarray(rows["energy"], dtype=np.float64)
-        stress = np.asarray(rows["shear_stress"], dtype=np.float64)
-        ej = np.full(gamma.shape, np.nan)
-        sj = np.full(gamma.shape, np.nan)
-        ej[1:] = np.diff(energy) - np.diff(gamma) * stress[:-1]
-        sj[1:] = np.diff(stress)
+        ej, sj = jump_columns(rows["gamma"], rows["energy"], rows["shear_stress"])
         cols = {k: rows[k] for k in TRACE_COLUMNS if k not in ("energy_jump", "stress_jump")}
         extra = {k: rows.get(k) for k in OPTIONAL_COLUMNS}
         return cls(**cols, energy_jump=ej, stress_jump=sj, attrs=attrs or {}, **extra)
