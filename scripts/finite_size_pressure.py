@@ -55,7 +55,7 @@ def run_sample(args: tuple) -> str:
     sizes = avalanche_sizes(c["enthalpy_jump"][1:], c["plastic"][1:], jammed=c["jammed"])
     tmp = f.with_suffix(".tmp.npz")
     np.savez(tmp, sizes=sizes, n_plastic=int(c["plastic"].sum()), jammed_steps=int(ok.sum()),
-             pressure=c["pressure"], cpu=time.process_time() - t)
+             pressure=c["pressure"], threshold=float(r.threshold), cpu=time.process_time() - t)
     os.replace(tmp, f)
     return (f"N={n} seed={seed}: {sizes.size} avalanches, {int(ok.sum())} jammed steps, "
             f"{time.process_time() - t:.0f} CPU s")
@@ -86,6 +86,7 @@ def main() -> None:
             for msg in ex.map(run_sample, order):
                 print(msg, flush=True)
     sizes_by_n: dict[int, list[np.ndarray]] = {}
+    thresholds: dict[int, list[float]] = {}
     cpu: dict[int, float] = {}
     for n, p, dg, steps, seed, cache in tasks:
         f = sample_file(cache, n, p, dg, steps, seed)
@@ -93,6 +94,8 @@ def main() -> None:
             with np.load(f) as z:
                 sizes_by_n.setdefault(n, []).append(np.asarray(z["sizes"]))
                 cpu[n] = cpu.get(n, 0.0) + float(z["cpu"])
+                if "threshold" in z.files:
+                    thresholds.setdefault(n, []).append(float(z["threshold"]))
     fit = fit_cutoff_scaling(sizes_by_n, n_boot=500, seed=1)
     largest = max(sizes_by_n)
     pooled = {n: np.concatenate(v) for n, v in sizes_by_n.items()}
@@ -138,12 +141,11 @@ def main() -> None:
           f"(95 %: [{fit_f.beta_ci95[0]:.3f}, {fit_f.beta_ci95[1]:.3f}]); "
           f"⟨S⟩ ~ N^{fit_f.mean_exponent:.3f} ± {fit_f.mean_exponent_err:.3f}")
     if len(log_sc) >= 2:
-        x, y, e = (np.array(v) for v in zip(*log_sc, strict=True))
-        wts = 1.0 / e**2
-        xm = np.sum(wts * x) / wts.sum()
-        slope = np.sum(wts * (x - xm) * y) / np.sum(wts * (x - xm) ** 2)
+        slope, err = weighted_slope(log_sc)
         print(f"β from the cut-off fits' S_c (weighted least squares in log-log) = {slope:.3f} ± "
-              f"{1.0 / math.sqrt(np.sum(wts * (x - xm) ** 2)):.3f}")
+              f"{err:.3f}")
+    if thresholds and all(len(thresholds.get(n, [])) == len(v) for n, v in sizes_by_n.items()):
+        threshold_floors(sizes_by_n, thresholds)
     if a.figure is not None:
         import matplotlib
 
@@ -167,6 +169,69 @@ def main() -> None:
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
         print(f"figure: {a.figure}")
+
+
+def weighted_slope(points: list[tuple[float, float, float]]) -> tuple[float, float]:
+    """Slope and its error of ``y`` on ``x`` by weighted least squares (``(x, y, σ_y)``)."""
+    x, y, e = (np.array(v) for v in zip(*points, strict=True))
+    wts = 1.0 / e**2
+    xm = np.sum(wts * x) / wts.sum()
+    slope = np.sum(wts * (x - xm) * y) / np.sum(wts * (x - xm) ** 2)
+    return float(slope), 1.0 / math.sqrt(np.sum(wts * (x - xm) ** 2))
+
+
+def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]],
+                     thresholds: dict[int, list[float]]) -> None:
+    """τ per N above floors set by the plastic flag's threshold (each sample's run threshold on
+    the residual ``|r_n|``, in ε): per N at ``k`` × that N's largest threshold, and for all N at
+    ``k`` × the largest threshold of all samples. If τ at a fixed low floor falls with N because
+    the depletion just above a threshold that grows with N flattens more of the fitted range, the
+    per-N τ must stop falling once every N is cut at the same multiple of its own threshold, and
+    at a common floor above every threshold."""
+    print("\nthe plastic flag's threshold per N (ε; median and largest over samples):")
+    print("| N | median threshold | largest threshold | 5 % quantile of S |")
+    print("|---|---|---|---|")
+    t_max = {n: float(np.max(thresholds[n])) for n in sizes_by_n}
+    for n in sorted(sizes_by_n):
+        q5 = float(np.quantile(np.concatenate(sizes_by_n[n]), 0.05))
+        print(f"| {n} | {np.median(thresholds[n]):.3g} | {t_max[n]:.3g} | {q5:.3g} |")
+    top = max(t_max.values())
+    print("\nτ (power law with an exponential cut-off, fixed floor) above threshold-based floors:")
+    print("| floor | " + " | ".join(f"N = {n}" for n in sorted(sizes_by_n)) + " |")
+    print("|---|" + "---|" * len(sizes_by_n))
+    rows = [(f"{k:g} × each N's largest threshold", {n: k * t_max[n] for n in sizes_by_n})
+            for k in (1.0, 3.0, 10.0)]
+    rows += [(f"{k:g} × the largest threshold of all N ({k * top:.2g})",
+              {n: k * top for n in sizes_by_n}) for k in (1.0, 3.0, 10.0)]
+    for label, floors in rows:
+        cells = []
+        for n in sorted(sizes_by_n):
+            s = np.concatenate(sizes_by_n[n])
+            s = s[s >= floors[n]]
+            if s.size < 30:
+                cells.append(f"{s.size} sizes: no fit")
+                continue
+            c = fit_cutoff_power_law(s, float(floors[n]))
+            cells.append(f"{c.tau:.3f} ± {c.tau_stderr:.3f} ({s.size})")
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    # β above the comparison floor (10 × the largest threshold of all N: no N depleted there)
+    floor = 10.0 * top
+    above = {n: [x[x >= floor] for x in v] for n, v in sizes_by_n.items()}
+    fit = fit_cutoff_scaling(above, n_boot=500, seed=1)
+    log_sc = []
+    for n in sorted(sizes_by_n):
+        c = fit_cutoff_power_law(np.concatenate(above[n]), float(floor))
+        if not c.at_bound and np.isfinite(c.x_c_stderr):
+            log_sc.append((math.log(n), math.log(c.x_c), c.x_c_stderr / c.x_c))
+        print(f"N = {n}: S >= {floor:.2g}: ⟨S⟩ = {fit.mean[list(fit.n).index(n)]:.3e}, "
+              f"S_c = ⟨S²⟩/⟨S⟩ = {fit.cutoff[list(fit.n).index(n)]:.3e}; cut-off fit S_c = "
+              + ("none resolved" if c.at_bound else f"{c.x_c:.3e} ± {c.x_c_stderr:.1e}"))
+    print(f"above S >= {floor:.2g}: β from ⟨S²⟩/⟨S⟩ = {fit.beta:.3f} ± {fit.beta_err:.3f} "
+          f"(95 %: [{fit.beta_ci95[0]:.3f}, {fit.beta_ci95[1]:.3f}]); ⟨S⟩ ~ "
+          f"N^{fit.mean_exponent:.3f} ± {fit.mean_exponent_err:.3f}")
+    if len(log_sc) >= 2:
+        slope, err = weighted_slope(log_sc)
+        print(f"above S >= {floor:.2g}: β from the cut-off fits' S_c = {slope:.3f} ± {err:.3f}")
 
 
 if __name__ == "__main__":
