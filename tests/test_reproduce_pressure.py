@@ -23,7 +23,7 @@ def test_medium_scale_studies():
     m = SCALES["medium"]
     st = studies(m)
     assert m.dgamma == 1e-5 and set(m.jamming_n) == {500, 1000}
-    for p in (1e-2, 1e-3, 1e-4):
+    for p in (1e-2, 1e-3, 1e-4, 1e-5):
         s = st[pressure_run_name(p)]
         assert s.pressure == p and s.phi == ("jamming",) and s.dgamma == 1e-5
         assert set(s.n) <= {500, 1000}

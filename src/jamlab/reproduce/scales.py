@@ -79,17 +79,17 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 13.3 CPU-hours ≈ 6.6 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
+    "≈ 14.7 CPU-hours ≈ 7.4 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
     "constant volume ≈ 12 CPU-h from benchmarks/bench_jamming.py (δγ = 1e-5, loaded machine: "
-    "≈ 4 s/step at N = 500, ≈ 10 s/step at N = 1000, 3 samples each); fixed pressure ≈ 1.2 CPU-h "
+    "≈ 4 s/step at N = 500, ≈ 10 s/step at N = 1000, 3 samples each); fixed pressure ≈ 2.7 CPU-h "
     "from the measured fraction (scripts/medium_fraction.py, 20 samples per p at N = 500: mean "
-    "135 s per 1000-step sample at p = 1e-4, 47 s at 1e-3, 28 s at 1e-2) "
-    "— τ with an exponential cut-off 1.397 ± 0.045 (p = 1e-4), 1.144 ± 0.023 (1e-3), "
-    "1.213 ± 0.070 (1e-2), with a window systematic of about ±0.1 (the truncated power law: "
-    "1.601 ± 0.072, 1.207 ± 0.122, 1.256 ± 0.082)"
+    "268 s per 1000-step sample at p = 1e-5, 135 s at 1e-4, 47 s at 1e-3, 28 s at 1e-2) "
+    "— τ with an exponential cut-off 1.472 ± 0.029 (p = 1e-5), 1.397 ± 0.045 (1e-4), "
+    "1.144 ± 0.023 (1e-3), 1.213 ± 0.070 (1e-2), with a window systematic of about ±0.1 (the "
+    "truncated power law: 1.737 ± 0.081, 1.601 ± 0.072, 1.207 ± 0.122, 1.256 ± 0.082)"
 )
 
-"""The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4 (N = 500) and the
+"""The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4, 1e-5 (N = 500) and the
 paper's constant-volume protocol at N = 500, 1000, δγ = 1e-5, sized for ≈ 10 h on 2 cores."""
 
 SCALES: dict[str, Scale] = {
@@ -172,7 +172,7 @@ SCALES: dict[str, Scale] = {
         cascade_samples=40_000,
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
-        pressures=(1e-2, 1e-3, 1e-4),
+        pressures=(1e-2, 1e-3, 1e-4, 1e-5),
         pressure_n=(500,),
         pressure_samples=MEDIUM_P_SAMPLES,
         pressure_gamma_max=0.01,
