@@ -20,7 +20,6 @@ figure (``--figure``).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -29,8 +28,14 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis.avalanches import avalanche_sizes, jammed_steps
-from jamlab.analysis.cutoff_powerlaw import fit_cutoff_power_law
-from jamlab.analysis.finite_size import collapse, collapse_quality, fit_cutoff_scaling
+from jamlab.analysis.cutoff_powerlaw import CutoffPowerLawFit, fit_cutoff_power_law
+from jamlab.analysis.finite_size import (
+    CutoffScaling,
+    collapse,
+    collapse_quality,
+    fit_cutoff_scaling,
+)
+from jamlab.analysis.moduli import SlopeFit, fit_log_slope
 from jamlab.analysis.powerlaw import fit_power_law
 
 
@@ -122,30 +127,26 @@ def main() -> None:
     # threshold is 10 σ of a residual noise that grows with N), so compare N above the largest
     # of the per-N floors (each N's 5 % quantile)
     floor = max(float(np.quantile(v, 0.05)) for v in pooled.values())
-    above = {n: [x[x >= floor] for x in v] for n, v in sizes_by_n.items()}
-    fit_f = fit_cutoff_scaling(above, n_boot=500, seed=1)
+    fit_f, cuts = scaling_above(sizes_by_n, floor)
     print(f"\nwith one floor for all N, S >= {floor:.3g} (the largest per-N 5 % quantile):")
     print("| N | avalanches | ⟨S⟩ | S_c = ⟨S²⟩/⟨S⟩ | τ, cut-off fit at the floor "
           "| S_c of that fit |")
     print("|---|---|---|---|---|---|")
-    log_sc = []
     for i, n in enumerate(fit_f.n):
-        c = fit_cutoff_power_law(np.concatenate(above[int(n)]), float(floor))
+        c = cuts[int(n)]
         sc = "none resolved" if c.at_bound else f"{c.x_c:.3e} ± {c.x_c_stderr:.1e}"
         print(f"| {n} | {fit_f.avalanches[i]} | {fit_f.mean[i]:.3e} ± {fit_f.mean_err[i]:.1e} | "
               f"{fit_f.cutoff[i]:.3e} ± {fit_f.cutoff_err[i]:.1e} | "
               f"{c.tau:.3f} ± {c.tau_stderr:.3f} | {sc} |")
-        if not c.at_bound and np.isfinite(c.x_c_stderr):
-            log_sc.append((math.log(n), math.log(c.x_c), c.x_c_stderr / c.x_c))
     print(f"β from ⟨S²⟩/⟨S⟩ above the floor = {fit_f.beta:.3f} ± {fit_f.beta_err:.3f} "
           f"(95 %: [{fit_f.beta_ci95[0]:.3f}, {fit_f.beta_ci95[1]:.3f}]); "
           f"⟨S⟩ ~ N^{fit_f.mean_exponent:.3f} ± {fit_f.mean_exponent_err:.3f}")
-    if len(log_sc) >= 2:
-        slope, err = weighted_slope(log_sc)
-        print(f"β from the cut-off fits' S_c (weighted least squares in log-log) = {slope:.3f} ± "
-              f"{err:.3f}")
+    slope = beta_from_cutoffs(cuts)
+    if slope is not None:
+        print(f"β from the cut-off fits' S_c (weighted least squares in log-log) = "
+              f"{slope.slope:.3f} ± {slope.slope_err:.3f}")
     if thresholds and all(len(thresholds.get(n, [])) == len(v) for n, v in sizes_by_n.items()):
-        threshold_floors(sizes_by_n, thresholds)
+        threshold_floors(sizes_by_n, pooled, thresholds)
     if a.figure is not None:
         import matplotlib
 
@@ -171,29 +172,41 @@ def main() -> None:
         print(f"figure: {a.figure}")
 
 
-def weighted_slope(points: list[tuple[float, float, float]]) -> tuple[float, float]:
-    """Slope and its error of ``y`` on ``x`` by weighted least squares (``(x, y, σ_y)``)."""
-    x, y, e = (np.array(v) for v in zip(*points, strict=True))
-    wts = 1.0 / e**2
-    xm = np.sum(wts * x) / wts.sum()
-    slope = np.sum(wts * (x - xm) * y) / np.sum(wts * (x - xm) ** 2)
-    return float(slope), 1.0 / math.sqrt(np.sum(wts * (x - xm) ** 2))
+def scaling_above(sizes_by_n: dict[int, list[np.ndarray]],
+                  floor: float) -> tuple[CutoffScaling, dict[int, CutoffPowerLawFit]]:
+    """The sizes ``S ≥ floor`` of every sample: their :func:`fit_cutoff_scaling`, and per N
+    (those with avalanches above the floor) the power law with an exponential cut-off fitted at
+    that fixed floor."""
+    above = {n: [x[x >= floor] for x in v] for n, v in sizes_by_n.items()}
+    fit = fit_cutoff_scaling(above, n_boot=500, seed=1)
+    cuts = {int(n): fit_cutoff_power_law(np.concatenate(above[int(n)]), float(floor))
+            for n in fit.n}
+    return fit, cuts
 
 
-def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]],
+def beta_from_cutoffs(cuts: dict[int, CutoffPowerLawFit]) -> SlopeFit | None:
+    """β as the slope of log S_c against log N over the cut-off fits that resolved S_c
+    (:func:`jamlab.analysis.fit_log_slope`, weights from their errors); ``None`` below 2."""
+    ok = [n for n, c in cuts.items() if not c.at_bound and np.isfinite(c.x_c_stderr)]
+    if len(ok) < 2:
+        return None
+    return fit_log_slope(ok, [cuts[n].x_c for n in ok], [cuts[n].x_c_stderr for n in ok])
+
+
+def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, np.ndarray],
                      thresholds: dict[int, list[float]]) -> None:
     """τ per N above floors set by the plastic flag's threshold (each sample's run threshold on
     the residual ``|r_n|``, in ε): per N at ``k`` × that N's largest threshold, and for all N at
     ``k`` × the largest threshold of all samples. If τ at a fixed low floor falls with N because
     the depletion just above a threshold that grows with N flattens more of the fitted range, the
     per-N τ must stop falling once every N is cut at the same multiple of its own threshold, and
-    at a common floor above every threshold."""
+    at a common floor above every threshold. ``pooled[N]``: the sizes of all samples of N."""
     print("\nthe plastic flag's threshold per N (ε; median and largest over samples):")
     print("| N | median threshold | largest threshold | 5 % quantile of S |")
     print("|---|---|---|---|")
     t_max = {n: float(np.max(thresholds[n])) for n in sizes_by_n}
     for n in sorted(sizes_by_n):
-        q5 = float(np.quantile(np.concatenate(sizes_by_n[n]), 0.05))
+        q5 = float(np.quantile(pooled[n], 0.05))
         print(f"| {n} | {np.median(thresholds[n]):.3g} | {t_max[n]:.3g} | {q5:.3g} |")
     top = max(t_max.values())
     print("\nτ (power law with an exponential cut-off, fixed floor) above threshold-based floors:")
@@ -206,8 +219,7 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]],
     for label, floors in rows:
         cells = []
         for n in sorted(sizes_by_n):
-            s = np.concatenate(sizes_by_n[n])
-            s = s[s >= floors[n]]
+            s = pooled[n][pooled[n] >= floors[n]]
             if s.size < 30:
                 cells.append(f"{s.size} sizes: no fit")
                 continue
@@ -216,22 +228,19 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]],
         print(f"| {label} | " + " | ".join(cells) + " |")
     # β above the comparison floor (10 × the largest threshold of all N: no N depleted there)
     floor = 10.0 * top
-    above = {n: [x[x >= floor] for x in v] for n, v in sizes_by_n.items()}
-    fit = fit_cutoff_scaling(above, n_boot=500, seed=1)
-    log_sc = []
-    for n in sorted(sizes_by_n):
-        c = fit_cutoff_power_law(np.concatenate(above[n]), float(floor))
-        if not c.at_bound and np.isfinite(c.x_c_stderr):
-            log_sc.append((math.log(n), math.log(c.x_c), c.x_c_stderr / c.x_c))
-        print(f"N = {n}: S >= {floor:.2g}: ⟨S⟩ = {fit.mean[list(fit.n).index(n)]:.3e}, "
-              f"S_c = ⟨S²⟩/⟨S⟩ = {fit.cutoff[list(fit.n).index(n)]:.3e}; cut-off fit S_c = "
+    fit, cuts = scaling_above(sizes_by_n, floor)
+    for i, n in enumerate(fit.n):
+        c = cuts[int(n)]
+        print(f"N = {n}: S >= {floor:.2g}: ⟨S⟩ = {fit.mean[i]:.3e}, "
+              f"S_c = ⟨S²⟩/⟨S⟩ = {fit.cutoff[i]:.3e}; cut-off fit S_c = "
               + ("none resolved" if c.at_bound else f"{c.x_c:.3e} ± {c.x_c_stderr:.1e}"))
     print(f"above S >= {floor:.2g}: β from ⟨S²⟩/⟨S⟩ = {fit.beta:.3f} ± {fit.beta_err:.3f} "
           f"(95 %: [{fit.beta_ci95[0]:.3f}, {fit.beta_ci95[1]:.3f}]); ⟨S⟩ ~ "
           f"N^{fit.mean_exponent:.3f} ± {fit.mean_exponent_err:.3f}")
-    if len(log_sc) >= 2:
-        slope, err = weighted_slope(log_sc)
-        print(f"above S >= {floor:.2g}: β from the cut-off fits' S_c = {slope:.3f} ± {err:.3f}")
+    slope = beta_from_cutoffs(cuts)
+    if slope is not None:
+        print(f"above S >= {floor:.2g}: β from the cut-off fits' S_c = {slope.slope:.3f} ± "
+              f"{slope.slope_err:.3f}")
 
 
 if __name__ == "__main__":
