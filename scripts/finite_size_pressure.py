@@ -30,6 +30,7 @@ import numpy as np
 from jamlab.analysis.avalanches import avalanche_sizes, jammed_steps
 from jamlab.analysis.cutoff_powerlaw import CutoffPowerLawFit, fit_cutoff_power_law
 from jamlab.analysis.finite_size import (
+    Collapse,
     CutoffScaling,
     collapse,
     collapse_quality,
@@ -146,7 +147,8 @@ def main() -> None:
         print(f"β from the cut-off fits' S_c (weighted least squares in log-log) = "
               f"{slope.slope:.3f} ± {slope.slope_err:.3f}")
     if thresholds and all(len(thresholds.get(n, [])) == len(v) for n, v in sizes_by_n.items()):
-        threshold_floors(sizes_by_n, pooled, thresholds)
+        # the figure's collapse: above the comparison floor, where no N is depleted
+        col = threshold_floors(sizes_by_n, pooled, thresholds)
     if a.figure is not None:
         import matplotlib
 
@@ -157,13 +159,14 @@ def main() -> None:
         for n in sorted(pooled):
             s = np.sort(pooled[n])
             ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3, label=f"N = {n}")
-            ax[1].loglog(col.x[n], col.y[n], "o-", ms=3, label=f"N = {n}")
+            if n in col.x:
+                ax[1].loglog(col.x[n], col.y[n], "o-", ms=3, label=f"N = {n}")
         ax[0].set_xlabel("avalanche size S = −ΔH (ε)")
         ax[0].set_ylabel("P(size ≥ S)")
         ax[0].set_title(f"fixed p = {a.pressure:g}, δγ = {a.dgamma:g}")
         ax[0].legend()
-        ax[1].set_xlabel(f"S / N^β (β = {fit.beta:.2f})")
-        ax[1].set_ylabel(f"P(S) S^τ (τ = {pl.tau:.2f})")
+        ax[1].set_xlabel(f"S / N^β (β = {col.beta:.2f})")
+        ax[1].set_ylabel(f"P(S) S^τ (τ = {col.tau:.2f})")
         ax[1].set_title(f"collapse: RMS {col.quality:.2f} decades")
         ax[1].legend()
         fig.tight_layout()
@@ -194,13 +197,14 @@ def beta_from_cutoffs(cuts: dict[int, CutoffPowerLawFit]) -> SlopeFit | None:
 
 
 def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, np.ndarray],
-                     thresholds: dict[int, list[float]]) -> None:
+                     thresholds: dict[int, list[float]]) -> Collapse:
     """τ per N above floors set by the plastic flag's threshold (each sample's run threshold on
     the residual ``|r_n|``, in ε): per N at ``k`` × that N's largest threshold, and for all N at
     ``k`` × the largest threshold of all samples. If τ at a fixed low floor falls with N because
     the depletion just above a threshold that grows with N flattens more of the fitted range, the
     per-N τ must stop falling once every N is cut at the same multiple of its own threshold, and
-    at a common floor above every threshold. ``pooled[N]``: the sizes of all samples of N."""
+    at a common floor above every threshold. ``pooled[N]``: the sizes of all samples of N.
+    Returns the collapse above the comparison floor (10 × the largest threshold)."""
     print("\nthe plastic flag's threshold per N (ε; median and largest over samples):")
     print("| N | median threshold | largest threshold | 5 % quantile of S |")
     print("|---|---|---|---|")
@@ -241,6 +245,18 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, 
     if slope is not None:
         print(f"above S >= {floor:.2g}: β from the cut-off fits' S_c = {slope.slope:.3f} ± "
               f"{slope.slope_err:.3f}")
+    # the collapse above the same floor, with the τ of the largest N fitted there (not the KS
+    # rule's τ of the whole range, which sits in the cut-off's bend at the largest N)
+    above = {n: np.concatenate(v)[np.concatenate(v) >= floor] for n, v in sizes_by_n.items()}
+    tau = cuts[int(max(fit.n))].tau
+    grid = np.linspace(0.0, 3.0, 61)
+    q = collapse_quality(above, tau, grid)
+    col = collapse(above, tau, fit.beta)
+    print(f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = {tau:.3f} (largest N, "
+          f"cut-off fit at the floor): RMS {col.quality:.3f} decades at β = {fit.beta:.3f}, "
+          f"{collapse_quality(above, tau, [0.0])[0]:.3f} without rescaling (β = 0); best on the "
+          f"grid β = {grid[int(np.nanargmin(q))]:.2f} (RMS {np.nanmin(q):.3f})")
+    return col
 
 
 if __name__ == "__main__":
