@@ -129,7 +129,18 @@ def main() -> None:
               f"{sum(s.size for s in v)} | {pooled.size} | {rate:.4g} ± {rate_err:.2g} | "
               f"{mean:.3e} ± {mean_err:.1e} | {diss:.3e} ± {diss_err:.1e} | {tau} | {ks} | "
               f"{cpu[dg] / k:.0f} |")
-        curves[dg] = np.sort(pooled)
+        curves[dg] = np.sort(np.concatenate(v))
+    # where the δγ differ: avalanches per unit strain in decades of S, every counted size
+    lo = np.floor(np.log10(min(float(c[0]) for c in curves.values() if c.size)))
+    hi = np.ceil(np.log10(max(float(c[-1]) for c in curves.values() if c.size)))
+    edges = 10.0 ** np.arange(lo, hi + 1)
+    print("\navalanches per unit strain by decade of S (all counted sizes, each run's own flag):")
+    print("| δγ | " + " | ".join(f"[{a:.0e}, {b:.0e})" for a, b in zip(edges[:-1], edges[1:],
+                                                                    strict=True)) + " |")
+    print("|---|" + "---|" * (edges.size - 1))
+    for dg, c in curves.items():
+        h = np.histogram(c, edges)[0]
+        print(f"| {dg:g} | " + " | ".join(f"{x / strain:.0f}" for x in h) + " |")
     if a.figure is not None:
         import matplotlib
 
@@ -143,7 +154,8 @@ def main() -> None:
                       label=f"δγ = {dg:g}")
         ax.set_xlabel("avalanche size S = −ΔH (ε)")
         ax.set_ylabel("avalanches of size ≥ S per unit strain")
-        ax.set_title(f"N = {a.n}, p = {a.pressure:g}, {k} packings, S ≥ {floor:.2g}")
+        ax.axvline(floor, color="0.5", ls="--", lw=1, label="common floor")
+        ax.set_title(f"N = {a.n}, p = {a.pressure:g}, {k} packings, strain {a.strain:g} each")
         ax.legend()
         fig.tight_layout()
         a.figure.parent.mkdir(parents=True, exist_ok=True)
