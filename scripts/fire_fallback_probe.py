@@ -117,9 +117,11 @@ def main() -> None:
         for tl in a.loose:
             t0 = time.perf_counter()
             lo = minimize(s, ftol=tl)
-            res = NewtonRelaxer()._newton(lo.packing, lo.packing, 1e-12, t0, 1_000_000, None)
-            ok = res is not None and res.converged
-            fin = res.packing if ok else minimize(lo.packing, ftol=1e-12).packing
+            # the relaxer with the loose point as its own parent: Newton (and its rattler
+            # polish) where it accepts, else its FIRE fallback from the same loose point
+            relaxer = NewtonRelaxer()
+            fin = relaxer(lo.packing, ftol=1e-12, parent=lo.packing).packing
+            ok = relaxer.counters["n_fire_fallbacks"] == 0
             dt = time.perf_counter() - t0
             total[tl] += dt
             accepted[tl] += ok
