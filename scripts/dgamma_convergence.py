@@ -2,7 +2,7 @@
 
 For each ``δγ`` in ``--dgamma`` and sample seeds ``1 … --samples``: ``jam(N, 3, seed,
 p_target=p)`` and fixed-pressure AQS over the same strain window ``--strain`` (``strain/δγ``
-steps; :func:`finite_size_pressure.run_sample`, the default Newton path and plastic flag, one
+steps; :func:`finite_size_pressure.run_samples`, the default Newton path and plastic flag, one
 cache file per sample: a rerun continues). The packings are the same for every ``δγ``, so any
 difference is the step's.
 
@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +33,11 @@ from scipy import stats
 from jamlab.analysis.cutoff_powerlaw import fit_cutoff_power_law
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from finite_size_pressure import run_sample, sample_file  # noqa: E402  (scripts run as scripts)
+from finite_size_pressure import (  # noqa: E402  (scripts run as scripts)
+    read_sample,
+    run_samples,
+    sample_file,
+)
 
 
 def bootstrap(per_sample: list[np.ndarray], stat, n_boot: int = 500, seed: int = 1) -> float:
@@ -70,20 +73,22 @@ def main() -> None:
     tasks = [(a.n, a.pressure, dg, steps[dg], seed, a.cache)
              for dg in a.dgamma for seed in range(1, a.samples + 1)]
     if not a.analyse_only:
-        with ProcessPoolExecutor(max_workers=a.workers) as ex:
-            for msg in ex.map(run_sample, tasks):
-                print(msg, flush=True)
+        run_samples(tasks, a.workers)
     sizes: dict[float, list[np.ndarray]] = {}
     thresholds: dict[float, list[float]] = {}
     cpu: dict[float, float] = {}
-    for n, p, dg, st, seed, cache in tasks:
-        f = sample_file(cache, n, p, dg, st, seed)
-        if not f.is_file():
+    for task in tasks:
+        z = read_sample(task)
+        if z is None:
             continue
-        with np.load(f) as z:
-            sizes.setdefault(dg, []).append(np.asarray(z["sizes"], dtype=np.float64))
-            thresholds.setdefault(dg, []).append(float(z["threshold"]))
-            cpu[dg] = cpu.get(dg, 0.0) + float(z["cpu"])
+        if z["threshold"] is None:
+            n, p, dg, st, seed, cache = task
+            sys.exit(f"error: {sample_file(cache, n, p, dg, st, seed)} has no flag threshold "
+                     "(an old cache file)")
+        dg = task[2]
+        sizes.setdefault(dg, []).append(z["sizes"])
+        thresholds.setdefault(dg, []).append(z["threshold"])
+        cpu[dg] = cpu.get(dg, 0.0) + z["cpu"]
     if len(sizes) < 2:
         sys.exit("error: fewer than two δγ have samples in the cache")
     # the same seeds for every δγ: keep the seeds all δγ have

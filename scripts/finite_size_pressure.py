@@ -67,6 +67,40 @@ def run_sample(args: tuple) -> str:
             f"{time.process_time() - t:.0f} CPU s")
 
 
+def run_samples(tasks: list[tuple], workers: int) -> None:
+    """:func:`run_sample` for every task (``(N, p, δγ, steps, seed, cache)``), ``workers``
+    processes, a line printed per sample."""
+    with ProcessPoolExecutor(max_workers=workers) as ex:
+        for msg in ex.map(run_sample, tasks):
+            print(msg, flush=True)
+
+
+def read_sample(task: tuple) -> dict | None:
+    """The cached sample of a task (``(N, p, δγ, steps, seed, cache)``): ``sizes``, ``cpu`` (s)
+    and ``threshold`` (the plastic flag's, ε; ``None`` in files written before it was stored);
+    ``None`` if not run yet."""
+    n, p, dg, steps, seed, cache = task
+    f = sample_file(cache, n, p, dg, steps, seed)
+    if not f.is_file():
+        return None
+    with np.load(f) as z:
+        return {"sizes": np.asarray(z["sizes"]), "cpu": float(z["cpu"]),
+                "threshold": float(z["threshold"]) if "threshold" in z.files else None}
+
+
+def report_collapse(sizes: dict[int, np.ndarray], tau: float, beta: float, head: str,
+                    at: str) -> Collapse:
+    """The collapse ``P(S) S^τ`` vs ``S/N^β`` of the pooled ``sizes`` at ``beta``, printed as
+    ``head: RMS … decades at {at}, …`` beside no rescaling and the best β on a grid 0–3."""
+    grid = np.linspace(0.0, 3.0, 61)
+    q = collapse_quality(sizes, tau, grid)
+    col = collapse(sizes, tau, beta)
+    print(f"{head}: RMS {col.quality:.3f} decades at {at}, "
+          f"{collapse_quality(sizes, tau, [0.0])[0]:.3f} without rescaling (β = 0); "
+          f"best on the grid β = {grid[int(np.nanargmin(q))]:.2f} (RMS {np.nanmin(q):.3f})")
+    return col
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[250, 500, 1000])
@@ -87,21 +121,18 @@ def main() -> None:
     tasks = [(n, a.pressure, a.dgamma, a.steps, seed, a.cache)
              for n, k in zip(a.n, a.samples, strict=True) for seed in range(1, k + 1)]
     if not a.analyse_only:
-        order = tasks[::-1] if a.reverse else tasks
-        with ProcessPoolExecutor(max_workers=a.workers) as ex:
-            for msg in ex.map(run_sample, order):
-                print(msg, flush=True)
+        run_samples(tasks[::-1] if a.reverse else tasks, a.workers)
     sizes_by_n: dict[int, list[np.ndarray]] = {}
     thresholds: dict[int, list[float]] = {}
     cpu: dict[int, float] = {}
-    for n, p, dg, steps, seed, cache in tasks:
-        f = sample_file(cache, n, p, dg, steps, seed)
-        if f.is_file():
-            with np.load(f) as z:
-                sizes_by_n.setdefault(n, []).append(np.asarray(z["sizes"]))
-                cpu[n] = cpu.get(n, 0.0) + float(z["cpu"])
-                if "threshold" in z.files:
-                    thresholds.setdefault(n, []).append(float(z["threshold"]))
+    for task in tasks:
+        z = read_sample(task)
+        if z is not None:
+            n = task[0]
+            sizes_by_n.setdefault(n, []).append(z["sizes"])
+            cpu[n] = cpu.get(n, 0.0) + z["cpu"]
+            if z["threshold"] is not None:
+                thresholds.setdefault(n, []).append(z["threshold"])
     fit = fit_cutoff_scaling(sizes_by_n, n_boot=500, seed=1)
     largest = max(sizes_by_n)
     pooled = {n: np.concatenate(v) for n, v in sizes_by_n.items()}
@@ -118,12 +149,7 @@ def main() -> None:
           f"⟨S⟩ ~ N^{fit.mean_exponent:.3f} ± {fit.mean_exponent_err:.3f}")
     print(f"τ at N = {largest}: {pl.tau:.3f} ± {pl.tau_stderr:.3f} from {pl.n_tail} sizes above "
           f"S_min = {pl.x_min:.3g}")
-    grid = np.linspace(0.0, 3.0, 61)
-    q = collapse_quality(pooled, pl.tau, grid)
-    col = collapse(pooled, pl.tau, fit.beta)
-    print(f"collapse P(S) S^τ vs S/N^β: RMS {col.quality:.3f} decades at the fitted β, "
-          f"{collapse_quality(pooled, pl.tau, [0.0])[0]:.3f} without rescaling (β = 0); "
-          f"best on the grid β = {grid[int(np.nanargmin(q))]:.2f} (RMS {np.nanmin(q):.3f})")
+    col = report_collapse(pooled, pl.tau, fit.beta, "collapse P(S) S^τ vs S/N^β", "the fitted β")
     # one size floor for all N: the counted sizes start higher at larger N (the plastic flag's
     # threshold is 10 σ of a residual noise that grows with N), so compare N above the largest
     # of the per-N floors (each N's 5 % quantile)
@@ -249,14 +275,10 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, 
     # rule's τ of the whole range, which sits in the cut-off's bend at the largest N)
     above = {n: np.concatenate(v)[np.concatenate(v) >= floor] for n, v in sizes_by_n.items()}
     tau = cuts[int(max(fit.n))].tau
-    grid = np.linspace(0.0, 3.0, 61)
-    q = collapse_quality(above, tau, grid)
-    col = collapse(above, tau, fit.beta)
-    print(f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = {tau:.3f} (largest N, "
-          f"cut-off fit at the floor): RMS {col.quality:.3f} decades at β = {fit.beta:.3f}, "
-          f"{collapse_quality(above, tau, [0.0])[0]:.3f} without rescaling (β = 0); best on the "
-          f"grid β = {grid[int(np.nanargmin(q))]:.2f} (RMS {np.nanmin(q):.3f})")
-    return col
+    return report_collapse(above, tau, fit.beta,
+                           f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = "
+                           f"{tau:.3f} (largest N, cut-off fit at the floor)",
+                           f"β = {fit.beta:.3f}")
 
 
 if __name__ == "__main__":
