@@ -10,7 +10,12 @@ per sample: a rerun continues). Then :func:`jamlab.analysis.finite_size.fit_cuto
 pooled sizes of the largest ``N`` (:func:`jamlab.analysis.powerlaw.fit_power_law`, its KS rule
 for ``S_min``), the collapse ``P(S) S^τ`` against ``S/N^β`` at the fitted β (its RMS in decades,
 beside the RMS without rescaling and the β that minimises it on a grid), a markdown table and a
-figure (``--figure``).
+figure (``--figure``). Where the samples store the plastic flag's threshold: τ above floors set by
+it, ``⟨S²⟩/⟨S⟩`` above the comparison floor (10 × the largest threshold of all N), and the joint
+maximum-likelihood fit of one τ, β and the cut-off to every N
+(:func:`jamlab.analysis.finite_size.fit_joint_scaling`) above that floor and above 10 × each N's
+own largest threshold; the figure then shows the collapse with the joint fit's τ and β and its
+model curves.
 
     PYTHONPATH=src python scripts/finite_size_pressure.py --n 250 500 1000 --samples 40 20 10 \\
         --pressure 1e-3 --dgamma 1e-4 --steps 50 --workers 2 --cache fss-cache \\
@@ -28,13 +33,20 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis.avalanches import avalanche_sizes, jammed_steps
-from jamlab.analysis.cutoff_powerlaw import CutoffPowerLawFit, fit_cutoff_power_law
+from jamlab.analysis.cutoff_powerlaw import (
+    CutoffPowerLawFit,
+    cutoff_power_law_cdf,
+    cutoff_power_law_log_norm,
+    fit_cutoff_power_law,
+)
 from jamlab.analysis.finite_size import (
     Collapse,
     CutoffScaling,
+    JointScaling,
     collapse,
     collapse_quality,
     fit_cutoff_scaling,
+    fit_joint_scaling,
 )
 from jamlab.analysis.moduli import SlopeFit, fit_log_slope
 from jamlab.analysis.powerlaw import fit_power_law
@@ -172,29 +184,56 @@ def main() -> None:
     if slope is not None:
         print(f"β from the cut-off fits' S_c (weighted least squares in log-log) = "
               f"{slope.slope:.3f} ± {slope.slope_err:.3f}")
+    joint = None
     if thresholds and all(len(thresholds.get(n, [])) == len(v) for n, v in sizes_by_n.items()):
         # the figure's collapse: above the comparison floor, where no N is depleted
         col = threshold_floors(sizes_by_n, pooled, thresholds)
+        joint = joint_fits(sizes_by_n, thresholds)
+        above = {n: v[v >= joint.floors[0]] for n, v in pooled.items()}
+        col = collapse(above, joint.tau, joint.beta)
     if a.figure is not None:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+        fig, ax = plt.subplots(1, 3 if joint is not None else 2,
+                               figsize=(15 if joint is not None else 10, 4))
         for n in sorted(pooled):
             s = np.sort(pooled[n])
             ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3, label=f"N = {n}")
             if n in col.x:
-                ax[1].loglog(col.x[n], col.y[n], "o-", ms=3, label=f"N = {n}")
+                line = ax[1].loglog(col.x[n], col.y[n], "o", ms=4, label=f"N = {n}")
+                if joint is not None:  # the joint model: P(S) S^τ = e^(−S/S*(N)) / Z_N
+                    f0 = float(joint.floors[0])
+                    sx = np.geomspace(f0, float(pooled[n].max()), 100)
+                    s_star = float(joint.cutoff(n))
+                    y = np.exp(-sx / s_star - cutoff_power_law_log_norm(joint.tau, s_star, f0))
+                    ax[1].loglog(sx / float(n) ** joint.beta, y, "-", color=line[0].get_color())
         ax[0].set_xlabel("avalanche size S = −ΔH (ε)")
         ax[0].set_ylabel("P(size ≥ S)")
         ax[0].set_title(f"fixed p = {a.pressure:g}, δγ = {a.dgamma:g}")
         ax[0].legend()
         ax[1].set_xlabel(f"S / N^β (β = {col.beta:.2f})")
         ax[1].set_ylabel(f"P(S) S^τ (τ = {col.tau:.2f})")
-        ax[1].set_title(f"collapse: RMS {col.quality:.2f} decades")
+        ax[1].set_title(f"collapse: RMS {col.quality:.2f} decades"
+                        + ("" if joint is None else "; lines: joint fit"))
         ax[1].legend()
+        if joint is not None:  # the data above the comparison floor against the joint model
+            f0 = float(joint.floors[0])
+            for n in sorted(pooled):
+                s = np.sort(pooled[n][pooled[n] >= f0])
+                line = ax[2].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
+                                    label=f"N = {n}")
+                sx = np.geomspace(f0, float(s.max()), 200)
+                ax[2].loglog(sx, 1.0 - cutoff_power_law_cdf(sx, joint.tau, float(joint.cutoff(n)),
+                                                             f0), "-",
+                             color=line[0].get_color())
+            ax[2].set_xlabel("S (ε)")
+            ax[2].set_ylabel(f"P(size ≥ S | S ≥ {f0:.2g})")
+            ax[2].set_title(f"joint fit: τ = {joint.tau:.2f}, β = {joint.beta:.2f} ± "
+                            f"{joint.beta_err:.2f}")
+            ax[2].legend()
         fig.tight_layout()
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
@@ -279,6 +318,32 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, 
                            f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = "
                            f"{tau:.3f} (largest N, cut-off fit at the floor)",
                            f"β = {fit.beta:.3f}")
+
+
+def joint_fits(sizes_by_n: dict[int, list[np.ndarray]],
+               thresholds: dict[int, list[float]]) -> JointScaling:
+    """The joint maximum-likelihood fit of τ, β and the cut-off
+    (:func:`jamlab.analysis.finite_size.fit_joint_scaling`, 500 resamples of the samples) above
+    10 × each N's largest threshold and above the comparison floor (10 × the largest of all),
+    printed as a table; returns the fit above the comparison floor."""
+    per_n = {n: 10.0 * float(np.max(thresholds[n])) for n in sizes_by_n}
+    common = max(per_n.values())
+    print("\njoint maximum-likelihood fit, P(S|N) ∝ S^-τ exp(-S/S*(N)), S* = S*_ref (N/N_ref)^β, "
+          "one τ (errors and 95 % intervals: bootstrap over samples):")
+    print("| floors | avalanches per N | τ | β (95 %) | S* at N_ref | 2 Δlog L vs no cut-off |")
+    print("|---|---|---|---|---|---|")
+    out = None
+    for label, floors in (("10 × each N's largest threshold", per_n),
+                          (f"10 × the largest threshold of all N ({common:.2g})", common)):
+        j = fit_joint_scaling(sizes_by_n, floors, n_boot=500, seed=1)
+        flags = ("" if j.resolved else " (no cut-off resolved)") + (
+            f" ({j.boot_at_bound:.0%} of resamples at a bound)" if j.boot_at_bound else "")
+        print(f"| {label} | {' / '.join(str(t) for t in j.tail)} | {j.tau:.3f} ± {j.tau_err:.3f}"
+              f" | {j.beta:.3f} ± {j.beta_err:.3f} ([{j.beta_ci95[0]:.2f}, "
+              f"{j.beta_ci95[1]:.2f}]) | {j.cutoff_ref:.3g} (N_ref = {j.n_ref:.0f}) | "
+              f"{j.cutoff_lr:.1f}{flags} |")
+        out = j
+    return out
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from jamlab.analysis.avalanches import (
 from jamlab.analysis.cutoff_powerlaw import (
     CutoffPowerLawFit,
     cutoff_power_law_cdf,
+    cutoff_power_law_log_norm,
     cutoff_power_law_logpdf,
     fit_cutoff_power_law,
     log_upper_gamma,
@@ -27,10 +28,12 @@ from jamlab.analysis.cutoff_powerlaw import (
 from jamlab.analysis.finite_size import (
     Collapse,
     CutoffScaling,
+    JointScaling,
     collapse,
     collapse_quality,
     cutoff_size,
     fit_cutoff_scaling,
+    fit_joint_scaling,
 )
 from jamlab.analysis.histograms import LogHistogram, log_histogram
 from jamlab.analysis.moduli import (
@@ -54,6 +57,7 @@ from jamlab.analysis.powerlaw import (
 __all__ = [
     "CutoffPowerLawFit",
     "cutoff_power_law_cdf",
+    "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
     "fit_cutoff_power_law",
     "log_upper_gamma",
@@ -65,6 +69,8 @@ __all__ = [
     "collapse_quality",
     "cutoff_size",
     "fit_cutoff_scaling",
+    "JointScaling",
+    "fit_joint_scaling",
     "Exclusions",
     "exclusions",
     "jammed_steps",

@@ -30,6 +30,7 @@ from scipy import optimize, special
 __all__ = [
     "CutoffPowerLawFit",
     "cutoff_power_law_cdf",
+    "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
     "fit_cutoff_power_law",
     "log_upper_gamma",
@@ -121,11 +122,17 @@ def _check_model(tau: float, x_c: float, x_min: float) -> None:
                          f"x_c={x_c!r}, x_min={x_min!r}")
 
 
+def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float) -> float:
+    """``log Z = (1−τ) log x_c + log Γ(1−τ, x_min/x_c)``: ``log p(x) = −τ log x − x/x_c − log Z``
+    (parameters not checked; :func:`cutoff_power_law_logpdf` checks them)."""
+    return (1.0 - tau) * math.log(x_c) + log_upper_gamma(1.0 - tau, x_min / x_c)
+
+
 def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float) -> FloatArray:
     """``log p(x)`` of the model (``−inf`` below ``x_min``)."""
     _check_model(tau, x_c, x_min)
     x = np.asarray(x, dtype=np.float64)
-    log_z = (1.0 - tau) * math.log(x_c) + log_upper_gamma(1.0 - tau, x_min / x_c)
+    log_z = cutoff_power_law_log_norm(tau, x_c, x_min)
     with np.errstate(divide="ignore", invalid="ignore"):
         out = -tau * np.log(x) - x / x_c - log_z
     return np.where(x >= x_min, out, -np.inf)

@@ -23,6 +23,26 @@ restricted to the avalanches one counts (e.g. plastic steps between jammed minim
   ``y = P(S) S^τ`` against ``x = S/N^β``. Its quality is the root-mean-square difference, in
   decades, between ``log10 y`` of every pair of sizes where their ``x`` ranges overlap (each curve
   interpolated linearly in ``log x``); 0 is a perfect collapse.
+- Joint fit (:func:`fit_joint_scaling`): every avalanche at or above a floor ``s_N`` (one per
+  ``N``) enters one likelihood, ``P(S | N) = S^(−τ) e^(−S/S*(N)) / Z`` on ``[s_N, ∞)`` with
+  ``S*(N) = S*_ref (N/N_ref)^β`` and one ``τ`` for all ``N``
+  (:mod:`jamlab.analysis.cutoff_powerlaw` for ``Z``; ``N_ref`` the geometric mean of the sizes,
+  where ``S*_ref`` and ``β`` are least correlated). ``⟨S²⟩/⟨S⟩`` rests on the largest avalanche
+  or two at each ``N``; the likelihood also weighs how the bulk of the distribution bends. The
+  maximum is searched in ``(τ, log S*_ref, β)`` (bounded Nelder–Mead from several starts); the
+  errors are bootstrap standard deviations over resamples of the samples at each ``N`` (their
+  avalanches kept together, so correlations within a sample are respected), the 95 % intervals
+  ``± 1.96`` of them (on the synthetic ensembles of ``tests/analysis/test_finite_size_joint.py``,
+  20 samples per size, they held β in 93 % and τ in 88 % of 60 trials — slightly better than the
+  percentile intervals, 88 % and 87 %; read them as ≈ 90 % intervals at that sample count).
+  Whether the data hold a cut-off at all:
+  ``cutoff_lr = 2 (ℓ − ℓ_pure)``, the likelihood ratio against the pure power law with one ``τ``
+  (``S* = ∞`` at every ``N``); ``resolved`` when it exceeds 5.99, the 95 % point of ``χ²`` with two
+  degrees of freedom (the cut-off and ``β``; under the pure law ``β`` is not identified and
+  ``S* = ∞`` lies on the boundary, so the reference distribution is only approximate). Without a
+  resolved cut-off ``β`` means nothing. ``at_bound``: a parameter ended on its search bound
+  (``τ ∈ [−1, 5]``, ``log S*_ref`` up to ``log`` of 1100 (``e^7``) times the largest size,
+  ``β ∈ [−3, 6]``).
 """
 
 from __future__ import annotations
@@ -34,21 +54,27 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import optimize
 
+from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_log_norm
 from jamlab.analysis.histograms import log_histogram
+from jamlab.analysis.powerlaw import mle_tau, power_law_loglik
 
 __all__ = [
     "Collapse",
     "CutoffScaling",
+    "JointScaling",
     "collapse",
     "collapse_quality",
     "cutoff_size",
     "fit_cutoff_scaling",
+    "fit_joint_scaling",
 ]
 
 FloatArray = NDArray[np.float64]
 
 _Z_95 = 1.959963984540054
+_CHI2_2_95 = 5.991464547107979  # 95 % point of χ² with 2 degrees of freedom
 
 
 def cutoff_size(sizes: ArrayLike) -> float:
@@ -258,3 +284,173 @@ def collapse_quality(
     dens = _densities(sizes_by_n, bins_per_decade, min_count)
     return np.array([_quality(_rescale(dens, tau, float(b)))
                      for b in np.asarray(betas, dtype=np.float64).ravel()])
+
+
+@dataclass(frozen=True, eq=False)
+class JointScaling:
+    """Result of :func:`fit_joint_scaling`: per ``N`` (``n``, ascending) the floor ``floors``, the
+    avalanches at or above it (``tail``) and the samples; the shared ``tau`` and ``beta`` with
+    bootstrap standard deviations (``*_err``) and 95 % intervals ``± 1.96`` of them
+    (``*_ci95``); ``cutoff_ref`` (``S*`` at ``n_ref``) with its interval (the same in ``log``);
+    the maximised ``loglik``; the likelihood ratio ``cutoff_lr`` against the pure power law and
+    ``resolved``; ``at_bound`` and ``boot_at_bound``, the fraction of resamples with a parameter
+    at its bound (module docstring); ``n_boot`` resamples and their fits ``boot`` (rows
+    ``τ, log S*_ref, β``)."""
+
+    n: NDArray[np.int64]
+    floors: FloatArray
+    tail: NDArray[np.int64]
+    samples: NDArray[np.int64]
+    tau: float
+    tau_err: float
+    tau_ci95: tuple[float, float]
+    beta: float
+    beta_err: float
+    beta_ci95: tuple[float, float]
+    n_ref: float
+    cutoff_ref: float
+    cutoff_ref_ci95: tuple[float, float]
+    loglik: float
+    cutoff_lr: float
+    resolved: bool
+    at_bound: bool
+    boot_at_bound: float
+    n_boot: int
+    boot: FloatArray
+
+    def cutoff(self, n: ArrayLike) -> FloatArray:
+        """The fitted ``S*(N) = S*_ref (N/N_ref)^β``."""
+        return self.cutoff_ref * (np.asarray(n, dtype=np.float64) / self.n_ref) ** self.beta
+
+    def as_dict(self) -> dict[str, object]:
+        """Plain numbers (JSON)."""
+        return {
+            "n": self.n.tolist(), "floors": self.floors.tolist(), "tail": self.tail.tolist(),
+            "samples": self.samples.tolist(), "tau": self.tau, "tau_err": self.tau_err,
+            "tau_ci95": list(self.tau_ci95), "beta": self.beta, "beta_err": self.beta_err,
+            "beta_ci95": list(self.beta_ci95), "n_ref": self.n_ref,
+            "cutoff_ref": self.cutoff_ref, "cutoff_ref_ci95": list(self.cutoff_ref_ci95),
+            "loglik": self.loglik, "cutoff_lr": self.cutoff_lr, "resolved": self.resolved,
+            "at_bound": self.at_bound,
+            "boot_at_bound": self.boot_at_bound, "n_boot": self.n_boot,
+        }
+
+
+def _joint_nll(params: NDArray, log_rel_n: FloatArray, floors: FloatArray, k: FloatArray,
+               sum_log: FloatArray, sum_s: FloatArray) -> float:
+    """``−log L`` of the joint model from the sufficient statistics per ``N``: the count ``k``,
+    ``Σ log S`` and ``Σ S`` at or above the floors."""
+    tau, log_ref, beta = (float(v) for v in params)
+    total = 0.0
+    for i in range(k.size):
+        if k[i] == 0:
+            continue
+        s_star = math.exp(log_ref + beta * log_rel_n[i])
+        total += (tau * sum_log[i] + sum_s[i] / s_star
+                  + k[i] * cutoff_power_law_log_norm(tau, s_star, floors[i]))
+    return total
+
+
+def _joint_mle(starts: list[NDArray], bounds: NDArray, args: tuple) -> NDArray:
+    best = None
+    for x0 in starts:
+        x0 = np.clip(x0, bounds[:, 0] + 1e-6, bounds[:, 1] - 1e-6)
+        r = optimize.minimize(_joint_nll, x0, args=args, method="Nelder-Mead", bounds=bounds,
+                              options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000})
+        if best is None or r.fun < best.fun:
+            best = r
+    # a restart from the best point (Nelder–Mead can stall on a collapsed simplex)
+    r = optimize.minimize(_joint_nll, best.x, args=args, method="Nelder-Mead", bounds=bounds,
+                          options={"xatol": 1e-8, "fatol": 1e-10, "maxiter": 4000})
+    return r.x if r.fun <= best.fun else best.x
+
+
+def fit_joint_scaling(
+    sizes_by_n: Mapping[int, Sequence[ArrayLike]],
+    floors: float | Mapping[int, float],
+    n_boot: int = 200,
+    seed: int = 0,
+    min_tail: int = 5,
+) -> JointScaling:
+    """One maximum-likelihood fit of ``τ``, ``β`` and the cut-off to all sizes ``N`` (module
+    docstring). ``sizes_by_n[N]``: one array of sizes per sample; ``floors``: one lower end for
+    all ``N`` or one per ``N`` (sizes below it are dropped). Sizes ``N`` with fewer than
+    ``min_tail`` avalanches at or above their floor are dropped. ``ValueError`` for non-positive
+    sizes or floors, a missing floor, ``n_boot < 2``, or fewer than two sizes ``N`` left."""
+    if not (isinstance(n_boot, int) and n_boot >= 2):
+        raise ValueError(f"n_boot must be an integer >= 2, got {n_boot!r}")
+    if not (isinstance(min_tail, int) and min_tail >= 1):
+        raise ValueError(f"min_tail must be an integer >= 1, got {min_tail!r}")
+    rows = []
+    for n, samples in sorted(sizes_by_n.items()):
+        floor = floors.get(n) if isinstance(floors, Mapping) else floors
+        if floor is None:
+            raise ValueError(f"no floor for N = {n}")
+        floor = float(floor)
+        if not (math.isfinite(floor) and floor > 0):
+            raise ValueError(f"the floor at N = {n} must be finite and > 0, got {floor!r}")
+        arrs = [np.asarray(a, dtype=np.float64).ravel() for a in samples]
+        if any(np.any(~(a > 0) | ~np.isfinite(a)) for a in arrs):
+            raise ValueError(f"sizes at N = {n} must be positive and finite")
+        tails = [a[a >= floor] for a in arrs]
+        stats = np.array([[t.size, np.log(t).sum(), t.sum()] for t in tails]).reshape(-1, 3)
+        if stats[:, 0].sum() >= min_tail:
+            rows.append((int(n), floor, stats, np.concatenate(tails)))
+    if len(rows) < 2:
+        raise ValueError(f"need two sizes N with >= {min_tail} avalanches above their floors, "
+                         f"have {[r[0] for r in rows]}")
+    ns = np.array([r[0] for r in rows], dtype=np.int64)
+    fl = np.array([r[1] for r in rows])
+    n_ref = float(np.exp(np.mean(np.log(ns))))
+    log_rel = np.log(ns / n_ref)
+    largest = max(float(r[3].max()) for r in rows)
+    hi = math.log(largest) + 7.0
+    bounds = np.array([[-1.0, 5.0], [math.log(float(fl.min())) - 3.0, hi], [-3.0, 6.0]])
+
+    def fit(stats: list[NDArray], extra: NDArray | None) -> NDArray:
+        k = np.array([s[:, 0].sum() for s in stats])
+        sl = np.array([s[:, 1].sum() for s in stats])
+        s1 = np.array([s[:, 2].sum() for s in stats])
+        mean_log = float(np.sum(sl - k * np.log(fl)) / k.sum())
+        tau0 = min(max(1.0 + 1.0 / mean_log if mean_log > 0 else 1.5, 0.0), 3.0)
+        starts = [np.array([tau0, math.log(largest), b0]) for b0 in (0.5, 1.5)]
+        starts.append(np.array([tau0, math.log(float(np.median(fl))) + 3.0, 1.0]))
+        if extra is not None:
+            starts = [extra, starts[0]]
+        return _joint_mle(starts, bounds, (log_rel, fl, k, sl, s1))
+
+    base = [r[2] for r in rows]
+    x = fit(base, None)
+    k = np.array([s[:, 0].sum() for s in base])
+    loglik = -_joint_nll(x, log_rel, fl, k, np.array([s[:, 1].sum() for s in base]),
+                         np.array([s[:, 2].sum() for s in base]))
+    rng = np.random.default_rng(seed)
+    boot = np.empty((n_boot, 3))
+    for b in range(n_boot):
+        res = [s[rng.integers(0, s.shape[0], s.shape[0])] for s in base]
+        boot[b] = fit(res, x)
+    # the pure power law with one τ: the sizes in units of their floors, S/s_N ≥ 1, follow it on
+    # [1, ∞) (the Jacobian Σ log s_N converts the likelihood back)
+    scaled = np.concatenate([r[3] / r[1] for r in rows])
+    tau_pure = mle_tau(scaled, 1.0)[0]
+    loglik_pure = power_law_loglik(scaled, tau_pure, 1.0) - float(np.sum(k * np.log(fl)))
+    cutoff_lr = 2.0 * (loglik - loglik_pure)
+
+    def on_bound(p: NDArray) -> NDArray:
+        p = np.atleast_2d(p)
+        return np.any((p < bounds[:, 0] + 1e-3) | (p > bounds[:, 1] - 1e-3), axis=1)
+
+    at_b = on_bound(boot)
+    sd = np.std(boot, axis=0, ddof=1)
+    lo, up = x - _Z_95 * sd, x + _Z_95 * sd
+    return JointScaling(
+        n=ns, floors=fl, tail=k.astype(np.int64),
+        samples=np.array([s.shape[0] for s in base], dtype=np.int64),
+        tau=float(x[0]), tau_err=float(sd[0]), tau_ci95=(float(lo[0]), float(up[0])),
+        beta=float(x[2]), beta_err=float(sd[2]), beta_ci95=(float(lo[2]), float(up[2])),
+        n_ref=n_ref, cutoff_ref=math.exp(float(x[1])),
+        cutoff_ref_ci95=(math.exp(float(lo[1])), math.exp(float(up[1]))),
+        loglik=float(loglik), cutoff_lr=float(cutoff_lr), resolved=bool(cutoff_lr > _CHI2_2_95),
+        at_bound=bool(on_bound(x)[0]),
+        boot_at_bound=float(at_b.mean()), n_boot=n_boot, boot=boot,
+    )
