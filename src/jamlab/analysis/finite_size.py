@@ -50,7 +50,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -295,7 +295,9 @@ class JointScaling:
     the maximised ``loglik``; the likelihood ratio ``cutoff_lr`` against the pure power law and
     ``resolved``; ``at_bound`` and ``boot_at_bound``, the fraction of resamples with a parameter
     at its bound (module docstring); ``n_boot`` resamples and their fits ``boot`` (rows
-    ``τ, log S*_ref, β``)."""
+    ``τ, log S*_ref, β``). With the jackknife: ``tau_err_jack``, ``beta_err_jack`` and the
+    leave-one-out fits ``leave_one_out`` (rows ``N, sample index, τ, log S*_ref, β``); else NaN
+    and an empty array."""
 
     n: NDArray[np.int64]
     floors: FloatArray
@@ -317,6 +319,9 @@ class JointScaling:
     boot_at_bound: float
     n_boot: int
     boot: FloatArray
+    tau_err_jack: float = math.nan
+    beta_err_jack: float = math.nan
+    leave_one_out: FloatArray = field(default_factory=lambda: np.empty((0, 5)))
 
     def cutoff(self, n: ArrayLike) -> FloatArray:
         """The fitted ``S*(N) = S*_ref (N/N_ref)^β``."""
@@ -333,6 +338,8 @@ class JointScaling:
             "loglik": self.loglik, "cutoff_lr": self.cutoff_lr, "resolved": self.resolved,
             "at_bound": self.at_bound,
             "boot_at_bound": self.boot_at_bound, "n_boot": self.n_boot,
+            "tau_err_jack": None if math.isnan(self.tau_err_jack) else self.tau_err_jack,
+            "beta_err_jack": None if math.isnan(self.beta_err_jack) else self.beta_err_jack,
         }
 
 
@@ -371,12 +378,16 @@ def fit_joint_scaling(
     n_boot: int = 200,
     seed: int = 0,
     min_tail: int = 5,
+    jackknife: bool = False,
 ) -> JointScaling:
     """One maximum-likelihood fit of ``τ``, ``β`` and the cut-off to all sizes ``N`` (module
     docstring). ``sizes_by_n[N]``: one array of sizes per sample; ``floors``: one lower end for
     all ``N`` or one per ``N`` (sizes below it are dropped). Sizes ``N`` with fewer than
-    ``min_tail`` avalanches at or above their floor are dropped. ``ValueError`` for non-positive
-    sizes or floors, a missing floor, ``n_boot < 2``, or fewer than two sizes ``N`` left."""
+    ``min_tail`` avalanches at or above their floor are dropped. ``jackknife``: also refit with
+    each sample left out in turn (:attr:`JointScaling.leave_one_out`, the stratified jackknife
+    errors ``*_err_jack``; a second error estimate beside the bootstrap, and the influence of
+    single samples). ``ValueError`` for non-positive sizes or floors, a missing floor,
+    ``n_boot < 2``, or fewer than two sizes ``N`` left."""
     if not (isinstance(n_boot, int) and n_boot >= 2):
         raise ValueError(f"n_boot must be an integer >= 2, got {n_boot!r}")
     if not (isinstance(min_tail, int) and min_tail >= 1):
@@ -441,6 +452,21 @@ def fit_joint_scaling(
         return np.any((p < bounds[:, 0] + 1e-3) | (p > bounds[:, 1] - 1e-3), axis=1)
 
     at_b = on_bound(boot)
+    loo = np.empty((0, 5))
+    err_jack = np.full(3, math.nan)
+    if jackknife:
+        # stratified delete-one jackknife: v = Σ_N (m_N − 1)/m_N Σ_i (θ_(N,i) − θ̄_N)²
+        out, var = [], np.zeros(3)
+        for j, st in enumerate(base):
+            m = st.shape[0]
+            if m < 2:
+                continue
+            fits = np.array([fit([np.delete(st, i, axis=0) if jj == j else s
+                                  for jj, s in enumerate(base)], x) for i in range(m)])
+            var += (m - 1) / m * np.sum((fits - fits.mean(axis=0)) ** 2, axis=0)
+            out.extend([ns[j], i, *f] for i, f in enumerate(fits))
+        loo = np.array(out, dtype=np.float64).reshape(-1, 5)
+        err_jack = np.sqrt(var)
     sd = np.std(boot, axis=0, ddof=1)
     lo, up = x - _Z_95 * sd, x + _Z_95 * sd
     return JointScaling(
@@ -453,4 +479,5 @@ def fit_joint_scaling(
         loglik=float(loglik), cutoff_lr=float(cutoff_lr), resolved=bool(cutoff_lr > _CHI2_2_95),
         at_bound=bool(on_bound(x)[0]),
         boot_at_bound=float(at_b.mean()), n_boot=n_boot, boot=boot,
+        tau_err_jack=float(err_jack[0]), beta_err_jack=float(err_jack[2]), leave_one_out=loo,
     )
