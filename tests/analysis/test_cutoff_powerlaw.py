@@ -12,6 +12,7 @@ from scipy import integrate, stats
 
 from jamlab.analysis.cutoff_powerlaw import (
     cutoff_power_law_cdf,
+    cutoff_power_law_log_norm,
     cutoff_power_law_logpdf,
     fit_cutoff_power_law,
     log_upper_gamma,
@@ -41,6 +42,22 @@ def test_density_integrates_to_one(tau, x_c):
     total, err = integrate.quad(f, 0.0, math.log(x_c / x_min) + 60.0, limit=400)
     assert total == pytest.approx(1.0, rel=1e-8)
     assert cutoff_power_law_logpdf(0.5 * x_min, tau, x_c, x_min) == -np.inf
+
+
+@pytest.mark.parametrize("tau,x_c,a", [(1.41269, 1e-5, 0.3), (1.1, 1e-7, 0.5), (0.7, 1e-6, 2.0),
+                                       (1.5, 3e-6, 1.0)])
+def test_stretched_normaliser_against_quadrature(tau, x_c, a):
+    # Z = ∫_{x_min}^∞ x^(−τ) e^(−(x/x_c)^a) dx by quadrature in t = log(x/x_min)
+    x_min = 1e-9
+
+    def f(t):
+        x = x_min * math.exp(t)
+        return math.exp((1.0 - tau) * math.log(x) - (x / x_c) ** a)
+
+    # up to (x/x_c)^a = 200, where the integrand is e^(−200) of its cut-off value
+    top = math.log(x_c / x_min) + math.log(200.0) / a
+    z, _ = integrate.quad(f, 0.0, top, limit=1000, epsrel=1e-12)
+    assert cutoff_power_law_log_norm(tau, x_c, x_min, a) == pytest.approx(math.log(z), abs=1e-8)
 
 
 def test_sampler_follows_the_density():

@@ -18,12 +18,12 @@ TAU, BETA, AMP = 1.4, 1.0, 30.0
 NS = (250, 500, 1000, 2000)
 
 
-def _draw(rng, floor, s_star, k, tau=TAU):
+def _draw(rng, floor, s_star, k, tau=TAU, a=1.0):
     out = []
     while len(out) < k:
         s = floor * (1.0 - rng.random(4 * k + 8)) ** (-1.0 / (tau - 1.0))
         if math.isfinite(s_star):
-            s = s[rng.random(s.size) < np.exp(-s / s_star)]
+            s = s[rng.random(s.size) < np.exp(-((s / s_star) ** a))]
         out.extend(s.tolist())
     return np.array(out[:k])
 
@@ -146,3 +146,30 @@ def test_jackknife_errors_agree_with_the_bootstrap():
     assert 0.10 < np.mean(jack_beta) < 0.22
     plain = fit_joint_scaling(*_ensemble(1, per_n_floors=True), n_boot=2)
     assert math.isnan(plain.beta_err_jack) and plain.leave_one_out.shape == (0, 5)
+
+
+def test_stretched_cutoff_recovered_and_preferred_by_the_profile():
+    # data with the cut-off e^(−(S/S*)^0.5), fitted with stretch = 0.5: β unbiased, its
+    # bootstrap error the size of its spread over trials (measured on these 16: mean 0.986,
+    # spread 0.237, mean error 0.213); the profile likelihood prefers a = 0.5 over a = 1 on
+    # average (with ~1200 sizes per ensemble only weakly: in 12 of these 16, mean Δlog L 1.26)
+    a_true, trials, prefer = 0.5, 16, 0
+    betas, errs, gains = [], [], []
+    for t in range(trials):
+        rng = np.random.default_rng(900 + t)
+        fl = _floors(True)
+        ens = {n: [_draw(rng, fl[n], 5.0 * (n / NS[0]) ** BETA, rng.poisson(4 * n / NS[0]),
+                         a=a_true) for _ in range(20)] for n in NS}
+        fit = fit_joint_scaling(ens, fl, n_boot=100, seed=t, stretch=a_true)
+        assert fit.stretch == a_true and not fit.at_bound
+        betas.append(fit.beta)
+        errs.append(fit.beta_err)
+        gains.append(fit.loglik - fit_joint_scaling(ens, fl, n_boot=2, stretch=1.0).loglik)
+        prefer += gains[-1] > 0
+    betas = np.array(betas)
+    assert abs(betas.mean() - BETA) < 3 * betas.std(ddof=1) / math.sqrt(trials)
+    assert 0.7 < np.mean(errs) / betas.std(ddof=1) < 1.3
+    assert prefer >= 10, prefer
+    assert np.mean(gains) > 2 * np.std(gains, ddof=1) / math.sqrt(trials), gains
+    with pytest.raises(ValueError, match="stretch"):
+        fit_joint_scaling(ens, fl, n_boot=2, stretch=0.0)

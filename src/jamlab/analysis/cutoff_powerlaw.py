@@ -122,10 +122,16 @@ def _check_model(tau: float, x_c: float, x_min: float) -> None:
                          f"x_c={x_c!r}, x_min={x_min!r}")
 
 
-def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float) -> float:
+def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float, stretch: float = 1.0
+                              ) -> float:
     """``log Z = (1−τ) log x_c + log Γ(1−τ, x_min/x_c)``: ``log p(x) = −τ log x − x/x_c − log Z``
-    (parameters not checked; :func:`cutoff_power_law_logpdf` checks them)."""
-    return (1.0 - tau) * math.log(x_c) + log_upper_gamma(1.0 - tau, x_min / x_c)
+    (parameters not checked; :func:`cutoff_power_law_logpdf` checks them). With a stretched
+    cut-off ``e^(−(x/x_c)^a)`` (``stretch = a > 0``; ``u = (x/x_c)^a``):
+    ``log Z = (1−τ) log x_c − log a + log Γ((1−τ)/a, (x_min/x_c)^a)``, the same for ``a = 1``."""
+    if stretch == 1.0:
+        return (1.0 - tau) * math.log(x_c) + log_upper_gamma(1.0 - tau, x_min / x_c)
+    return ((1.0 - tau) * math.log(x_c) - math.log(stretch)
+            + log_upper_gamma((1.0 - tau) / stretch, (x_min / x_c) ** stretch))
 
 
 def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float) -> FloatArray:

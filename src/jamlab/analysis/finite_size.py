@@ -35,6 +35,10 @@ restricted to the avalanches one counts (e.g. plastic steps between jammed minim
   ``± 1.96`` of them (on the synthetic ensembles of ``tests/analysis/test_finite_size_joint.py``,
   20 samples per size, they held β in 93 % and τ in 88 % of 60 trials — slightly better than the
   percentile intervals, 88 % and 87 %; read them as ≈ 90 % intervals at that sample count).
+  The cut-off's shape is a choice: ``stretch = a`` fits ``e^(−(S/S*)^a)`` instead (fixed ``a``;
+  ``Z`` from :func:`~jamlab.analysis.cutoff_powerlaw.cutoff_power_law_log_norm`), and the
+  maximised ``loglik`` over a grid of ``a`` is its profile likelihood. Near a slow crossover
+  ``τ`` and ``a`` trade off against each other (``docs/criticality.md``), while ``β`` moves less.
   Whether the data hold a cut-off at all:
   ``cutoff_lr = 2 (ℓ − ℓ_pure)``, the likelihood ratio against the pure power law with one ``τ``
   (``S* = ∞`` at every ``N``); ``resolved`` when it exceeds 5.99, the 95 % point of ``χ²`` with two
@@ -297,7 +301,7 @@ class JointScaling:
     at its bound (module docstring); ``n_boot`` resamples and their fits ``boot`` (rows
     ``τ, log S*_ref, β``). With the jackknife: ``tau_err_jack``, ``beta_err_jack`` and the
     leave-one-out fits ``leave_one_out`` (rows ``N, sample index, τ, log S*_ref, β``); else NaN
-    and an empty array."""
+    and an empty array. ``stretch``: the exponent ``a`` of the cut-off ``e^(−(S/S*)^a)``."""
 
     n: NDArray[np.int64]
     floors: FloatArray
@@ -322,6 +326,7 @@ class JointScaling:
     tau_err_jack: float = math.nan
     beta_err_jack: float = math.nan
     leave_one_out: FloatArray = field(default_factory=lambda: np.empty((0, 5)))
+    stretch: float = 1.0
 
     def cutoff(self, n: ArrayLike) -> FloatArray:
         """The fitted ``S*(N) = S*_ref (N/N_ref)^β``."""
@@ -338,23 +343,26 @@ class JointScaling:
             "loglik": self.loglik, "cutoff_lr": self.cutoff_lr, "resolved": self.resolved,
             "at_bound": self.at_bound,
             "boot_at_bound": self.boot_at_bound, "n_boot": self.n_boot,
+            "stretch": self.stretch,
             "tau_err_jack": None if math.isnan(self.tau_err_jack) else self.tau_err_jack,
             "beta_err_jack": None if math.isnan(self.beta_err_jack) else self.beta_err_jack,
         }
 
 
 def _joint_nll(params: NDArray, log_rel_n: FloatArray, floors: FloatArray, k: FloatArray,
-               sum_log: FloatArray, sum_s: FloatArray) -> float:
+               sum_log: FloatArray, sum_s: FloatArray, stretch: float) -> float:
     """``−log L`` of the joint model from the sufficient statistics per ``N``: the count ``k``,
-    ``Σ log S`` and ``Σ S`` at or above the floors."""
+    ``Σ log S`` and ``Σ S^a`` (``a = stretch``) at or above the floors."""
     tau, log_ref, beta = (float(v) for v in params)
     total = 0.0
     for i in range(k.size):
         if k[i] == 0:
             continue
-        s_star = math.exp(log_ref + beta * log_rel_n[i])
-        total += (tau * sum_log[i] + sum_s[i] / s_star
-                  + k[i] * cutoff_power_law_log_norm(tau, s_star, floors[i]))
+        log_star = log_ref + beta * log_rel_n[i]
+        s_star = math.exp(log_star)
+        scaled = sum_s[i] / s_star if stretch == 1.0 else sum_s[i] * math.exp(-stretch * log_star)
+        total += (tau * sum_log[i] + scaled
+                  + k[i] * cutoff_power_law_log_norm(tau, s_star, floors[i], stretch))
     return total
 
 
@@ -379,6 +387,7 @@ def fit_joint_scaling(
     seed: int = 0,
     min_tail: int = 5,
     jackknife: bool = False,
+    stretch: float = 1.0,
 ) -> JointScaling:
     """One maximum-likelihood fit of ``τ``, ``β`` and the cut-off to all sizes ``N`` (module
     docstring). ``sizes_by_n[N]``: one array of sizes per sample; ``floors``: one lower end for
@@ -386,12 +395,17 @@ def fit_joint_scaling(
     ``min_tail`` avalanches at or above their floor are dropped. ``jackknife``: also refit with
     each sample left out in turn (:attr:`JointScaling.leave_one_out`, the stratified jackknife
     errors ``*_err_jack``; a second error estimate beside the bootstrap, and the influence of
-    single samples). ``ValueError`` for non-positive sizes or floors, a missing floor,
-    ``n_boot < 2``, or fewer than two sizes ``N`` left."""
+    single samples). ``stretch = a``: the cut-off ``e^(−(S/S*)^a)`` instead of ``e^(−S/S*)``
+    (fixed; compare ``loglik`` over a grid of ``a`` for its profile likelihood). ``ValueError``
+    for non-positive sizes, floors or ``stretch``, a missing floor, ``n_boot < 2``, or fewer
+    than two sizes ``N`` left."""
     if not (isinstance(n_boot, int) and n_boot >= 2):
         raise ValueError(f"n_boot must be an integer >= 2, got {n_boot!r}")
     if not (isinstance(min_tail, int) and min_tail >= 1):
         raise ValueError(f"min_tail must be an integer >= 1, got {min_tail!r}")
+    stretch = float(stretch)
+    if not (math.isfinite(stretch) and stretch > 0):
+        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
     rows = []
     for n, samples in sorted(sizes_by_n.items()):
         floor = floors.get(n) if isinstance(floors, Mapping) else floors
@@ -404,7 +418,8 @@ def fit_joint_scaling(
         if any(np.any(~(a > 0) | ~np.isfinite(a)) for a in arrs):
             raise ValueError(f"sizes at N = {n} must be positive and finite")
         tails = [a[a >= floor] for a in arrs]
-        stats = np.array([[t.size, np.log(t).sum(), t.sum()] for t in tails]).reshape(-1, 3)
+        stats = np.array([[t.size, np.log(t).sum(), (t**stretch).sum()]
+                          for t in tails]).reshape(-1, 3)
         if stats[:, 0].sum() >= min_tail:
             rows.append((int(n), floor, stats, np.concatenate(tails)))
     if len(rows) < 2:
@@ -416,7 +431,8 @@ def fit_joint_scaling(
     log_rel = np.log(ns / n_ref)
     largest = max(float(r[3].max()) for r in rows)
     hi = math.log(largest) + 7.0
-    bounds = np.array([[-1.0, 5.0], [math.log(float(fl.min())) - 3.0, hi], [-3.0, 6.0]])
+    bounds = np.array([[-1.0, 5.0], [math.log(float(fl.min())) - 3.0 / stretch, hi],
+                       [-3.0, 6.0]])
 
     def fit(stats: list[NDArray], extra: NDArray | None) -> NDArray:
         k = np.array([s[:, 0].sum() for s in stats])
@@ -428,13 +444,13 @@ def fit_joint_scaling(
         starts.append(np.array([tau0, math.log(float(np.median(fl))) + 3.0, 1.0]))
         if extra is not None:
             starts = [extra, starts[0]]
-        return _joint_mle(starts, bounds, (log_rel, fl, k, sl, s1))
+        return _joint_mle(starts, bounds, (log_rel, fl, k, sl, s1, stretch))
 
     base = [r[2] for r in rows]
     x = fit(base, None)
     k = np.array([s[:, 0].sum() for s in base])
     loglik = -_joint_nll(x, log_rel, fl, k, np.array([s[:, 1].sum() for s in base]),
-                         np.array([s[:, 2].sum() for s in base]))
+                         np.array([s[:, 2].sum() for s in base]), stretch)
     rng = np.random.default_rng(seed)
     boot = np.empty((n_boot, 3))
     for b in range(n_boot):
@@ -480,4 +496,5 @@ def fit_joint_scaling(
         at_bound=bool(on_bound(x)[0]),
         boot_at_bound=float(at_b.mean()), n_boot=n_boot, boot=boot,
         tau_err_jack=float(err_jack[0]), beta_err_jack=float(err_jack[2]), leave_one_out=loo,
+        stretch=stretch,
     )
