@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from jamlab.analysis.criticality import ExponentFit
-from jamlab.analysis.finite_size import fit_cutoff_scaling
+from jamlab.analysis.finite_size import fit_cutoff_scaling, fit_joint_scaling
 from jamlab.reproduce.criticality import FiniteSizeResult, PackingCriticality
 from jamlab.reproduce.criticality_table import criticality_rows, finite_size_rows
 from jamlab.reproduce.measurements import TauEstimate
@@ -125,3 +125,15 @@ def test_finite_size_row_and_missing_labels():
     assert "N = 64: 10 samples, 200 avalanches" in rows[0].samples
     assert rows[1].value_text.startswith("n/a (need avalanches")
     assert rows[1].verdicts == ["β of the best collapse: no data"]
+    assert rows[0].verdicts[1] == "β of the joint maximum-likelihood fit: no data"
+    # with the joint fit: exponential sizes of mean 1 and 2 are τ = 0 with a cut-off S* that
+    # doubles from N = 64 to 128, β = 1
+    jt = fit_joint_scaling(per_n, 0.01, n_boot=50)
+    assert jt.resolved and abs(jt.beta - 1.0) < 3 * jt.beta_err and abs(jt.tau) < 3 * jt.tau_err
+    r = FiniteSizeResult(r.scaling, r.collapse, r.quality_unscaled, r.beta_best, r.reasons,
+                         {"jamming": jt, "0.75": None, "0.8": None})
+    row = finite_size_rows(r)[0]
+    assert "joint maximum-likelihood fit on S ≥ 0.01 ε" in row.value_text
+    assert "cut-off resolved" in row.value_text
+    assert row.verdicts[1].startswith("β of the joint maximum-likelihood fit: ")
+    assert not row.verdicts[1].endswith("no data")

@@ -17,7 +17,11 @@ Rules (``docs/reproduce.md``, ``docs/criticality.md``):
   :func:`jamlab.analysis.finite_size.fit_cutoff_scaling` (``S_c = ⟨S²⟩/⟨S⟩``, ``β`` of
   ``S_c ~ N^β`` with a bootstrap over samples) and the collapse ``P(S) S^τ`` against ``S/N^β``
   at that ``β`` and the ``τ`` fitted in the report (:func:`measurements.tau_estimates`), with its
-  quality, the quality without rescaling (``β = 0``) and the ``β`` that minimises it on a grid.
+  quality, the quality without rescaling (``β = 0``) and the ``β`` that minimises it on a grid;
+  and the joint maximum-likelihood fit of one ``τ``, ``β`` and an exponential cut-off over all
+  ``N`` (:func:`jamlab.analysis.finite_size.fit_joint_scaling`) on the sizes at or above that τ
+  fit's ``x_min`` (one floor for all ``N``; the same bootstrap), with whether a cut-off is
+  resolved at all.
 """
 
 from __future__ import annotations
@@ -156,20 +160,27 @@ class FiniteSizeResult:
     """Per φ label: the :class:`~jamlab.analysis.finite_size.CutoffScaling` (or None), the
     :class:`~jamlab.analysis.finite_size.Collapse` at the fitted ``β`` and τ (or None), the
     collapse quality without rescaling, the ``β`` minimising the quality on
-    :data:`COLLAPSE_BETAS`, and why a part is missing."""
+    :data:`COLLAPSE_BETAS`, why a part is missing, and the
+    :class:`~jamlab.analysis.finite_size.JointScaling` (or None)."""
 
     scaling: dict[str, Any]
     collapse: dict[str, Any]
     quality_unscaled: dict[str, float]
     beta_best: dict[str, float]
     reasons: dict[str, str]
+    joint: dict[str, Any] = field(default_factory=dict)
 
 
 def finite_size_scaling(
     jamming: Any, unsat: Any, taus: dict[str, TauEstimate], scale: Scale
 ) -> FiniteSizeResult:
     """The finite-size rule of the module docstring at each of :data:`TAU_LABELS`."""
-    from jamlab.analysis.finite_size import collapse, collapse_quality, fit_cutoff_scaling
+    from jamlab.analysis.finite_size import (
+        collapse,
+        collapse_quality,
+        fit_cutoff_scaling,
+        fit_joint_scaling,
+    )
 
     sources = {"jamming": (jamming, scale.jamming_n)} | {
         repr(p): (unsat, scale.unsat_n) for p in UNSAT_PHI}
@@ -178,10 +189,11 @@ def finite_size_scaling(
     unscaled: dict[str, float] = {}
     best: dict[str, float] = {}
     reasons: dict[str, str] = {}
+    joint: dict[str, Any] = {}
     for label in TAU_LABELS:
         ds, ns = sources[label]
         per_n = {n: list(avalanche_set(ds, label, n).per_sample) for n in ns}
-        scaling[label] = coll[label] = None
+        scaling[label] = coll[label] = joint[label] = None
         unscaled[label] = best[label] = math.nan
         try:
             scaling[label] = fit_cutoff_scaling(per_n, n_boot=max(scale.n_boot, 2),
@@ -199,4 +211,9 @@ def finite_size_scaling(
         q = collapse_quality(pooled, fit.tau, COLLAPSE_BETAS, scale.bins_per_decade)
         if np.isfinite(q).any():
             best[label] = float(COLLAPSE_BETAS[int(np.nanargmin(q))])
-    return FiniteSizeResult(scaling, coll, unscaled, best, reasons)
+        try:
+            joint[label] = fit_joint_scaling(per_n, float(fit.x_min),
+                                             n_boot=max(scale.n_boot, 2), seed=scale.seed)
+        except ValueError as exc:
+            reasons[label] = f"joint fit: {exc}"
+    return FiniteSizeResult(scaling, coll, unscaled, best, reasons, joint)

@@ -177,6 +177,15 @@ def finite_size_rows(r: FiniteSizeResult) -> list[Row]:
             text += (f"; collapse P(S) S^τ vs S/N^β at τ = {co.tau:.3f}: RMS {co.quality:.3f} "
                      f"decades (unrescaled {r.quality_unscaled[label]:.3f}); best β on the grid "
                      f"{r.beta_best[label]:.2f}")
+        jt = r.joint.get(label)
+        if jt is not None:
+            text += (f"; joint maximum-likelihood fit on S ≥ {jt.floors[0]:.3g} ε (one τ, "
+                     f"exponential cut-off S* ~ N^β): β = {format_value(jt.beta, jt.beta_err)}, "
+                     f"τ = {format_value(jt.tau, jt.tau_err)}, "
+                     + ("cut-off resolved" if jt.resolved else "no cut-off resolved (β void)")
+                     + f" (2 Δlog L = {jt.cutoff_lr:.1f})")
+        ok = jt is not None and jt.resolved
+        joint_beta, joint_err = (jt.beta, jt.beta_err) if ok else (float("nan"), 0.0)
         two = len(sc.n) == 2
         rows.append(Row(
             quantity=(f"β of the avalanche cut-off S_c = ⟨S²⟩/⟨S⟩ ~ N^β, {title} "
@@ -184,7 +193,9 @@ def finite_size_rows(r: FiniteSizeResult) -> list[Row]:
             reference_text="no value in the paper; cross-check: the β that minimises the "
                            "collapse RMS",
             value=sc.beta, error=sc.beta_err, value_text=text, samples=per_n,
-            comparisons=(Comparison("β of the best collapse", r.beta_best[label]),),
+            comparisons=(Comparison("β of the best collapse", r.beta_best[label]),
+                         Comparison("β of the joint maximum-likelihood fit", joint_beta,
+                                    joint_err)),
             note=("two sizes give β only roughly: a line through two cut-offs, its bootstrap "
                   "interval likely too narrow" if two else
                   "bootstrap over samples, widened by √(χ²/dof) when > 1"),
@@ -204,5 +215,6 @@ def finite_size_data(r: FiniteSizeResult) -> dict[str, Any]:
             else clean(r.collapse[label].quality),
             collapse_tau=None if r.collapse.get(label) is None else r.collapse[label].tau,
             quality_unscaled=clean(r.quality_unscaled[label]),
-            beta_best=clean(r.beta_best[label]))
+            beta_best=clean(r.beta_best[label]),
+            joint=None if r.joint.get(label) is None else r.joint[label].as_dict())
         for label, sc in r.scaling.items()}}
