@@ -21,7 +21,7 @@ import argparse
 
 import numpy as np
 
-from jamlab.spheres.confirm import trapezoid_residual
+from jamlab.analysis.avalanches import branch_residual, jammed_steps
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -44,11 +44,10 @@ def main() -> None:
                               observer=lambda k, cur, m=minima: m.__setitem__(k, cur))
         c = r.columns
         resid = np.full(c["gamma"].size, np.nan)
-        resid[1:] = [trapezoid_residual(c["enthalpy"][k - 1], c["shear_stress"][k - 1],
-                                        c["enthalpy"][k], c["shear_stress"][k], a.dgamma)
-                     for k in range(1, c["gamma"].size)]
+        resid[1:] = branch_residual(c["enthalpy_jump"][1:], c["stress_jump"][1:],
+                                    np.diff(c["gamma"]))
         off = np.zeros(resid.size, dtype=bool)
-        off[1:] = (~c["plastic"][1:]) & c["jammed"][1:] & c["jammed"][:-1] & (
+        off[1:] = (~c["plastic"][1:]) & jammed_steps(c["jammed"]) & (
             np.abs(resid[1:]) > 100.0 * r.threshold)
         steps += a.steps
         plastic += int(c["plastic"].sum())
@@ -57,9 +56,8 @@ def main() -> None:
             h = a.dgamma / a.pieces
             ch = shear_at_pressure(start, h, pressure=a.pressure, n_steps=a.pieces,
                                    confirm_substeps=0).columns
-            pieces = [trapezoid_residual(ch["enthalpy"][i], ch["shear_stress"][i],
-                                         ch["enthalpy"][i + 1], ch["shear_stress"][i + 1], h)
-                      for i in range(a.pieces)]
+            pieces = branch_residual(ch["enthalpy_jump"][1:], ch["stress_jump"][1:],
+                                     np.diff(ch["gamma"]))
             hops.append((seed, int(k), float(resid[k]), float(np.max(np.abs(pieces))),
                          float(ch["enthalpy"][-1] - c["enthalpy"][k]), float(r.threshold)))
         print(f"seed {seed}: threshold {r.threshold:.2e} ε, {int(c['plastic'].sum())} plastic "

@@ -15,7 +15,7 @@ import argparse
 
 import numpy as np
 
-from jamlab.analysis.avalanches import jammed_steps
+from jamlab.analysis.avalanches import classify_steps
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -36,7 +36,8 @@ def main() -> None:
         v = c["box_length"] ** 3
         size = -c["enthalpy_jump"]
         counted = np.zeros(size.size, dtype=bool)
-        counted[1:] = c["plastic"][1:] & jammed_steps(c["jammed"]) & (size[1:] > 0)
+        counted[1:] = classify_steps(c["enthalpy_jump"][1:], c["plastic"][1:],
+                                     jammed=c["jammed"])
         big = np.where(counted & (size >= a.floor))[0]
         share = -a.pressure * (v[big] - v[big - 1]) / size[big]
         shares.extend(share.tolist())

@@ -36,6 +36,7 @@ from jamlab.analysis.avalanches import avalanche_sizes, jammed_steps
 from jamlab.analysis.cutoff_powerlaw import (
     CutoffPowerLawFit,
     cutoff_power_law_cdf,
+    cutoff_power_law_ks,
     cutoff_power_law_log_norm,
     fit_cutoff_power_law,
 )
@@ -186,9 +187,9 @@ def main() -> None:
               f"{slope.slope:.3f} ± {slope.slope_err:.3f}")
     joint = None
     if thresholds and all(len(thresholds.get(n, [])) == len(v) for n, v in sizes_by_n.items()):
-        # the figure's collapse: above the comparison floor, where no N is depleted
-        col = threshold_floors(sizes_by_n, pooled, thresholds)
+        threshold_floors(sizes_by_n, pooled, thresholds)
         joint = joint_fits(sizes_by_n, thresholds)
+        # the figure's collapse: above the comparison floor, where no N is depleted
         above = {n: v[v >= joint.floors[0]] for n, v in pooled.items()}
         col = collapse(above, joint.tau, joint.beta)
     if a.figure is not None:
@@ -262,14 +263,14 @@ def beta_from_cutoffs(cuts: dict[int, CutoffPowerLawFit]) -> SlopeFit | None:
 
 
 def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, np.ndarray],
-                     thresholds: dict[int, list[float]]) -> Collapse:
+                     thresholds: dict[int, list[float]]) -> None:
     """τ per N above floors set by the plastic flag's threshold (each sample's run threshold on
     the residual ``|r_n|``, in ε): per N at ``k`` × that N's largest threshold, and for all N at
     ``k`` × the largest threshold of all samples. If τ at a fixed low floor falls with N because
     the depletion just above a threshold that grows with N flattens more of the fitted range, the
     per-N τ must stop falling once every N is cut at the same multiple of its own threshold, and
     at a common floor above every threshold. ``pooled[N]``: the sizes of all samples of N.
-    Returns the collapse above the comparison floor (10 × the largest threshold)."""
+    Ends with the collapse above the comparison floor (10 × the largest threshold), printed."""
     print("\nthe plastic flag's threshold per N (ε; median and largest over samples):")
     print("| N | median threshold | largest threshold | 5 % quantile of S |")
     print("|---|---|---|---|")
@@ -314,10 +315,10 @@ def threshold_floors(sizes_by_n: dict[int, list[np.ndarray]], pooled: dict[int, 
     # rule's τ of the whole range, which sits in the cut-off's bend at the largest N)
     above = {n: np.concatenate(v)[np.concatenate(v) >= floor] for n, v in sizes_by_n.items()}
     tau = cuts[int(max(fit.n))].tau
-    return report_collapse(above, tau, fit.beta,
-                           f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = "
-                           f"{tau:.3f} (largest N, cut-off fit at the floor)",
-                           f"β = {fit.beta:.3f}")
+    report_collapse(above, tau, fit.beta,
+                    f"above S >= {floor:.2g}: collapse P(S) S^τ vs S/N^β with τ = "
+                    f"{tau:.3f} (largest N, cut-off fit at the floor)",
+                    f"β = {fit.beta:.3f}")
 
 
 def joint_fits(sizes_by_n: dict[int, list[np.ndarray]],
@@ -357,10 +358,8 @@ def joint_fits(sizes_by_n: dict[int, list[np.ndarray]],
         # fitted parameters the true critical value is smaller, so exceeding it is a rejection)
         cells = []
         for i, n in enumerate(j.n):
-            t = np.sort(np.concatenate([x[x >= j.floors[i]] for x in sizes_by_n[int(n)]]))
-            cdf = cutoff_power_law_cdf(t, j.tau, float(j.cutoff(n)), float(j.floors[i]))
-            d = float(max(np.max(np.arange(1, t.size + 1) / t.size - cdf),
-                          np.max(cdf - np.arange(t.size) / t.size)))
+            t = np.concatenate([x[x >= j.floors[i]] for x in sizes_by_n[int(n)]])
+            d = cutoff_power_law_ks(t, j.tau, float(j.cutoff(n)), float(j.floors[i]))
             cells.append(f"N = {n}: D = {d:.3f} (5 %: {1.36 / np.sqrt(t.size):.3f})")
         print(f"{label}: KS of each N's tail against the joint model: " + "; ".join(cells))
     profile_stretch(sizes_by_n, per_n)

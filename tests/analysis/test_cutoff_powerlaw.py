@@ -12,6 +12,7 @@ from scipy import integrate, stats
 
 from jamlab.analysis.cutoff_powerlaw import (
     cutoff_power_law_cdf,
+    cutoff_power_law_ks,
     cutoff_power_law_log_norm,
     cutoff_power_law_logpdf,
     fit_cutoff_power_law,
@@ -58,6 +59,14 @@ def test_stretched_normaliser_against_quadrature(tau, x_c, a):
     top = math.log(x_c / x_min) + math.log(200.0) / a
     z, _ = integrate.quad(f, 0.0, top, limit=1000, epsrel=1e-12)
     assert cutoff_power_law_log_norm(tau, x_c, x_min, a) == pytest.approx(math.log(z), abs=1e-8)
+
+
+def test_ks_distance_against_scipy():
+    rng = np.random.default_rng(5)
+    x = sample_cutoff_power_law(500, 1.4, 1e-6, 1e-8, rng)
+    for tau, x_c in ((1.4, 1e-6), (1.2, 3e-7)):
+        ref = stats.kstest(x, lambda v, t=tau, c=x_c: cutoff_power_law_cdf(v, t, c, 1e-8))
+        assert cutoff_power_law_ks(x, tau, x_c, 1e-8) == pytest.approx(ref.statistic, rel=1e-12)
 
 
 def test_sampler_follows_the_density():

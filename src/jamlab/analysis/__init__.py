@@ -18,6 +18,7 @@ from jamlab.analysis.avalanches import (
 from jamlab.analysis.cutoff_powerlaw import (
     CutoffPowerLawFit,
     cutoff_power_law_cdf,
+    cutoff_power_law_ks,
     cutoff_power_law_log_norm,
     cutoff_power_law_logpdf,
     fit_cutoff_power_law,
@@ -57,6 +58,7 @@ from jamlab.analysis.powerlaw import (
 __all__ = [
     "CutoffPowerLawFit",
     "cutoff_power_law_cdf",
+    "cutoff_power_law_ks",
     "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
     "fit_cutoff_power_law",

@@ -30,6 +30,7 @@ from scipy import optimize, special
 __all__ = [
     "CutoffPowerLawFit",
     "cutoff_power_law_cdf",
+    "cutoff_power_law_ks",
     "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
     "fit_cutoff_power_law",
@@ -245,7 +246,14 @@ def _stderr(tau: float, log_yc: float, y: FloatArray) -> tuple[float, float]:
     return float(math.sqrt(var[0])), float(math.sqrt(var[1]))
 
 
+def cutoff_power_law_ks(x: ArrayLike, tau: float, x_c: float, x_min: float) -> float:
+    """Kolmogorov–Smirnov distance between the data ``x`` (all at or above ``x_min``) and the
+    model: ``max_i max(i/n − F(x_(i)), F(x_(i)) − (i−1)/n)`` over the sorted data."""
+    return _ks(np.sort(np.asarray(x, dtype=np.float64).ravel()), tau, x_c, x_min)
+
+
 def _ks(tail: FloatArray, tau: float, x_c: float, x_min: float) -> float:
+    """:func:`cutoff_power_law_ks` of data already sorted."""
     cdf = cutoff_power_law_cdf(tail, tau, x_c, x_min)
     n = tail.size
     return float(max(np.max(np.arange(1, n + 1) / n - cdf), np.max(cdf - np.arange(n) / n)))

@@ -434,10 +434,12 @@ def fit_joint_scaling(
     bounds = np.array([[-1.0, 5.0], [math.log(float(fl.min())) - 3.0 / stretch, hi],
                        [-3.0, 6.0]])
 
+    def totals(stats: list[NDArray]) -> tuple[NDArray, NDArray, NDArray]:
+        """Per N: the count, ``Σ log S`` and ``Σ S^a`` of the samples' statistics."""
+        return tuple(np.array([s[:, c].sum() for s in stats]) for c in range(3))
+
     def fit(stats: list[NDArray], extra: NDArray | None) -> NDArray:
-        k = np.array([s[:, 0].sum() for s in stats])
-        sl = np.array([s[:, 1].sum() for s in stats])
-        s1 = np.array([s[:, 2].sum() for s in stats])
+        k, sl, s1 = totals(stats)
         mean_log = float(np.sum(sl - k * np.log(fl)) / k.sum())
         tau0 = min(max(1.0 + 1.0 / mean_log if mean_log > 0 else 1.5, 0.0), 3.0)
         starts = [np.array([tau0, math.log(largest), b0]) for b0 in (0.5, 1.5)]
@@ -448,9 +450,8 @@ def fit_joint_scaling(
 
     base = [r[2] for r in rows]
     x = fit(base, None)
-    k = np.array([s[:, 0].sum() for s in base])
-    loglik = -_joint_nll(x, log_rel, fl, k, np.array([s[:, 1].sum() for s in base]),
-                         np.array([s[:, 2].sum() for s in base]), stretch)
+    k, sl, s1 = totals(base)
+    loglik = -_joint_nll(x, log_rel, fl, k, sl, s1, stretch)
     rng = np.random.default_rng(seed)
     boot = np.empty((n_boot, 3))
     for b in range(n_boot):
