@@ -395,13 +395,21 @@ def test_killing_the_driver_kills_its_workers(tmp_path):
     driver = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         parent = psutil.Process(driver.pid)
+
+        def command_line(p) -> str:
+            # a child can exit (a zombie until reaped) between children() and cmdline()
+            try:
+                return " ".join(p.cmdline())
+            except psutil.Error:
+                return ""
+
         deadline = time.monotonic() + 60
         workers: list[psutil.Process] = []
         while time.monotonic() < deadline and len(workers) < 2:
             time.sleep(0.2)
-            workers = [c for c in parent.children() if "multiprocessing" in " ".join(c.cmdline())
-                       and "resource_tracker" not in " ".join(c.cmdline())]  # fmt: skip
-        assert len(workers) == 2, [c.cmdline() for c in parent.children()]
+            workers = [c for c in parent.children() if "multiprocessing" in command_line(c)
+                       and "resource_tracker" not in command_line(c)]  # fmt: skip
+        assert len(workers) == 2, [command_line(c) for c in parent.children()]
         time.sleep(1.0)  # let the workers start their samples
         os.kill(driver.pid, signal.SIGKILL)
         driver.wait(10)
