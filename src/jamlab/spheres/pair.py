@@ -37,6 +37,7 @@ __all__ = [
     "check_alpha",
     "pair_sigma",
     "pair_terms",
+    "harmonic_terms_masked",
     "pair_sigmas",
     "contact_force",
     "kernel_law",
@@ -77,9 +78,27 @@ def _pair_sigma_numba(diam, i, j):
 
 
 @njit(inline="always", cache=True)
-def _harmonic_terms(r, sigma):
-    h = 1.0 - r / sigma
+def _harmonic_of_h(h, sigma):
     return h * h, -2.0 * h / sigma, 2.0 / (sigma * sigma)
+
+
+@njit(inline="always", cache=True)
+def _harmonic_terms(r, sigma):
+    return _harmonic_of_h(1.0 - r / sigma, sigma)
+
+
+@njit(inline="always", cache=True)
+def harmonic_terms_masked(r2, r, sigma):
+    """``(V, V')`` of the harmonic law (``α = 2``) at ``r = √r2``, both zero unless
+    ``r2 < σ²`` — the kernels' contact test, applied without a branch: ``h`` is set to zero
+    beyond contact by a select, so a pair sum has no data-dependent jump (the same bits as
+    :func:`pair_terms` inside the cut-off, exact zeros outside). Pays where the contact pattern
+    of a neighbour list is too long for the branch predictor to learn (``docs/spheres.md``,
+    "Branch-free force kernel")."""
+    h = 1.0 - r / sigma
+    h = h if r2 < sigma * sigma else 0.0
+    v, dv, _ = _harmonic_of_h(h, sigma)
+    return v, dv
 
 
 def pair_terms(r, sigma, alpha):
