@@ -3,7 +3,9 @@
 The same packings (``jam(N, 3, seed)``, brought to ``p`` by one FIRE fixed-pressure step) are
 sheared with both minimisers (``--compare minimizer``, the default) or with both confirmations
 of the plastic flag (``--compare confirm``: the candidates Newton continued not redone, against
-all redone; Newton minimiser). Paired comparison per sample (plastic flags equal, the sizes
+all redone; Newton minimiser), or with the relaxations' Verlet skin
+(:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
+which changes only rounding). Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
 
@@ -20,6 +22,8 @@ import numpy as np
 from scipy.stats import ks_2samp
 
 from jamlab.analysis.powerlaw import fit_power_law
+from jamlab.spheres import barostat, newton_relax
+from jamlab.spheres.aqs import driver
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -32,8 +36,17 @@ def seeds(text: str) -> list[int]:
 VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "minimizer": (("newton", {"minimizer": "newton"}), ("fire", {"minimizer": "fire"})),
     "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
+    "skin": (("skin 0.1", {}), ("skin 0.2", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
+
+SKINS = {"skin 0.1": 0.1, "skin 0.2": 0.2}
+"""Variants that set the relaxations' Verlet skin (in every module that reads it)."""
+
+
+def set_relax_skin(skin: float) -> None:
+    for module in (driver, barostat, newton_relax):
+        module.RELAX_SKIN = skin
 
 
 def main() -> None:
@@ -65,6 +78,8 @@ def main() -> None:
         used += 1
         runs = {}
         for m in (new, ref):
+            if m in SKINS:
+                set_relax_skin(SKINS[m])
             t = time.process_time()
             runs[m] = res = shear_at_pressure(first.packing, a.dgamma, pressure=a.pressure,
                                               n_steps=a.steps, **options[m])

@@ -46,6 +46,7 @@ from dataclasses import dataclass, replace
 
 from jamlab.spheres.box import Box
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
+from jamlab.spheres.neighbors import RELAX_SKIN
 from jamlab.spheres.potential import Packing, pressure
 from jamlab.spheres.rigidity import pressure_floor
 
@@ -165,7 +166,7 @@ def minimize_enthalpy(
 
     def inner(start: Packing, made_from: Packing | None):
         if relax is None:
-            return minimize(start, ftol=ftol, max_iter=max_iter, params=params)
+            return minimize(start, ftol=ftol, max_iter=max_iter, params=params, skin=RELAX_SKIN)
         return relax(start, ftol=ftol, max_iter=max_iter, params=params, parent=made_from)
 
     if length_guess is not None:

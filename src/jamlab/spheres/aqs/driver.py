@@ -27,6 +27,7 @@ from jamlab.spheres.aqs.record import (
 from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.aqs.steps import Step, Stepper
 from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.neighbors import RELAX_SKIN
 from jamlab.spheres.potential import NeighborList, Packing
 from jamlab.spheres.trace import Trace
 
@@ -175,7 +176,7 @@ avalanche_threshold, pressure, ptol, confirm
     params = AQSParameters() if params is None else params
     fire_params = FireParameters() if fire_params is None else fire_params
 
-    nl = NeighborList(packing)
+    nl = NeighborList(packing, skin=RELAX_SKIN)
     rows: dict[str, list] = {k: [] for k in ROW_KEYS}
     if previous is None:
         gamma0 = packing.strain
@@ -238,7 +239,7 @@ avalanche_threshold, pressure, ptol, confirm
             np.array(cur.positions), cur.box, seed=cur.seed, diameters=cur.diameters,
             alpha=cur.alpha,
         )  # fmt: skip
-        nl = NeighborList(cur)
+        nl = NeighborList(cur, skin=RELAX_SKIN)
         _, backbone = observe(cur, nl)
         prev = {"gamma": rows["gamma"][-1], **{k: rows[k][-1] for k in ROW_KEYS if k != "gamma"}}
         stepper = Stepper(
