@@ -1,0 +1,138 @@
+"""Two levers on the number of FIRE iterations at jamming, measured on the inner problems that
+the fixed-pressure Newton path hands to FIRE (``docs/aqs.md``, "Cheaper FIRE iterations").
+
+The starts are collected as in ``fire_fallback_probe.py`` (``shear_at_pressure`` on
+``jam(N, 3, seed, p_target=p)``, every inner problem the Newton relaxer gave to FIRE), for each
+seed. Then:
+
+- ``lbfgs``: an L-BFGS prototype (numpy; two-loop recursion with memory ``m``, a displacement cap
+  ``--maxstep`` per particle, backtracking that accepts energy rises at round-off level; stops at
+  ``max_i |F_i| < 1e-12``) against FIRE from each start: iterations, force evaluations, the
+  distance and relative energy difference of its minimum from FIRE's;
+- ``scan``: FIRE's parameters changed one at a time around the defaults; total iterations over
+  all starts relative to the defaults, and the non-converged count.
+
+    PYTHONPATH=src python scripts/fire_alternatives.py lbfgs --n 1000 --seeds 1
+    PYTHONPATH=src python scripts/fire_alternatives.py scan --n 1000 --seeds 1 2
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from fire_fallback_probe import collect
+from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.neighbors import NeighborList
+from jamlab.spheres.potential import energy_and_forces
+
+SCAN = [
+    {}, {"dt_max": 0.25}, {"dt_max": 0.35}, {"dt_max": 0.4}, {"n_delay": 5}, {"n_delay": 10},
+    {"alpha0": 0.1}, {"alpha0": 0.15}, {"f_alpha": 0.98}, {"f_alpha": 0.995}, {"f_inc": 1.2},
+    {"f_dec": 0.7}, {"variant": "fire"},
+]  # fmt: skip
+
+
+def fmax(f: np.ndarray) -> float:
+    return float(np.sqrt((f * f).sum(1)).max())
+
+
+def lbfgs(start, ftol: float = 1e-12, m: int = 10, maxstep: float = 0.02,
+          max_iter: int = 200_000) -> tuple[int, int, float, float, np.ndarray]:
+    """``(iterations, force evaluations, energy, max|F|, positions)`` of L-BFGS from ``start``."""
+    nl = NeighborList(start)
+    x = start.positions.copy()
+    e, f = energy_and_forces(start.with_positions(x), nl)
+    s_hist: list[np.ndarray] = []
+    y_hist: list[np.ndarray] = []
+    evaluations, it = 1, 0
+    while fmax(f) >= ftol and it < max_iter:
+        it += 1
+        g = -f.ravel()
+        q = g.copy()
+        coef = []
+        for s, y in zip(reversed(s_hist), reversed(y_hist), strict=True):
+            rho = 1.0 / (y @ s)
+            a = rho * (s @ q)
+            q -= a * y
+            coef.append((rho, a))
+        q *= (s_hist[-1] @ y_hist[-1]) / (y_hist[-1] @ y_hist[-1]) if s_hist else 0.1
+        for (s, y), (rho, a) in zip(zip(s_hist, y_hist, strict=True), reversed(coef),
+                                    strict=True):
+            q += s * (a - rho * (y @ q))
+        d = -q
+        if d @ g >= 0:  # not a descent direction: restart from steepest descent
+            s_hist.clear()
+            y_hist.clear()
+            d = -0.1 * g
+        longest = float(np.sqrt((d.reshape(x.shape) ** 2).sum(1)).max())
+        t = 1.0 if longest <= maxstep else maxstep / longest
+        while True:
+            xn = x + t * d.reshape(x.shape)
+            en, fn = energy_and_forces(start.with_positions(xn), nl)
+            evaluations += 1
+            gn = -fn.ravel()
+            if (en <= e + 1e-4 * t * (d @ g) or en - e <= 1e-15 * abs(e)
+                    or (gn @ d < 0 and en <= e + 1e-13 * abs(e))):
+                break
+            t *= 0.5
+            if t < 1e-12:
+                break
+        s, y = t * d, gn - g
+        if s @ y > 1e-30:
+            s_hist.append(s)
+            y_hist.append(y)
+            if len(s_hist) > m:
+                s_hist.pop(0)
+                y_hist.pop(0)
+        x, e, f = xn, en, fn
+    return it, evaluations, float(e), fmax(f), x
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", choices=["lbfgs", "scan"])
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--pressure", type=float, default=1e-4)
+    ap.add_argument("--dgamma", type=float, default=1e-5)
+    ap.add_argument("--steps", type=int, default=40)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1])
+    ap.add_argument("--memory", type=int, nargs="+", default=[5, 10, 20])
+    ap.add_argument("--maxstep", type=float, default=0.02)
+    a = ap.parse_args()
+    starts = [s for seed in a.seeds
+              for s, _ in collect(a.n, a.pressure, a.dgamma, a.steps, seed)]
+    print(f"N = {a.n}, p = {a.pressure:g}, δγ = {a.dgamma:g}, {a.steps} steps, seeds {a.seeds}: "
+          f"{len(starts)} inner problems handed to FIRE")
+    minimize(starts[0], ftol=1e-6)  # compile
+    if a.what == "scan":
+        base = None
+        for change in SCAN:
+            runs = [minimize(s, ftol=1e-12, params=FireParameters(**change)) for s in starts]
+            its = sum(r.iterations for r in runs)
+            base = its if base is None else base
+            print(f"{change or 'defaults'}: {its} iterations ({its / base:.3f} of the defaults), "
+                  f"{sum(not r.converged for r in runs)} not converged", flush=True)
+        return
+    print("| # | FIRE its | " + " | ".join(f"L-BFGS m={m}: its, evaluations, max|F|, dE/E, dx"
+                                        for m in a.memory) + " |")
+    print("|---|---|" + "---|" * len(a.memory))
+    fire_total, evals = 0, dict.fromkeys(a.memory, 0)
+    for k, s in enumerate(starts):
+        ref = minimize(s, ftol=1e-12)
+        fire_total += ref.iterations
+        cells = []
+        for m in a.memory:
+            it, ev, e, fm, x = lbfgs(s, m=m, maxstep=a.maxstep)
+            evals[m] += ev
+            dx = float(np.max(np.abs(s.box.minimum_image(x - ref.packing.positions))))
+            cells.append(f"{it}, {ev}, {fm:.1e}, {(e - ref.energy) / abs(ref.energy):.1e}, "
+                         f"{dx:.1e}")
+        print(f"| {k} | {ref.iterations} | " + " | ".join(cells) + " |", flush=True)
+    print(f"\nFIRE iterations in all: {fire_total}; L-BFGS force evaluations in all: "
+          + ", ".join(f"m={m}: {v}" for m, v in evals.items()))
+
+
+if __name__ == "__main__":
+    main()
