@@ -158,15 +158,14 @@ def test_specialised_and_general_kernels_agree_bit_for_bit():
     assert np.array_equal(h1, h2)
 
 
-@pytest.mark.parametrize("dim,sizes,phi", [(3, "mono", 0.66), (3, "bidisperse", 0.66),
-                                           (2, "bidisperse", 0.86)])  # fmt: skip
-def test_branch_free_kernels_give_the_same_bits(dim, sizes, phi):
-    """The branch-free force kernels (harmonic law, the contact test as a select) compute the
-    branchy kernels' numbers bit for bit, including pairs exactly at contact distance, and agree
-    with the brute force; ``energy_forces_any`` takes them on long 3D lists."""
+@pytest.mark.parametrize("sizes", ["mono", "bidisperse"])
+def test_branch_free_kernel_gives_the_same_bits(sizes):
+    """The branch-free force kernel (3D, harmonic law, the contact test as a select) computes
+    the branchy kernel's numbers bit for bit, including pairs exactly at contact distance, and
+    agrees with the brute force; ``energy_forces_any`` takes it on long lists."""
     from jamlab.spheres.kernels import pairs as P
 
-    pk = sp.random_packing(1800 if dim == 3 else 600, dim, phi, 4, sizes=sizes)
+    pk = sp.random_packing(1800, 3, 0.66, 4, sizes=sizes)
     nl = sp.NeighborList(pk, skin=0.3)
     pos = np.ascontiguousarray(nl.sorted(pk.positions))
     # put some pairs exactly at (and one ulp inside/outside) their contact distance
@@ -179,16 +178,14 @@ def test_branch_free_kernels_give_the_same_bits(dim, sizes, phi):
         d = pos[i] - pos[j] + nl.shift[k]
         target = np.nextafter(s, [0.0, 2.0][int(rng.integers(2))]) if k % 3 else s
         pos[i] = pos[j] - nl.shift[k] + d * (target / np.sqrt(d @ d))
-    plain = P.energy_forces_3d if dim == 3 else P.energy_forces_2d
-    masked = P.energy_forces_3d_masked if dim == 3 else P.energy_forces_2d_masked
+    plain, masked = P.energy_forces_3d, P.energy_forces_3d_masked
     f1, f2, f3 = (np.empty_like(pos) for _ in range(3))
     e1 = plain(pos, nl.start, nl.nbr, nl.shift, nl.diameters, None, f1)
     e2 = masked(pos, nl.start, nl.nbr, nl.shift, nl.diameters, f2)
     assert e1 == e2 and np.array_equal(f1, f2)
-    if dim == 3:
-        assert nl.start[-1] > P.BRANCH_FREE_PAIRS  # the dispatch takes the masked kernel
-        assert P.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, nl.diameters, None, f3) == e1
-        assert np.array_equal(f3, f1)
+    assert nl.start[-1] > P.BRANCH_FREE_PAIRS  # the dispatch takes the masked kernel
+    assert P.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, nl.diameters, None, f3) == e1
+    assert np.array_equal(f3, f1)
     # on the unmoved packing (the list is valid there), against the brute force
     original = np.ascontiguousarray(nl.sorted(pk.positions))
     e4 = masked(original, nl.start, nl.nbr, nl.shift, nl.diameters, f2)

@@ -175,41 +175,11 @@ def energy_forces_3d_masked(pos, start, nbr, shift, diam, forces):
 
 
 @njit(cache=True)
-def energy_forces_2d_masked(pos, start, nbr, shift, diam, forces):
-    """``energy_forces_2d`` for the harmonic law without a branch on the contact test: the
-    same bits."""
-    n = pos.shape[0]
-    forces[:, :] = 0.0
-    e = 0.0
-    for i in range(n):
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        fx = 0.0
-        fy = 0.0
-        for k in range(start[i], start[i + 1]):
-            j = nbr[k]
-            dx = xi - pos[j, 0] + shift[k, 0]
-            dy = yi - pos[j, 1] + shift[k, 1]
-            r2 = dx * dx + dy * dy
-            r = np.sqrt(r2)
-            v, dv = harmonic_terms_masked(r2, r, pair_sigma(diam, i, j))
-            e += v
-            c = -dv / r
-            fx += c * dx
-            fy += c * dy
-            forces[j, 0] -= c * dx
-            forces[j, 1] -= c * dy
-        forces[i, 0] += fx
-        forces[i, 1] += fy
-    return e
-
-
-@njit(cache=True)
 def energy_forces_any(pos, start, nbr, shift, diam, alpha, forces):
     """Dispatch to the unrolled ``d = 2, 3`` kernels (in ``d = 3`` branch-free for the harmonic
     law on lists longer than :data:`BRANCH_FREE_PAIRS`), the generic one otherwise. (``d = 2``
-    stays branchy: measured no gain at N = 4000, 10.8k pairs, 17.0 against 17.5 ns per
-    particle; its masked kernel is kept for the tests and for larger lists.)"""
+    stays branchy: a 2D branch-free kernel measured no gain at N = 4000, 10.8k pairs, 17.0
+    against 17.5 ns per particle, and was not kept.)"""
     d = pos.shape[1]
     if d == 3:
         if alpha is None and nbr.shape[0] > BRANCH_FREE_PAIRS:
