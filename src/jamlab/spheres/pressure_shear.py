@@ -237,6 +237,7 @@ def shear_at_pressure(
     previous: Trace | None = None,
     save_every: int | None = None,
     on_save: Callable[[int, PressureShearResult], None] | None = None,
+    on_candidate: Callable[[int, Packing, Packing], None] | None = None,
 ) -> PressureShearResult:
     """AQS shear at fixed pressure ``pressure`` in steps ``δγ`` up to ``γ_max`` (the strain
     increment from the input's strain) or for ``n_steps`` steps (module docstring).
@@ -254,6 +255,11 @@ def shear_at_pressure(
     steps count from ``previous``'s row 0 and ``n_steps``/``gamma_max`` are those of the whole
     run. A step depends only on the last minimum and the last two box sides, so the continued
     run equals the uninterrupted one bit for bit (``tests/spheres/test_pressure_shear.py``).
+
+    ``on_candidate(n, minimum before, minimum after)`` (if given) sees every step whose
+    trapezoid residual exceeds half the candidates' floor, ``|r_n| > ½ plastic_floor · δγ²``: a
+    superset of the steps that can end up plastic, whose verdicts are known only when the run is
+    (e.g. to keep the minima of every step that may need an avalanche record).
 
     ``defer_confirmation`` (default): a candidate step to be redone is kept (its start minimum
     and the volume slope) and redone only if it can be plastic — after the run, when the plastic
@@ -327,10 +333,13 @@ def shear_at_pressure(
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
         row = _row(res, ftol)
+        step = target - rows["gamma"][-1]
+        r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
+                               row["enthalpy"], row["shear_stress"], step)
+        if on_candidate is not None and abs(r) > 0.5 * plastic_floor * step**2:
+            # the margin ½ covers the rounding between r_n here and the threshold's residual
+            on_candidate(n, cur, res.packing)
         if confirm_substeps > 1:
-            step = target - rows["gamma"][-1]
-            r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
-                                   row["enthalpy"], row["shear_stress"], step)
             if abs(r) > plastic_floor * step**2:
                 counts["n_candidates"] += 1
                 if confirm == "continued" and continued[n]:

@@ -96,16 +96,28 @@ class AvalancheRecorder:
     def __call__(self, before: Packing, after: Packing, step: object) -> None:
         n = self.row
         self.row += 1
-        if not getattr(step, "plastic", False):
-            return
+        if getattr(step, "plastic", False):
+            self.record(n, before, after)
+
+    def record(self, n: int, before: Packing, after: Packing) -> None:
+        """Add the row of the plastic step ending at trace row ``n`` (minima ``before`` and
+        ``after``; rows must come in increasing ``n``). If the box side changed in the step
+        (fixed pressure), the affine part includes the isotropic dilation ``L_a/L_b``: the
+        positions before are rescaled to the box after before the difference is taken. The
+        elastic response subtracted is the fixed-box one of the minimum before (its shear
+        response; the non-affine response to the step's elastic volume change stays in the
+        event field, ``docs/criticality.md``)."""
         dim = before.dim
         self.dim = dim
         b0, b1 = contacts(before), contacts(after)
         keep0 = backbone_mask(b0[0], b0[1], before.n, dim + 1)
         keep1 = backbone_mask(b1[0], b1[1], after.n, dim + 1)
         elastic = elastic_nonaffine_response(before, after.strain - before.strain, keep0)
+        x_before = np.asarray(before.positions, dtype=np.float64)
+        if after.box.length != before.box.length:
+            x_before = x_before * (after.box.length / before.box.length)
         an = event_anatomy(
-            before.positions,
+            x_before,
             after.positions,
             after.box.length,
             before.strain,

@@ -98,17 +98,20 @@ def shear(
     ``packing`` must then be the configuration at ``previous.gamma[-1]``.
 
     ``after_step(previous minimum, new minimum, step)``: called after every strain step (``step``
-    a :class:`~jamlab.spheres.aqs.steps.Step`, ``step.plastic`` its verdict).
+    a :class:`~jamlab.spheres.aqs.steps.Step`, ``step.plastic`` its verdict; constant volume
+    only: at fixed pressure the verdicts exist only at the end of the run, and it is refused).
     ``keep_avalanches``: the trace gets the group ``avalanches`` (one row per plastic step, the
     anatomy of :mod:`jamlab.spheres.aqs.anatomy`; displacements above ``avalanche_threshold``,
     default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with the final
-    trace, not with the intermediate checkpoints.
+    trace, not with the intermediate checkpoints. At fixed pressure the minima of the steps that
+    may be plastic are kept in memory until the verdicts are known, the dilation of each step
+    is part of its affine map, and a run with it cannot be resumed.
     ``pressure``: shear at this fixed pressure instead of at constant volume
     (:func:`jamlab.spheres.pressure_shear.shear_at_pressure`: positions and box side relaxed to
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
-    is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` and ``params`` do not apply, and there is
-    no checkpoint or resume yet). ``confirm``: which candidate plastic steps a fixed-pressure run
-    redoes in pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`). Every trace has the
+    is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` picks the inner minimiser, ``params``
+    does not apply). ``confirm``: which candidate plastic steps a fixed-pressure run redoes in
+    pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`). Every trace has the
     ``jammed`` column.
 
     Parameters
@@ -153,6 +156,9 @@ avalanche_threshold, pressure, ptol, confirm
     if pressure is not None:
         if minimizer not in MINIMIZERS:
             raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
+        if after_step is not None:
+            raise ValueError("after_step is not available at fixed pressure: the plastic verdicts "
+                             "are judged on the whole run, after its last step")
         return _shear_at_pressure(
             minimizer,
             packing,
@@ -169,6 +175,8 @@ avalanche_threshold, pressure, ptol, confirm
             source,
             progress,
             confirm,
+            keep_avalanches,
+            avalanche_threshold,
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
@@ -349,10 +357,14 @@ def _shear_at_pressure(
     source,
     progress,
     confirm,
+    keep_avalanches,
+    avalanche_threshold,
 ) -> ShearResult:
     """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
     ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
-    FIRE."""
+    FIRE. ``keep_avalanches``: the minima of every step that may end up plastic are kept in
+    memory during the run (``on_candidate`` of :func:`shear_at_pressure`), and the avalanche
+    rows of the steps flagged plastic are measured on them once the verdicts are known."""
     from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, shear_at_pressure
 
     validation.positive("pressure", pressure)
@@ -360,6 +372,14 @@ def _shear_at_pressure(
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
     if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
         raise ValueError("the trace to resume is not a fixed-pressure run")
+    if keep_avalanches and previous is not None:
+        raise ValueError("keep_avalanches cannot resume a fixed-pressure run: the plastic flags "
+                         "of its earlier steps are judged again on the whole run and their minima "
+                         "are not stored; run it uninterrupted")
+    kept: dict[int, tuple[Packing, Packing]] = {}
+
+    def keep(n: int, before: Packing, after: Packing) -> None:
+        kept[n] = (before, after)
     extra_attrs = {
         "alpha": float(packing.alpha),
         "monodisperse": bool(packing.monodisperse),
@@ -397,8 +417,20 @@ def _shear_at_pressure(
         previous=previous,
         save_every=save_every,
         on_save=save if out is not None else None,
+        on_candidate=keep if keep_avalanches else None,
     )
     trace = finished(res)
+    if keep_avalanches:
+        recorder = AvalancheRecorder(
+            1, MOVED_THRESHOLD if avalanche_threshold is None else avalanche_threshold
+        )
+        for n in np.flatnonzero(trace.plastic):
+            if int(n) not in kept:  # on_candidate's floor is a necessary condition of the flag
+                raise RuntimeError(f"step {int(n)} is plastic but its minima were not kept")
+            recorder.record(int(n), *kept[int(n)])
+        trace = trace.with_avalanches(
+            recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
+        )
     if out is not None:
         save_checkpoint(out, trace, res.packing, total, snapshot=save_every is not None)
     return ShearResult(
