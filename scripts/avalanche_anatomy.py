@@ -3,11 +3,15 @@
     PYTHONPATH=src nice -n 10 python scripts/avalanche_anatomy.py --sizes 128 256 --seeds 1 2 3 \
         --steps 300 --dgamma 1e-4 --out-dir /tmp/anatomy
 
-Per size N, state ('jamming': ``jam(N, 3, seed, p_target=1e-7)``; 'phi0.8': ``prepare(N, 3,
-0.8, seed)``) and seed: ``shear(..., keep_avalanches=True)`` with a hook marking whether the
-minima before and after each plastic step are jammed (``jamlab.spheres.rigidity.is_jammed``;
-the trace's ``jammed`` column is used instead if the trace has one). Only plastic steps between
-two jammed minima count; S = −ΔE. The anatomy (PR·N, class, max |u|, figures) is that of the
+Per size N, state ('jamming': ``jam(N, 3, seed, p_target=1e-7)`` sheared at constant volume;
+'phi0.8': ``prepare(N, 3, 0.8, seed)``; 'p<P>', e.g. 'p1e-4': ``jam(N, 3, seed, p_target=P)``
+sheared at fixed pressure P, the packings of ``scripts/finite_size_pressure.py``) and seed:
+``shear(..., keep_avalanches=True)`` with a hook marking whether the minima before and after
+each plastic step are jammed (``jamlab.spheres.rigidity.is_jammed``; the trace's ``jammed``
+column is used instead if the trace has one; at fixed pressure, where ``after_step`` does not
+exist, always). At fixed pressure S = −ΔH (the enthalpy jump) and no figure is drawn (the
+event fields are kept in the trace only above the displacement threshold). Only plastic steps
+between two jammed minima count; S = −ΔE. The anatomy (PR·N, class, max |u|, figures) is that of the
 event field: the step's non-affine displacement minus the linear elastic response of the minimum
 before (``docs/criticality.md``); ``elastic_fraction`` is what was subtracted. Prints per state
 the histogram of S per class (localized / extended, PR·N ≤ 10; and 'bucklers/rattlers only'),
@@ -20,12 +24,14 @@ from __future__ import annotations
 
 import argparse
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from jamlab.analysis.anatomy import event_field, nonaffine_displacements
 from jamlab.analysis.finite_size import cutoff_size
+from jamlab.analysis.powerlaw import mle_tau
 from jamlab.plots.anatomy import avalanche_figure
 from jamlab.spheres import jam, prepare
 from jamlab.spheres.aqs import shear
@@ -34,7 +40,23 @@ from jamlab.spheres.contacts import backbone_mask, contacts
 from jamlab.spheres.rigidity import is_jammed
 
 
+def fixed_pressure(state: str) -> float | None:
+    """The pressure of a state 'p<P>' (``None`` for the constant-volume states)."""
+    if state in ("jamming", "phi0.8"):
+        return None
+    if not state.startswith("p"):
+        raise SystemExit(f"unknown state {state!r}: 'jamming', 'phi0.8' or 'p<pressure>'")
+    return float(state[1:])
+
+
 def run_one(n, state, seed, steps, dgamma):
+    p = fixed_pressure(state)
+    if p is not None:
+        res = shear(jam(n, 3, seed, p_target=p).packing, dgamma, n_steps=steps, pressure=p,
+                    keep_avalanches=True)  # fmt: skip
+        av = res.trace.avalanches
+        jm = np.asarray(res.trace.jammed, dtype=bool)
+        return av, jm[av["step"] - 1] & jm[av["step"]], {}
     if state == "jamming":
         packing = jam(n, 3, seed, p_target=1e-7).packing
     else:
@@ -66,6 +88,11 @@ def run_one(n, state, seed, steps, dgamma):
     return av, jam_ok, fields
 
 
+def timed_run(task):
+    t0 = time.process_time()
+    return (*run_one(*task), time.process_time() - t0)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", type=int, nargs="+", default=[128, 256])
@@ -74,6 +101,11 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--dgamma", type=float, default=1e-4)
     ap.add_argument("--out-dir", default="avalanche_anatomy")
+    ap.add_argument("--floor", type=float, default=1.2e-8,
+                    help="Fit each class's tau above this S (the p = 1e-4 comparison floor).")
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--samples", type=int, nargs="+", default=None,
+                    help="Per size (as --sizes): seeds 1..k, instead of --seeds.")
     ap.add_argument(
         "--report-only", action="store_true", help="Only print the report of OUT_DIR/events.npz."
     )
@@ -103,47 +135,54 @@ def main() -> None:
         )
     }
     best: dict[str, tuple] = {}
-    for state in args.states:
-        for n in args.sizes:
-            for seed in args.seeds:
-                t0 = time.process_time()
-                av, jam_ok, fields = run_one(n, state, seed, args.steps, args.dgamma)
-                k = av["step"].size
-                print(
-                    f"{state} N={n} seed={seed}: {k} plastic, {int(jam_ok.sum())} jammed, "
-                    f"{time.process_time() - t0:.1f} s CPU",
-                    flush=True,
-                )
-                S = -av["energy_jump"]
-                for key, val in (
-                    ("N", [n] * k),
-                    ("state", [state] * k),
-                    ("seed", [seed] * k),
-                    ("step", av["step"]),
-                    ("S", S),
-                    ("n_eff", av["n_eff"]),
-                    ("localized", av["localized"]),
-                    ("only_br", av["only_bucklers_rattlers"]),
-                    ("n_opened", av["n_opened"]),
-                    ("n_closed", av["n_closed"]),
-                    ("max_u", av["max_displacement"]),
-                    ("elastic_fraction", av["elastic_fraction"]),
-                    ("jammed", jam_ok),
-                ):
-                    rows[key].extend(list(val))
-                # saved after every run: a run cut short still has its finished samples
-                np.savez(out / "events.npz", **{k: np.asarray(v) for k, v in rows.items()})
-                for i in np.flatnonzero(jam_ok):
-                    cls = "localized" if av["localized"][i] else "extended"
-                    if cls not in best or S[i] > best[cls][0]:
-                        best[cls] = (
-                            S[i],
-                            fields[int(av["step"][i])],
-                            state,
-                            n,
-                            seed,
-                            float(av["n_eff"][i]),
-                        )
+    if args.samples is not None and len(args.samples) != len(args.sizes):
+        raise SystemExit("--samples needs one count per size")
+    seeds = {n: (list(range(1, k + 1)) if args.samples else args.seeds)
+             for n, k in zip(args.sizes, args.samples or args.sizes, strict=True)}  # fmt: skip
+    tasks = [(n, state, seed, args.steps, args.dgamma)
+             for state in args.states for n in args.sizes for seed in seeds[n]]  # fmt: skip
+    with ProcessPoolExecutor(max_workers=args.workers) as ex:
+        for (n, state, seed, *_), (av, jam_ok, fields, cpu) in zip(
+            tasks, ex.map(timed_run, tasks), strict=True
+        ):
+            k = av["step"].size
+            print(
+                f"{state} N={n} seed={seed}: {k} plastic, {int(jam_ok.sum())} jammed, "
+                f"{cpu:.1f} s CPU",
+                flush=True,
+            )
+            S = -av["energy_jump"]
+            for key, val in (
+                ("N", [n] * k),
+                ("state", [state] * k),
+                ("seed", [seed] * k),
+                ("step", av["step"]),
+                ("S", S),
+                ("n_eff", av["n_eff"]),
+                ("localized", av["localized"]),
+                ("only_br", av["only_bucklers_rattlers"]),
+                ("n_opened", av["n_opened"]),
+                ("n_closed", av["n_closed"]),
+                ("max_u", av["max_displacement"]),
+                ("elastic_fraction", av["elastic_fraction"]),
+                ("jammed", jam_ok),
+            ):
+                rows[key].extend(list(val))
+            # saved after every run: a run cut short still has its finished samples
+            np.savez(out / "events.npz", **{k: np.asarray(v) for k, v in rows.items()})
+            for i in np.flatnonzero(jam_ok):
+                if int(av["step"][i]) not in fields:  # fixed pressure: no fields (docstring)
+                    continue
+                cls = "localized" if av["localized"][i] else "extended"
+                if cls not in best or S[i] > best[cls][0]:
+                    best[cls] = (
+                        S[i],
+                        fields[int(av["step"][i])],
+                        state,
+                        n,
+                        seed,
+                        float(av["n_eff"][i]),
+                    )
     arr = {k: np.asarray(v) for k, v in rows.items()}
     np.savez(out / "events.npz", **arr)
     for cls, (s, (pos, u, L), state, n, seed, neff) in best.items():
@@ -196,6 +235,20 @@ def report(a, args) -> None:
                 f"  {name:22s} {int(c.sum()):6d} {c.sum() / tot_n:9.3f} "
                 f"{a['S'][c].sum() / tot_s:14.3f} {med:9.1f} {mch:9.0f} {mef:12.2e}"
             )
+        print("per decade of S: avalanches, localized share, median PR·N, median opened+closed")
+        for lo in bins[:-1]:
+            d = m & (a["S"] >= lo) & (a["S"] < 10 * lo)
+            if d.any():
+                nch = a["n_opened"][d] + a["n_closed"][d]
+                print(f"  [{lo:.0e}, {10 * lo:.0e})  {int(d.sum()):5d}  "
+                      f"{a['localized'][d].astype(bool).mean():6.3f}  "
+                      f"{np.median(a['n_eff'][d]):7.1f}  {np.median(nch):5.0f}")
+        for name, c in classes.items():
+            tail = a["S"][c & (a["S"] >= args.floor)]
+            if tail.size >= 10:
+                tau, err = mle_tau(tail, args.floor)
+                print(f"  tau ({name}, pure power law above S = {args.floor:g}): "
+                      f"{tau:.3f} ± {err:.3f} ({tail.size} events)")
         print("N     events   <S>         S_c=<S^2>/<S>   <S>/N       median PR·N")
         for n in args.sizes:
             mn = m & (a["N"] == n)

@@ -287,3 +287,33 @@ def test_cli_keep_avalanches_at_fixed_pressure(run_at_pressure, tmp_path):
     assert r.returncode == 2
     assert "cannot resume" in r.stderr
     assert out.read_bytes() == before
+
+
+def test_resume_after_an_interruption_keeps_the_earlier_records(run, tmp_path):
+    """A run stopped after a checkpoint and resumed with ``keep_avalanches`` has the rows of the
+    plastic steps before the checkpoint (they were lost when the checkpoints had no group)."""
+
+    class Stop(Exception):
+        pass
+
+    def stop_at_45(n, total):
+        if n == 45:
+            raise Stop
+
+    packing = sp.prepare(64, 3, 0.8, seed=3).packing
+    out = tmp_path / "cut.h5"
+    with pytest.raises(Stop):
+        shear(packing, 2e-3, n_steps=60, keep_avalanches=True, out=out, save_every=20,
+              progress=stop_at_45)  # fmt: skip
+    cut = read_trace(out)
+    assert cut.n_steps == 40 and cut.avalanches is not None
+    last, _ = checkpoint_paths(out)
+    shear(read_packing(last), 2e-3, n_steps=60, keep_avalanches=True, out=out, save_every=20,
+          previous=cut)  # fmt: skip
+    got, ref = read_trace(out).avalanches, run[1].avalanches
+    assert np.any(ref["step"] <= 40), "the reference should have plastic steps before the cut"
+    np.testing.assert_array_equal(got["step"], ref["step"])
+    for key in ("n_opened", "n_closed", "localized", "n_moved"):
+        np.testing.assert_array_equal(got[key], ref[key])
+    for key in ("participation", "energy_jump", "elastic_fraction"):
+        np.testing.assert_allclose(got[key], ref[key], rtol=1e-6)

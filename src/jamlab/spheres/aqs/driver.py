@@ -102,10 +102,11 @@ def shear(
     only: at fixed pressure the verdicts exist only at the end of the run, and it is refused).
     ``keep_avalanches``: the trace gets the group ``avalanches`` (one row per plastic step, the
     anatomy of :mod:`jamlab.spheres.aqs.anatomy`; displacements above ``avalanche_threshold``,
-    default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with the final
-    trace, not with the intermediate checkpoints. At fixed pressure the minima of the steps that
-    may be plastic are kept in memory until the verdicts are known, the dilation of each step
-    is part of its affine map, and a run with it cannot be resumed.
+    default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with every
+    checkpoint and the final trace, so a resumed run keeps the rows before it. At fixed
+    pressure the minima of the steps that may be plastic are kept in memory until the verdicts
+    are known, the dilation of each step is part of its affine map, and a run with it cannot be
+    resumed.
     ``pressure``: shear at this fixed pressure instead of at constant volume
     (:func:`jamlab.spheres.pressure_shear.shear_at_pressure`: positions and box side relaxed to
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
@@ -273,6 +274,15 @@ avalanche_threshold, pressure, ptol, confirm
             previous=None if previous is None else previous.avalanches,
         )
         hooks.append(recorder)
+
+    def with_records(trace: Trace) -> Trace:
+        # the avalanche rows so far: in every checkpoint too, so that a resumed run keeps them
+        if recorder is None:
+            return trace
+        return trace.with_avalanches(
+            recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
+        )
+
     t0 = time.perf_counter()
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -286,17 +296,14 @@ avalanche_threshold, pressure, ptol, confirm
         if progress is not None:
             progress(n, total)
         if out is not None and save_every is not None and n % save_every == 0 and n < total:
-            save_checkpoint(out, make_trace(rows, attrs, counters), cur, n, snapshot=True)
+            save_checkpoint(out, with_records(make_trace(rows, attrs, counters)), cur, n,
+                            snapshot=True)  # fmt: skip
             # a restart point: from here on the run is what `--resume` from this checkpoint
             # computes, bit for bit (docs/aqs.md, "Checkpoints and resume")
             counters["n_factorisations"] += 1
             cur, nl, stepper = restart(cur)
     elapsed = time.perf_counter() - t0
-    trace = make_trace(rows, attrs, counters)
-    if recorder is not None:
-        trace = trace.with_avalanches(
-            recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
-        )
+    trace = with_records(make_trace(rows, attrs, counters))
     if out is not None:
         # the final trace (with the avalanches, if kept) and its last minimum
         save_checkpoint(out, trace, cur, total, snapshot=save_every is not None)
