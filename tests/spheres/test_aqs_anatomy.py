@@ -185,11 +185,13 @@ def test_records_at_fixed_pressure_match_brute_force_diff(run_at_pressure):
             np.testing.assert_array_equal(v, trace.avalanches[k])
 
 
-def test_fixed_pressure_refuses_what_it_cannot_record(run_at_pressure, tmp_path):
+def test_fixed_pressure_refuses_options_it_cannot_honour(run_at_pressure, tmp_path):
     _, trace, config = run_at_pressure
     packing = config(trace.n_steps)
     with pytest.raises(ValueError, match="after_step"):
         shear(packing, 1e-3, n_steps=2, pressure=1e-3, after_step=lambda *a: None)
+    with pytest.raises(ValueError, match="constant-volume shear only"):
+        shear(packing, 1e-3, n_steps=2, pressure=1e-3, classify=False)
     with pytest.raises(ValueError, match="cannot resume"):
         shear(packing, 1e-3, n_steps=70, pressure=1e-3, keep_avalanches=True, previous=trace)
 

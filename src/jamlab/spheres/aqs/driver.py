@@ -160,6 +160,9 @@ avalanche_threshold, pressure, ptol, confirm
         if after_step is not None:
             raise ValueError("after_step is not available at fixed pressure: the plastic verdicts "
                              "are judged on the whole run, after its last step")
+        if params is not None or not classify:
+            raise ValueError("params and classify=False apply to constant-volume shear only, not "
+                             "with pressure")
         return _shear_at_pressure(
             minimizer,
             packing,
