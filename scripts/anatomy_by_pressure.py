@@ -1,0 +1,97 @@
+"""The anatomy of fixed-pressure avalanches against S, N and p: pooled ``events.npz`` files of
+``scripts/avalanche_anatomy.py`` (one per state), one figure and one table.
+
+    PYTHONPATH=src python scripts/anatomy_by_pressure.py DIR_p1e-3 DIR_p1e-4 DIR_p1e-5 \
+        --figure docs/figures/anatomy_pressure.png
+
+Counted: plastic steps between two jammed minima with ``S > 0`` (the script's rule). Left
+panel: the share of localized events (``N_eff ≤ 10``) per decade of S, each state; right panel:
+the median ``N_eff / N`` of the extended events per decade of S, each state and N (points with
+≥ 5 events). Left: binomial errors, decades with ≥ 10 events. Printed: the same per decade with
+the counts, and a two-sample KS test of the sizes of the two classes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy.stats import ks_2samp  # noqa: E402
+
+EDGES = np.logspace(-12, -3, 10)
+MIN_EVENTS = 10
+"""Decades with fewer events are printed, not drawn in the left panel."""
+
+
+def load(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path / "events.npz") as f:
+        a = {k: f[k] for k in f.files}
+    ok = a["jammed"].astype(bool) & (a["S"] > 0)
+    return {k: v[ok] for k, v in a.items()}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("dirs", type=Path, nargs="+")
+    ap.add_argument("--figure", type=Path, default=None)
+    args = ap.parse_args()
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4))
+    mid = np.sqrt(EDGES[1:] * EDGES[:-1])
+    for k, d in enumerate(args.dirs):
+        a = load(d)
+        state = str(a["state"][0]) if a["S"].size else d.name
+        loc = a["localized"].astype(bool)
+        print(f"== {state}: {a['S'].size} avalanches, {int(loc.sum())} localized "
+              f"({loc.mean():.3f} of the events, {a['S'][loc].sum() / a['S'].sum():.3f} of ΣS)")
+        print("  decade      events  localized share  median N_eff/N (extended) per N")
+        share = np.full(mid.size, np.nan)
+        for b in range(mid.size):
+            m = (a["S"] >= EDGES[b]) & (a["S"] < EDGES[b + 1])
+            if not m.any():
+                continue
+            share[b] = loc[m].mean()
+            per_n = []
+            for n in np.unique(a["N"]):
+                e = m & ~loc & (a["N"] == n)
+                per_n.append(f"N={n}: {np.median(a['n_eff'][e]) / n:.3f} ({int(e.sum())})"
+                             if e.any() else f"N={n}: -")  # fmt: skip
+            print(f"  [{EDGES[b]:.0e}, {EDGES[b + 1]:.0e})  {int(m.sum()):5d}  {share[b]:7.3f}"
+                  f"          " + "  ".join(per_n))
+        counts = np.histogram(a["S"], bins=EDGES)[0]
+        good = counts >= MIN_EVENTS
+        err = np.sqrt(share * (1 - share) / np.maximum(counts, 1))
+        ax0.errorbar(mid[good], share[good], yerr=err[good], fmt="o-", color=f"C{k}", capsize=2,
+                     label=state)  # fmt: skip
+        if loc.sum() >= 5 and (~loc).sum() >= 5:
+            ks = ks_2samp(a["S"][loc], a["S"][~loc])
+            print(f"  S of localized vs extended: KS D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}; "
+                  f"median S {np.median(a['S'][loc]):.2e} vs {np.median(a['S'][~loc]):.2e}")
+        for j, n in enumerate(np.unique(a["N"])):
+            med = np.full(mid.size, np.nan)
+            for b in range(mid.size):
+                e = (a["S"] >= EDGES[b]) & (a["S"] < EDGES[b + 1]) & ~loc & (a["N"] == n)
+                if e.sum() >= 5:
+                    med[b] = np.median(a["n_eff"][e]) / n
+            g = ~np.isnan(med)
+            ax1.plot(mid[g], med[g], ["o-", "s--", "^:"][j % 3], color=f"C{k}",
+                     label=f"{state}, N = {n}")  # fmt: skip
+    ax0.set(xscale="log", xlabel="S (ε)", ylabel="localized share (N_eff ≤ 10)", ylim=(0, None),
+            title=f"localized events per decade of S (≥ {MIN_EVENTS} events)")
+    ax1.set(xscale="log", yscale="log", xlabel="S (ε)", ylabel="median N_eff / N (extended)",
+            title="extent of the extended events (≥ 5 per point)")
+    ax0.legend(fontsize=8)
+    ax1.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    if args.figure is not None:
+        args.figure.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(args.figure, dpi=120)
+        print(f"figure -> {args.figure}")
+
+
+if __name__ == "__main__":
+    main()
