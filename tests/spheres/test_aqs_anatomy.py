@@ -319,3 +319,24 @@ def test_resume_after_an_interruption_keeps_the_earlier_records(run, tmp_path):
         np.testing.assert_array_equal(got[key], ref[key])
     for key in ("participation", "energy_jump", "elastic_fraction"):
         np.testing.assert_allclose(got[key], ref[key], rtol=1e-6)
+
+
+def test_resume_without_the_records_is_refused(run, tmp_path):
+    """Resuming a run that kept avalanche records without ``--keep-avalanches`` would write the
+    trace without them: refused (exit code 2 from the CLI), the file untouched."""
+    from cli_helpers import jamlab
+    from jamlab.spheres.io import write_packing
+
+    cfg = tmp_path / "start.h5"
+    write_packing(cfg, sp.prepare(64, 3, 0.8, seed=3).packing)
+    out = tmp_path / "t.h5"
+    args = ("shear", cfg, "--dgamma", "2e-3", "--out", out)
+    assert jamlab(*args, "--gamma-max", "0.02", "--keep-avalanches").returncode == 0
+    before = out.read_bytes()
+    r = jamlab(*args, "--gamma-max", "0.04", "--resume")
+    assert r.returncode == 2
+    assert "kept avalanche records" in r.stderr
+    assert out.read_bytes() == before
+    with pytest.raises(ValueError, match="kept avalanche records"):
+        last, _ = checkpoint_paths(out)
+        shear(read_packing(last), 2e-3, n_steps=20, previous=read_trace(out))

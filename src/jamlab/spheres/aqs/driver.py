@@ -154,6 +154,10 @@ avalanche_threshold, pressure, ptol, confirm
     >>> bool(np.abs(de - trapezoid).max() < 1e-3 * np.abs(de).min())
     True
     """
+    if previous is not None and previous.avalanches is not None and not keep_avalanches:
+        # the resumed trace would be written without them: the records would be lost
+        raise ValueError("the run being resumed kept avalanche records: resume it with "
+                         "keep_avalanches (--keep-avalanches), or not at all")
     if pressure is not None:
         if minimizer not in MINIMIZERS:
             raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
