@@ -35,6 +35,29 @@ def load(path: Path) -> dict[str, np.ndarray]:
     return {k: v[ok] for k, v in a.items()}
 
 
+def neff_growth(a: dict[str, np.ndarray], resamples: int = 2000, seed: int = 0) -> str:
+    """The exponent of ``median N_eff ~ N^x`` over the sizes of one state (all counted events),
+    least squares in log-log, with a bootstrap over samples (seeds resampled within each N)."""
+    sizes = np.unique(a["N"])
+    if sizes.size < 2:
+        return "one N only"
+    by = {n: [a["n_eff"][(a["N"] == n) & (a["seed"] == s)]
+              for s in np.unique(a["seed"][a["N"] == n])] for n in sizes}  # fmt: skip
+
+    def fit(groups: list[np.ndarray]) -> float:
+        return float(np.polyfit(np.log(sizes), np.log([np.median(g) for g in groups]), 1)[0])
+
+    x = fit([np.concatenate(by[n]) for n in sizes])
+    rng = np.random.default_rng(seed)
+    boot = [fit([np.concatenate([by[n][i] for i in rng.integers(0, len(by[n]), len(by[n]))])
+                 for n in sizes]) for _ in range(resamples)]  # fmt: skip
+    lo, hi = np.quantile(boot, [0.025, 0.975])
+    meds = ", ".join(f"{np.median(np.concatenate(by[n])):.1f}" for n in sizes)
+    return (f"median N_eff = {meds} at N = {', '.join(str(n) for n in sizes)}: N_eff ~ N^{x:.3f} "
+            f"± {np.std(boot):.3f} (95 % [{lo:.3f}, {hi:.3f}], {resamples} resamples of the "
+            "samples)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("dirs", type=Path, nargs="+")
@@ -48,6 +71,7 @@ def main() -> None:
         loc = a["localized"].astype(bool)
         print(f"== {state}: {a['S'].size} avalanches, {int(loc.sum())} localized "
               f"({loc.mean():.3f} of the events, {a['S'][loc].sum() / a['S'].sum():.3f} of ΣS)")
+        print("  " + neff_growth(a))
         print("  decade      events  localized share  median N_eff/N (extended) per N")
         share = np.full(mid.size, np.nan)
         for b in range(mid.size):
