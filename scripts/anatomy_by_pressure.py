@@ -4,16 +4,18 @@
     PYTHONPATH=src python scripts/anatomy_by_pressure.py DIR_p1e-3 DIR_p1e-4 DIR_p1e-5 \
         --figure docs/figures/anatomy_pressure.png
 
-Counted: plastic steps between two jammed minima with ``S > 0`` (the script's rule). Left
-panel: the share of localized events (``N_eff ≤ 10``) per decade of S, each state; right panel:
-the median ``N_eff / N`` of the extended events per decade of S, each state and N (points with
-≥ 5 events). Left: binomial errors, decades with ≥ 10 events. Printed: the same per decade with
-the counts, and a two-sample KS test of the sizes of the two classes.
+Counted: plastic steps between two jammed minima with ``S > 0``
+(``avalanche_anatomy.counted``). Left panel: the share of localized events (``N_eff ≤ 10``) per
+decade of S, each state, binomial errors, decades with ≥ 10 events. Right panel: the median
+``N_eff / N`` of the extended events per decade of S, each state and N (points with ≥ 5
+events). Printed: the same per decade with the counts, the growth of the median ``N_eff`` with
+N, and a two-sample KS test of the sizes of the two classes.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -23,6 +25,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.stats import ks_2samp  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from avalanche_anatomy import counted  # noqa: E402  (scripts run as scripts)
+
 EDGES = np.logspace(-12, -3, 10)
 MIN_EVENTS = 10
 """Decades with fewer events are printed, not drawn in the left panel."""
@@ -31,7 +36,7 @@ MIN_EVENTS = 10
 def load(path: Path) -> dict[str, np.ndarray]:
     with np.load(path / "events.npz") as f:
         a = {k: f[k] for k in f.files}
-    ok = a["jammed"].astype(bool) & (a["S"] > 0)
+    ok = counted(a)
     return {k: v[ok] for k, v in a.items()}
 
 

@@ -137,8 +137,9 @@ def main() -> None:
     best: dict[str, tuple] = {}
     if args.samples is not None and len(args.samples) != len(args.sizes):
         raise SystemExit("--samples needs one count per size")
-    seeds = {n: (list(range(1, k + 1)) if args.samples else args.seeds)
-             for n, k in zip(args.sizes, args.samples or args.sizes, strict=True)}  # fmt: skip
+    counts = args.samples or [None] * len(args.sizes)
+    seeds = {n: list(range(1, k + 1)) if k else args.seeds
+             for n, k in zip(args.sizes, counts, strict=True)}  # fmt: skip
     tasks = [(n, state, seed, args.steps, args.dgamma)
              for state in args.states for n in args.sizes for seed in seeds[n]]  # fmt: skip
     with ProcessPoolExecutor(max_workers=args.workers) as ex:
@@ -198,8 +199,13 @@ def main() -> None:
     report(arr, args)
 
 
+def counted(a: dict[str, np.ndarray]) -> np.ndarray:
+    """The rows counted as avalanches: plastic steps between two jammed minima with S > 0."""
+    return a["jammed"].astype(bool) & (a["S"] > 0)
+
+
 def report(a, args) -> None:
-    ok = a["jammed"].astype(bool) & (a["S"] > 0)
+    ok = counted(a)
     print(f"\nplastic steps {a['S'].size}, between jammed minima with S > 0: {int(ok.sum())}")
     bins = np.logspace(-12, 0, 13)
     for state in args.states:
