@@ -84,6 +84,22 @@ def test_verdict_rule_against_hand_arithmetic():
     assert verdict(1.1, 0.0, 1.0).startswith("differs")
 
 
+def test_a_window_as_wide_as_the_reference_is_inconclusive():
+    # the quick report's θ_e: 0.074 with a 95 % interval [-0.796, 0.944] -> σ = 0.87/1.96 = 0.444;
+    # |0.074 - 0.42311| = 0.349 = 0.79σ, but ±2σ = ±0.89 would also take in 0 and 0.85
+    v = verdict(0.074, 0.87 / 1.96, 0.42311)
+    assert v.startswith("inconclusive (0.79σ; ±2σ = ±0.89")
+    # the boundary: ±2σ equal to |reference| is inconclusive, just below it agrees
+    assert verdict(1.0, 0.5, 1.0).startswith("inconclusive (0.00σ")
+    assert verdict(1.0, 0.49, 1.0) == "agrees (0.00σ)"
+    assert verdict(-1.0, 0.5, -1.0).startswith("inconclusive")  # |reference|
+    # a wide window does not hide a disagreement, and a zero reference keeps the plain rule
+    assert verdict(5.0, 0.5, 1.0) == "differs (8.00σ)"
+    assert verdict(0.1, 0.5, 0.0) == "agrees (0.20σ)"
+    # the measured reference's σ counts in the window too: sqrt(0.3² + 0.4²) = 0.5
+    assert verdict(1.0, 0.3, 1.0, 0.4).startswith("inconclusive")
+
+
 def test_target_verdict():
     assert target_verdict(1.14, 1.0, 0.15).endswith(": met")
     assert target_verdict(1.16, 1.0, 0.15).endswith(": not met")

@@ -12,6 +12,10 @@ report:
 - **agrees** if ``|ours − reference| ≤ 2·sqrt(σ_ours² + σ_ref²)`` (σ are 1σ uncertainties; a
   theoretical value has ``σ_ref = 0``), **differs** otherwise; the distance in units of the
   combined σ is printed with it;
+- **inconclusive** instead of *agrees* when that window ``±2σ`` is at least as wide as the
+  reference itself (``2σ ≥ |reference|``, reference ≠ 0): the number would also have "agreed"
+  with 0 and with twice the reference, so the comparison says nothing about it (e.g. a
+  small-force exponent ``0.07 [−0.80, 0.94]`` against 0.42);
 - a **target** (the issue's acceptance windows, e.g. ``|τ − 1| ≤ 0.15``) is **met** if
   ``|ours − reference| ≤ tolerance``;
 - **no data** when our value, or a measured reference, could not be computed (too few samples
@@ -47,7 +51,9 @@ AGREEMENT_SIGMAS = 2.0
 VERDICT_RULES = (
     f"**agrees** if |ours − reference| ≤ {AGREEMENT_SIGMAS:g}·√(σ_ours² + σ_ref²) (1σ "
     "uncertainties; a theoretical value has σ_ref = 0), **differs** otherwise (the distance in "
-    "units of the combined σ is given); a **target** (the acceptance windows of issue 8) is "
+    "units of the combined σ is given); **inconclusive** instead of agrees when that ±2σ window "
+    "is at least as wide as the reference itself (it would also have agreed with 0 and with "
+    "twice the reference); a **target** (the acceptance windows of issue 8) is "
     "**met** if |ours − reference| ≤ its tolerance; **no data** if our value could not be "
     "computed. Our σ: for fitted exponents, half the width of the 95 % bootstrap interval "
     "divided by 1.96; for means, the standard error over samples; for slopes, the fit's "
@@ -128,8 +134,9 @@ def _sections(rows: Sequence[Row]) -> list[tuple[str, list[Row]]]:
 
 
 def verdict(value: float, error: float, reference: float, reference_err: float = 0.0) -> str:
-    """``"agrees (1.2σ)"``, ``"differs (3.4σ)"`` or ``"no data"`` by the rule of the module
-    docstring (``AGREEMENT_SIGMAS`` combined standard deviations)."""
+    """``"agrees (1.2σ)"``, ``"differs (3.4σ)"``, ``"inconclusive (0.8σ; …)"`` or
+    ``"no data"`` by the rules of the module docstring (``AGREEMENT_SIGMAS`` combined standard
+    deviations)."""
     if not all(math.isfinite(x) for x in (value, error, reference, reference_err)):
         return "no data"  # ours or the reference (e.g. a fit that could not be made) missing
     sigma = math.hypot(error, reference_err)
@@ -137,7 +144,15 @@ def verdict(value: float, error: float, reference: float, reference_err: float =
     if sigma == 0.0:
         return "agrees (exact)" if diff == 0.0 else "differs (σ = 0)"
     k = diff / sigma
-    return f"{'agrees' if k <= AGREEMENT_SIGMAS else 'differs'} ({k:.2f}σ)"
+    if k > AGREEMENT_SIGMAS:
+        return f"differs ({k:.2f}σ)"
+    window = AGREEMENT_SIGMAS * sigma
+    if reference != 0.0 and window >= abs(reference):
+        return (
+            f"inconclusive ({k:.2f}σ; ±{AGREEMENT_SIGMAS:g}σ = ±{window:.2g} is as wide as the "
+            "reference)"
+        )
+    return f"agrees ({k:.2f}σ)"
 
 
 def target_verdict(value: float, reference: float, tolerance: float, label: str = "") -> str:
