@@ -1,0 +1,106 @@
+"""The backbone factorisation: SuperLU (what jamlab uses) against MKL PARDISO, in one run.
+
+Both factorise the same pinned backbone Hessian ``K`` (:func:`jamlab.spheres.aqs.linalg.
+factorise`, free particles in METIS nested-dissection order) of typical minima: a
+``prepare(N, 3, 0.8, seed)`` packing (above jamming, where the fast path's time is SuperLU solves
+and a few factorisations per plastic event) and ``jam(N, 3, seed, p_target)`` (near jamming,
+the fixed-pressure Newton relaxer). SuperLU as in ``factorise`` (natural order, no pivoting,
+symmetric mode); PARDISO (``pypardiso``, one MKL thread, its own METIS order) as ``LLᵀ``
+(``mtype 2``, enough for the positive-definiteness test) and ``LDLᵀ`` (``mtype −2``, inertia in
+``iparm[21:23]``). Times are the best of ``--repeat`` runs (CPU time, one core), the solve a
+single right-hand side, as the PCG preconditioner uses it; the solutions are compared.
+
+PARDISO is *not* a dependency of jamlab (``pip install pypardiso`` pulls ≈ 1 GB of MKL): without
+it the script times SuperLU alone. Prints ratios; asserts nothing about time.
+
+    MKL_NUM_THREADS=1 python benchmarks/bench_factorisation.py --n 1000 --seeds 1 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import scipy.sparse as sps
+import scipy.sparse.linalg as spla
+
+import jamlab.spheres as sp
+from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
+from jamlab.spheres.aqs.network import backbone_mask, contact_list
+from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
+
+
+def best(fn, repeat: int):
+    """``(best CPU seconds, last result)`` of ``repeat`` calls."""
+    times, out = [], None
+    for _ in range(repeat):
+        t = time.process_time()
+        out = fn()
+        times.append(time.process_time() - t)
+    return min(times), out
+
+
+def backbone_hessian(packing) -> sps.csr_matrix:
+    nl = NeighborList(packing, skin=RELAX_SKIN)
+    ci, cj, cd = contact_list(packing, nl)
+    fac = factorise(packing, nl, backbone_mask(ci, cj, packing.n, packing.dim))
+    return backbone_matrix(packing, nl, fac).tocsr()
+
+
+def compare(name: str, k: sps.csr_matrix, repeat: int) -> None:
+    n = k.shape[0]
+    b = np.random.default_rng(0).standard_normal(n)
+    kc = sps.csc_matrix((k.data, k.indices, k.indptr), shape=k.shape)  # K symmetric
+    t_f, lu = best(
+        lambda: spla.splu(
+            kc, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        ),
+        repeat,
+    )
+    t_s, x = best(lambda: lu.solve(b), 10 * repeat)
+    row = f"| {name} | {n} | {lu.L.nnz:,} | {1e3 * t_f:.1f} | {1e3 * t_s:.2f} |"
+    try:
+        import pypardiso
+    except ImportError:
+        print(row + " (pypardiso not installed) | | | |")
+        return
+    upper = sps.triu(k, format="csr")
+    cells = []
+    for mtype in (2, -2):
+        solver = pypardiso.PyPardisoSolver(mtype=mtype)
+        solver.set_phase(12)
+        t_pf, _ = best(lambda s=solver: s._call_pardiso(upper, np.zeros(n)), repeat)
+        solver.set_phase(33)
+        t_ps, y = best(lambda s=solver: s._call_pardiso(upper, b), 10 * repeat)
+        err = float(np.max(np.abs(y - x)) / np.max(np.abs(x)))
+        cells.append(
+            f"{1e3 * t_pf:.1f} ({t_f / t_pf:.1f}×), {1e3 * t_ps:.2f} ({t_s / t_ps:.2f}×), "
+            f"rel. diff {err:.0e}"
+        )
+    print(row + f" {solver.iparm[17]:,} | " + " | ".join(cells) + " |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--phi", type=float, default=0.8)
+    ap.add_argument("--pressure", type=float, default=1e-4)
+    ap.add_argument("--repeat", type=int, default=5)
+    a = ap.parse_args()
+    print(
+        "| packing | rows | SuperLU nnz(L) | SuperLU factor ms | SuperLU solve ms | PARDISO "
+        "nnz(L) | PARDISO LLᵀ: factor ms (SuperLU/PARDISO), solve ms (ratio) | PARDISO LDLᵀ: "
+        "the same |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for seed in a.seeds:
+        pk = sp.prepare(a.n, 3, a.phi, seed=seed).packing
+        compare(f"prepare φ = {a.phi:g}, seed {seed}", backbone_hessian(pk), a.repeat)
+        pk = sp.jam(a.n, 3, seed=seed, p_target=a.pressure).packing
+        compare(f"jam p = {a.pressure:g}, seed {seed}", backbone_hessian(pk), a.repeat)
+
+
+if __name__ == "__main__":
+    main()
