@@ -11,6 +11,7 @@ step the lean step cannot take — the spurious plastic flags of issue 15 (docs/
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
 from jamlab.spheres.aqs.linalg import Factor, backbone_matrix, factorise
@@ -24,20 +25,73 @@ NEGATIVE_CURVATURE = 1e-8
 # the push along the unstable mode: largest particle displacement, in units of the mean diameter
 KICK = 1e-4
 MAX_DESCENTS = 10
-DENSE_LIMIT = 3000  # Hessians with more rows: the lowest eigenpair by Lanczos (scipy eigsh)
+DENSE_LIMIT = 3000  # Hessians with more rows: the sparse route of :func:`unstable_mode`
+INVERSE_ITERATIONS = 200  # at most, for the unstable mode of a large Hessian
 
 
-def lowest_mode(packing: Packing, nl: NeighborList, fac: Factor) -> tuple[float, float, np.ndarray]:
-    """``(λ_min, λ_max, v)`` of the pinned backbone Hessian of ``packing`` (``fac``'s free set
-    and order), ``v`` the eigenvector of ``λ_min`` as ``(n_free, d)``."""
-    k = backbone_matrix(packing, nl, fac)
-    d = packing.dim
+def _shifted_ldlt(k: sps.csr_matrix, shift: float):
+    """SuperLU ``LDLᵀ`` of ``K + shift·I`` (natural order — ``K`` is assembled in its
+    nested-dissection order —, no pivoting) and whether it is positive definite (the signs of
+    the pivots, Sylvester; any row pivoting or a singular matrix counts as not)."""
+    m = (k + shift * sps.identity(k.shape[0], format="csr")).tocsc()
+    try:
+        lu = spla.splu(
+            m, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
+    except RuntimeError:  # exactly singular
+        return None, False
+    pd = bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0))
+    return lu, pd
+
+
+def unstable_mode(k: sps.csr_matrix, d: int) -> np.ndarray | None:
+    """A direction of resolved negative curvature of the pinned backbone Hessian ``k`` (rows of
+    ``d`` coordinates per free particle), as ``(n_free, d)``, or ``None`` if every eigenvalue is
+    above ``−NEGATIVE_CURVATURE · λ_max``.
+
+    Up to ``DENSE_LIMIT`` rows: the eigenvector of the lowest eigenvalue, dense. Above: no
+    Lanczos on the low end of the spectrum — near jamming it is a cluster of eigenvalues within
+    ~1e-9 of zero (prestress on floppy-like modes; measured at N = 2000, φ_J, 19 of them between
+    −1.1e-9 and −0.9e-9, λ_max = 12.5), where ARPACK's ``which="SA"`` did not converge in 59,000
+    iterations and stopped the run. Instead: ``λ_max`` by Lanczos (the top of the spectrum is
+    well separated), then the exact inertia test on ``K + εI``, ``ε = NEGATIVE_CURVATURE ·
+    λ_max``: positive definite means no eigenvalue below ``−ε`` (``None``, the rule of the dense
+    route). Otherwise the shift ``s = ε 4^j`` is raised until ``K + sI`` is positive definite
+    (so ``−s < λ_min ≤ −s/4``) and inverse iteration with that factor converges to the lowest
+    eigenvector (the nearest eigenvalue to ``−s``; deterministic start, until the Rayleigh
+    quotient settles to 1e-10 relative, at most ``INVERSE_ITERATIONS``)."""
     if k.shape[0] <= DENSE_LIMIT:
         w, v = np.linalg.eigh(k.toarray())
-        return float(w[0]), float(w[-1]), v[:, 0].reshape(-1, d)
-    lo, vlo = spla.eigsh(k, k=1, which="SA", tol=1e-8)
-    hi = spla.eigsh(k, k=1, which="LA", tol=1e-3, return_eigenvectors=False)
-    return float(lo[0]), float(hi[0]), vlo[:, 0].reshape(-1, d)
+        if not w[0] < -NEGATIVE_CURVATURE * abs(w[-1]):
+            return None
+        return v[:, 0].reshape(-1, d)
+    hi = float(spla.eigsh(k, k=1, which="LA", tol=1e-3, return_eigenvectors=False)[0])
+    eps = NEGATIVE_CURVATURE * abs(hi)
+    _, pd = _shifted_ldlt(k, eps)
+    if pd:
+        return None
+    shift, lu = eps, None
+    while shift < 4.0 * abs(hi):
+        shift *= 4.0
+        lu, pd = _shifted_ldlt(k, shift)
+        if pd:
+            break
+    if lu is None or not pd:
+        return None  # (not reached: K + 4 λ_max I is positive definite)
+    x = np.random.default_rng(0).standard_normal(k.shape[0])
+    x /= np.linalg.norm(x)
+    rayleigh = float(x @ (k @ x))
+    for _ in range(INVERSE_ITERATIONS):
+        x = lu.solve(x)
+        x /= np.linalg.norm(x)
+        new = float(x @ (k @ x))
+        settled = abs(new - rayleigh) <= 1e-10 * abs(new)
+        rayleigh = new
+        if settled:
+            break
+    if not rayleigh < -eps:
+        return None  # (a direction that does not lower the energy is no push)
+    return x.reshape(-1, d)
 
 
 def descend(
@@ -66,8 +120,8 @@ def descend(
         factorisations += 1
         if fac.free.size == 0 or fac.positive_definite or attempt == MAX_DESCENTS:
             break
-        lo, hi, v = lowest_mode(packing, nl, fac)
-        if not lo < -NEGATIVE_CURVATURE * abs(hi):
+        v = unstable_mode(backbone_matrix(packing, nl, fac), packing.dim)
+        if v is None:
             break  # positive semi-definite: a flat direction, not a saddle
         norms = np.sqrt(np.einsum("ij,ij->i", v, v))
         big = int(np.argmax(norms))
