@@ -207,7 +207,8 @@ def main() -> None:
                                 not args.fixed_pressure_only))
         print(f"N = {n} done", flush=True)
         if args.json is not None:
-            data = {"steps": args.steps, "dgamma": DGAMMA, "pressure": args.pressure}
+            data = {"steps": args.steps, "seed": args.seed, "dgamma": DGAMMA,
+                    "pressure": args.pressure}
             args.json.write_text(json.dumps({**data, "results": results}, indent=1))
     print(table(results, args.steps, args.pressure))
 

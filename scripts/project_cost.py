@@ -14,6 +14,10 @@ paper's set ≤ 500 CPU-h (moonshot ≤ 100). Times measured on a shared machine
 extrapolation beyond the measured N says so (``extrapolated``).
 
     python scripts/project_cost.py jamming_bench.json
+    python scripts/project_cost.py --average seed1.json seed2.json   # packings of several seeds
+
+With ``--average`` the files are runs of the same N on different packings (``--seed``): per N,
+protocol and code the per-step time, and per N the preparation times, are their means.
 """
 
 from __future__ import annotations
@@ -74,12 +78,36 @@ def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict
     return out
 
 
+def average(files: list[dict]) -> dict:
+    """One benchmark whose times are the means over ``files`` (same N, p, δγ; packings of
+    different seeds): per N the preparation times, per N, protocol and code the ms per step."""
+    out = json.loads(json.dumps(files[0]))
+    for k, row in enumerate(out["results"]):
+        rows = [f["results"][k] for f in files]
+        for key in ("jam_s", "to_pressure_s"):
+            if all(key in r for r in rows):
+                row[key] = float(np.mean([r[key] for r in rows]))
+        for proto in ("constant_volume", "fixed_pressure"):
+            if proto not in row:
+                continue
+            if not all(proto in r for r in rows):
+                raise SystemExit(f"--average: not every file has the {proto} protocol")
+            for code, cell in row[proto].items():
+                if not all(code in r[proto] for r in rows):
+                    raise SystemExit(f"--average: not every file has {proto} / {code}")
+                cell["ms_per_step"] = float(np.mean([r[proto][code]["ms_per_step"] for r in rows]))
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("bench_json", type=Path, nargs="+",
                     help="one or more benchmark JSONs with the same N: a protocol is taken from "
                     "the last file that has it (e.g. an older full run and a newer "
                     "--fixed-pressure-only run)")
+    ap.add_argument("--average", action="store_true",
+                    help="the files are the same benchmark on packings of different seeds: "
+                    "average their times per N (otherwise later files override earlier ones)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[500, 1000, 2000, 4000])
     ap.add_argument("--samples", type=int, default=300)
     ap.add_argument("--steps", type=int, default=1000)
@@ -91,8 +119,14 @@ def main() -> None:
             raise SystemExit("the benchmark files measure different N")
         if other["pressure"] != data["pressure"] or other["dgamma"] != data["dgamma"]:
             raise SystemExit("the benchmark files use different p or dgamma")
-        for mine, theirs in zip(data["results"], other["results"], strict=True):
-            mine.update({k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine})
+    if args.average:
+        data = average(files)
+    else:
+        for other in files[1:]:
+            for mine, theirs in zip(data["results"], other["results"], strict=True):
+                mine.update(
+                    {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
+                )
     rows = project(data, args.sizes, args.samples, args.steps)
     ns = [r["N"] for r in data["results"]]
     print(
