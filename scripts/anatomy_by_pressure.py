@@ -31,6 +31,9 @@ from avalanche_anatomy import counted  # noqa: E402  (scripts run as scripts)
 EDGES = np.logspace(-12, -3, 10)
 MIN_EVENTS = 10
 """Decades with fewer events are printed, not drawn in the left panel."""
+SIZE_STYLES = ["o-", "s--", "^:", "D-."]
+"""One marker and line style per size of a state (with three, the fourth size of p = 1e-4 wrapped
+onto the first: N = 250 and N = 2000 were drawn alike)."""
 
 
 def load(path: Path) -> dict[str, np.ndarray]:
@@ -68,7 +71,7 @@ def main() -> None:
     ap.add_argument("dirs", type=Path, nargs="+")
     ap.add_argument("--figure", type=Path, default=None)
     args = ap.parse_args()
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4))
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 4))
     mid = np.sqrt(EDGES[1:] * EDGES[:-1])
     for k, d in enumerate(args.dirs):
         a = load(d)
@@ -107,14 +110,14 @@ def main() -> None:
                 if e.sum() >= 5:
                     med[b] = np.median(a["n_eff"][e]) / n
             g = ~np.isnan(med)
-            ax1.plot(mid[g], med[g], ["o-", "s--", "^:"][j % 3], color=f"C{k}",
+            ax1.plot(mid[g], med[g], SIZE_STYLES[j % len(SIZE_STYLES)], color=f"C{k}",
                      label=f"{state}, N = {n}")  # fmt: skip
     ax0.set(xscale="log", xlabel="S (ε)", ylabel="localized share (N_eff ≤ 10)", ylim=(0, None),
             title=f"localized events per decade of S (≥ {MIN_EVENTS} events)")
     ax1.set(xscale="log", yscale="log", xlabel="S (ε)", ylabel="median N_eff / N (extended)",
             title="extent of the extended events (≥ 5 per point)")
     ax0.legend(fontsize=8)
-    ax1.legend(fontsize=7, ncol=2)
+    ax1.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))  # off the curves
     fig.tight_layout()
     if args.figure is not None:
         args.figure.parent.mkdir(parents=True, exist_ok=True)
