@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections import deque
 
 import numpy as np
 
@@ -49,30 +50,37 @@ def fmax(f: np.ndarray) -> float:
     return float(np.sqrt((f * f).sum(1)).max())
 
 
+def two_loop(g: np.ndarray, s_hist: deque, y_hist: deque, h0) -> np.ndarray:
+    """L-BFGS two-loop recursion: the inverse-Hessian estimate applied to ``g``, from the
+    stored steps ``s_hist`` and gradient changes ``y_hist`` (oldest first) and the initial
+    inverse Hessian ``h0`` (a function of a vector)."""
+    q = g.copy()
+    coef = []
+    for s, y in zip(reversed(s_hist), reversed(y_hist), strict=True):
+        rho = 1.0 / np.vdot(y, s)
+        a = rho * np.vdot(s, q)
+        q -= a * y
+        coef.append((rho, a))
+    q = h0(q)
+    for (s, y), (rho, a) in zip(zip(s_hist, y_hist, strict=True), reversed(coef), strict=True):
+        q += s * (a - rho * np.vdot(y, q))
+    return q
+
+
 def lbfgs(start, ftol: float = 1e-12, m: int = 10, maxstep: float = 0.02,
           max_iter: int = 200_000) -> tuple[int, int, float, float, np.ndarray]:
     """``(iterations, force evaluations, energy, max|F|, positions)`` of L-BFGS from ``start``."""
     nl = NeighborList(start)
     x = start.positions.copy()
     e, f = energy_and_forces(start.with_positions(x), nl)
-    s_hist: list[np.ndarray] = []
-    y_hist: list[np.ndarray] = []
+    s_hist: deque[np.ndarray] = deque(maxlen=m)
+    y_hist: deque[np.ndarray] = deque(maxlen=m)
     evaluations, it = 1, 0
     while fmax(f) >= ftol and it < max_iter:
         it += 1
         g = -f.ravel()
-        q = g.copy()
-        coef = []
-        for s, y in zip(reversed(s_hist), reversed(y_hist), strict=True):
-            rho = 1.0 / (y @ s)
-            a = rho * (s @ q)
-            q -= a * y
-            coef.append((rho, a))
-        q *= (s_hist[-1] @ y_hist[-1]) / (y_hist[-1] @ y_hist[-1]) if s_hist else 0.1
-        for (s, y), (rho, a) in zip(zip(s_hist, y_hist, strict=True), reversed(coef),
-                                    strict=True):
-            q += s * (a - rho * (y @ q))
-        d = -q
+        scale = (s_hist[-1] @ y_hist[-1]) / (y_hist[-1] @ y_hist[-1]) if s_hist else 0.1
+        d = -two_loop(g, s_hist, y_hist, lambda q, c=scale: q * c)
         if d @ g >= 0:  # not a descent direction: restart from steepest descent
             s_hist.clear()
             y_hist.clear()
@@ -92,11 +100,8 @@ def lbfgs(start, ftol: float = 1e-12, m: int = 10, maxstep: float = 0.02,
                 break
         s, y = t * d, gn - g
         if s @ y > 1e-30:
-            s_hist.append(s)
+            s_hist.append(s)  # (bounded deques: the oldest pair drops out)
             y_hist.append(y)
-            if len(s_hist) > m:
-                s_hist.pop(0)
-                y_hist.pop(0)
         x, e, f = xn, en, fn
     return it, evaluations, float(e), fmax(f), x
 
@@ -130,24 +135,13 @@ def metric_lbfgs(start, apply, ftol: float = 1e-12, m: int = 8, cap: int = 200,
     nl = NeighborList(start, skin=RELAX_SKIN)
     x = start.positions.copy()
     e, f = energy_and_forces(start, nl)
-    s_hist: list[np.ndarray] = []
-    y_hist: list[np.ndarray] = []
+    s_hist: deque[np.ndarray] = deque(maxlen=m)
+    y_hist: deque[np.ndarray] = deque(maxlen=m)
     evaluations = it = 0
     while fmax(f) >= ftol and it < cap:
         it += 1
         g = -f
-        q = g.copy()
-        coef = []
-        for s, y in zip(reversed(s_hist), reversed(y_hist), strict=True):
-            rho = 1.0 / np.vdot(y, s)
-            a = rho * np.vdot(s, q)
-            q -= a * y
-            coef.append((rho, a))
-        q = apply(q)
-        for (s, y), (rho, a) in zip(zip(s_hist, y_hist, strict=True), reversed(coef),
-                                    strict=True):
-            q += s * (a - rho * np.vdot(y, q))
-        d = -q
+        d = -two_loop(g, s_hist, y_hist, apply)
         if np.vdot(d, g) >= 0:
             s_hist.clear()
             y_hist.clear()
@@ -166,11 +160,8 @@ def metric_lbfgs(start, apply, ftol: float = 1e-12, m: int = 8, cap: int = 200,
                 break
         s, y = xn - x, -fn - g
         if np.vdot(s, y) > 0:
-            s_hist.append(s)
+            s_hist.append(s)  # (bounded deques: the oldest pair drops out)
             y_hist.append(y)
-            if len(s_hist) > m:
-                s_hist.pop(0)
-                y_hist.pop(0)
         x, e, f = xn, en, fn
     return it, evaluations, x
 

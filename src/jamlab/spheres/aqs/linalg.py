@@ -229,19 +229,29 @@ def factorise(
     fac.normals0 = cd[order]
     # K is symmetric, so its CSR arrays read as CSC are K itself: no conversion
     kc = sps.csc_matrix((k.data, k.indices, k.indptr), shape=k.shape)
+    fac.lu, fac.positive_definite = ldlt(kc, natural=fac.free.size >= ND_MIN_FREE)
+    return fac
+
+
+def ldlt(k: sps.csc_matrix, natural: bool = True) -> tuple[object | None, bool]:
+    """SuperLU ``K = L D Lᵀ`` of a symmetric matrix and whether ``K`` is positive definite.
+
+    ``natural``: ``K`` is already in a fill-reducing order (nested dissection); otherwise
+    SuperLU's ``MMD_AT_PLUS_A``. With ``diag_pivot_thresh=0`` no rows are pivoted, ``U = D Lᵀ``,
+    and the inertia of ``K`` is the signs of ``diag(U)`` (Sylvester). Any row pivoting
+    (``perm_r ≠ perm_c``) or a zero pivot counts as "not positive definite"; an exactly singular
+    matrix gives ``(None, False)``.
+    """
     try:
         lu = spla.splu(
-            kc,
-            permc_spec="NATURAL" if fac.free.size >= ND_MIN_FREE else "MMD_AT_PLUS_A",
+            k,
+            permc_spec="NATURAL" if natural else "MMD_AT_PLUS_A",
             diag_pivot_thresh=0.0,
             options={"SymmetricMode": True},
         )
     except RuntimeError:  # exactly singular
-        return fac
-    pivots = lu.U.diagonal()
-    fac.lu = lu
-    fac.positive_definite = bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(pivots > 0))
-    return fac
+        return None, False
+    return lu, bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0))
 
 
 def max_norm(f: np.ndarray) -> float:

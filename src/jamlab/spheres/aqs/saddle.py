@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sps
 import scipy.sparse.linalg as spla
 
-from jamlab.spheres.aqs.linalg import Factor, backbone_matrix, factorise
+from jamlab.spheres.aqs.linalg import Factor, backbone_matrix, factorise, ldlt
 from jamlab.spheres.aqs.record import observe
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
@@ -30,18 +30,10 @@ INVERSE_ITERATIONS = 200  # at most, for the unstable mode of a large Hessian
 
 
 def _shifted_ldlt(k: sps.csr_matrix, shift: float):
-    """SuperLU ``LDLᵀ`` of ``K + shift·I`` (natural order — ``K`` is assembled in its
-    nested-dissection order —, no pivoting) and whether it is positive definite (the signs of
-    the pivots, Sylvester; any row pivoting or a singular matrix counts as not)."""
-    m = (k + shift * sps.identity(k.shape[0], format="csr")).tocsc()
-    try:
-        lu = spla.splu(
-            m, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
-    except RuntimeError:  # exactly singular
-        return None, False
-    pd = bool(np.array_equal(lu.perm_r, lu.perm_c) and np.all(lu.U.diagonal() > 0))
-    return lu, pd
+    """:func:`~jamlab.spheres.aqs.linalg.ldlt` of ``K + shift·I`` (natural order: ``K`` is
+    assembled in its nested-dissection order, and the sparse route has more free particles than
+    ``ND_MIN_FREE``)."""
+    return ldlt((k + shift * sps.identity(k.shape[0], format="csr")).tocsc())
 
 
 def unstable_mode(k: sps.csr_matrix, d: int) -> np.ndarray | None:
