@@ -472,6 +472,32 @@ def test_network_continuation_near_jamming_against_fire_and_the_residual():
     assert max(plastic_r) < -10 * np.max(np.abs(elastic_r))
 
 
+def test_the_continuation_preconditions_with_the_switched_network():
+    """After contact switches on a backbone large enough to keep its factor (more than
+    ``ND_MIN_FREE`` free particles), the factor the continuation returns is corrected for the
+    network it ended on: ``P⁻¹`` inverts the network Hessian at the end (built here from the
+    contacts of the returned minimum) up to the smooth drift of the step, while the uncorrected
+    factor alone is far off (its contacts are those of the start)."""
+    p = sp.jam(500, 3, seed=2, p_target=1e-4).packing
+    nl = sp.NeighborList(p)
+    ci, cj, _ = contact_list(p, nl)
+    fac = factorise(p, nl, backbone_mask(ci, cj, p.n, p.dim))
+    branch = continue_network(p, fac, p.strain + DGAMMA, nl, 1e-12, aqs.AQSParameters())
+    assert branch.packing is not None and branch.events >= 1  # a step with switches, continued
+    end, f = branch.packing, branch.factor
+    ci, cj, _ = contact_list(end, nl)
+    backbone = backbone_mask(ci, cj, end.n, end.dim)
+    assert np.array_equal(backbone, f.backbone)  # the factor was kept, not remade
+    live = backbone[ci] & backbone[cj]
+    ci, cj = ci[live], cj[live]
+    k = hessian_matrix(ci, cj, end.box.minimum_image(end.positions[ci] - end.positions[cj]), f)
+    r = np.random.default_rng(0).standard_normal(k.shape[0])
+    corrected = np.linalg.norm(k @ f.solve(r) - r) / np.linalg.norm(r)
+    plain = np.linalg.norm(k @ f.lu.solve(r) - r) / np.linalg.norm(r)
+    assert f.corr_keys is not None and f.corr_keys.size >= 1
+    assert corrected < 0.5 and plain > 10.0
+
+
 def test_switch_positive_definiteness_against_dense_eigenvalues():
     """The inertia test of a contact switch (``K + U S Uᵀ`` positive definite?) against the
     lowest eigenvalue of that matrix built densely, for single removals (both outcomes: a

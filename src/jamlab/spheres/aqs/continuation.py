@@ -199,6 +199,10 @@ def continue_network(
         trial = affine_to(cur, target)
         if predictor is not None and g == g0 and last:
             trial = trial.with_positions(trial.positions + predictor)
+        # the factor corrected (Woodbury) for the pairs where the network differs from the
+        # factor's contacts (switched ones, rattlers' contacts)
+        fac.update(ci, cj, trial.box.minimum_image(trial.positions[ci] - trial.positions[cj]),
+                   params.max_corrections)
         res = damped_newton(trial, fac.free, NetworkModel(ci, cj, fac), fac.solve, ftol, params)
         new, it_n, cg_n = res.packing if res.ok else None, res.iterations, res.cg_iterations
         calls += 1
