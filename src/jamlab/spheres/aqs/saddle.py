@@ -25,7 +25,10 @@ NEGATIVE_CURVATURE = 1e-8
 # the push along the unstable mode: largest particle displacement, in units of the mean diameter
 KICK = 1e-4
 MAX_DESCENTS = 10
-DENSE_LIMIT = 3000  # Hessians with more rows: the sparse route of :func:`unstable_mode`
+# Hessians with more rows take the sparse route of :func:`unstable_mode` (measured, docs/aqs.md
+# "Saddles": dense ``eigh`` 0.05 s at 738 rows, 0.3 s at 1473, 2.4 s at 2934; the sparse route
+# 0.01-0.02 s on a positive definite K and 0.22 s on the N = 1000 saddle at 2934 rows)
+DENSE_LIMIT = 1000
 INVERSE_ITERATIONS = 200  # at most, for the unstable mode of a large Hessian
 
 
