@@ -10,7 +10,10 @@ clock and in CPU time of the process (one BLAS/numba thread; less sensitive to o
 shared machine). Compiled kernels are warmed before timing in every subprocess. Asserts nothing
 about time.
 
-With ``--jam-n N`` (default 256) it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
+With ``--at-jamming N …`` it also times constant-volume shear (fast path, ``--jam-steps``
+steps of δγ = 1e-5) from ``jam(N, 3, seed, p_target=1e-7)`` for ``--at-jamming-seeds`` (default
+1 2), the packings made once per tree and kept in ``--cache``. With ``--jam-n N`` (default 256)
+it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
 ``bench_jam.py`` protocol, jamlab only), per packing (the "ms/step" columns are then ms per
 packing).
 
@@ -25,6 +28,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve()
@@ -33,7 +37,7 @@ START = REFERENCE / "lammps-aqs-n1000-phi0.80"
 
 # the child: time each case with the jamlab found on PYTHONPATH; prints one JSON line
 CHILD = r"""
-import json, sys, time
+import json, pickle, sys, time
 import jamlab
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.io import read_lammps_positions
@@ -42,6 +46,8 @@ from jamlab.spheres.packing import jam
 start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 fast_only = sys.argv[5] == "1"
 jam_n = int(sys.argv[6])
+at_jamming = json.loads(sys.argv[7])
+cache_dir = sys.argv[8]
 meta = json.load(open(start_dir + "/meta.json"))
 start = read_lammps_positions(start_dir + "/positions.txt", box_length=meta["box_length"])
 shear(start, 1e-5, n_steps=2)  # compile outside the timings
@@ -63,6 +69,15 @@ if jamming == "1":
     timed("jamming N=128 fast path", jammed, jam_steps)
     if not fast_only:
         timed("jamming N=128 FIRE+classify", jammed, jam_steps, minimizer="fire", classify=True)
+for n_cv, seed in at_jamming:
+    # constant volume from jam(N, 3, seed, p_target=1e-7), cached per tree (outside the timings)
+    cache = f"{cache_dir}/jam_n{n_cv}_s{seed}" + jamlab.__file__.replace("/", "_") + ".pkl"
+    try:
+        packing = pickle.load(open(cache, "rb"))
+    except OSError:
+        packing = jam(n_cv, 3, seed=seed, p_target=1e-7).packing
+        pickle.dump(packing, open(cache, "wb"))
+    timed(f"jamming N={n_cv} seed {seed} fast", packing, jam_steps)
 if jam_n:
     jam(64, 3, seed=1, p_target=1e-4)  # compile outside the timings
     wall, cpu = time.perf_counter(), time.process_time()
@@ -90,6 +105,8 @@ def run_child(src: str, args) -> dict:
         "0" if args.no_jamming else "1",
         "1" if args.fast_only else "0",
         str(args.jam_n),
+        json.dumps([(n, s) for n in args.at_jamming for s in args.at_jamming_seeds]),
+        args.cache,
     ]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
     line = next(x for x in res.stdout.splitlines() if x.startswith("RESULT "))
@@ -108,6 +125,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--jam-n", type=int, default=256, help="also time jam(N, 3, seed), seeds 1-3 (0: no)"
     )
+    ap.add_argument(
+        "--at-jamming", type=int, nargs="*", default=[],
+        help="also time constant-volume shear (fast path, --jam-steps steps) from "
+        "jam(N, 3, seed, p_target=1e-7) for these N",
+    )
+    ap.add_argument("--at-jamming-seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--cache", default=tempfile.mkdtemp(prefix="bench_refactor_"),
+                    help="where the --at-jamming packings are kept between rounds")
     args = ap.parse_args(argv)
     if not START.is_dir():
         print(f"reference start not found at {START}")
