@@ -498,6 +498,30 @@ def test_the_continuation_preconditions_with_the_switched_network():
     assert corrected < 0.5 and plain > 10.0
 
 
+def test_the_continuation_does_not_approach_a_failed_strain_forever(monkeypatch):
+    """Regression: after Newton failed to reach a strain, the continuation bisects towards it;
+    on ``jam(250, 3, 27, 1e-7)`` at constant volume Newton then succeeded at every halving, and
+    without the rule that retries the failed strain itself once it is within two smallest
+    substeps the substep shrank to zero (an endless loop at γ = 6.125e-5). Every step must now
+    need few Newton calls — far below the pathological guard of ``10 · max_events`` — and the
+    run must end at minima."""
+    import jamlab.spheres.aqs.continuation as continuation
+
+    calls = []
+    newton = continuation.damped_newton
+
+    def counted(*args, **kwargs):
+        calls[-1] += 1
+        return newton(*args, **kwargs)
+
+    monkeypatch.setattr(continuation, "damped_newton", counted)
+    p = sp.jam(250, 3, seed=27, p_target=1e-7).packing
+    calls.append(0)
+    r = aqs.shear(p, DGAMMA, n_steps=8, after_step=lambda *_: calls.append(0))
+    assert max(calls) <= 200  # (41 at most measured; the loop made 10,000)
+    assert r.n_not_converged == 0 and np.all(r.trace.max_force < 1e-12)
+
+
 def test_switch_positive_definiteness_against_dense_eigenvalues():
     """The inertia test of a contact switch (``K + U S Uᵀ`` positive definite?) against the
     lowest eigenvalue of that matrix built densely, for single removals (both outcomes: a

@@ -136,6 +136,12 @@ def relax_rattlers(
     return None
 
 
+def _overlaps(packing: Packing, pi: np.ndarray, pj: np.ndarray) -> np.ndarray:
+    """``σ − r`` of the pairs ``(pi, pj)``."""
+    dr = packing.box.minimum_image(packing.positions[pi] - packing.positions[pj])
+    return pair_sigmas(packing.diameters, pi, pj) - np.sqrt(np.einsum("ij,ij->i", dr, dr))
+
+
 def continue_network(
     start: Packing,
     fac: Factor | None,
@@ -153,7 +159,9 @@ def continue_network(
     overlaps at the end by :func:`relax_rattlers`). A substep whose end is consistent (every
     pair of ``C`` still compressed, no new overlap between backbone particles) is accepted;
     otherwise the first crossing inside it is located by interpolating the overlaps linearly in
-    ``γ`` and stepping there, and once it is within ``event_tol · δγ`` the set is switched
+    ``γ`` and stepping there (a landing that stops short of it aims next at the secant
+    extrapolation of the same pairs' overlaps, not at a doubled substep), and once it is within
+    ``event_tol · δγ`` the set is switched
     (pairs removed or added at zero force) and the backbone recomputed (a particle left with
     ``d`` contacts is a rattler). The branch ends when the network Hessian after a switch is not
     positive definite (a fresh factorisation if the free set changed or is small, else
@@ -192,7 +200,11 @@ def continue_network(
     total = strain - g0
     cur = start
     h = first_substep * total
+    aim = None  # a crossing being landed on: (pairs i, j, how many opening, overlaps, at strain)
+    failed = None  # the nearest strain Newton failed to reach on the current contact set
     while True:
+        if calls > 10 * params.max_events:
+            return ended()  # pathological (never seen in practice): FIRE takes the step
         g = cur.strain
         last = g + h >= strain - 1e-9 * abs(total)
         target = strain if last else g + h
@@ -209,6 +221,8 @@ def continue_network(
         its += it_n
         cg += cg_n
         if new is None:
+            aim = None
+            failed = target if failed is None else min(failed, target)
             h *= 0.5
             if h < params.min_substep * abs(total):
                 return ended()
@@ -223,6 +237,7 @@ def continue_network(
         keys_a = pair_keys(ai, aj, n)
         fresh_pairs = ~np.isin(keys_a, keys_c, assume_unique=False)
         ai, aj = ai[fresh_pairs], aj[fresh_pairs]
+        tol = params.event_tol * abs(total)
         if opening.size == 0 and ai.size == 0:
             cur = new
             substeps += 1
@@ -231,37 +246,58 @@ def continue_network(
                 return Branch(
                     cur if relaxed is None else relaxed, fac, its, cg, substeps, refac, events
                 )
-            h = min(2.0 * h, strain - cur.strain)
-            continue
-        # an event inside (g, target]: overlaps o = σ − r at both ends, crossing by interpolation
-        pi = np.concatenate([ci[opening], ai])
-        pj = np.concatenate([cj[opening], aj])
-        dr_a = cur.box.minimum_image(cur.positions[pi] - cur.positions[pj])
-        dr_b = new.box.minimum_image(new.positions[pi] - new.positions[pj])
-        sig = pair_sigmas(cur.diameters, pi, pj)
-        o_a = sig - np.sqrt(np.einsum("ij,ij->i", dr_a, dr_a))
-        o_b = sig - np.sqrt(np.einsum("ij,ij->i", dr_b, dr_b))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            theta = np.nan_to_num(np.clip(o_a / (o_a - o_b), 0.0, 1.0), nan=0.0)
-        span = target - g
-        tol = params.event_tol * abs(total)
-        first = float(theta.min())
-        if first * span <= tol:
-            now = theta * span <= tol  # crossing at cur: switch there
-        elif np.all((1.0 - theta) * span <= tol):
-            cur = new  # every crossing at the end of the substep: accept it, switch there
-            substeps += 1
-            now = np.ones(theta.size, dtype=bool)
+            if aim is None:
+                h = min(2.0 * h, strain - cur.strain)
+                if failed is not None and cur.strain >= failed:
+                    failed = None
+                elif failed is not None:
+                    # not beyond a strain Newton already failed to reach: bisect towards it, and
+                    # once it is within twice the smallest substep, retry it (a failure then
+                    # ends the branch, as before; halving alone would approach it forever)
+                    gap = failed - cur.strain
+                    h = min(h, 0.5 * gap if gap >= 2.0 * params.min_substep * abs(total) else gap)
+                continue
+            # a landing on a crossing stopped short of it: the crossing lies just ahead, at the
+            # secant extrapolation of the aimed pairs' overlaps (at the landing's start and here)
+            pi, pj, n_open, o_a, g_a = aim
+            o_b = _overlaps(cur, pi, pj)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ahead = o_b * (cur.strain - g_a) / (o_a - o_b)  # > 0: approaching zero
+            ahead = np.where(np.isfinite(ahead) & (ahead > 0.0), ahead, np.inf)
+            now = ahead <= tol
+            if not now.any():
+                aim = (pi, pj, n_open, o_b, cur.strain)
+                h = min(float(ahead.min()), strain - cur.strain)
+                continue
+            # within tol of the crossing: switch here
         else:
-            h = first * span  # step to (about) the first crossing
-            continue
+            # an event inside (g, target]: overlaps o = σ − r at both ends, crossing by
+            # interpolation
+            pi = np.concatenate([ci[opening], ai])
+            pj = np.concatenate([cj[opening], aj])
+            n_open = opening.size
+            o_a, o_b = _overlaps(cur, pi, pj), _overlaps(new, pi, pj)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                theta = np.nan_to_num(np.clip(o_a / (o_a - o_b), 0.0, 1.0), nan=0.0)
+            span = target - g
+            first = float(theta.min())
+            if first * span <= tol:
+                now = theta * span <= tol  # crossing at cur: switch there
+            elif np.all((1.0 - theta) * span <= tol):
+                cur = new  # every crossing at the end of the substep: accept it, switch there
+                substeps += 1
+                now = np.ones(theta.size, dtype=bool)
+            else:
+                h = first * span  # step to (about) the first crossing
+                aim = (pi, pj, n_open, o_a, g)
+                continue
+        aim = failed = None
         events += 1
-        if events > params.max_events or calls > 10 * params.max_events:
+        if events > params.max_events:
             # pathological (events piling up, never seen in practice): the branch is declared
             # ended and FIRE takes the step (the substep continuation did it until issue 14)
             return ended()
         # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
-        n_open = opening.size
         drop = pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n)
         keep = ~np.isin(pair_keys(ci, cj, n), drop)
         old_ci, old_cj, old_backbone = ci, cj, backbone
