@@ -23,6 +23,9 @@ jamlab is timed.
 
     PYTHONPATH=src nice -n 10 python benchmarks/bench_jamming.py --n 250 500 1000 --steps 20 \\
         --json jamming_bench.json
+
+``--fixed-pressure-only`` / ``--constant-volume-only`` time one protocol; with the latter,
+``--codes jamlab …`` times only the named codes (e.g. the default path after a change of it).
 """
 
 from __future__ import annotations
@@ -94,7 +97,8 @@ jump SELF loop
 
 
 def one_size(n: int, seed: int, steps: int, pressure: float, lmp,
-             constant_volume: bool = True) -> dict:
+             constant_volume: bool = True, fixed_pressure: bool = True,
+             codes: tuple[str, ...] | None = None) -> dict:
     out: dict = {"N": n}
     t0 = time.process_time()
     res = sp.jam(n, 3, seed, p_target=1e-7)
@@ -103,22 +107,31 @@ def one_size(n: int, seed: int, steps: int, pressure: float, lmp,
         raise RuntimeError(f"jam({n}, seed={seed}) failed: {res.reason}")
     pk = res.packing
     cv: dict = {}
+    def wanted(code: str) -> bool:
+        return codes is None or code in codes
+
     if constant_volume:
-        r = shear(pk, DGAMMA, n_steps=steps)
-        cv["jamlab"] = {
-            "ms_per_step": 1e3 * r.time / steps,
-            "iterations": float(np.mean(r.trace.iterations[1:])),
-            "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
-            "plastic": int(r.trace.plastic.sum()),
-        }
-        r = shear(pk, DGAMMA, n_steps=steps, minimizer="fire", classify=False)
-        cv["jamlab_fire"] = {
-            "ms_per_step": 1e3 * r.time / steps,
-            "iterations": float(np.mean(r.trace.iterations[1:])),
-            "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
-        }
-        if lmp is not None:
+        if wanted("jamlab"):
+            r = shear(pk, DGAMMA, n_steps=steps)
+            cv["jamlab"] = {
+                "ms_per_step": 1e3 * r.time / steps,
+                "iterations": float(np.mean(r.trace.iterations[1:])),
+                "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
+                "plastic": int(r.trace.plastic.sum()),
+            }
+        if wanted("jamlab_fire"):
+            r = shear(pk, DGAMMA, n_steps=steps, minimizer="fire", classify=False)
+            cv["jamlab_fire"] = {
+                "ms_per_step": 1e3 * r.time / steps,
+                "iterations": float(np.mean(r.trace.iterations[1:])),
+                "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
+            }
+        if lmp is not None and wanted("lammps_fire"):
             cv["lammps_fire"] = lammps_steps(lmp, pk, steps, None)
+    if not fixed_pressure:
+        out["to_pressure_s"] = 0.0
+        out["constant_volume"] = cv
+        return out
     fp: dict = {}
     t0 = time.process_time()
     at_p = minimize_enthalpy(pk, pressure, ftol=FTOL).packing
@@ -197,14 +210,23 @@ def main() -> None:
     ap.add_argument("--fixed-pressure-only", action="store_true",
                     help="time only the fixed-pressure protocol (the constant-volume rows are "
                     "left out of the table and the JSON)")
+    ap.add_argument("--constant-volume-only", action="store_true",
+                    help="time only the constant-volume protocol")
+    ap.add_argument("--codes", nargs="+", default=None,
+                    choices=("jamlab", "jamlab_fire", "lammps_fire"),
+                    help="with --constant-volume-only: time only these codes (the JSON then "
+                    "holds only them)")
     args = ap.parse_args()
+    if args.codes is not None and not args.constant_volume_only:
+        ap.error("--codes needs --constant-volume-only")
     lmp = None if args.no_lammps else find_lammps()
     if lmp is None:
         print("LAMMPS not found (or --no-lammps): jamlab only")
     results = []
     for n in args.n:
         results.append(one_size(n, args.seed, args.steps, args.pressure, lmp,
-                                not args.fixed_pressure_only))
+                                not args.fixed_pressure_only, not args.constant_volume_only,
+                                None if args.codes is None else tuple(args.codes)))
         print(f"N = {n} done", flush=True)
         if args.json is not None:
             data = {"steps": args.steps, "seed": args.seed, "dgamma": DGAMMA,

@@ -79,9 +79,9 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 5.5 CPU-hours ≈ 2.8 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
-    "constant volume ≈ 2.5 CPU-h from benchmarks/bench_jamming.py (δγ = 1e-5, idle machine, two "
-    "packings per N: 0.09–0.44 s/step at N = 500, 1.9–3.5 s/step at N = 1000, 3 samples each; a "
+    "≈ 4.9 CPU-hours ≈ 2.4 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
+    "constant volume ≈ 1.8 CPU-h from benchmarks/bench_jamming.py (δγ = 1e-5, idle machine, two "
+    "packings per N: 0.03–0.32 s/step at N = 500, 1.1–2.8 s/step at N = 1000, 3 samples each; a "
     "packing that hovers at the edge of jamming costs up to 10× more); fixed pressure ≈ 2.7 CPU-h "
     "from the measured fraction (scripts/medium_fraction.py, 20 samples per p at N = 500: mean "
     "268 s per 1000-step sample at p = 1e-5, 135 s at 1e-4, 47 s at 1e-3, 28 s at 1e-2) "
