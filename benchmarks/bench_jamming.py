@@ -129,7 +129,6 @@ def one_size(n: int, seed: int, steps: int, pressure: float, lmp,
         if lmp is not None and wanted("lammps_fire"):
             cv["lammps_fire"] = lammps_steps(lmp, pk, steps, None)
     if not fixed_pressure:
-        out["to_pressure_s"] = 0.0
         out["constant_volume"] = cv
         return out
     fp: dict = {}
@@ -175,7 +174,7 @@ def table(results: list[dict], steps: int, pressure: float) -> str:
     for r in results:
         for proto, key, extra in (
             ("constant V", "constant_volume", r["jam_s"]),
-            (f"p = {pressure:g}", "fixed_pressure", r["jam_s"] + r["to_pressure_s"]),
+            (f"p = {pressure:g}", "fixed_pressure", r["jam_s"] + r.get("to_pressure_s", 0.0)),
         ):
             if key not in r:
                 continue
@@ -192,10 +191,8 @@ def table(results: list[dict], steps: int, pressure: float) -> str:
                     f"| {r['N']} | {proto} | {code} | {m['ms_per_step']:,.1f} | "
                     f"{m['iterations']:,.0f} | {sample:,.0f} | {', '.join(notes)} |"
                 )
-        lines.append(
-            f"| {r['N']} | | jam(p=1e-7): {r['jam_s']:.1f} s; to p: {r['to_pressure_s']:.1f} s | "
-            "| | | |"
-        )
+        to_p = f"; to p: {r['to_pressure_s']:.1f} s" if "to_pressure_s" in r else ""
+        lines.append(f"| {r['N']} | | jam(p=1e-7): {r['jam_s']:.1f} s{to_p} | | | | |")
     return "\n".join(lines)
 
 

@@ -12,7 +12,9 @@ about time.
 
 With ``--at-jamming N …`` it also times constant-volume shear (fast path, ``--jam-steps``
 steps of δγ = 1e-5) from ``jam(N, 3, seed, p_target=1e-7)`` for ``--at-jamming-seeds`` (default
-1 2), the packings made once per tree and kept in ``--cache``. With ``--jam-n N`` (default 256)
+1 2), and with ``--prepared-seeds S …`` the fast path from ``prepare(1000, 3, 0.8, S)`` (the
+typical starts of ``bench_aqs.py``); those packings are made once per tree and kept in
+``--cache`` between rounds. With ``--jam-n N`` (default 256)
 it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
 ``bench_jam.py`` protocol, jamlab only), per packing (the "ms/step" columns are then ms per
 packing).
@@ -41,13 +43,24 @@ import json, pickle, sys, time
 import jamlab
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.io import read_lammps_positions
-from jamlab.spheres.packing import jam
+from jamlab.spheres.packing import jam, prepare
 
 start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 fast_only = sys.argv[5] == "1"
 jam_n = int(sys.argv[6])
 at_jamming = json.loads(sys.argv[7])
 cache_dir = sys.argv[8]
+prepared_seeds = json.loads(sys.argv[9])
+
+def cached(name, make):
+    # a packing made once per tree (outside the timings) and kept in cache_dir between rounds
+    path = f"{cache_dir}/{name}" + jamlab.__file__.replace("/", "_") + ".pkl"
+    try:
+        return pickle.load(open(path, "rb"))
+    except OSError:
+        packing = make()
+        pickle.dump(packing, open(path, "wb"))
+        return packing
 meta = json.load(open(start_dir + "/meta.json"))
 start = read_lammps_positions(start_dir + "/positions.txt", box_length=meta["box_length"])
 shear(start, 1e-5, n_steps=2)  # compile outside the timings
@@ -69,14 +82,12 @@ if jamming == "1":
     timed("jamming N=128 fast path", jammed, jam_steps)
     if not fast_only:
         timed("jamming N=128 FIRE+classify", jammed, jam_steps, minimizer="fire", classify=True)
+for seed in prepared_seeds:
+    packing = cached(f"prepare_s{seed}", lambda: prepare(1000, 3, 0.8, seed=seed).packing)
+    timed(f"phi0.8 prepared seed {seed} fast", packing, steps)
 for n_cv, seed in at_jamming:
-    # constant volume from jam(N, 3, seed, p_target=1e-7), cached per tree (outside the timings)
-    cache = f"{cache_dir}/jam_n{n_cv}_s{seed}" + jamlab.__file__.replace("/", "_") + ".pkl"
-    try:
-        packing = pickle.load(open(cache, "rb"))
-    except OSError:
-        packing = jam(n_cv, 3, seed=seed, p_target=1e-7).packing
-        pickle.dump(packing, open(cache, "wb"))
+    # constant volume from jam(N, 3, seed, p_target=1e-7)
+    packing = cached(f"jam_n{n_cv}_s{seed}", lambda: jam(n_cv, 3, seed=seed, p_target=1e-7).packing)
     timed(f"jamming N={n_cv} seed {seed} fast", packing, jam_steps)
 if jam_n:
     jam(64, 3, seed=1, p_target=1e-4)  # compile outside the timings
@@ -107,6 +118,7 @@ def run_child(src: str, args) -> dict:
         str(args.jam_n),
         json.dumps([(n, s) for n in args.at_jamming for s in args.at_jamming_seeds]),
         args.cache,
+        json.dumps(args.prepared_seeds),
     ]
     res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
     line = next(x for x in res.stdout.splitlines() if x.startswith("RESULT "))
@@ -131,17 +143,26 @@ def main(argv: list[str] | None = None) -> int:
         "jam(N, 3, seed, p_target=1e-7) for these N",
     )
     ap.add_argument("--at-jamming-seeds", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--cache", default=tempfile.mkdtemp(prefix="bench_refactor_"),
-                    help="where the --at-jamming packings are kept between rounds")
+    ap.add_argument(
+        "--prepared-seeds", type=int, nargs="*", default=[],
+        help="also time the fast path (--steps steps) from prepare(1000, 3, 0.8, seed), the "
+        "typical starts of bench_aqs.py",
+    )
+    ap.add_argument("--cache", default=None,
+                    help="where the made packings are kept between rounds (default: a temporary "
+                    "directory, removed at the end)")
     args = ap.parse_args(argv)
     if not START.is_dir():
         print(f"reference start not found at {START}")
         return 0
     runs: dict[str, list[dict]] = {"A": [], "B": []}
-    for k in range(args.repeat):
-        for label, src in (("A", args.compare_src), ("B", args.src)):
-            runs[label].append(run_child(src, args))
-        print(f"round {k + 1}/{args.repeat} done", flush=True)
+    with tempfile.TemporaryDirectory(prefix="bench_refactor_") as tmp:
+        if args.cache is None:
+            args.cache = tmp
+        for k in range(args.repeat):
+            for label, src in (("A", args.compare_src), ("B", args.src)):
+                runs[label].append(run_child(src, args))
+            print(f"round {k + 1}/{args.repeat} done", flush=True)
     print(f"A (before) = {runs['A'][0]['jamlab']}\nB (after)  = {runs['B'][0]['jamlab']}")
     cases = [c for c in runs["A"][0] if c != "jamlab"]
     for what, col in (("wall clock (ShearResult.time)", 0), ("CPU time (process_time)", 1)):

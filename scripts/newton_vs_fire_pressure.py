@@ -49,6 +49,26 @@ def set_relax_skin(skin: float) -> None:
         module.RELAX_SKIN = skin
 
 
+def print_size_comparison(sizes: dict, new: str, ref: str, fit: bool = True) -> None:
+    """Print the two-sample KS test of the pooled sizes ``sizes[new]`` against ``sizes[ref]``
+    and, with ``fit``, τ of both above the same ``S_min`` (chosen on the reference's sizes by the
+    KS rule) and their difference in σ. Also used by ``tree_statistics.py``."""
+    ks = ks_2samp(sizes[new], sizes[ref])
+    print(f"two-sample KS on the sizes: D = {ks.statistic:.3f}, p-value = {ks.pvalue:.3f}")
+    if not fit:
+        return
+    # τ: x_min chosen on the reference's sizes (KS rule), the same x_min for both
+    chosen = fit_power_law(sizes[ref], min_tail=50)
+    fits = {m: fit_power_law(sizes[m], x_min=chosen.x_min) for m in (new, ref)}
+    for m, f in fits.items():
+        print(f"tau ({m}) = {f.tau:.3f} ± {f.tau_stderr:.3f} from {f.n_tail} sizes above "
+              f"S_min = {f.x_min:.3g}")
+    d = abs(fits[new].tau - fits[ref].tau)
+    sig = float(np.hypot(fits[new].tau_stderr, fits[ref].tau_stderr))
+    print(f"difference {d:.3f} = {d / sig:.2f} sigma (independent-error sigma; the samples "
+          "are the same packings, so this overstates the noise of a difference)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=250)
@@ -103,7 +123,7 @@ def main() -> None:
         print(f"seed {seed}: plastic {new} {int(pn.sum())} {ref} {int(pf.sum())}"
               + ("" if np.array_equal(pn, pf) else
                  f" (differ at steps {np.flatnonzero(pn != pf).tolist()})"), flush=True)
-    ks = ks_2samp(sizes[new], sizes[ref]) if sizes[ref] and sizes[new] else None
+    both = bool(sizes[ref]) and bool(sizes[new])  # (lists here)
     print(f"\nN={a.n}, p={a.pressure:g}, δγ={a.dgamma:g}, {a.steps} steps, {used} samples\n")
     print(f"| | {new} | {ref} |\n|---|---|---|")
     print(f"| plastic steps / jammed steps | {flags[new]} / {steps[new]} | "
@@ -120,18 +140,8 @@ def main() -> None:
     print(f"\nCPU time {ref} / {new}: {cpu[ref] / cpu[new]:.2f}")
     print(f"\nsamples with identical plastic flags: {same_flags} / {used}; with identical sizes "
           f"(relative 1e-6): {same_sizes} / {used} (largest relative size difference {worst:.1e})")
-    if ks is not None:
-        print(f"two-sample KS on the sizes: D = {ks.statistic:.3f}, p-value = {ks.pvalue:.3f}")
-        # τ: x_min chosen on the reference's sizes (KS rule), the same x_min for both
-        chosen = fit_power_law(sizes[ref], min_tail=50)
-        fits = {m: fit_power_law(sizes[m], x_min=chosen.x_min) for m in sizes}
-        for m, f in fits.items():
-            print(f"tau ({m}) = {f.tau:.3f} ± {f.tau_stderr:.3f} from {f.n_tail} sizes above "
-                  f"S_min = {f.x_min:.3g}")
-        d = abs(fits[new].tau - fits[ref].tau)
-        sig = float(np.hypot(fits[new].tau_stderr, fits[ref].tau_stderr))
-        print(f"difference {d:.3f} = {d / sig:.2f} sigma (independent-error sigma; the samples "
-              "are the same packings, so this overstates the noise of a difference)")
+    if both:
+        print_size_comparison(sizes, new, ref)
     if a.save is not None:
         np.savez(a.save, **{f"sizes_{m}": np.asarray(v) for m, v in sizes.items()})
 

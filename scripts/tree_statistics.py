@@ -71,9 +71,8 @@ def sizes_of(data, seed: int) -> np.ndarray:
 
 
 def compare(a: argparse.Namespace) -> None:
-    from scipy.stats import ks_2samp
-
-    from jamlab.analysis.powerlaw import fit_power_law
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from newton_vs_fire_pressure import print_size_comparison
 
     new, ref = np.load(a.new), np.load(a.ref)
     common = [int(s) for s in new["seeds"] if s in set(ref["seeds"].tolist())]
@@ -83,14 +82,16 @@ def compare(a: argparse.Namespace) -> None:
     flags = {"new": 0, "ref": 0}
     cpu = {"new": 0.0, "ref": 0.0}
     for s in common:
+        sample = {}
         for name, data in (("new", new), ("ref", ref)):
-            pooled[name].extend(sizes_of(data, s).tolist())
+            sample[name] = sizes_of(data, s)
+            pooled[name].extend(sample[name].tolist())
             flags[name] += int(np.sum(data[f"plastic_{s}"]))
             cpu[name] += float(data[f"cpu_{s}"])
         pn, pr = new[f"plastic_{s}"], ref[f"plastic_{s}"]
         if np.array_equal(pn, pr):
             same_flags += 1
-            sn, sr = sizes_of(new, s), sizes_of(ref, s)
+            sn, sr = sample["new"], sample["ref"]
             if sn.size != sr.size:  # the same flags, other steps between jammed minima
                 continue
             d = float(np.max(np.abs(sn - sr) / np.abs(sr))) if sn.size else 0.0
@@ -110,14 +111,7 @@ def compare(a: argparse.Namespace) -> None:
           f"(avalanches between jammed minima, relative 1e-6): {same_sizes} (largest relative "
           f"size difference {worst:.1e})")
     if s["new"].size and s["ref"].size:
-        ks = ks_2samp(s["new"], s["ref"])
-        print(f"two-sample KS on the sizes: D = {ks.statistic:.3f}, p-value = {ks.pvalue:.3f}")
-        if s["ref"].size >= 100:
-            chosen = fit_power_law(s["ref"], min_tail=50)
-            fits = {k: fit_power_law(v, x_min=chosen.x_min) for k, v in s.items()}
-            for k, f in fits.items():
-                print(f"tau ({k}) = {f.tau:.3f} ± {f.tau_stderr:.3f} from {f.n_tail} sizes "
-                      f"above S_min = {f.x_min:.3g}")
+        print_size_comparison(s, "new", "ref", fit=s["ref"].size >= 100)
 
 
 def main() -> None:

@@ -200,6 +200,7 @@ def continue_network(
     total = strain - g0
     cur = start
     h = first_substep * total
+    tol = params.event_tol * abs(total)  # a crossing this close (in strain) is switched at
     aim = None  # a crossing being landed on: (pairs i, j, how many opening, overlaps, at strain)
     failed = None  # the nearest strain Newton failed to reach on the current contact set
     while True:
@@ -237,7 +238,6 @@ def continue_network(
         keys_a = pair_keys(ai, aj, n)
         fresh_pairs = ~np.isin(keys_a, keys_c, assume_unique=False)
         ai, aj = ai[fresh_pairs], aj[fresh_pairs]
-        tol = params.event_tol * abs(total)
         if opening.size == 0 and ai.size == 0:
             cur = new
             substeps += 1
