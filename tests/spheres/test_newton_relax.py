@@ -151,3 +151,29 @@ def test_free_rattlers_reports_a_tight_cage():
     pk = _cage(gap=-1e-4)
     assert _overlaps_of(pk, 0).size == 6
     assert free_rattlers(pk, np.array([False] + [True] * 6)) is None
+
+
+def test_newton_only_fails_where_the_relaxer_hands_over_to_fire(minimum):
+    """The probe of the located confirmation: where the relaxer's Newton reaches a minimum,
+    ``newton_only`` reaches the same one; where the relaxer gives the problem to FIRE (the
+    branch of the parent ends: an event), it reports no convergence, returns the start
+    untouched and spends no FIRE iteration."""
+    cur = minimum
+    took = failed = 0
+    for _ in range(40):
+        start = affine_shear(cur, 5e-4)
+        full, probe = NewtonRelaxer(), NewtonRelaxer()
+        ref = full(start, parent=cur)
+        got = probe.newton_only(start, parent=cur)
+        assert probe.counters["n_fire_fallbacks"] == 0
+        if full.counters["n_fire_fallbacks"]:
+            assert not got.converged and got.packing is start and got.iterations == 0
+            failed += 1
+        else:
+            assert got.converged
+            _same_minimum(got.packing, ref.packing, tol=1e-12)
+            took += 1
+        cur = ref.packing
+        if took >= 3 and failed >= 2:
+            break
+    assert took >= 3 and failed >= 2

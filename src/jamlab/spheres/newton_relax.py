@@ -51,6 +51,7 @@ bit for bit.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -220,6 +221,35 @@ class NewtonRelaxer:
                               skin=RELAX_SKIN)
         self.reference = result.packing if result.converged else None
         return result
+
+    def newton_only(
+        self,
+        packing: Packing,
+        ftol: float = 1e-12,
+        max_iter: int = 1_000_000,
+        params: FireParameters | None = None,
+        parent: Packing | None = None,
+    ) -> MinimizeResult:
+        """The minimum on ``parent``'s branch reached from ``packing`` by Newton alone, or a
+        result with ``converged=False`` (``packing`` unchanged) where :meth:`__call__` would
+        hand the problem to FIRE: a probe of whether the branch of ``parent`` continues to
+        ``packing``'s strain (:func:`jamlab.spheres.confirm.jump_located`). A caged rattler is
+        still polished by FIRE from the backbone's minimum (the backbone is on the branch).
+        The stored factor is kept on failure (the branch ended; the parent is still a
+        minimum)."""
+        t0 = time.perf_counter()
+        self.counters["n_newton_calls"] += 1
+        parent = self.reference if parent is None else parent
+        result = (None if parent is None
+                  else self._newton(packing, parent, ftol, t0, max_iter, params))
+        if result is not None and result.converged:
+            self.counters["n_newton_accepted"] += 1
+            self.reference = result.packing
+            return result
+        self.reference = None
+        return MinimizeResult(packing=packing, energy=math.nan, max_force=math.inf,
+                              iterations=0 if result is None else result.iterations,
+                              converged=False, time=time.perf_counter() - t0, ftol=float(ftol))
 
     def _network(self, minimum: Packing) -> tuple:
         """``(ci, cj, backbone, separations, neighbour list)`` of a minimum (the last few are
