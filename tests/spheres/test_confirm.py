@@ -2,7 +2,9 @@
 
 The chain is checked on an exactly solvable branch (a quadratic potential of the strain alone,
 with a kink or a jump at a known strain), where the residual of every piece is known in closed
-form; the ``continued`` rule of fixed-pressure AQS is checked against redoing every candidate.
+form; so is the located verdict (two branches that overlap in strain: the start's ends at the
+jump, the end's reaches back to a known strain); the ``continued`` and ``located`` rules of
+fixed-pressure AQS are checked against redoing every candidate by the chain.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from jamlab.spheres.confirm import jump_in_chain, trapezoid_residual
+from jamlab.spheres.confirm import jump_in_chain, jump_located, trapezoid_residual
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -87,14 +89,102 @@ def test_a_jump_smaller_than_a_quarter_of_the_residual_is_a_kink():
     assert not jump_in_chain(b.advance, x0, v0, s0, h, r, 16)[0]
 
 
+class TwoBranches:
+    """The start's branch ``V(γ)`` of :class:`Branch` (kink, no drop) ends at ``jump``; the
+    post-event branch ``V(γ) − drop`` exists from ``back`` on for Newton (``back < jump``:
+    hysteresis). ``probe((branch, γ), dh)`` follows the branch it starts on, ``None`` past its
+    end; ``advance`` (FIRE) lands on the post-event branch once past ``jump``."""
+
+    def __init__(self, jump, back, drop, g2=1.0, kink=np.inf):
+        self.line = Branch(g=1.0, g2=g2, kink=kink)
+        self.jump, self.back, self.drop = jump, back, drop
+        self.probes: list[float] = []
+        self.advances = 0
+
+    def value(self, state):
+        branch, x = state
+        v, s = self.line.value(x)
+        return (v - self.drop, s) if branch == "post" else (v, s)
+
+    def probe(self, state, dh):
+        branch, x = state
+        x2 = x + dh
+        self.probes.append(x2)
+        if (branch == "pre" and x2 > self.jump) or (branch == "post" and x2 < self.back):
+            return None
+        return ((branch, x2), *self.value((branch, x2)))
+
+    def advance(self, state, dh):
+        self.advances += 1
+        branch, x = state
+        x2 = x + dh
+        state = ("post" if x2 > self.jump else branch, x2)
+        return (state, *self.value(state), 11)
+
+    def verdict(self, x0, h):
+        start, end = ("pre", x0), (("post" if x0 + h > self.jump else "pre"), x0 + h)
+        v0, s0 = self.value(start)
+        v1, s1 = self.value(end)
+        r = trapezoid_residual(v0, s0, v1, s1, h)
+        return r, jump_located(self.probe, self.advance, start, v0, s0, end, v1, s1, h, r, 16)
+
+
+def chain_verdict(x0, h, r, **branch):
+    b = Branch(g=1.0, **branch)
+    v0, s0 = b.value(x0)
+    return jump_in_chain(b.advance, x0, v0, s0, h, r, 16)[0]
+
+
+@pytest.mark.parametrize("where", [0.02, 0.4, 0.7, 0.97])
+def test_located_verdict_finds_the_piece_where_the_branch_ends(where):
+    h, x0 = 1e-2, 0.1
+    b = TwoBranches(jump=x0 + where * h, back=x0 - h, drop=1e-5, g2=1.6, kink=x0 + 0.3 * h)
+    r, (jump, pieces) = b.verdict(x0, h)
+    assert jump is True and pieces == 0 and b.advances == 0
+    # bisection: 4 probes forward; one back from the end unless the jump is in the last piece
+    piece = int(where * 16)
+    assert len(b.probes) == 4 + (piece < 15)
+    if piece < 15:
+        # the probe back lands on the end of the piece that contains the jump
+        assert b.probes[-1] == pytest.approx(x0 + (piece + 1) * h / 16, rel=1e-12)
+    # the chain's verdict on the same step (the post-event branch is what the jump reaches)
+    assert chain_verdict(x0, h, r, g2=1.6, kink=x0 + 0.3 * h, jump=x0 + where * h, drop=1e-5)
+
+
+def test_located_verdict_carries_the_piece_where_the_end_branch_does_not_reach_back():
+    # the end's branch exists only from 0.9 h on: the piece [6/16, 7/16] that contains the jump
+    # at 0.4 h is the chain's own (one advance), and it keeps the drop
+    h, x0 = 1e-2, 0.1
+    b = TwoBranches(jump=x0 + 0.4 * h, back=x0 + 0.9 * h, drop=1e-5)
+    r, (jump, pieces) = b.verdict(x0, h)
+    assert jump and pieces == 1 and b.advances == 1 and len(b.probes) == 5
+    assert chain_verdict(x0, h, r, jump=x0 + 0.4 * h, drop=1e-5)
+
+
+def test_located_verdict_leaves_kinks_and_small_jumps_to_the_chain():
+    h, x0 = 1e-2, 0.1
+    # a kink, the branch never ends: 4 probes reach 15/16, the last piece keeps < |r|/4
+    k = TwoBranches(jump=np.inf, back=-np.inf, drop=0.0, g2=1.6, kink=x0 + 0.5 * h)
+    r, verdict = k.verdict(x0, h)
+    assert abs(r) > 0 and verdict == (None, 0) and len(k.probes) == 4
+    assert not chain_verdict(x0, h, r, g2=1.6, kink=x0 + 0.5 * h)
+    # a jump smaller than a quarter of the residual (a strong kink elsewhere): undecided, and a
+    # kink for the chain
+    small = TwoBranches(jump=x0 + 0.1 * h, back=x0 - h, drop=1e-7, g2=3.0, kink=x0 + 0.5 * h)
+    r, verdict = small.verdict(x0, h)
+    assert 1e-7 < 0.25 * abs(r)
+    assert verdict == (None, 0)
+    assert not chain_verdict(x0, h, r, g2=3.0, kink=x0 + 0.5 * h, jump=x0 + 0.1 * h, drop=1e-7)
+
+
 @pytest.fixture(scope="module")
 def both_rules():
     r = jam(64, 3, seed=1, p_target=1e-4)
     # the chain rule redoes every candidate when it happens (its verdicts are what is compared);
     # the continued rule with its default deferral redoes only those that can be plastic
     runs = {c: shear_at_pressure(r.packing, 1e-4, pressure=1e-3, n_steps=60, confirm=c,
-                                 defer_confirmation=c == "continued")
-            for c in ("continued", "chain")}
+                                 defer_confirmation=c != "chain")
+            for c in ("continued", "chain", "located")}
     return r.packing, runs
 
 
@@ -116,6 +206,24 @@ def test_continued_candidates_are_kinks_when_every_candidate_is_redone(both_rule
     assert (cont["iterations"][~cont.continued][1:] > 0).all()
     np.testing.assert_array_equal(cont["plastic"], chain["plastic"])
     assert chain.attrs["confirm"] == "chain" and cont.attrs["confirm"] == "continued"
+
+
+def test_located_verdicts_are_the_chains_and_carry_no_event_twice(both_rules):
+    # the same run (the deferred redoing comes after the last step: identical rows), each redone
+    # candidate decided on the piece where the branch ends; on this run every one of them is a
+    # jump for the chain as well (no single step here lands below the quasi-static branch)
+    _, runs = both_rules
+    loc, cont, chain = runs["located"], runs["continued"], runs["chain"]
+    assert loc.attrs["confirm"] == "located"
+    for k in ("enthalpy", "shear_stress", "box_length", "z"):
+        np.testing.assert_array_equal(loc[k], cont[k])
+    assert loc.attrs["n_candidates_located"] >= 2 and cont.attrs["n_candidates_located"] == 0
+    np.testing.assert_array_equal(loc["plastic"], chain["plastic"])
+    # a located jump costs Newton probes and no second FIRE run of its event: fewer iterations
+    # added to the redone rows than the chain's pieces
+    redone = loc.confirmed & ~cont.continued
+    assert redone.sum() >= 2
+    assert loc["iterations"][redone].sum() < cont["iterations"][redone].sum()
 
 
 def test_resuming_with_another_confirmation_is_refused(both_rules):

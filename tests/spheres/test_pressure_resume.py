@@ -103,7 +103,7 @@ def test_cli_resume_keeps_the_confirmation_rule(start, tmp_path):
     # resumed with the default rule: refused, one line naming the option
     r = jamlab("shear", config, *args, "--out", tmp_path / "cut.h5", "--resume")
     line = one_line_error(r)
-    assert "--confirm continued differs from the run being resumed (chain)" in line
+    assert "--confirm located differs from the run being resumed (chain)" in line
     # with its own rule: the same as the uninterrupted run
     r = jamlab("shear", config, *args, "--confirm", "chain", "--out", tmp_path / "cut.h5",
                "--resume")
@@ -113,9 +113,9 @@ def test_cli_resume_keeps_the_confirmation_rule(start, tmp_path):
     resumed = read_trace(tmp_path / "cut.h5")
     np.testing.assert_array_equal(resumed.plastic, whole.trace.plastic)
     np.testing.assert_array_equal(resumed.energy, whole.trace.energy)
-    # --confirm is a fixed-pressure option, and has two values
+    # --confirm is a fixed-pressure option, and has three values
     r = jamlab("shear", config, "--dgamma", DG, "--gamma-max", STEPS * DG, "--confirm", "chain",
                "--out", tmp_path / "x.h5")
     assert "--confirm applies to fixed-pressure runs" in one_line_error(r)
     r = jamlab("shear", config, *args, "--confirm", "bisect", "--out", tmp_path / "y.h5")
-    assert "--confirm must be 'continued' or 'chain'" in one_line_error(r)
+    assert "--confirm must be 'located', 'continued' or 'chain'" in one_line_error(r)

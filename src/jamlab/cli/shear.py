@@ -56,7 +56,7 @@ def check_resume(
 
 def check_resume_pressure(
     previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float,
-    minimizer: str = "linear", confirm: str = "continued",
+    minimizer: str = "linear", confirm: str = "located",
 ) -> None:
     """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
     ``ftol``, target pressure, ``ptol`` and minimiser (``linear``: the Newton inner minimiser,
@@ -221,7 +221,9 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--confirm",
                 help="At fixed pressure: which candidate plastic steps are redone in pieces — "
-                "'continued' (those Newton did not continue; the default) or 'chain' (all).",
+                "'located' (those Newton did not continue, each decided first on the piece "
+                "where the branch ends; the default), 'continued' (the same candidates, each "
+                "redone as a chain of pieces) or 'chain' (all candidates).",
             ),
         ] = None,
     ) -> None:
@@ -240,9 +242,10 @@ def register(app: typer.Typer) -> None:
             validation.positive("--ptol", ptol)
         if confirm is not None and pressure is None:
             raise ValueError("--confirm applies to fixed-pressure runs: give --pressure too")
-        if confirm is not None and confirm not in ("continued", "chain"):
-            raise ValueError(f"--confirm must be 'continued' or 'chain', got {confirm!r}")
-        confirm = "continued" if confirm is None else confirm
+        if confirm is not None and confirm not in ("located", "continued", "chain"):
+            raise ValueError(
+                f"--confirm must be 'located', 'continued' or 'chain', got {confirm!r}")
+        confirm = "located" if confirm is None else confirm
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():

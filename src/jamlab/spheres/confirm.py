@@ -21,6 +21,20 @@ at every level and each time FIRE must carry it (53 FIRE fallbacks against 28).
 
 ``advance(packing, dh) -> (minimum, V, Σ, iterations)`` is the protocol's step: affine shear by
 ``dh`` from a minimum, then its minimisation (``packing`` is then the parent of that problem).
+
+:func:`jump_located` reaches the chain's verdict on a jump without carrying the event again: the
+piece that contains it is the one where the branch of the start ends, found by bisection with
+``probe``s — the same step made by Newton alone, which fails where the branch ends instead of
+handing the problem to FIRE —, and the minimum at the piece's end is the single step's own
+post-event minimum continued *backwards* by Newton along its branch (where that branch does not
+reach back so far, the chain's own piece: ``advance`` from the piece's start, FIRE carrying the
+event). A piece that keeps more than the bound is a jump, as in the chain; otherwise the chain
+decides. ``probe(packing, dh) -> (minimum, V, Σ) | None``.
+
+What it decides differently from the chain (measured in ``docs/aqs.md``): a single step of
+``δγ`` that lands in a lower minimum than quasi-static driving reaches (the 16 pieces jump by less
+than a quarter of the step's drop, or not at all) is a jump here — its end is not the
+continuation of its start, the constant-volume rule — and a kink for the chain.
 """
 
 from __future__ import annotations
@@ -29,9 +43,10 @@ from collections.abc import Callable
 
 from jamlab.spheres.potential import Packing
 
-__all__ = ["Advance", "jump_in_chain", "trapezoid_residual"]
+__all__ = ["Advance", "Probe", "jump_in_chain", "jump_located", "trapezoid_residual"]
 
 Advance = Callable[[Packing, float], tuple[Packing, float, float, int]]
+Probe = Callable[[Packing, float], "tuple[Packing, float, float] | None"]
 
 
 def trapezoid_residual(v0: float, s0: float, v1: float, s1: float, step: float) -> float:
@@ -56,3 +71,43 @@ def jump_in_chain(
             return True, iterations
         v, s = v2, s2
     return False, iterations
+
+
+def jump_located(
+    probe: Probe, advance: Advance, start: Packing, v0: float, s0: float, end: Packing,
+    v1: float, s1: float, step: float, r_step: float, k: int, share: float = 0.25,
+) -> tuple[bool | None, int]:
+    """Is the step from ``start`` (``v0``, ``s0``) to the minimum ``end`` (``v1``, ``s1``) a jump,
+    decided on the piece of length ``step/k`` where the branch of ``start`` ends (module
+    docstring)? ``True`` when that piece keeps more than ``share · |r_step|``; ``None`` when
+    this does not show a jump (the caller runs :func:`jump_in_chain`); and how many pieces
+    ``advance`` computed (0: the probes alone decided).
+
+    The bisection keeps ``lo`` (the branch of ``start`` reaches ``lo · step/k``) and ``hi``
+    (it does not reach ``hi · step/k``, or ``hi = k``: the step itself left the branch),
+    probing from ``start`` directly, so each probe is one problem, not a chain of them. The
+    piece ends at ``end`` itself if ``hi = k``, else at ``end``'s minimum followed back to
+    ``hi`` by a probe; where ``end``'s branch does not reach back so far, the piece is the
+    chain's own (``advance`` from the minimum at ``lo``, carrying the event).
+
+    Why only ``True`` is final: a probe that succeeds may have crossed a small event (Newton
+    from ``start`` converging to a post-event minimum close by), so a piece below the bound
+    does not prove that no other piece keeps more; a piece above it is a drop of more than the
+    bound between two minima ``step/k`` apart, which is the chain's criterion."""
+    h = step / k
+    lo, hi = 0, k
+    lo_min, lo_state = start, (v0, s0)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        got = probe(start, mid * h)
+        if got is None:
+            hi = mid
+        else:
+            lo, lo_min, lo_state = mid, got[0], got[1:]
+    pieces = 0
+    hi_state = (v1, s1) if hi == k else probe(end, -(k - hi) * h)
+    if hi_state is None:
+        pieces = 1
+        hi_state = advance(lo_min, h)[1:3]
+    jump = abs(trapezoid_residual(*lo_state, *hi_state[-2:], h)) > share * abs(r_step)
+    return (True if jump else None), pieces

@@ -35,11 +35,19 @@ residual in one piece (``≈ r_n``), a kink leaves ``≲ r_n/k`` per piece; the 
 when one piece keeps more than ``|r_n|/4``, it lies between two jammed minima, and
 ``|r_n| > max(10 σ, plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's
 jammed steps, :func:`~jamlab.analysis.avalanches.noise_floor`). With the Newton inner minimiser
-and ``confirm="continued"`` (the default) a candidate whose every inner problem Newton solved
+and ``confirm="continued"`` a candidate whose every inner problem Newton solved
 from the previous minimum's contact network — the branch continued through the step, no FIRE —
 is a kink and is not redone (a jump leaves the linear-response basin of the branch, where
 Newton fails and FIRE carries the event); measured against redoing every candidate
-(``confirm="chain"``) in ``docs/aqs.md``. By default the redoing is deferred
+(``confirm="chain"``) in ``docs/aqs.md``. ``confirm="located"`` (the default) redoes the same
+candidates, but decides each first on the one piece where the branch of the start ends
+(:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes find the piece by bisection,
+and the step's own end minimum, continued back by Newton, closes it — the event is not carried
+by FIRE a second time; where the end's branch does not reach back that far, the chain's own
+piece), the whole chain only where that piece does not show a jump. It also counts as plastic
+the single step that lands in a lower minimum than quasi-static driving reaches (its end is not
+the continuation of its start: the constant-volume rule), which the chain calls a kink; measured
+in ``docs/aqs.md``. By default the redoing is deferred
 (``defer_confirmation``): a candidate is kept and, once the run's threshold is known, redone only
 if ``|r_n|`` passes it between two jammed minima — the others cannot be plastic whatever their
 verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two thirds of the candidates, since the noise of
@@ -60,7 +68,7 @@ import numpy as np
 
 from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.barostat import minimize_enthalpy
-from jamlab.spheres.confirm import jump_in_chain, trapezoid_residual
+from jamlab.spheres.confirm import jump_in_chain, jump_located, trapezoid_residual
 from jamlab.spheres.fire import FireParameters
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
@@ -70,16 +78,20 @@ from jamlab.spheres.trace import Trace, jump_columns
 __all__ = ["FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult",
            "minimizer_attribute", "shear_at_pressure"]
 
-CONFIRMS: tuple[str, ...] = ("continued", "chain")
-"""Which candidate steps are redone in ``confirm_substeps`` pieces (module docstring):
+CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
+"""Which candidate steps are redone in ``confirm_substeps`` pieces, and how (module docstring):
 ``continued`` — those the Newton relaxer did not continue (it used FIRE in the step); ``chain``
-— all of them (the rule before; with plain FIRE both are ``chain``)."""
+— all of them (the rule before; with plain FIRE both are ``chain``); ``located`` — those of
+``continued``, each first decided on the one piece where the branch ends
+(:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes, no second FIRE run of the
+event), the chain only where that piece does not show a jump (plain FIRE: ``continued``)."""
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
-                                     "n_candidates_below_threshold")
-"""Trace attributes: candidate steps, those of them not redone because Newton continued, and
+                                     "n_candidates_below_threshold", "n_candidates_located")
+"""Trace attributes: candidate steps, those of them not redone because Newton continued,
 (``defer_confirmation``) those not redone because they cannot be plastic (``|r_n|`` at or below
-the run's final threshold, or an unjammed end)."""
+the run's final threshold, or an unjammed end), and (``confirm="located"``) those decided a
+jump on the located piece, without the chain."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
@@ -228,7 +240,7 @@ def shear_at_pressure(
     max_iter: int = 1_000_000,
     plastic_floor: float = 0.1,
     confirm_substeps: int = 16,
-    confirm: str = "continued",
+    confirm: str = "located",
     defer_confirmation: bool = True,
     extrapolate_volume: bool = True,
     minimizer: str = "newton",
@@ -300,7 +312,7 @@ def shear_at_pressure(
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
     continued = np.zeros(total + 1, dtype=bool)
-    pending: list = []  # candidates kept to be redone: (row, start minimum, slope, step, r)
+    pending: list = []  # candidates kept: (row, start minimum, slope, step, r, end minimum)
     if previous is None:
         gamma0 = packing.strain
         res = minimize_enthalpy(packing, pressure, **kw)
@@ -342,15 +354,15 @@ def shear_at_pressure(
         if confirm_substeps > 1:
             if abs(r) > plastic_floor * step**2:
                 counts["n_candidates"] += 1
-                if confirm == "continued" and continued[n]:
+                if confirm != "chain" and continued[n]:
                     # Newton continued the branch through the step: a kink
                     counts["n_candidates_continued"] += 1
                 else:
-                    pending.append((n, cur, slope, step, r))
+                    pending.append((n, cur, slope, step, r, res.packing))
         cur = res.packing
         _append(rows, target, row)
         if pending and not defer_confirmation:
-            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps)
+            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps, confirm, counts)
         if observer is not None:
             observer(n, cur)
         if progress is not None:
@@ -359,7 +371,7 @@ def shear_at_pressure(
             # a restart point: every kept candidate is redone now (a resumed run starts without
             # them), then the solver state (stored factor, slope) is dropped, as a run resumed
             # from this checkpoint starts without it
-            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps)
+            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps, confirm, counts)
             slope = None
             if relaxer is not None:
                 relaxer.reset()
@@ -373,24 +385,70 @@ def shear_at_pressure(
         can = _can_be_plastic(rows, dgamma, plastic_floor)
         counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
         _confirm([c for c in pending if can[c[0]]], rows, confirmed, pressure, kw,
-                 confirm_substeps)
+                 confirm_substeps, confirm, counts)
     return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
                    pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
                    minimizer, relaxer, defer_confirmation)
 
 
 def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
-             k: int) -> None:
-    """Redo each kept candidate ``(n, start minimum, slope, step, r)`` in ``k`` pieces
-    (:func:`jump_in_chain`): its verdict into ``confirmed[n]``, the pieces' iterations added to
-    row ``n``; empties ``pending``."""
-    for n, start, slope, step, r in pending:
+             k: int, confirm: str, counts: dict) -> None:
+    """Redo each kept candidate ``(n, start minimum, slope, step, r, end minimum)`` in ``k``
+    pieces (:func:`jump_in_chain`; with ``confirm="located"`` and the Newton relaxer first
+    :func:`jump_located`): its verdict into ``confirmed[n]``, the iterations spent
+    added to row ``n``; empties ``pending``."""
+    relaxer = kw.get("relax")
+    for n, start, slope, step, r, end in pending:
         ev = evaluate(start)
+        v0 = ev.energy + pressure * start.box.volume
+        if confirm == "located" and isinstance(relaxer, NewtonRelaxer):
+            spent: list[int] = []
+            ev1 = evaluate(end)
+            jump, _ = jump_located(
+                _probe(pressure, kw, slope, relaxer, spent),
+                _counted(_advance(pressure, kw, slope), spent), start, v0, ev.shear_stress, end,
+                ev1.energy + pressure * end.box.volume, ev1.shear_stress, step, r, k)
+            rows["iterations"][n] += sum(spent)
+            if jump:
+                confirmed[n] = True
+                counts["n_candidates_located"] += 1
+                continue
         confirmed[n], extra = jump_in_chain(
-            _advance(pressure, kw, slope), start, ev.energy + pressure * start.box.volume,
-            ev.shear_stress, step, r, k)
+            _advance(pressure, kw, slope), start, v0, ev.shear_stress, step, r, k)
         rows["iterations"][n] += extra
     pending.clear()
+
+
+def _counted(advance: Callable, spent: list[int]) -> Callable:
+    """``advance`` with its iterations appended to ``spent``."""
+
+    def piece(cur: Packing, dh: float):
+        out = advance(cur, dh)
+        spent.append(out[3])
+        return out
+
+    return piece
+
+
+def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxer,
+           spent: list[int]) -> Callable:
+    """The probe of :func:`jump_located`: affine shear by ``dh`` (either sign), then
+    :func:`minimize_enthalpy` with the relaxer's Newton alone (:meth:`NewtonRelaxer.newton_only`)
+    and the minimum it was made from as ``parent``; ``(minimum, H, Σ)`` or ``None`` where
+    Newton cannot reach a minimum (the branch of ``packing`` does not reach that strain).
+    Iterations (FIRE polishing a caged rattler) are appended to ``spent``."""
+    opts = {**kw, "relax": relaxer.newton_only}
+
+    def probe(cur: Packing, dh: float):
+        res = minimize_enthalpy(affine_shear(cur, dh), pressure, parent=cur, slope_guess=slope,
+                                **opts)
+        spent.append(res.iterations)
+        if not res.converged:
+            return None
+        ev = evaluate(res.packing)
+        return res.packing, ev.energy + pressure * res.packing.box.volume, ev.shear_stress
+
+    return probe
 
 
 def _plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,

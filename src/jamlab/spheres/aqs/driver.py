@@ -83,7 +83,7 @@ def shear(
     avalanche_threshold: float | None = None,
     pressure: float | None = None,
     ptol: float = 1e-6,
-    confirm: str = "continued",
+    confirm: str = "located",
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
