@@ -25,7 +25,9 @@ jamlab is timed.
         --json jamming_bench.json
 
 ``--fixed-pressure-only`` / ``--constant-volume-only`` time one protocol; with the latter,
-``--codes jamlab …`` times only the named codes (e.g. the default path after a change of it).
+``--codes jamlab …`` times only the named codes (e.g. the default path after a change of it;
+with ``--fixed-pressure-only``, ``jamlab_continued`` adds the default with the plastic flag's
+``confirm="continued"``, the default before ``located``).
 """
 
 from __future__ import annotations
@@ -135,27 +137,26 @@ def one_size(n: int, seed: int, steps: int, pressure: float, lmp,
     t0 = time.process_time()
     at_p = minimize_enthalpy(pk, pressure, ftol=FTOL).packing
     out["to_pressure_s"] = time.process_time() - t0
-    r = shear(at_p, DGAMMA, n_steps=steps, pressure=pressure)
-    fp["jamlab"] = {
-        "ms_per_step": 1e3 * r.time / steps,
-        "iterations": float(np.mean(r.trace.iterations[1:])),
-        "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
-        "plastic": int(r.trace.plastic.sum()),
-    }
-    r = shear(at_p, DGAMMA, n_steps=steps, pressure=pressure, minimizer="fire")
-    fp["jamlab_fire"] = {
-        "ms_per_step": 1e3 * r.time / steps,
-        "iterations": float(np.mean(r.trace.iterations[1:])),
-        "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
-        "plastic": int(r.trace.plastic.sum()),
-    }
-    rp = shear_at_pressure(at_p, DGAMMA, n_steps=steps, pressure=pressure, confirm_substeps=0)
-    fp["jamlab_cheap_flag"] = {
-        "ms_per_step": 1e3 * rp.time / steps,
-        "iterations": float(np.mean(rp.columns["iterations"][1:])),
-        "volume_steps": float(np.mean(rp.columns["volume_steps"][1:])),
-    }
-    if lmp is not None:
+    for code, options in (("jamlab", {}), ("jamlab_continued", {"confirm": "continued"}),
+                          ("jamlab_fire", {"minimizer": "fire"})):
+        if not wanted(code) or (code == "jamlab_continued" and codes is None):
+            continue  # (the continued confirmation only on request)
+        r = shear(at_p, DGAMMA, n_steps=steps, pressure=pressure, **options)
+        fp[code] = {
+            "ms_per_step": 1e3 * r.time / steps,
+            "iterations": float(np.mean(r.trace.iterations[1:])),
+            "unjammed_minima": int(np.count_nonzero(~r.trace.jammed)),
+            "plastic": int(r.trace.plastic.sum()),
+        }
+    if wanted("jamlab_cheap_flag"):
+        rp = shear_at_pressure(at_p, DGAMMA, n_steps=steps, pressure=pressure,
+                               confirm_substeps=0)
+        fp["jamlab_cheap_flag"] = {
+            "ms_per_step": 1e3 * rp.time / steps,
+            "iterations": float(np.mean(rp.columns["iterations"][1:])),
+            "volume_steps": float(np.mean(rp.columns["volume_steps"][1:])),
+        }
+    if lmp is not None and wanted("lammps_cg_box_relax"):
         fp["lammps_cg_box_relax"] = lammps_steps(lmp, at_p, steps, pressure)
     if constant_volume:
         out["constant_volume"] = cv
@@ -210,12 +211,14 @@ def main() -> None:
     ap.add_argument("--constant-volume-only", action="store_true",
                     help="time only the constant-volume protocol")
     ap.add_argument("--codes", nargs="+", default=None,
-                    choices=("jamlab", "jamlab_fire", "lammps_fire"),
-                    help="with --constant-volume-only: time only these codes (the JSON then "
-                    "holds only them)")
+                    choices=("jamlab", "jamlab_fire", "lammps_fire", "jamlab_continued",
+                             "jamlab_cheap_flag", "lammps_cg_box_relax"),
+                    help="with --constant-volume-only or --fixed-pressure-only: time only these "
+                    "codes (the JSON then holds only them; jamlab_continued, the fixed-pressure "
+                    "default with confirm='continued', only when named)")
     args = ap.parse_args()
-    if args.codes is not None and not args.constant_volume_only:
-        ap.error("--codes needs --constant-volume-only")
+    if args.codes is not None and not (args.constant_volume_only or args.fixed_pressure_only):
+        ap.error("--codes needs --constant-volume-only or --fixed-pressure-only")
     lmp = None if args.no_lammps else find_lammps()
     if lmp is None:
         print("LAMMPS not found (or --no-lammps): jamlab only")

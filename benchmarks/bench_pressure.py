@@ -51,7 +51,8 @@ def start(n: int, p: float, seed: int, cache: Path):
 
 
 VARIANTS: dict[str, dict] = {
-    "newton": {"minimizer": "newton"},  # the default (confirm="continued", deferred)
+    "newton": {"minimizer": "newton"},  # the default (confirm="located", deferred)
+    "newton-continued": {"minimizer": "newton", "confirm": "continued"},
     "newton-now": {"minimizer": "newton", "defer_confirmation": False},
     "newton-chain": {"minimizer": "newton", "confirm": "chain"},
     "newton-cheap": {"minimizer": "newton", "confirm_substeps": 0},

@@ -17,11 +17,17 @@ seed. Then:
   pinned particle held, the rattlers scaled by ``1/(2 z_i)``; Armijo backtracking, or a step that
   lowers ``max|F|`` without raising ``E`` beyond round-off) for at most ``--cap`` iterations,
   and FIRE from wherever it stopped if ``max|F| ≥ 1e-12``: CPU time against plain FIRE to 1e-12,
-  per start and in all, and the distance of the minima.
+  per start and in all, and the distance of the minima;
+- ``pfire``: FIRE preconditioned by the factor of the *parent* minimum's backbone Hessian ``P``
+  (the driving force ``P⁻¹F``, the mixing in the ``P`` metric, one solve per iteration; the
+  first ``--count`` starts, at most ``--cap`` iterations, ``--dt-max``), against plain FIRE; and
+  the largest eigenvalue of ``P⁻¹K`` (power iteration, ``K`` by finite differences of the
+  forces) at the parent and at FIRE's minimum, which sets the stable time step.
 
     PYTHONPATH=src python scripts/fire_alternatives.py lbfgs --n 1000 --seeds 1
     PYTHONPATH=src python scripts/fire_alternatives.py scan --n 1000 --seeds 1 2
     PYTHONPATH=src python scripts/fire_alternatives.py ptail --n 1000 --seeds 1 --loose 1e-8
+    PYTHONPATH=src python scripts/fire_alternatives.py pfire --n 1000 --seeds 1 --count 5
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ from collections import deque
 import numpy as np
 
 from fire_fallback_probe import collect
-from jamlab.spheres.aqs.linalg import factorise
+from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
@@ -202,9 +208,106 @@ def ptail(starts, loose: float, cap: int) -> None:
           f"{total_fire / total_hybrid:.2f})")
 
 
+def parent_metric(parent, nl):
+    """``(P⁻¹, P)`` as functions of an ``(N, d)`` array: the parent's backbone factor on the free
+    particles, the pinned particle held, the rattlers scaled by ``1/(2 z_i)``."""
+    ci, cj, cd = contact_list(parent, nl)
+    backbone = backbone_mask(ci, cj, parent.n, parent.dim)
+    fac = factorise(parent, nl, backbone, (ci, cj, cd))
+    k = backbone_matrix(parent, nl, fac, (ci, cj, cd))
+    z = np.bincount(np.concatenate([ci, cj]), minlength=parent.n)
+    scale = 1.0 / np.maximum(2.0 * z, 1.0)
+    pinned = backbone.copy()
+    pinned[fac.free] = False
+    d = parent.dim
+
+    def inverse(g: np.ndarray) -> np.ndarray:
+        out = g * scale[:, None]
+        out[pinned] = 0.0
+        out[fac.free] = fac.lu.solve(g[fac.free].ravel()).reshape(-1, d)
+        return out
+
+    def times(v: np.ndarray) -> np.ndarray:
+        out = v / scale[:, None]
+        out[pinned] = 0.0
+        out[fac.free] = (k @ v[fac.free].ravel()).reshape(-1, d)
+        return out
+
+    return inverse, times
+
+
+def largest_preconditioned(point, inverse, sweeps: int = 60) -> float:
+    """Largest eigenvalue of ``P⁻¹K(point)`` by power iteration (``K v`` by finite differences
+    of the forces)."""
+    nl = NeighborList(point, skin=RELAX_SKIN)
+    f0 = energy_and_forces(point, nl)[1]
+    v = np.random.default_rng(0).standard_normal(point.positions.shape)
+    lam = 0.0
+    for _ in range(sweeps):
+        kv = (f0 - energy_and_forces(point.with_positions(point.positions + 1e-9 * v), nl)[1])
+        w = inverse(kv / 1e-9)
+        lam = float(np.sqrt((w * w).sum() / (v * v).sum()))
+        v = w / np.sqrt((w * w).sum())
+    return lam
+
+
+def preconditioned_fire(start, inverse, times, cap: int, dt_max: float, ftol: float = 1e-12,
+                        dt0: float = 0.1, n_delay: int = 5, alpha0: float = 0.25,
+                        dmax: float = 0.05) -> tuple[int, int, float, np.ndarray]:
+    """FIRE on ``ÿ = P^{-1/2} F`` in ``y = P^{1/2} x`` (written in ``x``): ``(iterations,
+    velocity resets, max|F|, positions)``."""
+    nl = NeighborList(start, skin=RELAX_SKIN)
+    x = start.positions.copy()
+    f = energy_and_forces(start, nl)[1]
+    g = inverse(f)
+    v = np.zeros_like(x)
+    dt, alpha, n_pos, it, resets = dt0, alpha0, 0, 0, 0
+    while fmax(f) >= ftol and it < cap:
+        it += 1
+        if np.vdot(f, v) > 0:
+            n_pos += 1
+            if n_pos > n_delay:
+                dt, alpha = min(1.1 * dt, dt_max), 0.99 * alpha
+        else:
+            n_pos, resets = 0, resets + 1
+            if it > n_delay:
+                dt, alpha = 0.5 * dt, alpha0
+            x -= 0.5 * dt * v
+            v[:] = 0.0
+        v += dt * g
+        vy2, fy2 = float(np.vdot(v, times(v))), float(np.vdot(f, g))
+        if vy2 > 0 and fy2 > 0:
+            v = (1 - alpha) * v + alpha * np.sqrt(vy2 / fy2) * g
+        dx = dt * v
+        longest = float(np.sqrt((dx * dx).sum(1)).max())
+        x = x + (dx * (dmax / longest) if longest > dmax else dx)
+        f = energy_and_forces(start.with_positions(x), nl)[1]
+        g = inverse(f)
+    return it, resets, fmax(f), x
+
+
+def pfire(pairs, count: int, cap: int, dt_max: float) -> None:
+    """The ``pfire`` comparison (module docstring), one row per start."""
+    print("| # | FIRE to 1e-12: its, ms | λ_max(P⁻¹K): parent, FIRE's minimum | preconditioned "
+          "FIRE: its (resets), max|F|, ms |")
+    print("|---|---|---|---|")
+    for k, (s, parent) in enumerate(pairs[:count]):
+        t0 = time.process_time()
+        ref = minimize(s, ftol=1e-12, skin=RELAX_SKIN)
+        t1 = time.process_time()
+        inverse, times = parent_metric(parent, NeighborList(parent, skin=RELAX_SKIN))
+        t2 = time.process_time()
+        its, resets, fm, _ = preconditioned_fire(s, inverse, times, cap, dt_max)
+        t3 = time.process_time()
+        lam = (largest_preconditioned(parent, inverse),
+               largest_preconditioned(ref.packing, inverse))
+        print(f"| {k} | {ref.iterations}, {1e3 * (t1 - t0):.0f} | {lam[0]:.3f}, {lam[1]:.0f} | "
+              f"{its} ({resets}), {fm:.1e}, {1e3 * (t3 - t2):.0f} |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=["lbfgs", "scan", "ptail"])
+    ap.add_argument("what", choices=["lbfgs", "scan", "ptail", "pfire"])
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--pressure", type=float, default=1e-4)
     ap.add_argument("--dgamma", type=float, default=1e-5)
@@ -213,15 +316,21 @@ def main() -> None:
     ap.add_argument("--memory", type=int, nargs="+", default=[5, 10, 20])
     ap.add_argument("--maxstep", type=float, default=0.02)
     ap.add_argument("--loose", type=float, default=1e-8, help="ptail: FIRE's loose tolerance")
-    ap.add_argument("--cap", type=int, default=200, help="ptail: L-BFGS iterations at most")
+    ap.add_argument("--cap", type=int, default=200,
+                    help="ptail: L-BFGS iterations at most; pfire: iterations at most")
+    ap.add_argument("--count", type=int, default=5, help="pfire: starts measured")
+    ap.add_argument("--dt-max", type=float, default=0.3, help="pfire: largest time step")
     a = ap.parse_args()
-    starts = [s for seed in a.seeds
-              for s, _ in collect(a.n, a.pressure, a.dgamma, a.steps, seed)]
+    pairs = [pair for seed in a.seeds for pair in collect(a.n, a.pressure, a.dgamma, a.steps, seed)]
+    starts = [s for s, _ in pairs]
     print(f"N = {a.n}, p = {a.pressure:g}, δγ = {a.dgamma:g}, {a.steps} steps, seeds {a.seeds}: "
           f"{len(starts)} inner problems handed to FIRE")
     minimize(starts[0], ftol=1e-6)  # compile
     if a.what == "ptail":
         ptail(starts, a.loose, a.cap)
+        return
+    if a.what == "pfire":
+        pfire(pairs, a.count, a.cap, a.dt_max)
         return
     if a.what == "scan":
         base = None

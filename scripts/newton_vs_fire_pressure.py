@@ -3,7 +3,9 @@
 The same packings (``jam(N, 3, seed)``, brought to ``p`` by one FIRE fixed-pressure step) are
 sheared with both minimisers (``--compare minimizer``, the default) or with both confirmations
 of the plastic flag (``--compare confirm``: the candidates Newton continued not redone, against
-all redone; Newton minimiser), or with the relaxations' Verlet skin
+all redone; Newton minimiser), with the located confirmation against it (``--compare
+located``: each redone candidate first decided on the piece where the branch ends, by Newton
+alone), or with the relaxations' Verlet skin
 (:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
 which changes only rounding). Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
@@ -36,6 +38,7 @@ def seeds(text: str) -> list[int]:
 VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "minimizer": (("newton", {"minimizer": "newton"}), ("fire", {"minimizer": "fire"})),
     "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
+    "located": (("located", {"confirm": "located"}), ("continued", {"confirm": "continued"})),
     "skin": (("skin 0.1", {}), ("skin 0.2", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
