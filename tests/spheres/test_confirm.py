@@ -106,11 +106,14 @@ class TwoBranches:
         v, s = self.line.value(x)
         return (v - self.drop, s) if branch == "post" else (v, s)
 
+    newton_end = np.inf  # Newton may fail short of the branch's end (below the bound)
+
     def probe(self, state, dh):
         branch, x = state
         x2 = x + dh
         self.probes.append(x2)
-        if (branch == "pre" and x2 > self.jump) or (branch == "post" and x2 < self.back):
+        if (branch == "pre" and x2 > min(self.jump, self.newton_end)) or (
+                branch == "post" and x2 < self.back):
             return None
         return ((branch, x2), *self.value((branch, x2)))
 
@@ -159,6 +162,18 @@ def test_located_verdict_carries_the_piece_where_the_end_branch_does_not_reach_b
     r, (jump, pieces) = b.verdict(x0, h)
     assert jump and pieces == 1 and b.advances == 1 and len(b.probes) == 5
     assert chain_verdict(x0, h, r, jump=x0 + 0.4 * h, drop=1e-5)
+
+
+def test_located_verdict_goes_on_with_the_chain_after_a_piece_below_the_bound():
+    # Newton fails from 0.2 h on (a rearrangement below the bound, say), the jump is at 0.55 h
+    # and the end's branch reaches back only to 0.9 h: the probes locate [3/16, 4/16], the chain's
+    # piece there keeps nothing, and the chain goes on from 4/16 to the jump's piece, 9/16
+    h, x0 = 1e-2, 0.1
+    b = TwoBranches(jump=x0 + 0.55 * h, back=x0 + 0.9 * h, drop=1e-5)
+    b.newton_end = x0 + 0.2 * h
+    r, (jump, pieces) = b.verdict(x0, h)
+    assert jump and pieces == 1 + (9 - 4) == b.advances
+    assert chain_verdict(x0, h, r, jump=x0 + 0.55 * h, drop=1e-5)
 
 
 def test_located_verdict_leaves_kinks_and_small_jumps_to_the_chain():

@@ -28,8 +28,8 @@ piece that contains it is the one where the branch of the start ends, found by b
 handing the problem to FIRE —, and the minimum at the piece's end is the single step's own
 post-event minimum continued *backwards* by Newton along its branch (where that branch does not
 reach back so far, the chain's own piece: ``advance`` from the piece's start, FIRE carrying the
-event). A piece that keeps more than the bound is a jump, as in the chain; otherwise the chain
-decides. ``probe(packing, dh) -> (minimum, V, Σ) | None``.
+event, and the chain's pieces after it). A piece that keeps more than the bound is a jump, as in
+the chain; otherwise the whole chain decides. ``probe(packing, dh) -> (minimum, V, Σ) | None``.
 
 What it decides differently from the chain (measured in ``docs/aqs.md``): a single step of
 ``δγ`` that lands in a lower minimum than quasi-static driving reaches (the 16 pieces jump by less
@@ -88,7 +88,9 @@ def jump_located(
     probing from ``start`` directly, so each probe is one problem, not a chain of them. The
     piece ends at ``end`` itself if ``hi = k``, else at ``end``'s minimum followed back to
     ``hi`` by a probe; where ``end``'s branch does not reach back so far, the piece is the
-    chain's own (``advance`` from the minimum at ``lo``, carrying the event).
+    chain's own (``advance`` from the minimum at ``lo``, carrying the event), and below the
+    bound the chain goes on from its end over the remaining pieces (a probe can fail short of
+    the branch's end, on a rearrangement below the bound, with the jump further on).
 
     Why only ``True`` is final: a probe that succeeds may have crossed a small event (Newton
     from ``start`` converging to a post-event minimum close by), so a piece below the bound
@@ -104,10 +106,22 @@ def jump_located(
             hi = mid
         else:
             lo, lo_min, lo_state = mid, got[0], got[1:]
-    pieces = 0
+    bound = share * abs(r_step)
     hi_state = (v1, s1) if hi == k else probe(end, -(k - hi) * h)
-    if hi_state is None:
-        pieces = 1
-        hi_state = advance(lo_min, h)[1:3]
-    jump = abs(trapezoid_residual(*lo_state, *hi_state[-2:], h)) > share * abs(r_step)
-    return (True if jump else None), pieces
+    if hi_state is not None:
+        return (True if abs(trapezoid_residual(*lo_state, *hi_state[-2:], h)) > bound
+                else None), 0
+    # the end's branch does not reach back: the chain's own piece from lo, and the chain's
+    # pieces after it (Newton may fail short of the branch's end, e.g. on a rearrangement
+    # below the bound, with the jump further on)
+    cur, v, s, _ = advance(lo_min, h)
+    if abs(trapezoid_residual(*lo_state, v, s, h)) > bound:
+        return True, 1
+    calls = [1]
+
+    def counted(packing: Packing, dh: float):
+        calls[0] += 1
+        return advance(packing, dh)
+
+    jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share)
+    return (True if jump else None), calls[0]
