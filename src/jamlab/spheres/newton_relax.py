@@ -208,13 +208,8 @@ class NewtonRelaxer:
         backbone the free set. Without it, the last minimum returned is taken as the parent
         (a first call without either is FIRE's)."""
         t0 = time.perf_counter()
-        self.counters["n_newton_calls"] += 1
-        parent = self.reference if parent is None else parent
-        result = (None if parent is None
-                  else self._newton(packing, parent, ftol, t0, max_iter, params))
-        if result is not None and result.converged:
-            self.counters["n_newton_accepted"] += 1
-        else:
+        result = self._attempt(packing, ftol, max_iter, params, parent, t0)
+        if result is None or not result.converged:
             self.counters["n_fire_fallbacks"] += 1
             self.fac, self.age = None, 0
             result = minimize(packing, ftol=ftol, max_iter=max_iter, params=params,
@@ -238,18 +233,29 @@ class NewtonRelaxer:
         The stored factor is kept on failure (the branch ended; the parent is still a
         minimum)."""
         t0 = time.perf_counter()
-        self.counters["n_newton_calls"] += 1
-        parent = self.reference if parent is None else parent
-        result = (None if parent is None
-                  else self._newton(packing, parent, ftol, t0, max_iter, params))
+        result = self._attempt(packing, ftol, max_iter, params, parent, t0)
         if result is not None and result.converged:
-            self.counters["n_newton_accepted"] += 1
             self.reference = result.packing
             return result
         self.reference = None
         return MinimizeResult(packing=packing, energy=math.nan, max_force=math.inf,
                               iterations=0 if result is None else result.iterations,
                               converged=False, time=time.perf_counter() - t0, ftol=float(ftol))
+
+    def _attempt(
+        self, packing: Packing, ftol: float, max_iter: int, params: FireParameters | None,
+        parent: Packing | None, t0: float,
+    ) -> MinimizeResult | None:
+        """Newton from ``packing`` on ``parent``'s network (the last minimum returned without
+        it), counted as a call and, if it converged, as accepted; ``None`` where it does not
+        apply (no parent, another law or size, no usable factor)."""
+        self.counters["n_newton_calls"] += 1
+        parent = self.reference if parent is None else parent
+        result = (None if parent is None
+                  else self._newton(packing, parent, ftol, t0, max_iter, params))
+        if result is not None and result.converged:
+            self.counters["n_newton_accepted"] += 1
+        return result
 
     def _network(self, minimum: Packing) -> tuple:
         """``(ci, cj, backbone, separations, neighbour list)`` of a minimum (the last few are

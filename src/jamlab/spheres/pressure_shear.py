@@ -220,11 +220,15 @@ def _advance(pressure: float, kw: dict, slope: float | None) -> Callable:
         if not lengths:
             lengths.append(cur.box.length)
         lengths.append(res.packing.box.length)
-        ev = evaluate(res.packing)
-        return (res.packing, ev.energy + pressure * res.packing.box.volume, ev.shear_stress,
-                res.iterations)
+        return (res.packing, *_enthalpy_and_stress(res.packing, pressure), res.iterations)
 
     return advance
+
+
+def _enthalpy_and_stress(packing: Packing, pressure: float) -> tuple[float, float]:
+    """``(H = E + p V, Σ)`` of a minimum, as the rows record them (:func:`_row`)."""
+    ev = evaluate(packing)
+    return ev.energy + pressure * packing.box.volume, ev.shear_stress
 
 
 def shear_at_pressure(
@@ -399,22 +403,21 @@ def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, 
     added to row ``n``; empties ``pending``."""
     relaxer = kw.get("relax")
     for n, start, slope, step, r, end in pending:
-        ev = evaluate(start)
-        v0 = ev.energy + pressure * start.box.volume
+        v0, s0 = _enthalpy_and_stress(start, pressure)
         if confirm == "located" and isinstance(relaxer, NewtonRelaxer):
             spent: list[int] = []
-            ev1 = evaluate(end)
+            # (row n is the end minimum's own H and Σ: _row evaluated it)
             jump, _ = jump_located(
                 _probe(pressure, kw, slope, relaxer, spent),
-                _counted(_advance(pressure, kw, slope), spent), start, v0, ev.shear_stress, end,
-                ev1.energy + pressure * end.box.volume, ev1.shear_stress, step, r, k)
+                _counted(_advance(pressure, kw, slope), spent), start, v0, s0, end,
+                rows["enthalpy"][n], rows["shear_stress"][n], step, r, k)
             rows["iterations"][n] += sum(spent)
             if jump:
                 confirmed[n] = True
                 counts["n_candidates_located"] += 1
                 continue
         confirmed[n], extra = jump_in_chain(
-            _advance(pressure, kw, slope), start, v0, ev.shear_stress, step, r, k)
+            _advance(pressure, kw, slope), start, v0, s0, step, r, k)
         rows["iterations"][n] += extra
     pending.clear()
 
@@ -445,8 +448,7 @@ def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxe
         spent.append(res.iterations)
         if not res.converged:
             return None
-        ev = evaluate(res.packing)
-        return res.packing, ev.energy + pressure * res.packing.box.volume, ev.shear_stress
+        return res.packing, *_enthalpy_and_stress(res.packing, pressure)
 
     return probe
 
