@@ -113,25 +113,37 @@ def lbfgs(start, ftol: float = 1e-12, m: int = 10, maxstep: float = 0.02,
 
 
 def metric(packing, nl):
-    """``(P⁻¹, number of contacts)`` at ``packing`` (module docstring), or ``(None, …)`` where
-    the backbone Hessian is not positive definite."""
+    """``(P⁻¹, P, number of contacts)`` at ``packing`` as functions of an ``(N, d)`` array: the
+    backbone factor on the free particles, the pinned particle held, the rattlers scaled by
+    ``1/(2 z_i)`` (module docstring); ``(None, None, …)`` where the backbone Hessian is not
+    positive definite. ``P`` assembles the backbone Hessian at its first use."""
     ci, cj, cd = contact_list(packing, nl)
     backbone = backbone_mask(ci, cj, packing.n, packing.dim)
     fac = factorise(packing, nl, backbone, (ci, cj, cd))
     if fac.lu is None or not fac.positive_definite:
-        return None, ci.size
+        return None, None, ci.size
     z = np.bincount(np.concatenate([ci, cj]), minlength=packing.n)
     scale = 1.0 / np.maximum(2.0 * z, 1.0)
     pinned = backbone.copy()
     pinned[fac.free] = False
+    d = packing.dim
+    k: list = []
 
-    def apply(g: np.ndarray) -> np.ndarray:
+    def inverse(g: np.ndarray) -> np.ndarray:
         out = g * scale[:, None]
         out[pinned] = 0.0  # translations: the free particles move relative to it
-        out[fac.free] = fac.lu.solve(g[fac.free].ravel()).reshape(-1, packing.dim)
+        out[fac.free] = fac.lu.solve(g[fac.free].ravel()).reshape(-1, d)
         return out
 
-    return apply, ci.size
+    def times(v: np.ndarray) -> np.ndarray:
+        if not k:
+            k.append(backbone_matrix(packing, nl, fac, (ci, cj, cd)))
+        out = v / scale[:, None]
+        out[pinned] = 0.0
+        out[fac.free] = (k[0] @ v[fac.free].ravel()).reshape(-1, d)
+        return out
+
+    return inverse, times, ci.size
 
 
 def metric_lbfgs(start, apply, ftol: float = 1e-12, m: int = 8, cap: int = 200,
@@ -185,7 +197,7 @@ def ptail(starts, loose: float, cap: int) -> None:
         t1 = time.process_time()
         nl = NeighborList(s, skin=RELAX_SKIN)
         lo = minimize(s, ftol=loose, neighbors=nl)
-        apply, _ = metric(lo.packing, nl)
+        apply, _, _ = metric(lo.packing, nl)
         its = evaluations = after = 0
         x = lo.packing.positions
         if apply is not None:
@@ -206,34 +218,6 @@ def ptail(starts, loose: float, cap: int) -> None:
     print(f"\n{done} of {len(starts)} finished by L-BFGS; CPU s in all: plain FIRE "
           f"{total_fire:.2f}, hybrid {total_hybrid:.2f} (FIRE / hybrid = "
           f"{total_fire / total_hybrid:.2f})")
-
-
-def parent_metric(parent, nl):
-    """``(P⁻¹, P)`` as functions of an ``(N, d)`` array: the parent's backbone factor on the free
-    particles, the pinned particle held, the rattlers scaled by ``1/(2 z_i)``."""
-    ci, cj, cd = contact_list(parent, nl)
-    backbone = backbone_mask(ci, cj, parent.n, parent.dim)
-    fac = factorise(parent, nl, backbone, (ci, cj, cd))
-    k = backbone_matrix(parent, nl, fac, (ci, cj, cd))
-    z = np.bincount(np.concatenate([ci, cj]), minlength=parent.n)
-    scale = 1.0 / np.maximum(2.0 * z, 1.0)
-    pinned = backbone.copy()
-    pinned[fac.free] = False
-    d = parent.dim
-
-    def inverse(g: np.ndarray) -> np.ndarray:
-        out = g * scale[:, None]
-        out[pinned] = 0.0
-        out[fac.free] = fac.lu.solve(g[fac.free].ravel()).reshape(-1, d)
-        return out
-
-    def times(v: np.ndarray) -> np.ndarray:
-        out = v / scale[:, None]
-        out[pinned] = 0.0
-        out[fac.free] = (k @ v[fac.free].ravel()).reshape(-1, d)
-        return out
-
-    return inverse, times
 
 
 def largest_preconditioned(point, inverse, sweeps: int = 60) -> float:
@@ -295,7 +279,11 @@ def pfire(pairs, count: int, cap: int, dt_max: float) -> None:
         t0 = time.process_time()
         ref = minimize(s, ftol=1e-12, skin=RELAX_SKIN)
         t1 = time.process_time()
-        inverse, times = parent_metric(parent, NeighborList(parent, skin=RELAX_SKIN))
+        inverse, times, _ = metric(parent, NeighborList(parent, skin=RELAX_SKIN))
+        if inverse is None:
+            print(f"| {k} | {ref.iterations}, {1e3 * (t1 - t0):.0f} | parent's Hessian not "
+                  "positive definite | — |", flush=True)
+            continue
         t2 = time.process_time()
         its, resets, fm, _ = preconditioned_fire(s, inverse, times, cap, dt_max)
         t3 = time.process_time()
