@@ -18,6 +18,16 @@ extrapolation beyond the measured N says so (``extrapolated``).
 
 With ``--average`` the files are runs of the same N on different packings (``--seed``): per N,
 protocol and code the per-step time, and per N the preparation times, are their means.
+
+With ``--runs`` (finished ensemble run directories of ``jamlab run``, e.g. ``--phi jamming
+--pressure 1e-4 --n 1000 --gamma-max 0.01 --dgamma 1e-5``): at each N such a directory holds, the
+sample time of the default path (``jamlab``) is the mean stored time of its finished samples —
+preparation and every step of a whole sample, deferred confirmations included — instead of the
+fit's value there; the fit still gives the other N. The run must match the benchmark's protocol,
+p, δγ and ``--steps``; its ``seconds`` are the worker's wall time (one worker per core: ≈ CPU
+time).
+
+    python scripts/project_cost.py --average S1.json S2.json --runs RUNS/n1000-p1e-4
 """
 
 from __future__ import annotations
@@ -25,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +43,12 @@ import numpy as np
 TARGET_SAMPLE_S = 120.0  # one 1000-step sample at N = 1000, one core
 TARGET_SET_CPU_H = 500.0
 MOONSHOT_CPU_H = 100.0
+
+
+def fail(message: str) -> None:
+    """Bad input: one line on stderr, exit code 2."""
+    print(f"project_cost.py: {message}", file=sys.stderr)
+    raise SystemExit(2)
 
 
 def power_law(ns: list[int], ts: list[float]) -> tuple[float, float]:
@@ -43,8 +60,45 @@ def power_law(ns: list[int], ts: list[float]) -> tuple[float, float]:
     return float(math.exp(log_a)), float(b)
 
 
-def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict]:
-    """One dict per (protocol, code): exponent, sample time at N = 1000, set CPU-hours."""
+def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict[int, float]]:
+    """``{protocol: {N: mean seconds per finished sample}}`` of the run directories ``runs``
+    (each checked against the benchmark's p, δγ and ``steps``)."""
+    from jamlab.runs import open_run  # (only here: the script runs without jamlab otherwise)
+
+    out: dict[str, dict[int, float]] = {}
+    for path in runs:
+        try:
+            ds = open_run(path)
+        except (OSError, ValueError) as err:
+            fail(f"{path}: not a run directory ({err})")
+        study = json.loads(ds.attrs["study"])
+        proto = "constant_volume" if study.get("pressure") is None else "fixed_pressure"
+        if proto == "fixed_pressure" and not math.isclose(study["pressure"], data["pressure"]):
+            fail(f"{path}: p = {study['pressure']:g}, the benchmark's is "
+                             f"{data['pressure']:g}")
+        if not math.isclose(study["dgamma"], data["dgamma"]):
+            fail(f"{path}: dgamma = {study['dgamma']:g}, the benchmark's is "
+                             f"{data['dgamma']:g}")
+        n_steps = round(study["gamma_max"] / study["dgamma"])
+        if n_steps != steps:
+            fail(f"{path}: {n_steps} steps per sample, the projection's are {steps}")
+        for n in ds.N.values:
+            sel = ds.sel(N=n)
+            done = (sel.status.values == "done").ravel()
+            secs = np.asarray(sel.seconds.values, dtype=float).ravel()[done]
+            if secs.size:
+                out.setdefault(proto, {})[int(n)] = float(secs.mean())
+                print(f"{path}: N = {int(n)}, {secs.size} finished samples, "
+                      f"{secs.mean():.0f} s each on average ({secs.min():.0f}–{secs.max():.0f})")
+    return out
+
+
+def project(data: dict, sizes: list[int], samples: int, steps: int,
+            measured: dict[str, dict[int, float]] | None = None) -> list[dict]:
+    """One dict per (protocol, code): exponent, sample time at N = 1000, set CPU-hours.
+    ``measured``: per protocol, measured seconds per whole sample at some N, taken for the
+    default path (``jamlab``) there instead of the fit."""
+    measured = measured or {}
     results = data["results"]
     ns = [r["N"] for r in results]
     out = []
@@ -61,7 +115,11 @@ def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict
             step_s = [r[proto][code]["ms_per_step"] / 1e3 for r in results if code in r[proto]]
             a, b = power_law(ns, step_s)
 
-            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb) -> float:
+            known = measured.get(proto, {}) if code == "jamlab" else {}
+
+            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb, known=known) -> float:
+                if n in known:
+                    return known[n]
                 return pa * n**pb + steps * a * n**b
 
             cpu_h = sum(samples * sample_s(n) for n in sizes) / 3600.0
@@ -73,6 +131,7 @@ def project(data: dict, sizes: list[int], samples: int, steps: int) -> list[dict
                     "sample_s_1000": sample_s(1000),
                     "cpu_h": cpu_h,
                     "extrapolated": max(sizes) > max(ns) or min(sizes) < min(ns),
+                    "measured_n": sorted(n for n in known if n in sizes),
                 }
             )
     return out
@@ -91,10 +150,10 @@ def average(files: list[dict]) -> dict:
             if proto not in row:
                 continue
             if not all(proto in r for r in rows):
-                raise SystemExit(f"--average: not every file has the {proto} protocol")
+                fail(f"--average: not every file has the {proto} protocol")
             for code, cell in row[proto].items():
                 if not all(code in r[proto] for r in rows):
-                    raise SystemExit(f"--average: not every file has {proto} / {code}")
+                    fail(f"--average: not every file has {proto} / {code}")
                 cell["ms_per_step"] = float(np.mean([r[proto][code]["ms_per_step"] for r in rows]))
     return out
 
@@ -111,14 +170,17 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[500, 1000, 2000, 4000])
     ap.add_argument("--samples", type=int, default=300)
     ap.add_argument("--steps", type=int, default=1000)
+    ap.add_argument("--runs", type=Path, nargs="+", default=[],
+                    help="finished ensemble run directories whose mean time per sample replaces "
+                    "the fit of the default path at their N (module docstring)")
     args = ap.parse_args()
     files = [json.loads(f.read_text()) for f in args.bench_json]
     data = files[0]
     for other in files[1:]:
         if [r["N"] for r in other["results"]] != [r["N"] for r in data["results"]]:
-            raise SystemExit("the benchmark files measure different N")
+            fail("the benchmark files measure different N")
         if other["pressure"] != data["pressure"] or other["dgamma"] != data["dgamma"]:
-            raise SystemExit("the benchmark files use different p or dgamma")
+            fail("the benchmark files use different p or dgamma")
     if args.average:
         data = average(files)
     else:
@@ -127,7 +189,8 @@ def main() -> None:
                 mine.update(
                     {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
                 )
-    rows = project(data, args.sizes, args.samples, args.steps)
+    measured = measured_samples(args.runs, data, args.steps) if args.runs else None
+    rows = project(data, args.sizes, args.samples, args.steps, measured)
     ns = [r["N"] for r in data["results"]]
     print(
         f"measured N = {ns}; projected N = {args.sizes} × {args.samples} samples × "
@@ -144,6 +207,8 @@ def main() -> None:
         ok_h = "yes" if r["cpu_h"] <= TARGET_SET_CPU_H else "no"
         ok_m = "yes" if r["cpu_h"] <= MOONSHOT_CPU_H else "no"
         ext = " (extrapolated)" if r["extrapolated"] else ""
+        if r["measured_n"]:
+            ext += f" (whole samples measured at N = {', '.join(map(str, r['measured_n']))})"
         print(
             f"| {r['protocol'].replace('_', ' ')} | {r['code']} | b = {r['exponent']:.2f} | "
             f"{r['sample_s_1000'] / 60:,.1f} min | {ok_s} | {r['cpu_h']:,.0f}{ext} | {ok_h} "

@@ -44,3 +44,46 @@ def test_projection_by_hand(pc):
     # fixed pressure: prep 3 s × k, steps 3 ms × k²: N = 1000 -> 12 + 4.8; N = 2000 -> 24 + 19.2
     assert fp["sample_s_1000"] == pytest.approx(16.8, rel=1e-9)
     assert fp["cpu_h"] == pytest.approx(10 * (16.8 + 43.2) / 3600, rel=1e-9)
+
+
+def test_a_measured_sample_time_replaces_the_fit_at_its_n(pc):
+    # the by-hand benchmark above (fixed pressure, code "jamlab"), and a whole sample of 50 s
+    # measured at N = 1000: the set is 10 × (50 + the fit's 43.2 s at N = 2000)
+    res = []
+    for n in (250, 500):
+        k = n / 250
+        res.append({"N": n, "jam_s": 2.0 * k, "to_pressure_s": 1.0 * k,
+                    "fixed_pressure": {"jamlab": {"ms_per_step": 3.0 * k**2},
+                                       "other": {"ms_per_step": 3.0 * k**2}}})
+    rows = pc.project({"results": res, "pressure": 1e-4}, [1000, 2000], samples=10, steps=100,
+                      measured={"fixed_pressure": {1000: 50.0}})
+    mine = next(r for r in rows if r["code"] == "jamlab")
+    other = next(r for r in rows if r["code"] == "other")
+    assert mine["sample_s_1000"] == 50.0 and mine["measured_n"] == [1000]
+    assert mine["cpu_h"] == pytest.approx(10 * (50.0 + 43.2) / 3600, rel=1e-9)
+    # only the default path is replaced
+    assert other["sample_s_1000"] == pytest.approx(16.8, rel=1e-9) and other["measured_n"] == []
+
+
+def test_measured_samples_come_from_the_run_directory(pc, tmp_path):
+    from jamlab.runs import Execution, RunDir, Study, read_sample, run_study
+
+    study = Study(phi=["jamming"], n=[16], samples=2, dgamma=1e-3, gamma_max=3e-3, seed=4,
+                  pressure=1e-3)
+    run_study(study, tmp_path / "r", Execution(workers=0))
+    rd = RunDir(tmp_path / "r")
+    stored = [float(read_sample(rd.sample_path(k))["attrs"]["seconds"]) for k in study.keys()
+              if rd.state(k) == "done"]
+    assert stored
+    bench = {"pressure": 1e-3, "dgamma": 1e-3}
+    got = pc.measured_samples([tmp_path / "r"], bench, steps=3)
+    assert got == {"fixed_pressure": {16: pytest.approx(sum(stored) / len(stored), rel=1e-12)}}
+    # a run of another p, δγ or number of steps is refused with exit code 2
+    for other, steps in (({"pressure": 1e-4, "dgamma": 1e-3}, 3),
+                         ({"pressure": 1e-3, "dgamma": 1e-4}, 3), (bench, 1000)):
+        with pytest.raises(SystemExit) as err:
+            pc.measured_samples([tmp_path / "r"], other, steps=steps)
+        assert err.value.code == 2
+    with pytest.raises(SystemExit) as err:
+        pc.measured_samples([tmp_path / "missing"], bench, steps=3)
+    assert err.value.code == 2
