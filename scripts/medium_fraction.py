@@ -12,11 +12,15 @@ seconds per sample put in place of the benchmark-based estimate for the studies 
 
     PYTHONPATH=src nice -n 10 python scripts/medium_fraction.py --runs medium-runs \\
         --studies pressure-1e-04 --workers 1
+
+``--dirs DIR ...`` reports the same (time per sample, τ fits with the medium scale's rules) for
+any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -25,7 +29,40 @@ import numpy as np
 from jamlab.reproduce.ensembles import avalanche_set
 from jamlab.reproduce.measurements import fit_tau_cutoff, tau_estimate, tau_sigma
 from jamlab.reproduce.scales import SCALES, studies
-from jamlab.runs import Execution, open_run, run_study
+from jamlab.runs import Execution, Study, open_run, run_study
+
+
+def analyse(ds, study: Study, scale, name: str) -> None:
+    """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
+    fixed pressure also the fit with an exponential cut-off) of one run directory."""
+    done = ds.status.values == "done"
+    seconds = np.asarray(ds.seconds.values)[done]
+    n_values = list(study.n)
+    print(f"\n# {name}: N = {n_values}, {int(done.sum())} of {done.size} samples finished, "
+          f"{study.dgamma:g} x {int(round(study.gamma_max / study.dgamma))} steps each"
+          + ("" if study.pressure is None else f", fixed p = {study.pressure:g}"))
+    if seconds.size:
+        print(f"worker wall time per sample: {', '.join(f'{s:.0f}' for s in seconds)} s "
+              f"(mean {seconds.mean():.0f} s)")
+        total = done.size * seconds.mean()
+        print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
+              "of one core")
+    label = "jamming" if "jamming" in study.phi else repr(study.phi[0])
+    est = tau_estimate(label, [(ds, n) for n in n_values], scale)
+    fit = est.fit
+    if fit is None:
+        print(f"tau: no fit ({est.n_avalanches} avalanches)")
+    else:
+        print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
+              f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
+    if study.pressure is not None:
+        sizes = np.concatenate([avalanche_set(ds, label, n).sizes for n in n_values])
+        cut = fit_tau_cutoff(sizes, scale)
+        print("tau with an exponential cut-off (the report's second row): "
+              + ("no fit" if cut is None else
+                 f"{cut.tau:.3f} ± {tau_sigma(cut):.3f} (95 % [{cut.ci_low:.3f}, "
+                 f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
+                 f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -34,8 +71,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--studies", nargs="+", default=["pressure-1e-04"])
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--analyse-only", action="store_true", help="do not run, only report")
+    ap.add_argument("--dirs", type=Path, nargs="+", default=None,
+                    help="only report on these run directories (any study, e.g. of `jamlab "
+                    "run`), with the medium scale's fit rules")
     args = ap.parse_args(argv)
     scale = SCALES["medium"]
+    if args.dirs:
+        for path in args.dirs:
+            try:
+                ds = open_run(path)
+            except (OSError, ValueError) as err:
+                ap.error(f"{path}: not a run directory ({err})")
+            analyse(ds, Study.from_dict(json.loads(ds.attrs["study"])), scale, str(path))
+        return 0
     all_studies = studies(scale)
     unknown = [s for s in args.studies if s not in all_studies]
     if unknown:
@@ -48,35 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                                 log=print)
             print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
                   f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
-        ds = open_run(args.runs / name)
-        done = ds.status.values == "done"
-        seconds = np.asarray(ds.seconds.values)[done]
-        n_values = list(study.n)
-        print(f"\n# {name}: N = {n_values}, {int(done.sum())} of {done.size} samples finished, "
-              f"{study.dgamma:g} x {int(round(study.gamma_max / study.dgamma))} steps each"
-              + ("" if study.pressure is None else f", fixed p = {study.pressure:g}"))
-        if seconds.size:
-            print(f"worker wall time per sample: {', '.join(f'{s:.0f}' for s in seconds)} s "
-                  f"(mean {seconds.mean():.0f} s)")
-            total = done.size * seconds.mean()
-            print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
-                  "of one core")
-        label = "jamming" if "jamming" in study.phi else repr(study.phi[0])
-        est = tau_estimate(label, [(ds, n) for n in n_values], scale)
-        fit = est.fit
-        if fit is None:
-            print(f"tau: no fit ({est.n_avalanches} avalanches)")
-        else:
-            print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
-                  f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
-        if study.pressure is not None:
-            sizes = np.concatenate([avalanche_set(ds, label, n).sizes for n in n_values])
-            cut = fit_tau_cutoff(sizes, scale)
-            print("tau with an exponential cut-off (the report's second row): "
-                  + ("no fit" if cut is None else
-                     f"{cut.tau:.3f} ± {tau_sigma(cut):.3f} (95 % [{cut.ci_low:.3f}, "
-                     f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
-                     f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
+        analyse(open_run(args.runs / name), study, scale, name)
     return 0
 
 
