@@ -19,6 +19,7 @@ projection of a 1000-step sample.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import pickle
 import subprocess
@@ -99,7 +100,13 @@ def main() -> None:
     ap.add_argument("--old-src", default=None,
                     help="also time the default of this source tree ('old', in a subprocess)")
     ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
+    ap.add_argument("--json", type=Path, default=None,
+                    help="also write the cases (CPU ms/step, plastic flags per variant) here, "
+                    "e.g. for scripts/project_cost.py --per-step")
     a = ap.parse_args()
+    if a.json is not None and a.json.exists():
+        ap.error(f"{a.json} exists; not overwriting it")
+    cases: list[dict] = []
     names = list(a.variants) + (["old"] if a.old_src else [])
     ref = names[0]
     print(f"fixed-pressure AQS, d=3, δγ={a.dgamma:g}, {a.steps} steps, CPU time, best of "
@@ -126,6 +133,14 @@ def main() -> None:
                             best[m] = (t, (cols, attrs))
                 for m in names:
                     total[m] += best[m][0]
+                cases.append({"N": n, "pressure": p, "seed": seed, "steps": a.steps,
+                              "dgamma": a.dgamma, "variants": {
+                                  m: {"cpu_s": best[m][0],
+                                      "ms_per_step": 1e3 * best[m][0] / a.steps,
+                                      "plastic": int(best[m][1][0]["plastic"].sum())}
+                                  for m in names}})
+                if a.json is not None:
+                    a.json.write_text(json.dumps({"cases": cases}, indent=1))
                 t0, (c0, at0) = best[ref]
                 plastic = "/".join(str(int(best[m][1][0]["plastic"].sum())) for m in names)
                 same = "/".join("yes" if np.array_equal(best[m][1][0]["plastic"], c0["plastic"])

@@ -28,6 +28,11 @@ p, δγ and ``--steps``; its ``seconds`` are the worker's wall time (one worker 
 time).
 
     python scripts/project_cost.py --average S1.json S2.json --runs RUNS/n1000-p1e-4
+
+With ``--per-step`` (JSONs of ``benchmarks/bench_pressure.py --json``, e.g. 100 steps at N = 2000
+and 4000): at each N they hold (and no run does), the default path's time per step is their
+measured CPU time per step (deferred confirmations included; the mean over their packings)
+instead of the fit's; the preparation is still the fit's.
 """
 
 from __future__ import annotations
@@ -93,12 +98,40 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
     return out
 
 
+def measured_steps(files: list[Path], data: dict) -> dict[int, float]:
+    """``{N: mean CPU seconds per step}`` of the default path (variant ``newton``) in the JSONs
+    of ``benchmarks/bench_pressure.py --json`` (cases at the benchmark's p and δγ; the mean over
+    their seeds)."""
+    per_n: dict[int, list[float]] = {}
+    for path in files:
+        try:
+            cases = json.loads(path.read_text())["cases"]
+        except (OSError, ValueError, KeyError) as err:
+            fail(f"{path}: not a bench_pressure.py --json file ({err})")
+        for case in cases:
+            if "newton" not in case["variants"]:
+                continue
+            if not (math.isclose(case["pressure"], data["pressure"])
+                    and math.isclose(case["dgamma"], data["dgamma"])):
+                fail(f"{path}: a case at p = {case['pressure']:g}, dgamma = {case['dgamma']:g}; "
+                     f"the benchmark's are {data['pressure']:g}, {data['dgamma']:g}")
+            per_n.setdefault(int(case["N"]), []).append(
+                case["variants"]["newton"]["ms_per_step"] / 1e3)
+    for n, ts in sorted(per_n.items()):
+        print(f"per-step time measured at N = {n}: {np.mean(ts):.3f} s ({len(ts)} packings)")
+    return {n: float(np.mean(ts)) for n, ts in per_n.items()}
+
+
 def project(data: dict, sizes: list[int], samples: int, steps: int,
-            measured: dict[str, dict[int, float]] | None = None) -> list[dict]:
+            measured: dict[str, dict[int, float]] | None = None,
+            measured_step: dict[int, float] | None = None) -> list[dict]:
     """One dict per (protocol, code): exponent, sample time at N = 1000, set CPU-hours.
     ``measured``: per protocol, measured seconds per whole sample at some N, taken for the
-    default path (``jamlab``) there instead of the fit."""
+    default path (``jamlab``) there instead of the fit; ``measured_step``: at fixed pressure,
+    measured seconds per step of the default path at some N (the preparation still from the
+    fit), where no whole sample was measured."""
     measured = measured or {}
+    measured_step = measured_step or {}
     results = data["results"]
     ns = [r["N"] for r in results]
     out = []
@@ -116,11 +149,12 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
             a, b = power_law(ns, step_s)
 
             known = measured.get(proto, {}) if code == "jamlab" else {}
+            stepped = measured_step if (code == "jamlab" and proto == "fixed_pressure") else {}
 
-            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb, known=known) -> float:
+            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb, known=known, stepped=stepped) -> float:
                 if n in known:
                     return known[n]
-                return pa * n**pb + steps * a * n**b
+                return pa * n**pb + steps * stepped.get(n, a * n**b)
 
             cpu_h = sum(samples * sample_s(n) for n in sizes) / 3600.0
             out.append(
@@ -132,6 +166,7 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
                     "cpu_h": cpu_h,
                     "extrapolated": max(sizes) > max(ns) or min(sizes) < min(ns),
                     "measured_n": sorted(n for n in known if n in sizes),
+                    "measured_step_n": sorted(n for n in stepped if n in sizes and n not in known),
                 }
             )
     return out
@@ -170,6 +205,9 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[500, 1000, 2000, 4000])
     ap.add_argument("--samples", type=int, default=300)
     ap.add_argument("--steps", type=int, default=1000)
+    ap.add_argument("--per-step", type=Path, nargs="+", default=[],
+                    help="JSONs of benchmarks/bench_pressure.py --json: the default path's "
+                    "measured time per step replaces the fit at their N (module docstring)")
     ap.add_argument("--runs", type=Path, nargs="+", default=[],
                     help="finished ensemble run directories whose mean time per sample replaces "
                     "the fit of the default path at their N (module docstring)")
@@ -190,7 +228,8 @@ def main() -> None:
                     {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
                 )
     measured = measured_samples(args.runs, data, args.steps) if args.runs else None
-    rows = project(data, args.sizes, args.samples, args.steps, measured)
+    stepped = measured_steps(args.per_step, data) if args.per_step else None
+    rows = project(data, args.sizes, args.samples, args.steps, measured, stepped)
     ns = [r["N"] for r in data["results"]]
     print(
         f"measured N = {ns}; projected N = {args.sizes} × {args.samples} samples × "
@@ -209,6 +248,9 @@ def main() -> None:
         ext = " (extrapolated)" if r["extrapolated"] else ""
         if r["measured_n"]:
             ext += f" (whole samples measured at N = {', '.join(map(str, r['measured_n']))})"
+        if r["measured_step_n"]:
+            ext += (f" (steps measured at N = {', '.join(map(str, r['measured_step_n']))}, "
+                    "preparation fitted)")
         print(
             f"| {r['protocol'].replace('_', ' ')} | {r['code']} | b = {r['exponent']:.2f} | "
             f"{r['sample_s_1000'] / 60:,.1f} min | {ok_s} | {r['cpu_h']:,.0f}{ext} | {ok_h} "

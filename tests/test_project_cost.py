@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import pytest
@@ -86,4 +87,29 @@ def test_measured_samples_come_from_the_run_directory(pc, tmp_path):
         assert err.value.code == 2
     with pytest.raises(SystemExit) as err:
         pc.measured_samples([tmp_path / "missing"], bench, steps=3)
+    assert err.value.code == 2
+
+
+def test_measured_steps_replace_the_fitted_step_time(pc, tmp_path):
+    # bench_pressure.py --json: N = 2000 measured on two packings at 0.5 and 0.7 s per step
+    cases = [{"N": 2000, "pressure": 1e-4, "seed": s, "steps": 100, "dgamma": 1e-5,
+              "variants": {"newton": {"cpu_s": 100 * t, "ms_per_step": 1e3 * t, "plastic": 3}}}
+             for s, t in ((1, 0.5), (2, 0.7))]
+    f = tmp_path / "b.json"
+    f.write_text(json.dumps({"cases": cases}))
+    bench = {"pressure": 1e-4, "dgamma": 1e-5}
+    stepped = pc.measured_steps([f], bench)
+    assert stepped == {2000: pytest.approx(0.6, rel=1e-12)}
+    res = []
+    for n in (250, 500):
+        k = n / 250
+        res.append({"N": n, "jam_s": 2.0 * k, "to_pressure_s": 1.0 * k,
+                    "fixed_pressure": {"jamlab": {"ms_per_step": 3.0 * k**2}}})
+    rows = pc.project({"results": res, **bench}, [1000, 2000], samples=10, steps=100,
+                      measured_step=stepped)
+    # N = 1000 from the fit (16.8 s); N = 2000: fitted preparation 24 s + 100 × 0.6 s
+    assert rows[0]["cpu_h"] == pytest.approx(10 * (16.8 + 24.0 + 60.0) / 3600, rel=1e-9)
+    assert rows[0]["measured_step_n"] == [2000]
+    with pytest.raises(SystemExit) as err:
+        pc.measured_steps([f], {"pressure": 1e-3, "dgamma": 1e-5})
     assert err.value.code == 2
