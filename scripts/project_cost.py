@@ -24,8 +24,9 @@ With ``--runs`` (finished ensemble run directories of ``jamlab run``, e.g. ``--p
 sample time of the default path (``jamlab``) is the mean stored time of its finished samples —
 preparation and every step of a whole sample, deferred confirmations included — instead of the
 fit's value there; the fit still gives the other N. The run must match the benchmark's protocol,
-p, δγ and ``--steps``; its ``seconds`` are the worker's wall time (one worker per core: ≈ CPU
-time).
+p, δγ and ``--steps``; the time of a sample is its ``cpu_seconds`` where every finished sample
+stored one, else ``seconds``, the worker's wall time (≈ CPU time with one worker per core and
+nothing else running).
 
     python scripts/project_cost.py --average S1.json S2.json --runs RUNS/n1000-p1e-4
 
@@ -90,11 +91,18 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
         for n in ds.N.values:
             sel = ds.sel(N=n)
             done = (sel.status.values == "done").ravel()
-            secs = np.asarray(sel.seconds.values, dtype=float).ravel()[done]
+            # CPU time where every finished sample stored it (wall time is inflated by
+            # anything else running on the machine), else the worker's wall time
+            cpu = (np.asarray(sel.cpu_seconds.values, dtype=float).ravel()[done]
+                   if "cpu_seconds" in sel else np.empty(0))
+            if cpu.size and np.isfinite(cpu).all():
+                secs, what = cpu, "CPU"
+            else:
+                secs, what = np.asarray(sel.seconds.values, dtype=float).ravel()[done], "wall"
             if secs.size:
                 out.setdefault(proto, {})[int(n)] = float(secs.mean())
-                print(f"{path}: N = {int(n)}, {secs.size} finished samples, "
-                      f"{secs.mean():.0f} s each on average ({secs.min():.0f}–{secs.max():.0f})")
+                print(f"{path}: N = {int(n)}, {secs.size} finished samples, {secs.mean():.0f} "
+                      f"{what} s each on average ({secs.min():.0f}–{secs.max():.0f})")
     return out
 
 

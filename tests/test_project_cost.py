@@ -67,13 +67,14 @@ def test_a_measured_sample_time_replaces_the_fit_at_its_n(pc):
 
 
 def test_measured_samples_come_from_the_run_directory(pc, tmp_path):
+    # (their CPU time: every sample stored one)
     from jamlab.runs import Execution, RunDir, Study, read_sample, run_study
 
     study = Study(phi=["jamming"], n=[16], samples=2, dgamma=1e-3, gamma_max=3e-3, seed=4,
                   pressure=1e-3)
     run_study(study, tmp_path / "r", Execution(workers=0))
     rd = RunDir(tmp_path / "r")
-    stored = [float(read_sample(rd.sample_path(k))["attrs"]["seconds"]) for k in study.keys()
+    stored = [float(read_sample(rd.sample_path(k))["attrs"]["cpu_seconds"]) for k in study.keys()
               if rd.state(k) == "done"]
     assert stored
     bench = {"pressure": 1e-3, "dgamma": 1e-3}

@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 
 # attributes that legitimately differ between two computations of the same sample
-VOLATILE_ATTRS = {"seconds"}
+VOLATILE_ATTRS = {"seconds", "cpu_seconds"}
 
 
 def sample_files(run_dir: Path) -> dict[str, Path]:

@@ -118,3 +118,35 @@ def test_slurm_options_map_to_jobqueue():
     for line in ("#SBATCH -p short", "#SBATCH -A proj", "#SBATCH --exclusive",
                  "export OMP_NUM_THREADS=1"):  # fmt: skip
         assert line in script
+
+
+def _sleeper(study, key, seed):
+    import time
+
+    time.sleep(0.3)  # wall time, no CPU time
+    return toy_task(study, key, seed)
+
+
+def _spinner(study, key, seed):
+    import time
+
+    end = time.perf_counter() + 0.3
+    while time.perf_counter() < end:  # CPU time ≈ wall time
+        pass
+    return toy_task(study, key, seed)
+
+
+def test_a_sample_records_its_cpu_time_beside_its_wall_time(tmp_path):
+    key = STUDY.keys()[0]
+    slept = run_sample(STUDY, key, 1, task=_sleeper)
+    spun = run_sample(STUDY, key, 1, task=_spinner)
+    assert slept.seconds >= 0.3 and 0.0 <= slept.cpu_seconds < 0.15
+    # (a shared machine may take the core away for part of the spin: a loose lower bound)
+    assert spun.seconds >= 0.3 and 0.05 < spun.cpu_seconds <= spun.seconds + 0.01
+    study = Study(phi=["jamming"], n=[8], samples=2, dgamma=1e-3, gamma_max=4e-3, task="toy")
+    run_study(study, tmp_path / "r", Execution(workers=0), task=_sleeper)
+    ds = open_run(tmp_path / "r")
+    for k in study.keys():
+        attrs = read_sample(RunDir(tmp_path / "r").sample_path(k))["attrs"]
+        cell = ds.sel(phi=k.phi_label, N=k.n, sample=k.index)
+        assert float(cell.cpu_seconds) == attrs["cpu_seconds"] < 0.15 < attrs["seconds"]

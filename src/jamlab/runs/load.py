@@ -20,7 +20,7 @@ Dataset returned by :func:`open_run`:
 - per-sample variables ``status`` (``"done"``, ``"failed"``, ``"corrupt"``, ``"pending"``),
   ``seed`` (uint64, the derived seed, known for every sample), ``n_steps`` (0 if missing) and the
   numeric attributes the task stored (e.g. ``phi_actual``: φ of the prepared packing, φ_J at
-  jamming; ``seconds``: the worker's wall time), NaN where missing;
+  jamming; ``seconds``: the worker's wall time; ``cpu_seconds``: its CPU time), NaN where missing;
 - ``attrs``: the manifest's ``study`` (JSON), ``master_seed``, ``jamlab_version``, ``created``.
 """
 

@@ -4,6 +4,7 @@ record of its failure (shared by :mod:`jamlab.runs.tasks`, :mod:`jamlab.runs.phy
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +35,8 @@ class SampleResult:
     attrs: dict[str, Any] = field(default_factory=dict)
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: float = 0.0
+    # CPU time of the thread that ran it (the workers are single-threaded; NaN: not measured)
+    cpu_seconds: float = math.nan
 
 
 @dataclass

@@ -11,8 +11,9 @@ Sample file (root of the HDF5 file): group ``trace`` with the 1-D per-step datas
 (:data:`jamlab.runs.tasks.TRACE_FIELDS`); group ``packing`` with the prepared configuration's
 ``positions``; root attributes ``format = "jamlab-sample"``, ``format_version``, ``phi`` (label),
 ``n``, ``index``, ``seed`` (the sample's 64-bit seed, as a decimal string), ``master_seed``,
-``task``, ``jamlab_version``, ``seconds`` (worker wall time), the task's own attributes, and
-``complete = True`` written last.
+``task``, ``jamlab_version``, ``seconds`` (worker wall time), ``cpu_seconds`` (CPU time of the
+worker thread that ran the sample; absent in samples written before it existed), the task's own
+attributes, and ``complete = True`` written last.
 
 Atomicity: a file is written under a temporary name (``.sample-…h5.XXXX.tmp``) in its final
 directory, flushed, fsync'ed, closed and renamed with ``os.replace`` (atomic on POSIX), then the
@@ -29,6 +30,7 @@ import errno
 import fcntl
 import hashlib
 import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator, Mapping
@@ -372,6 +374,8 @@ class RunDir:
             h5.attrs["task"] = study.task
             h5.attrs["jamlab_version"] = __version__
             h5.attrs["seconds"] = float(result.seconds)
+            if math.isfinite(result.cpu_seconds):
+                h5.attrs["cpu_seconds"] = float(result.cpu_seconds)
             for name, value in result.attrs.items():
                 h5.attrs[name] = value
             trace = h5.create_group("trace")

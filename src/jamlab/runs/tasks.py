@@ -101,6 +101,7 @@ def run_sample(
     one bad sample never stops a run."""
     fn = task if task is not None else get_task(study.task)
     start = time.perf_counter()
+    cpu_start = time.thread_time()
     try:
         result = fn(study, key, seed)
     except Exception as exc:  # noqa: BLE001 - every failure is recorded, none stops the run
@@ -108,4 +109,5 @@ def run_sample(
             type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start
         )
     result.seconds = time.perf_counter() - start
+    result.cpu_seconds = time.thread_time() - cpu_start
     return result
