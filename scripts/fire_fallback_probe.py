@@ -31,8 +31,10 @@ import time
 import numpy as np
 import scipy.optimize as so
 
+from jamlab.spheres.aqs.linalg import factorise
+from jamlab.spheres.aqs.network import backbone_mask, contact_list
 from jamlab.spheres.fire import minimize
-from jamlab.spheres.neighbors import NeighborList
+from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.newton_relax import NewtonRelaxer
 from jamlab.spheres.packing import jam
 from jamlab.spheres.potential import evaluate, hessian
@@ -70,9 +72,11 @@ def parent_factor(parent):
     from dataclasses import replace
 
     if id(parent) not in _FACTORS:
-        made = NewtonRelaxer()
-        made._factor(parent)
-        _FACTORS[id(parent)] = made.fac
+        # what the relaxer factorises at a parent: its backbone Hessian (RELAX_SKIN list)
+        nl = NeighborList(parent, skin=RELAX_SKIN)
+        ci, cj, cd = contact_list(parent, nl)
+        _FACTORS[id(parent)] = factorise(parent, nl, backbone_mask(ci, cj, parent.n, parent.dim),
+                                         (ci, cj, cd))
     return replace(_FACTORS[id(parent)])
 
 
