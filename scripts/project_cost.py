@@ -66,6 +66,15 @@ def power_law(ns: list[int], ts: list[float]) -> tuple[float, float]:
     return float(math.exp(log_a)), float(b)
 
 
+def same_conditions(path: Path, pressure: float | None, dgamma: float, data: dict) -> None:
+    """Fail unless a measurement from ``path`` ran at the benchmark's p (``None``: constant
+    volume, no p to compare) and δγ."""
+    if pressure is not None and not math.isclose(pressure, data["pressure"]):
+        fail(f"{path}: p = {pressure:g}, the benchmark's is {data['pressure']:g}")
+    if not math.isclose(dgamma, data["dgamma"]):
+        fail(f"{path}: dgamma = {dgamma:g}, the benchmark's is {data['dgamma']:g}")
+
+
 def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict[int, float]]:
     """``{protocol: {N: mean seconds per finished sample}}`` of the run directories ``runs``
     (each checked against the benchmark's p, δγ and ``steps``)."""
@@ -79,12 +88,7 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
             fail(f"{path}: not a run directory ({err})")
         study = json.loads(ds.attrs["study"])
         proto = "constant_volume" if study.get("pressure") is None else "fixed_pressure"
-        if proto == "fixed_pressure" and not math.isclose(study["pressure"], data["pressure"]):
-            fail(f"{path}: p = {study['pressure']:g}, the benchmark's is "
-                             f"{data['pressure']:g}")
-        if not math.isclose(study["dgamma"], data["dgamma"]):
-            fail(f"{path}: dgamma = {study['dgamma']:g}, the benchmark's is "
-                             f"{data['dgamma']:g}")
+        same_conditions(path, study.get("pressure"), study["dgamma"], data)
         n_steps = round(study["gamma_max"] / study["dgamma"])
         if n_steps != steps:
             fail(f"{path}: {n_steps} steps per sample, the projection's are {steps}")
@@ -119,10 +123,7 @@ def measured_steps(files: list[Path], data: dict) -> dict[int, float]:
         for case in cases:
             if "newton" not in case["variants"]:
                 continue
-            if not (math.isclose(case["pressure"], data["pressure"])
-                    and math.isclose(case["dgamma"], data["dgamma"])):
-                fail(f"{path}: a case at p = {case['pressure']:g}, dgamma = {case['dgamma']:g}; "
-                     f"the benchmark's are {data['pressure']:g}, {data['dgamma']:g}")
+            same_conditions(path, case["pressure"], case["dgamma"], data)
             per_n.setdefault(int(case["N"]), []).append(
                 case["variants"]["newton"]["ms_per_step"] / 1e3)
     for n, ts in sorted(per_n.items()):
