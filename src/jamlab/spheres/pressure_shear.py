@@ -403,10 +403,11 @@ def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, 
     added to row ``n``; empties ``pending``."""
     relaxer = kw.get("relax")
     for n, start, slope, step, r, end in pending:
-        v0, s0 = _enthalpy_and_stress(start, pressure)
+        # rows n − 1 and n are the start's and the end's own H and Σ (_row evaluated them; r_n
+        # was computed from them)
+        v0, s0 = rows["enthalpy"][n - 1], rows["shear_stress"][n - 1]
         if confirm == "located" and isinstance(relaxer, NewtonRelaxer):
             spent: list[int] = []
-            # (row n is the end minimum's own H and Σ: _row evaluated it)
             jump, _ = jump_located(
                 _probe(pressure, kw, slope, relaxer, spent),
                 _counted(_advance(pressure, kw, slope), spent), start, v0, s0, end,
