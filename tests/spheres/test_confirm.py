@@ -9,12 +9,15 @@ fixed-pressure AQS are checked against redoing every candidate by the chain.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
+from jamlab.analysis.avalanches import noise_floor
 from jamlab.spheres.confirm import jump_in_chain, jump_located, trapezoid_residual
 from jamlab.spheres.packing import jam
-from jamlab.spheres.pressure_shear import shear_at_pressure
+from jamlab.spheres.pressure_shear import released_at_least, shear_at_pressure
 
 
 class Branch:
@@ -86,6 +89,27 @@ def test_a_jump_smaller_than_a_quarter_of_the_residual_is_a_kink():
     r = residual_of_step(b, x0, h)
     assert 1e-7 < 0.25 * abs(r)
     v0, s0 = b.value(x0)
+    assert not jump_in_chain(b.advance, x0, v0, s0, h, r, 16)[0]
+
+
+@pytest.mark.parametrize(("deeper", "expected"), [(0.0, False), (1e-6, False), (1e-5, True)])
+def test_a_single_step_that_lands_below_the_chains_end_is_a_jump(deeper, expected):
+    # quasi-static driving (the chain) follows a kinked branch without a jump; the single step
+    # landed in a minimum `deeper` below that branch's end. Its residual is the kink's plus
+    # −deeper; with the single step's end given, the chain calls it a jump when the end lies
+    # lower than the chain's by more than |r|/4 (the constant-volume rule: the end is not the
+    # continuation of the start), and without it a kink, as before
+    h, x0 = 1e-2, 0.1
+    b = Branch(g=1.0, g2=1.6, kink=x0 + 0.3 * h)
+    v0, s0 = b.value(x0)
+    v1, s1 = b.value(x0 + h)
+    v_end = v1 - deeper
+    r = trapezoid_residual(v0, s0, v_end, s1, h)
+    kink_only = abs(residual_of_step(b, x0, h))
+    assert kink_only == pytest.approx(0.5 * 0.6 * h * h * 0.3 * 0.7, rel=1e-6)
+    jump, its = jump_in_chain(b.advance, x0, v0, s0, h, r, 16, v_end=v_end)
+    # |r| = 6.3e-6 + deeper: a quarter of it is above 1e-6 and below 1e-5
+    assert jump == (deeper > 0.25 * abs(r)) == expected and its == 16 * 7
     assert not jump_in_chain(b.advance, x0, v0, s0, h, r, 16)[0]
 
 
@@ -196,9 +220,10 @@ def test_located_verdict_leaves_kinks_and_small_jumps_to_the_chain():
 def both_rules():
     r = jam(64, 3, seed=1, p_target=1e-4)
     # the chain rule redoes every candidate when it happens (its verdicts are what is compared);
-    # the continued rule with its default deferral redoes only those that can be plastic
+    # the continued rule with its default deferral redoes only those that can be plastic (all of
+    # them, whatever their residual: confirm_below=inf)
     runs = {c: shear_at_pressure(r.packing, 1e-4, pressure=1e-3, n_steps=60, confirm=c,
-                                 defer_confirmation=c != "chain")
+                                 defer_confirmation=c != "chain", confirm_below=math.inf)
             for c in ("continued", "chain", "located")}
     return r.packing, runs
 
@@ -258,7 +283,8 @@ def test_deferred_confirmation_gives_the_flags_of_the_immediate_one():
     # δγ = 1e-4 the threshold, 10 σ of the residuals, is ~8× the candidates' floor 0.1 δγ².)
     r = jam(128, 3, seed=2, p_target=1e-4)
     late, now = (shear_at_pressure(r.packing, 1e-4, pressure=1e-4, n_steps=60,
-                                   defer_confirmation=d) for d in (True, False))
+                                   defer_confirmation=d, confirm_below=math.inf)
+                 for d in (True, False))
     assert late.attrs["confirm_deferred"] == 1 and now.attrs["confirm_deferred"] == 0
     np.testing.assert_array_equal(late["plastic"], now["plastic"])
     assert late["plastic"].sum() >= 2
@@ -278,3 +304,71 @@ def test_deferred_confirmation_gives_the_flags_of_the_immediate_one():
     assert not late.confirmed[np.abs(res) <= thr].any()
     # and every plastic step was redone (confirmed) in both
     assert late.confirmed[late["plastic"]].all() and now.confirmed[now["plastic"]].all()
+
+
+@pytest.mark.parametrize("a", [0.0, 0.2, 0.5, 0.8, 1.0])
+@pytest.mark.parametrize("stress_drop", [0.0, 3e-3, -2e-3])
+def test_released_at_least_bounds_the_event_whatever_its_place_in_the_step(a, stress_drop):
+    # one event at the fraction a of the step: enthalpy −S and stress −D at once, on a branch of
+    # modulus G; exact V(γ) and Σ(γ), the residual from them, and the bound below S
+    g, h, x0, big_s = 2.0, 1e-2, 0.1, 5e-6
+    xa = x0 + a * h
+
+    def value(x):
+        v, s = 0.5 * g * x * x, g * x
+        if x > xa:
+            v, s = v - big_s - stress_drop * (x - xa), s - stress_drop
+        return v, s
+
+    v0, s0 = value(x0)
+    v1, s1 = value(x0 + h)
+    r = trapezoid_residual(v0, s0, v1, s1, h)
+    least = released_at_least(np.array([r]), np.array([s1 - s0]), np.array([h]), g)[0]
+    released = big_s if a < 1.0 else 0.0
+    assert least <= released + 1e-15  # (rounding of V ≈ 1e-2)
+    # tight where the event sits at an end of the step (a = 0: the whole step on the new branch)
+    if a == 0.0:
+        assert least == pytest.approx(released - (abs(stress_drop) * h if stress_drop < 0 else 0),
+                                      abs=1e-15)
+    # and without a stress drop it is −r itself
+    if stress_drop == 0.0:
+        assert least == pytest.approx(-r, abs=1e-15)
+
+
+def test_candidates_that_surely_released_enough_are_jumps_without_the_confirmation():
+    # the same run with every candidate confirmed (confirm_below=inf) and with the default band
+    # (5): the stepping is the same (bit for bit), the candidates that released for certain more
+    # than 5 max(threshold, δγ²) are not redone, and the flags are those of the full
+    # confirmation (the band's premise — each of them a jump for the confirmation — checked on
+    # the run itself)
+    r = jam(128, 3, seed=2, p_target=1e-4)
+    dg = 1e-4
+    full, band = (shear_at_pressure(r.packing, dg, pressure=1e-4, n_steps=60,
+                                    confirm_below=k) for k in (math.inf, 5.0))
+    for k in ("enthalpy", "shear_stress", "box_length", "pressure", "z", "jammed"):
+        np.testing.assert_array_equal(band[k], full[k])
+    assert band.attrs["confirm_below"] == 5.0 and full.attrs["confirm_below"] == math.inf
+    thr = full.attrs["plastic_threshold"]
+    assert band.attrs["plastic_threshold"] == thr
+    h, s, g = full["enthalpy"], full["shear_stress"], full["gamma"]
+    dh, ds, steps = np.diff(h) - np.diff(g) * s[:-1], np.diff(s), np.diff(g)
+    res = dh - 0.5 * steps * ds
+    # the modulus: the median dΣ/dγ over the run's elastic steps (the analysis' noise floor)
+    modulus = noise_floor(dh, ds, steps, jammed=full["jammed"]).modulus
+    least = -res - 0.5 * steps * np.abs(modulus * steps - ds)
+    jammed = full["jammed"][1:] & full["jammed"][:-1]
+    sure = np.concatenate([[False], (least > 5.0 * max(thr, dg**2)) & (np.abs(res) > thr)
+                           & jammed & ~full.continued[1:]])
+    assert sure.sum() >= 2 and band.attrs["n_candidates_sure"] == sure.sum()
+    assert full.attrs["n_candidates_sure"] == 0
+    # the full confirmation called each of them a jump, and the band did not redo them
+    assert full.confirmed[sure].all() and not band.confirmed[sure].any()
+    np.testing.assert_array_equal(band["plastic"], full["plastic"])
+    # a candidate Newton continued is a kink under either setting
+    assert not band["plastic"][band.continued].any()
+    # the candidates not redone cost no confirmation iterations
+    assert band["iterations"][sure].sum() < full["iterations"][sure].sum()
+    with pytest.raises(ValueError, match="confirm_below must be >= 1"):
+        shear_at_pressure(r.packing, dg, pressure=1e-4, n_steps=2, confirm_below=0.5)
+    with pytest.raises(ValueError, match="confirm_below must be >= 1"):
+        shear_at_pressure(r.packing, dg, pressure=1e-4, n_steps=2, confirm_below=math.nan)

@@ -119,3 +119,26 @@ def test_cli_resume_keeps_the_confirmation_rule(start, tmp_path):
     assert "--confirm applies to fixed-pressure runs" in one_line_error(r)
     r = jamlab("shear", config, *args, "--confirm", "bisect", "--out", tmp_path / "y.h5")
     assert "--confirm must be 'located', 'continued' or 'chain'" in one_line_error(r)
+
+
+def test_cli_confirm_below(start, tmp_path):
+    # --confirm-below reaches the run (attribute), 'inf' redoes every candidate; the stepping and
+    # every column but the flags are the same; bad values are refused with one line
+    config = tmp_path / "c.h5"
+    write_packing(config, start)
+    args = ["--dgamma", DG, "--gamma-max", 20 * DG, "--pressure", P]
+    traces = {}
+    for k in ("inf", "5"):
+        r = jamlab("shear", config, *args, "--confirm-below", k, "--out", tmp_path / f"{k}.h5")
+        assert r.returncode == 0, r.stderr
+        traces[k] = read_trace(tmp_path / f"{k}.h5")
+    assert traces["inf"].attrs["confirm_below"] == np.inf
+    assert traces["5"].attrs["confirm_below"] == 5.0
+    np.testing.assert_array_equal(traces["inf"].energy, traces["5"].energy)
+    np.testing.assert_array_equal(traces["inf"].shear_stress, traces["5"].shear_stress)
+    r = jamlab("shear", config, *args, "--confirm-below", "0.5", "--out", tmp_path / "x.h5")
+    assert "--confirm-below must be >= 1" in one_line_error(r)
+    r = jamlab("shear", config, "--dgamma", DG, "--gamma-max", 20 * DG, "--confirm-below", "2",
+               "--out", tmp_path / "y.h5")
+    assert "--confirm-below applies to fixed-pressure runs" in one_line_error(r)
+    assert not (tmp_path / "x.h5").exists() and not (tmp_path / "y.h5").exists()

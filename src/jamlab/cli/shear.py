@@ -226,6 +226,16 @@ def register(app: typer.Typer) -> None:
                 "redone as a chain of pieces) or 'chain' (all candidates).",
             ),
         ] = None,
+        confirm_below: Annotated[
+            float | None,
+            typer.Option(
+                "--confirm-below",
+                help="At fixed pressure: a candidate step that released for certain more "
+                "enthalpy than this many times max(the run's plastic threshold, dgamma^2) is a "
+                "jump without being redone (default 5; 'inf' redoes every candidate; "
+                "docs/aqs.md).",
+            ),
+        ] = None,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -246,6 +256,10 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"--confirm must be 'located', 'continued' or 'chain', got {confirm!r}")
         confirm = "located" if confirm is None else confirm
+        if confirm_below is not None and pressure is None:
+            raise ValueError("--confirm-below applies to fixed-pressure runs: give --pressure too")
+        if confirm_below is not None and not confirm_below >= 1.0:
+            raise ValueError(f"--confirm-below must be >= 1 (or inf), got {confirm_below!r}")
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -301,6 +315,7 @@ def register(app: typer.Typer) -> None:
             pressure=pressure,
             ptol=ptol,
             confirm=confirm,
+            confirm_below=confirm_below,
         )
         tr = result.trace
         protocol = minimizer if pressure is None else f"fixed p={pressure:g}"

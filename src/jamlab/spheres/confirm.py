@@ -31,10 +31,13 @@ reach back so far, the chain's own piece: ``advance`` from the piece's start, FI
 event, and the chain's pieces after it). A piece that keeps more than the bound is a jump, as in
 the chain; otherwise the whole chain decides. ``probe(packing, dh) -> (minimum, V, Σ) | None``.
 
-What it decides differently from the chain (measured in ``docs/aqs.md``): a single step of
-``δγ`` that lands in a lower minimum than quasi-static driving reaches (the 16 pieces jump by less
-than a quarter of the step's drop, or not at all) is a jump here — its end is not the
-continuation of its start, the constant-volume rule — and a kink for the chain.
+A single step of ``δγ`` can land in a lower minimum than quasi-static driving reaches (the 16
+pieces jump by less than a quarter of the step's drop, or not at all): its end is not the
+continuation of its start — the constant-volume rule —, so it is a jump. :func:`jump_located`
+sees that where the end's branch reaches back to the located piece; :func:`jump_in_chain`, given
+the single step's end ``v_end``, compares it with the chain's end (without it, the chain called
+such a step a kink: measured in ``docs/aqs.md``, e.g. a step of N = 1000, p = 1e-4 whose
+residual was 70 times the run's plastic threshold, its chain's largest piece 7 % of it).
 """
 
 from __future__ import annotations
@@ -57,20 +60,24 @@ def trapezoid_residual(v0: float, s0: float, v1: float, s1: float, step: float) 
 
 def jump_in_chain(
     advance: Advance, start: Packing, v0: float, s0: float, step: float, r_step: float, k: int,
-    share: float = 0.25,
+    share: float = 0.25, v_end: float | None = None,
 ) -> tuple[bool, int]:
     """The step from ``start`` (at potential ``v0``, stress ``s0``) redone in ``k`` pieces one
     after the other: True as soon as one keeps more than ``share · |r_step|`` (the rest are not
-    computed), False when none does; and the inner iterations spent."""
+    computed); when none does, True if the single step's own end minimum (potential ``v_end``,
+    if given) lies lower than the chain's end by more than that bound — the single step left
+    the branches quasi-static driving follows, into a lower minimum: a jump, as in
+    :func:`jump_located` —, else False; and the inner iterations spent."""
     cur, v, s = start, v0, s0
     iterations = 0
+    bound = share * abs(r_step)
     for _ in range(k):
         cur, v2, s2, its = advance(cur, step / k)
         iterations += its
-        if abs(trapezoid_residual(v, s, v2, s2, step / k)) > share * abs(r_step):
+        if abs(trapezoid_residual(v, s, v2, s2, step / k)) > bound:
             return True, iterations
         v, s = v2, s2
-    return False, iterations
+    return v_end is not None and v - v_end > bound, iterations
 
 
 def jump_located(
@@ -123,5 +130,5 @@ def jump_located(
         calls[0] += 1
         return advance(packing, dh)
 
-    jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share)
+    jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share, v1)
     return (True if jump else None), calls[0]

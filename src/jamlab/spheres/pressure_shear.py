@@ -32,7 +32,8 @@ displacements amplify the stiffness change): measured 0.15–0.22 ``δγ²`` at 
 p = 1e-3 (``docs/aqs.md``). So a candidate is redone from the previous minimum in
 ``confirm_substeps`` (16) pieces (:func:`jamlab.spheres.confirm.jump_in_chain`): a jump keeps its
 residual in one piece (``≈ r_n``), a kink leaves ``≲ r_n/k`` per piece; the step is **plastic**
-when one piece keeps more than ``|r_n|/4``, it lies between two jammed minima, and
+when one piece keeps more than ``|r_n|/4`` (or the single step's end lies lower than the chain's
+end by more than that: it left the quasi-static branches), it lies between two jammed minima, and
 ``|r_n| > max(10 σ, plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's
 jammed steps, :func:`~jamlab.analysis.avalanches.noise_floor`). With the Newton inner minimiser
 and ``confirm="continued"`` a candidate whose every inner problem Newton solved
@@ -51,7 +52,10 @@ in ``docs/aqs.md``. By default the redoing is deferred
 (``defer_confirmation``): a candidate is kept and, once the run's threshold is known, redone only
 if ``|r_n|`` passes it between two jammed minima — the others cannot be plastic whatever their
 verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two thirds of the candidates, since the noise of
-``r_n`` puts the threshold ~50× above the candidates' floor). ``confirm_substeps=0`` skips the
+``r_n`` puts the threshold ~50× above the candidates' floor), and of those only the ones that
+did not release for certain more than ``confirm_below`` (5) times ``max(threshold, δγ²)``
+(:func:`released_at_least`; the others are jumps: ``docs/aqs.md``, measured).
+``confirm_substeps=0`` skips the
 confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
 ``S = −ΔH_n > 0`` of the flagged steps follow from
 :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
@@ -75,8 +79,12 @@ from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rat
 from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace, jump_columns
 
-__all__ = ["FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS", "PressureShearResult",
-           "minimizer_attribute", "shear_at_pressure"]
+__all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS",
+           "PressureShearResult", "minimizer_attribute", "released_at_least", "shear_at_pressure"]
+
+CONFIRM_BELOW: float = 5.0
+"""Default ``confirm_below`` of :func:`shear_at_pressure`: a candidate step that released for
+certain more than this many times ``max(threshold, δγ²)`` is a jump without being redone."""
 
 CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 """Which candidate steps are redone in ``confirm_substeps`` pieces, and how (module docstring):
@@ -87,11 +95,14 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 event), the chain only where that piece does not show a jump (plain FIRE: ``continued``)."""
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
-                                     "n_candidates_below_threshold", "n_candidates_located")
+                                     "n_candidates_below_threshold", "n_candidates_located",
+                                     "n_candidates_sure")
 """Trace attributes: candidate steps, those of them not redone because Newton continued,
 (``defer_confirmation``) those not redone because they cannot be plastic (``|r_n|`` at or below
-the run's final threshold, or an unjammed end), and (``confirm="located"``) those decided a
-jump on the located piece, without the chain."""
+the run's final threshold, or an unjammed end), (``confirm="located"``) those decided a
+jump on the located piece, without the chain, and (``defer_confirmation``) those not redone
+because they released for certain more than ``confirm_below · max(threshold, δγ²)`` (a jump:
+:func:`released_at_least`)."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
@@ -246,6 +257,7 @@ def shear_at_pressure(
     confirm_substeps: int = 16,
     confirm: str = "located",
     defer_confirmation: bool = True,
+    confirm_below: float = CONFIRM_BELOW,
     extrapolate_volume: bool = True,
     minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
@@ -283,6 +295,14 @@ def shear_at_pressure(
     at a checkpoint, all kept so far (so a resumed run needs nothing that the trace does not
     hold). The flags are those of the immediate rule (``False``: every candidate redone when it
     happens, e.g. to study the verdicts themselves); only the steps' order of work differs.
+
+    ``confirm_below`` (default 5): a candidate that released for certain more than
+    ``confirm_below · max(threshold, δγ²)`` (:func:`released_at_least`: ``−r_n − ½ δγ |G δγ −
+    ΔΣ_n|``) is plastic without the confirmation — a kink releases nothing and the stress drop
+    of a small event is accounted for; no candidate the confirmation rejected came near
+    (``docs/aqs.md``, measured) — and with ``defer_confirmation`` it is not redone.
+    ``math.inf`` confirms every candidate (the rule before). The stepping, and so every column
+    but ``plastic`` and ``iterations`` (which counts the confirmation's), does not depend on it.
     """
     if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
@@ -300,6 +320,9 @@ def shear_at_pressure(
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if confirm not in CONFIRMS:
         raise ValueError(f"confirm must be one of {', '.join(CONFIRMS)}, got {confirm!r}")
+    if not (isinstance(confirm_below, int | float) and confirm_below >= 1.0):
+        raise ValueError(f"confirm_below must be >= 1 (math.inf: confirm every candidate), "
+                         f"got confirm_below={confirm_below!r}")
     if previous is not None and previous.attrs.get("confirm", "chain") != confirm:
         raise ValueError(f"confirm={confirm!r} differs from the run being resumed "
                          f"({previous.attrs.get('confirm', 'chain')!r})")
@@ -383,16 +406,19 @@ def shear_at_pressure(
                 on_save(n, _result(rows, confirmed[: n + 1], continued[: n + 1], cur,
                                    counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
                                    plastic_floor, confirm_substeps, confirm, packing, minimizer,
-                                   relaxer, defer_confirmation))
+                                   relaxer, defer_confirmation, confirm_below))
     if pending:
-        # the run's threshold is known now: redo only the kept candidates that can be plastic
-        can = _can_be_plastic(rows, dgamma, plastic_floor)
+        # the run's threshold is known now: redo only the kept candidates that can be plastic,
+        # and of those only the ones whose residual leaves room for a kink (|r_n| at most
+        # confirm_below times the threshold; _result flags the others)
+        can, sure = _can_be_plastic(rows, dgamma, plastic_floor, confirm_below)
         counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
-        _confirm([c for c in pending if can[c[0]]], rows, confirmed, pressure, kw,
-                 confirm_substeps, confirm, counts)
+        counts["n_candidates_sure"] += sum(bool(sure[n]) for n, *_ in pending)
+        _confirm([c for c in pending if can[c[0]] and not sure[c[0]]], rows, confirmed,
+                 pressure, kw, confirm_substeps, confirm, counts)
     return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
                    pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
-                   minimizer, relaxer, defer_confirmation)
+                   minimizer, relaxer, defer_confirmation, confirm_below)
 
 
 def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
@@ -418,7 +444,7 @@ def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, 
                 counts["n_candidates_located"] += 1
                 continue
         confirmed[n], extra = jump_in_chain(
-            _advance(pressure, kw, slope), start, v0, s0, step, r, k)
+            _advance(pressure, kw, slope), start, v0, s0, step, r, k, v_end=rows["enthalpy"][n])
         rows["iterations"][n] += extra
     pending.clear()
 
@@ -455,18 +481,41 @@ def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxe
 
 
 def _plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,
-                       dgamma: float, plastic_floor: float) -> tuple[float, np.ndarray]:
+                       dgamma: float, plastic_floor: float,
+                       confirm_below: float) -> tuple[float, np.ndarray, np.ndarray]:
     """The run's threshold of the plastic flag and, per row, whether the step passes it (the
     flag before the confirmation of candidates): ``|r_n| > max(10 σ, plastic_floor δγ²)`` between
-    two jammed minima (module docstring). NaN and no step with fewer than 3 jammed steps."""
+    two jammed minima (module docstring); and whether it is a jump without confirmation
+    (:func:`released_at_least` above ``confirm_below · max(threshold, δγ²)``). NaN and no step
+    with fewer than 3 jammed steps."""
     passes = np.zeros(g.shape, dtype=bool)
+    sure = np.zeros(g.shape, dtype=bool)
     if np.count_nonzero(jammed_steps(jammed)) < 3:
-        return math.nan, passes
-    nf = noise_floor(hj[1:], sj[1:], np.diff(g), jammed=jammed)
+        return math.nan, passes, sure
+    steps = np.diff(g)
+    nf = noise_floor(hj[1:], sj[1:], steps, jammed=jammed)
     threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
-    resid = branch_residual(hj[1:], sj[1:], np.diff(g))
+    resid = branch_residual(hj[1:], sj[1:], steps)
     passes[1:] = jammed_steps(jammed) & (np.abs(resid) > threshold)
-    return threshold, passes
+    if math.isfinite(confirm_below):
+        least = released_at_least(resid, sj[1:], steps, nf.modulus)
+        sure[1:] = passes[1:] & (least > confirm_below * max(threshold, dgamma**2))
+    return threshold, passes, sure
+
+
+def released_at_least(resid: np.ndarray, stress_jump: np.ndarray, steps: np.ndarray,
+                      modulus: float) -> np.ndarray:
+    """A lower bound of the enthalpy a step released, from its residual ``r_n`` alone.
+
+    On a branch of modulus ``G`` (extensive, ``dΣ/dγ``) left at the fraction ``a`` of the step
+    for one ``S`` lower, where the stress drops by ``D = G δγ − ΔΣ_n``: ``ΔH_n = G δγ²/2 −
+    D δγ (1 − a) − S`` and ``ΔΣ_n = G δγ − D``, so ``r_n = −S − D δγ (½ − a)``. Whatever ``a``,
+    ``S ≥ −r_n − ½ δγ |D|``: a residual can come from a stress drop that released almost
+    nothing (near jamming a large ``D`` costs little enthalpy), and only what is left beyond
+    ``½ δγ |D|`` is released for certain. ``G``: the run's median modulus on elastic steps
+    (:attr:`~jamlab.analysis.avalanches.NoiseFloor.modulus`)."""
+    drop = modulus * steps - stress_jump
+    return -resid - 0.5 * steps * np.abs(drop)
 
 
 def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -476,10 +525,12 @@ def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return g, hj, sj, np.asarray(rows["jammed"], dtype=np.bool_)
 
 
-def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float) -> np.ndarray:
-    """Per row: the step passes the run's threshold (:func:`_plastic_threshold`)."""
+def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
+                    confirm_below: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the step passes the run's threshold, and it is a jump without confirmation
+    (:func:`_plastic_threshold`)."""
     g, hj, sj, jammed = _jumps(rows)
-    return _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor)[1]
+    return _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor, confirm_below)[1:]
 
 
 def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
@@ -516,7 +567,7 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
 
 def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
             ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
-            defer_confirmation) -> PressureShearResult:
+            defer_confirmation, confirm_below) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
@@ -527,9 +578,13 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
     confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
     g, hj, sj, jammed = _jumps(rows)
     cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
-    threshold, plastic = _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor)
+    threshold, plastic, sure = _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
+                                                  confirm_below)
     if confirm_substeps > 1:
-        plastic &= confirmed
+        if confirm != "chain":
+            # a candidate Newton continued is a kink and never redone: not one to spare
+            sure &= ~np.asarray(continued[: sure.size], dtype=bool)
+        plastic &= confirmed | sure
     cols["plastic"] = plastic
     attrs = {
         "protocol": "fixed-pressure",
@@ -548,6 +603,7 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
         "confirm_substeps": int(confirm_substeps),
         "confirm": confirm,
         "confirm_deferred": int(bool(defer_confirmation)),
+        "confirm_below": float(confirm_below),
         **{k: int(v) for k, v in counts.items()},
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),

@@ -84,6 +84,7 @@ def shear(
     pressure: float | None = None,
     ptol: float = 1e-6,
     confirm: str = "located",
+    confirm_below: float | None = None,
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
@@ -112,7 +113,10 @@ def shear(
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
     is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` picks the inner minimiser, ``params``
     does not apply). ``confirm``: which candidate plastic steps a fixed-pressure run redoes in
-    pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`). Every trace has the
+    pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`), and ``confirm_below`` how far above the
+    run's threshold a candidate is a jump without being redone (``None``: the default
+    :data:`~jamlab.spheres.pressure_shear.CONFIRM_BELOW`; ``math.inf``: never). Every
+    trace has the
     ``jammed`` column.
 
     Parameters
@@ -126,7 +130,7 @@ def shear(
     minimizer, ftol, classify, params, fire_params
         The step method and its tolerances (see above and :class:`AQSParameters`).
     save_every, out, previous, source, progress, after_step, keep_avalanches, \
-avalanche_threshold, pressure, ptol, confirm
+avalanche_threshold, pressure, ptol, confirm, confirm_below
         Checkpoints, resume, bookkeeping and options (see above).
 
     Returns
@@ -183,6 +187,7 @@ avalanche_threshold, pressure, ptol, confirm
             source,
             progress,
             confirm,
+            confirm_below,
             keep_avalanches,
             avalanche_threshold,
         )
@@ -371,6 +376,7 @@ def _shear_at_pressure(
     source,
     progress,
     confirm,
+    confirm_below,
     keep_avalanches,
     avalanche_threshold,
 ) -> ShearResult:
@@ -379,7 +385,7 @@ def _shear_at_pressure(
     FIRE. ``keep_avalanches``: the minima of every step that may end up plastic are kept in
     memory during the run (``on_candidate`` of :func:`shear_at_pressure`), and the avalanche
     rows of the steps flagged plastic are measured on them once the verdicts are known."""
-    from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, shear_at_pressure
+    from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
     validation.positive("pressure", pressure)
     validation.positive("ptol", ptol)
@@ -427,6 +433,7 @@ def _shear_at_pressure(
         fire_params=fire_params,
         minimizer=FROM_AQS_OPTION[minimizer],
         confirm=confirm,
+        confirm_below=CONFIRM_BELOW if confirm_below is None else confirm_below,
         progress=progress,
         previous=previous,
         save_every=save_every,
