@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import pickle
 import subprocess
@@ -52,7 +53,9 @@ def start(n: int, p: float, seed: int, cache: Path):
 
 
 VARIANTS: dict[str, dict] = {
-    "newton": {"minimizer": "newton"},  # the default (confirm="located", deferred)
+    "newton": {"minimizer": "newton"},  # the default (confirm="located", deferred, band 3)
+    # every candidate that can be plastic redone, whatever its residual (the rule before the band)
+    "newton-all": {"minimizer": "newton", "confirm_below": math.inf},
     "newton-continued": {"minimizer": "newton", "confirm": "continued"},
     "newton-now": {"minimizer": "newton", "defer_confirmation": False},
     "newton-chain": {"minimizer": "newton", "confirm": "chain"},

@@ -7,7 +7,9 @@ all redone; Newton minimiser), with the located confirmation against it (``--com
 located``: each redone candidate first decided on the piece where the branch ends, by Newton
 alone), or with the relaxations' Verlet skin
 (:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
-which changes only rounding). Paired comparison per sample (plastic flags equal, the sizes
+which changes only rounding), or with the candidates that surely released enough not redone
+(``--compare band``: ``confirm_below`` 5, the default, against every candidate redone).
+Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
 
@@ -18,6 +20,7 @@ two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
 from __future__ import annotations
 
 import argparse
+import math
 import time
 
 import numpy as np
@@ -40,6 +43,7 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
     "located": (("located", {"confirm": "located"}), ("continued", {"confirm": "continued"})),
     "skin": (("skin 0.1", {}), ("skin 0.2", {})),
+    "band": (("band 5", {"confirm_below": 5.0}), ("all redone", {"confirm_below": math.inf})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
