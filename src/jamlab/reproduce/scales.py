@@ -79,16 +79,19 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 10.8 CPU-hours ≈ 5.4 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
+    "≈ 10.5 CPU-hours ≈ 5.3 h on 2 cores, projected (a session cannot host it; docs/reproduce.md): "
     "constant volume ≈ 1.8 CPU-h from benchmarks/bench_jamming.py (δγ = 1e-5, idle machine, two "
     "packings per N: 0.03–0.32 s/step at N = 500, 1.1–2.8 s/step at N = 1000, 3 samples each; a "
-    "packing that hovers at the edge of jamming costs up to 10× more); fixed pressure ≈ 8.6 CPU-h: "
+    "packing that hovers at the edge of jamming costs up to 10× more); fixed pressure ≈ 8.3 CPU-h: "
     "N = 500 from the measured fraction (scripts/medium_fraction.py, 20 samples per p: mean "
     "268 s per 1000-step sample at p = 1e-5, 135 s at 1e-4, 47 s at 1e-3, 28 s at 1e-2), N = 1000 "
-    "measured at p = 1e-4 (20 samples, 2873 avalanches; 302 CPU s per sample on 4 of them) and "
-    "scaled from N = 500 by that ratio (2.24×) at the other p "
+    "measured at p = 1e-4 (20 samples, 2873 avalanches; 302 CPU s per sample on 4 of them), "
+    "1e-3 (20 samples, 81 CPU s each) and 1e-2 (20 samples, 39 CPU s each), and at p = 1e-5 "
+    "scaled from N = 500 by the ratio at 1e-4 (2.24×); the earlier measurements predate the "
+    "confirmation band (confirm_below, 1.2–1.4× faster at N ≥ 1000, docs/aqs.md) "
     "— τ with an exponential cut-off at N = 500: 1.472 ± 0.029 (p = 1e-5), 1.397 ± 0.045 (1e-4), "
-    "1.144 ± 0.023 (1e-3), 1.213 ± 0.070 (1e-2); at N = 1000, p = 1e-4: 1.338 ± 0.035; with a "
+    "1.144 ± 0.023 (1e-3), 1.213 ± 0.070 (1e-2); at N = 1000: 1.338 ± 0.035 (1e-4), "
+    "1.206 ± 0.044 (1e-3), 1.117 ± 0.057 (1e-2); with a "
     "window systematic of about ±0.1 (the truncated power law at N = 500: 1.737 ± 0.081, "
     "1.601 ± 0.072, 1.207 ± 0.122, 1.256 ± 0.082)"
 )
