@@ -8,7 +8,7 @@ can be plastic redone (``confirm_below=math.inf``). A candidate is redone when i
 the run's threshold between two jammed minima and Newton did not continue it; its verdict is
 ``confirmed`` (True: a jump). Printed per candidate the confirmation called a kink: its residual
 ``r_n`` in units of ``δγ²`` and of the threshold, and the lower bound of the enthalpy it released,
-:func:`jamlab.spheres.pressure_shear.released_at_least`, in units of ``max(threshold, δγ²)``
+:func:`jamlab.spheres.confirm.released_at_least`, in units of ``max(threshold, δγ²)``
 (the scale of ``confirm_below``). Per case: the candidates redone, the kinks, the largest bound
 of a kink, and how many candidates ``confirm_below = 2, 3, 5`` would not redo. ``--json`` keeps
 every redone candidate.
@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
-from jamlab.spheres.pressure_shear import released_at_least, shear_at_pressure
+from jamlab.spheres.confirm import released_at_least
+from jamlab.spheres.pressure_shear import shear_at_pressure
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_pressure.py"
 BANDS = (2.0, 3.0, 5.0)

@@ -15,9 +15,14 @@ import numpy as np
 import pytest
 
 from jamlab.analysis.avalanches import noise_floor
-from jamlab.spheres.confirm import jump_in_chain, jump_located, trapezoid_residual
+from jamlab.spheres.confirm import (
+    jump_in_chain,
+    jump_located,
+    released_at_least,
+    trapezoid_residual,
+)
 from jamlab.spheres.packing import jam
-from jamlab.spheres.pressure_shear import released_at_least, shear_at_pressure
+from jamlab.spheres.pressure_shear import shear_at_pressure
 
 
 class Branch:

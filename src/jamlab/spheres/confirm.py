@@ -42,11 +42,16 @@ residual was 70 times the run's plastic threshold, its chain's largest piece 7 %
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
+import numpy as np
+
+from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.potential import Packing
 
-__all__ = ["Advance", "Probe", "jump_in_chain", "jump_located", "trapezoid_residual"]
+__all__ = ["Advance", "Probe", "jump_in_chain", "jump_located", "plastic_threshold",
+           "released_at_least", "trapezoid_residual"]
 
 Advance = Callable[[Packing, float], tuple[Packing, float, float, int]]
 Probe = Callable[[Packing, float], "tuple[Packing, float, float] | None"]
@@ -132,3 +137,41 @@ def jump_located(
 
     jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share, v1)
     return (True if jump else None), calls[0]
+
+
+def plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,
+                      dgamma: float, plastic_floor: float,
+                      confirm_below: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """The run's threshold of the plastic flag and, per row, whether the step passes it (the
+    flag before the confirmation of candidates): ``|r_n| > max(10 σ, plastic_floor δγ²)`` between
+    two jammed minima (:mod:`jamlab.spheres.pressure_shear`); and whether it is a jump without
+    confirmation (:func:`released_at_least` above ``confirm_below · max(threshold, δγ²)``).
+    NaN and no step with fewer than 3 jammed steps."""
+    passes = np.zeros(g.shape, dtype=bool)
+    sure = np.zeros(g.shape, dtype=bool)
+    if np.count_nonzero(jammed_steps(jammed)) < 3:
+        return math.nan, passes, sure
+    steps = np.diff(g)
+    nf = noise_floor(hj[1:], sj[1:], steps, jammed=jammed)
+    threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
+    resid = branch_residual(hj[1:], sj[1:], steps)
+    passes[1:] = jammed_steps(jammed) & (np.abs(resid) > threshold)
+    if math.isfinite(confirm_below):
+        least = released_at_least(resid, sj[1:], steps, nf.modulus)
+        sure[1:] = passes[1:] & (least > confirm_below * max(threshold, dgamma**2))
+    return threshold, passes, sure
+
+
+def released_at_least(resid: np.ndarray, stress_jump: np.ndarray, steps: np.ndarray,
+                      modulus: float) -> np.ndarray:
+    """A lower bound of the enthalpy a step released, from its residual ``r_n`` alone.
+
+    On a branch of modulus ``G`` (extensive, ``dΣ/dγ``) left at the fraction ``a`` of the step
+    for one ``S`` lower, where the stress drops by ``D = G δγ − ΔΣ_n``: ``ΔH_n = G δγ²/2 −
+    D δγ (1 − a) − S`` and ``ΔΣ_n = G δγ − D``, so ``r_n = −S − D δγ (½ − a)``. Whatever ``a``,
+    ``S ≥ −r_n − ½ δγ |D|``: a residual can come from a stress drop that released almost
+    nothing (near jamming a large ``D`` costs little enthalpy), and only what is left beyond
+    ``½ δγ |D|`` is released for certain. ``G``: the run's median modulus on elastic steps
+    (:attr:`~jamlab.analysis.avalanches.NoiseFloor.modulus`)."""
+    drop = modulus * steps - stress_jump
+    return -resid - 0.5 * steps * np.abs(drop)

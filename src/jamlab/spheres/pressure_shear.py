@@ -54,8 +54,8 @@ if ``|r_n|`` passes it between two jammed minima — the others cannot be plasti
 verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two thirds of the candidates, since the noise of
 ``r_n`` puts the threshold ~50× above the candidates' floor), and of those only the ones that
 did not release for certain more than ``confirm_below`` (5) times ``max(threshold, δγ²)``
-(:func:`released_at_least`; the others are jumps: ``docs/aqs.md``, measured).
-``confirm_substeps=0`` skips the
+(:func:`~jamlab.spheres.confirm.released_at_least`; the others are jumps: ``docs/aqs.md``,
+measured). ``confirm_substeps=0`` skips the
 confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
 ``S = −ΔH_n > 0`` of the flagged steps follow from
 :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
@@ -70,9 +70,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.barostat import minimize_enthalpy
-from jamlab.spheres.confirm import jump_in_chain, jump_located, trapezoid_residual
+from jamlab.spheres.confirm import (
+    jump_in_chain,
+    jump_located,
+    plastic_threshold,
+    trapezoid_residual,
+)
 from jamlab.spheres.fire import FireParameters
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
@@ -80,7 +84,7 @@ from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace, jump_columns
 
 __all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS",
-           "PressureShearResult", "minimizer_attribute", "released_at_least", "shear_at_pressure"]
+           "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
 
 CONFIRM_BELOW: float = 5.0
 """Default ``confirm_below`` of :func:`shear_at_pressure`: a candidate step that released for
@@ -102,7 +106,7 @@ CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
 the run's final threshold, or an unjammed end), (``confirm="located"``) those decided a
 jump on the located piece, without the chain, and (``defer_confirmation``) those not redone
 because they released for certain more than ``confirm_below · max(threshold, δγ²)`` (a jump:
-:func:`released_at_least`)."""
+:func:`~jamlab.spheres.confirm.released_at_least`)."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
@@ -297,10 +301,11 @@ def shear_at_pressure(
     happens, e.g. to study the verdicts themselves); only the steps' order of work differs.
 
     ``confirm_below`` (default 5): a candidate that released for certain more than
-    ``confirm_below · max(threshold, δγ²)`` (:func:`released_at_least`: ``−r_n − ½ δγ |G δγ −
-    ΔΣ_n|``) is plastic without the confirmation — a kink releases nothing and the stress drop
-    of a small event is accounted for; no candidate the confirmation rejected came near
-    (``docs/aqs.md``, measured) — and with ``defer_confirmation`` it is not redone.
+    ``confirm_below · max(threshold, δγ²)`` (:func:`~jamlab.spheres.confirm.released_at_least`:
+    ``−r_n − ½ δγ |G δγ − ΔΣ_n|``) is plastic without the confirmation — a kink releases
+    nothing and the stress drop of a small event is accounted for; no candidate the
+    confirmation rejected came near (``docs/aqs.md``, measured) — and with
+    ``defer_confirmation`` it is not redone.
     ``math.inf`` confirms every candidate (the rule before). The stepping, and so every column
     but ``plastic`` and ``iterations`` (which counts the confirmation's), does not depend on it.
     """
@@ -480,44 +485,6 @@ def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxe
     return probe
 
 
-def _plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,
-                       dgamma: float, plastic_floor: float,
-                       confirm_below: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """The run's threshold of the plastic flag and, per row, whether the step passes it (the
-    flag before the confirmation of candidates): ``|r_n| > max(10 σ, plastic_floor δγ²)`` between
-    two jammed minima (module docstring); and whether it is a jump without confirmation
-    (:func:`released_at_least` above ``confirm_below · max(threshold, δγ²)``). NaN and no step
-    with fewer than 3 jammed steps."""
-    passes = np.zeros(g.shape, dtype=bool)
-    sure = np.zeros(g.shape, dtype=bool)
-    if np.count_nonzero(jammed_steps(jammed)) < 3:
-        return math.nan, passes, sure
-    steps = np.diff(g)
-    nf = noise_floor(hj[1:], sj[1:], steps, jammed=jammed)
-    threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
-    resid = branch_residual(hj[1:], sj[1:], steps)
-    passes[1:] = jammed_steps(jammed) & (np.abs(resid) > threshold)
-    if math.isfinite(confirm_below):
-        least = released_at_least(resid, sj[1:], steps, nf.modulus)
-        sure[1:] = passes[1:] & (least > confirm_below * max(threshold, dgamma**2))
-    return threshold, passes, sure
-
-
-def released_at_least(resid: np.ndarray, stress_jump: np.ndarray, steps: np.ndarray,
-                      modulus: float) -> np.ndarray:
-    """A lower bound of the enthalpy a step released, from its residual ``r_n`` alone.
-
-    On a branch of modulus ``G`` (extensive, ``dΣ/dγ``) left at the fraction ``a`` of the step
-    for one ``S`` lower, where the stress drops by ``D = G δγ − ΔΣ_n``: ``ΔH_n = G δγ²/2 −
-    D δγ (1 − a) − S`` and ``ΔΣ_n = G δγ − D``, so ``r_n = −S − D δγ (½ − a)``. Whatever ``a``,
-    ``S ≥ −r_n − ½ δγ |D|``: a residual can come from a stress drop that released almost
-    nothing (near jamming a large ``D`` costs little enthalpy), and only what is left beyond
-    ``½ δγ |D|`` is released for certain. ``G``: the run's median modulus on elastic steps
-    (:attr:`~jamlab.analysis.avalanches.NoiseFloor.modulus`)."""
-    drop = modulus * steps - stress_jump
-    return -resid - 0.5 * steps * np.abs(drop)
-
-
 def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(γ, ΔH_n, ΔΣ_n, jammed)`` of the rows (NaN jumps in row 0)."""
     g = np.asarray(rows["gamma"], dtype=np.float64)
@@ -528,9 +495,9 @@ def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
                     confirm_below: float) -> tuple[np.ndarray, np.ndarray]:
     """Per row: the step passes the run's threshold, and it is a jump without confirmation
-    (:func:`_plastic_threshold`)."""
+    (:func:`~jamlab.spheres.confirm.plastic_threshold`)."""
     g, hj, sj, jammed = _jumps(rows)
-    return _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor, confirm_below)[1:]
+    return plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor, confirm_below)[1:]
 
 
 def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
@@ -578,7 +545,7 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
     confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
     g, hj, sj, jammed = _jumps(rows)
     cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
-    threshold, plastic, sure = _plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
+    threshold, plastic, sure = plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
                                                   confirm_below)
     if confirm_substeps > 1:
         if confirm != "chain":
