@@ -53,7 +53,7 @@ def start(n: int, p: float, seed: int, cache: Path):
 
 
 VARIANTS: dict[str, dict] = {
-    "newton": {"minimizer": "newton"},  # the default (confirm="located", deferred, band 3)
+    "newton": {"minimizer": "newton"},  # the default (confirm="located", deferred, confirm_below 5)
     # every candidate that can be plastic redone, whatever its residual (the rule before the band)
     "newton-all": {"minimizer": "newton", "confirm_below": math.inf},
     "newton-continued": {"minimizer": "newton", "confirm": "continued"},

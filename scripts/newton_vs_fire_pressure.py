@@ -8,7 +8,7 @@ located``: each redone candidate first decided on the piece where the branch end
 alone), or with the relaxations' Verlet skin
 (:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
 which changes only rounding), or with the candidates that surely released enough not redone
-(``--compare band``: ``confirm_below`` 5, the default, against every candidate redone).
+(``--compare band``: the default ``confirm_below`` against every candidate redone).
 Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
@@ -30,7 +30,7 @@ from jamlab.analysis.powerlaw import fit_power_law
 from jamlab.spheres import barostat, newton_relax
 from jamlab.spheres.aqs import driver
 from jamlab.spheres.packing import jam
-from jamlab.spheres.pressure_shear import shear_at_pressure
+from jamlab.spheres.pressure_shear import CONFIRM_BELOW, shear_at_pressure
 
 
 def seeds(text: str) -> list[int]:
@@ -43,7 +43,8 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
     "located": (("located", {"confirm": "located"}), ("continued", {"confirm": "continued"})),
     "skin": (("skin 0.1", {}), ("skin 0.2", {})),
-    "band": (("band 5", {"confirm_below": 5.0}), ("all redone", {"confirm_below": math.inf})),
+    "band": (("band (default)", {"confirm_below": CONFIRM_BELOW}),
+             ("all redone", {"confirm_below": math.inf})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 

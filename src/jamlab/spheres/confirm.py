@@ -149,13 +149,14 @@ def plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.
     NaN and no step with fewer than 3 jammed steps."""
     passes = np.zeros(g.shape, dtype=bool)
     sure = np.zeros(g.shape, dtype=bool)
-    if np.count_nonzero(jammed_steps(jammed)) < 3:
+    both = jammed_steps(jammed)
+    if np.count_nonzero(both) < 3:
         return math.nan, passes, sure
     steps = np.diff(g)
     nf = noise_floor(hj[1:], sj[1:], steps, jammed=jammed)
     threshold = max(nf.threshold(10.0), plastic_floor * dgamma**2)
     resid = branch_residual(hj[1:], sj[1:], steps)
-    passes[1:] = jammed_steps(jammed) & (np.abs(resid) > threshold)
+    passes[1:] = both & (np.abs(resid) > threshold)
     if math.isfinite(confirm_below):
         least = released_at_least(resid, sj[1:], steps, nf.modulus)
         sure[1:] = passes[1:] & (least > confirm_below * max(threshold, dgamma**2))

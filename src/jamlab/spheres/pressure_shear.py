@@ -414,8 +414,8 @@ def shear_at_pressure(
                                    relaxer, defer_confirmation, confirm_below))
     if pending:
         # the run's threshold is known now: redo only the kept candidates that can be plastic,
-        # and of those only the ones whose residual leaves room for a kink (|r_n| at most
-        # confirm_below times the threshold; _result flags the others)
+        # and of those only the ones that did not surely release more than confirm_below ·
+        # max(threshold, δγ²) (released_at_least; _result flags the others)
         can, sure = _can_be_plastic(rows, dgamma, plastic_floor, confirm_below)
         counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
         counts["n_candidates_sure"] += sum(bool(sure[n]) for n, *_ in pending)

@@ -113,11 +113,10 @@ def shear(
     ``max|F_i| < ftol`` and ``|p − p_t| ≤ max(ptol·p_t, p_floor)``; the trace's ``energy`` column
     is the enthalpy, ``phi`` is ``φ(γ)``; ``minimizer`` picks the inner minimiser, ``params``
     does not apply). ``confirm``: which candidate plastic steps a fixed-pressure run redoes in
-    pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`), and ``confirm_below`` how far above the
-    run's threshold a candidate is a jump without being redone (``None``: the default
-    :data:`~jamlab.spheres.pressure_shear.CONFIRM_BELOW`; ``math.inf``: never). Every
-    trace has the
-    ``jammed`` column.
+    pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`), and ``confirm_below`` how many times
+    ``max(threshold, δγ²)`` a candidate must surely have released to be a jump without being
+    redone (``None``: the default :data:`~jamlab.spheres.pressure_shear.CONFIRM_BELOW`;
+    ``math.inf``: every candidate redone). Every trace has the ``jammed`` column.
 
     Parameters
     ----------
