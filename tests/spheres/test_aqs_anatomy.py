@@ -317,8 +317,14 @@ def test_resume_after_an_interruption_keeps_the_earlier_records(run, tmp_path):
     np.testing.assert_array_equal(got["step"], ref["step"])
     for key in ("n_opened", "n_closed", "localized", "n_moved"):
         np.testing.assert_array_equal(got[key], ref[key])
-    for key in ("participation", "energy_jump", "elastic_fraction"):
+    for key in ("participation", "energy_jump"):
         np.testing.assert_allclose(got[key], ref[key], rtol=1e-6)
+    # the reference restarts at every step (save_every=1), this run every 20: their minima agree
+    # to the minimiser's precision, not bit for bit, and a small elastic fraction (a ratio of
+    # squared displacements) differs by 3.6e-7 of 1 (0.0128 against 0.0128 + 3.6e-7, measured
+    # with the CHOLMOD preconditioner; 1e-6 relative with SuperLU's): compared on its own scale
+    np.testing.assert_allclose(got["elastic_fraction"], ref["elastic_fraction"], rtol=1e-6,
+                               atol=1e-6)
 
 
 def test_resume_without_the_records_is_refused(run, tmp_path):

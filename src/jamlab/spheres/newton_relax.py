@@ -13,7 +13,8 @@ weakest contacts (overlaps ``≲ δγ``) that the minimum closes again, while a 
 the parent minimum's backbone contacts (every pair a spring, in tension too: smooth, two or
 three Newton steps), on the free backbone (rattlers and one pinned particle held), each solve
 PCG preconditioned by a stored factorisation (:func:`jamlab.spheres.aqs.linalg.factorise`,
-SuperLU ``LDLᵀ`` with its inertia test) of the backbone Hessian at a parent minimum, corrected by
+CHOLMOD's Cholesky: it exists where the matrix is positive definite) of the backbone Hessian at
+a parent minimum, corrected by
 Woodbury terms for the pairs where the network differs from the factor's contacts
 (:meth:`jamlab.spheres.aqs.linalg.Factor.update`, as the constant-volume fast path does); (2) the
 network is replaced by the backbone pairs that overlap at that point, and (1) is repeated until
@@ -277,7 +278,7 @@ class NewtonRelaxer:
         ci, cj, backbone, cd, nl = self._network(parent)
         if (self.fac is None or self.age >= self.refactor_every
                 or not np.array_equal(self.fac.backbone, backbone)):
-            self.fac = factorise(parent, nl, backbone, (ci, cj, cd))
+            self.fac = factorise(parent, nl, backbone, (ci, cj, cd), positive_only=True)
             self.age = 0
             self.counters["n_factorisations"] += 1
         self.age += 1
@@ -322,7 +323,7 @@ class NewtonRelaxer:
                 bb = shrunk
                 ci, cj, keys = _backbone_pairs(ci, cj, bb, packing.n)
                 dr = start.box.minimum_image(start.positions[ci] - start.positions[cj])
-                fac = self.fac = factorise(start, nl, bb, (ci, cj, dr))
+                fac = self.fac = factorise(start, nl, bb, (ci, cj, dr), positive_only=True)
                 self.age = 1
                 self.counters["n_factorisations"] += 1
                 if not _usable(fac):

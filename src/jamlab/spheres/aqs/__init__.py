@@ -7,9 +7,10 @@ Protocol (``SPEC.md`` §3): from a minimum at strain ``γ_n``, shear affinely ``
 Fast elastic steps (``minimizer="linear"``). Let ``H`` be the Hessian at the minimum ``x_n``
 restricted to the *backbone* (rattlers removed, :func:`~jamlab.spheres.potential.remove_rattlers`)
 with one backbone particle pinned (removing the ``d`` global translations), ``K = H[b,b]``,
-factorised with SuperLU in symmetric mode (no row pivoting, METIS nested-dissection order), so
-that ``K = L D Lᵀ`` and the pivots ``D`` have the signs of the eigenvalues of ``K`` (Sylvester's
-law of inertia): all pivots ``> 0`` ⇔ ``K`` positive definite. The factorisation is reused over
+factorised by CHOLMOD's supernodal Cholesky (METIS nested-dissection order), which succeeds
+exactly where ``K`` is positive definite (where it fails, SuperLU's ``K = L D Lᵀ`` without row
+pivoting, whose pivots ``D`` have the signs of the eigenvalues of ``K`` by Sylvester's law of
+inertia; :mod:`jamlab.spheres.aqs.linalg`). The factorisation is reused over
 many steps; contacts that open or close since are added to it as rank-one (Woodbury)
 corrections, whose positive definiteness is decided by inertia additivity
 (:class:`~jamlab.spheres.aqs.linalg.Factor`), and it is redone after plastic steps, backbone

@@ -179,7 +179,7 @@ def continue_network(
         nonlocal refac
         _, dr, _ = network_forces(packing, ci, cj)
         refac += 1
-        fac = factorise(packing, nl, backbone, (ci, cj, dr))
+        fac = factorise(packing, nl, backbone, (ci, cj, dr), positive_only=True)
         return fac if fac.lu is not None and fac.positive_definite else None
 
     def ended() -> Branch:
