@@ -8,7 +8,9 @@ located``: each redone candidate first decided on the piece where the branch end
 alone), or with the relaxations' Verlet skin
 (:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
 which changes only rounding), or with the candidates that surely released enough not redone
-(``--compare band``: the default ``confirm_below`` against every candidate redone).
+(``--compare band``: the default ``confirm_below`` against every candidate redone), or with
+the backbone factorisation (``--compare factorisation``: CHOLMOD's Cholesky against SuperLU's
+``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only).
 Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
@@ -28,7 +30,7 @@ from scipy.stats import ks_2samp
 
 from jamlab.analysis.powerlaw import fit_power_law
 from jamlab.spheres import barostat, newton_relax
-from jamlab.spheres.aqs import driver
+from jamlab.spheres.aqs import driver, linalg
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import CONFIRM_BELOW, shear_at_pressure
 
@@ -45,11 +47,16 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "skin": (("skin 0.1", {}), ("skin 0.2", {})),
     "band": (("band (default)", {"confirm_below": CONFIRM_BELOW}),
              ("all redone", {"confirm_below": math.inf})),
+    "factorisation": (("CHOLMOD", {}), ("SuperLU", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
 SKINS = {"skin 0.1": 0.1, "skin 0.2": 0.2}
 """Variants that set the relaxations' Verlet skin (in every module that reads it)."""
+
+FACTORISATIONS = {"CHOLMOD": "cholmod", "SuperLU": "superlu"}
+"""Variants that set the backbone factorisation (:data:`jamlab.spheres.aqs.linalg.
+FACTORISATION`)."""
 
 
 def set_relax_skin(skin: float) -> None:
@@ -108,6 +115,8 @@ def main() -> None:
         for m in (new, ref):
             if m in SKINS:
                 set_relax_skin(SKINS[m])
+            if m in FACTORISATIONS:
+                linalg.FACTORISATION = FACTORISATIONS[m]
             t = time.process_time()
             runs[m] = res = shear_at_pressure(first.packing, a.dgamma, pressure=a.pressure,
                                               n_steps=a.steps, **options[m])
