@@ -10,7 +10,9 @@ alone), or with the relaxations' Verlet skin
 which changes only rounding), or with the candidates that surely released enough not redone
 (``--compare band``: the default ``confirm_below`` against every candidate redone), or with
 the backbone factorisation (``--compare factorisation``: CHOLMOD's Cholesky against SuperLU's
-``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only).
+``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only), or
+with the Newton relaxer's FIRE fallbacks finished by Newton below ``max|F| = 1e-9`` against FIRE
+to ``ftol`` (``--compare finish``, :data:`jamlab.spheres.newton_relax.FINISH_BELOW`).
 Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
@@ -48,11 +50,16 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "band": (("band (default)", {"confirm_below": CONFIRM_BELOW}),
              ("all redone", {"confirm_below": math.inf})),
     "factorisation": (("CHOLMOD", {}), ("SuperLU", {})),
+    "finish": (("finished by Newton", {}), ("FIRE to ftol", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
 SKINS = {"skin 0.1": 0.1, "skin 0.2": 0.2}
 """Variants that set the relaxations' Verlet skin (in every module that reads it)."""
+
+FINISHES = {"finished by Newton": newton_relax.FINISH_BELOW, "FIRE to ftol": None}
+"""Variants that set how the Newton relaxer's FIRE fallback ends
+(:data:`jamlab.spheres.newton_relax.FINISH_BELOW`)."""
 
 FACTORISATIONS = {"CHOLMOD": "cholmod", "SuperLU": "superlu"}
 """Variants that set the backbone factorisation (:data:`jamlab.spheres.aqs.linalg.
@@ -117,6 +124,8 @@ def main() -> None:
                 set_relax_skin(SKINS[m])
             if m in FACTORISATIONS:
                 linalg.FACTORISATION = FACTORISATIONS[m]
+            if m in FINISHES:
+                newton_relax.FINISH_BELOW = FINISHES[m]
             t = time.process_time()
             runs[m] = res = shear_at_pressure(first.packing, a.dgamma, pressure=a.pressure,
                                               n_steps=a.steps, **options[m])

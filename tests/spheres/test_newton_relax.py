@@ -57,7 +57,9 @@ def test_first_call_is_fire_then_newton_finds_fires_minimum(minimum):
         assert newton.converged and newton.iterations == 0  # no FIRE iteration was spent
         _same_minimum(newton.packing, fire.packing)
         cur = newton.packing
-    assert relax.counters["n_newton_accepted"] == 6
+    # (the first call's FIRE was finished by Newton, which counts as an accepted Newton call)
+    assert relax.counters["n_fire_finished_by_newton"] == 1
+    assert relax.counters["n_newton_accepted"] == 6 + 1
 
 
 def test_contact_changes_are_followed(minimum):
@@ -177,3 +179,29 @@ def test_newton_only_fails_where_the_relaxer_hands_over_to_fire(minimum):
         if took >= 3 and failed >= 2:
             break
     assert took >= 3 and failed >= 2
+
+
+def test_a_fire_fallback_finished_by_newton_reaches_fires_minimum(minimum):
+    """Where Newton gives a start up (an event), FIRE runs to ``finish_below`` and Newton
+    finishes from there: the same minimum as FIRE all the way to ``ftol`` (energy to 1e-12
+    relative, positions up to the flat directions), forces below ``ftol``, FIRE's iterations
+    counted, and ``finish_below=None`` is FIRE alone."""
+    cur = minimum
+    finished = 0
+    for _ in range(40):
+        start = affine_shear(cur, 5e-4)
+        hybrid, plain = NewtonRelaxer(), NewtonRelaxer(finish_below=None)
+        got = hybrid(start, parent=cur)
+        ref = plain(start, parent=cur)
+        assert plain.counters["n_fire_finished_by_newton"] == 0
+        if hybrid.counters["n_fire_fallbacks"]:
+            assert plain.counters["n_fire_fallbacks"] == 1
+            assert got.converged and got.iterations > 0
+            _same_minimum(got.packing, ref.packing, tol=1e-6)
+            if hybrid.counters["n_fire_finished_by_newton"]:
+                assert got.iterations < ref.iterations
+                finished += 1
+        cur = ref.packing
+        if finished >= 3:
+            break
+    assert finished >= 3
