@@ -7,11 +7,13 @@ that opened or closed, and preconditioned CG.
 is used (a minimum's Hessian; an indefinite one is only *detected*, then not used to
 precondition). SuperLU factorises it as a general ``LU`` with panel updates; CHOLMOD's
 supernodal ``LLᵀ`` (SuiteSparse, through ``cvxopt``, one thread) does half the arithmetic in
-dense blocks. Measured on the pinned backbone Hessians of ``jam(N, 3, seed 1, p = 1e-4)``, the
-same METIS order, CPU time (``benchmarks/bench_factorisation.py``, ``docs/aqs.md``): factorisation
-4.9× (N = 1000), 4.7× (2000) and 6.3× (4000) faster, a solve 2.4×, 3.9× and 2.4×; the
-solutions agree to ~1e-12 relative. ``FACTORISATION = "superlu"`` restores the factor used
-before (for comparisons; the results differ at rounding level: the factor only preconditions).
+dense blocks. Measured on the pinned backbone Hessians of ``jam(N, 3, seed, p = 1e-4)``, the
+same METIS order, CPU time, conversion and symbolic analysis included
+(``benchmarks/bench_factorisation.py``, ``docs/aqs.md``): factorisation 3.1–3.4× (N = 1000),
+4.4× (2000) and 5.4× (4000) faster, a solve 2.5×, 4.1× and 2.1× (at φ = 0.8, N = 1000: 3.5–5.3×
+and 4.1×); the solutions agree to ~1e-12 relative. ``FACTORISATION = "superlu"`` restores the
+factor used before (for comparisons; the results differ at rounding level: the factor only
+preconditions).
 """
 
 from __future__ import annotations
