@@ -3,17 +3,17 @@ its factorisation with a positive-definiteness test (CHOLMOD's supernodal Choles
 ``LDLᵀ`` and its inertia where Cholesky fails), Woodbury (rank-one) corrections for contacts
 that opened or closed, and preconditioned CG.
 
-**Why CHOLMOD.** Every factor here is of a symmetric matrix that is positive definite where it
-is used (a minimum's Hessian; an indefinite one is only *detected*, then not used to
-precondition). SuperLU factorises it as a general ``LU`` with panel updates; CHOLMOD's
-supernodal ``LLᵀ`` (SuiteSparse, through ``cvxopt``, one thread) does half the arithmetic in
-dense blocks. Measured on the pinned backbone Hessians of ``jam(N, 3, seed, p = 1e-4)``, the
-same METIS order, CPU time, conversion and symbolic analysis included
-(``benchmarks/bench_factorisation.py``, ``docs/aqs.md``): factorisation 3.1–3.4× (N = 1000),
-4.4× (2000) and 5.4× (4000) faster, a solve 2.5×, 4.1× and 2.1× (at φ = 0.8, N = 1000: 3.5–5.3×
-and 4.1×); the solutions agree to ~1e-12 relative. ``FACTORISATION = "superlu"`` restores the
-factor used before (for comparisons; the results differ at rounding level: the factor only
-preconditions).
+**Why CHOLMOD.** Every factor here is of a symmetric matrix, nearly always positive definite
+(a minimum's Hessian; where it is not, SuperLU's ``LDLᵀ`` is made as before, for its inertia
+and for the callers that use an indefinite factor). SuperLU factorises it as a general ``LU``
+with panel updates; CHOLMOD's supernodal ``LLᵀ`` (SuiteSparse, through ``cvxopt``, one
+thread) does half the arithmetic in dense blocks. Measured on the pinned backbone Hessians of
+``jam(N, 3, seed, p = 1e-4)``, the same METIS order, CPU time, conversion and symbolic
+analysis included (``benchmarks/bench_factorisation.py``, ``docs/aqs.md``): factorisation
+3.1–3.4× (N = 1000), 4.4× (2000) and 5.4× (4000) faster, a solve 2.5×, 4.1× and 2.1× (at
+φ = 0.8, N = 1000: 3.5–5.3× and 4.1×); the solutions agree to ~1e-12 relative.
+``FACTORISATION = "superlu"`` restores the factor used before (for comparisons; the results
+differ at rounding level: the factor only preconditions).
 """
 
 from __future__ import annotations
