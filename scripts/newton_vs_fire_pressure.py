@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
 from scipy.stats import ks_2samp
@@ -54,21 +55,29 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
-SKINS = {"skin 0.1": 0.1, "skin 0.2": 0.2}
-"""Variants that set the relaxations' Verlet skin (in every module that reads it)."""
-
-FINISHES = {"finished by Newton": newton_relax.FINISH_BELOW, "FIRE to ftol": None}
-"""Variants that set how the Newton relaxer's FIRE fallback ends
-(:data:`jamlab.spheres.newton_relax.FINISH_BELOW`)."""
-
-FACTORISATIONS = {"CHOLMOD": "cholmod", "SuperLU": "superlu"}
-"""Variants that set the backbone factorisation (:data:`jamlab.spheres.aqs.linalg.
-FACTORISATION`)."""
-
 
 def set_relax_skin(skin: float) -> None:
     for module in (driver, barostat, newton_relax):
         module.RELAX_SKIN = skin
+
+
+def _setter(module, name: str, value) -> Callable[[], None]:
+    return lambda: setattr(module, name, value)
+
+
+SETTINGS: dict[str, Callable[[], None]] = {
+    # the relaxations' Verlet skin, in every module that reads it
+    "skin 0.1": lambda: set_relax_skin(0.1),
+    "skin 0.2": lambda: set_relax_skin(0.2),
+    # the backbone factorisation (jamlab.spheres.aqs.linalg.FACTORISATION)
+    "CHOLMOD": _setter(linalg, "FACTORISATION", "cholmod"),
+    "SuperLU": _setter(linalg, "FACTORISATION", "superlu"),
+    # how the Newton relaxer's FIRE fallback ends (jamlab.spheres.newton_relax.FINISH_BELOW)
+    "finished by Newton": _setter(newton_relax, "FINISH_BELOW", newton_relax.FINISH_BELOW),
+    "FIRE to ftol": _setter(newton_relax, "FINISH_BELOW", None),
+}
+"""Variants that are a module-wide setting rather than a keyword of ``shear_at_pressure``: what
+sets it, called before each of that variant's runs."""
 
 
 def print_size_comparison(sizes: dict, new: str, ref: str, fit: bool = True) -> None:
@@ -120,12 +129,8 @@ def main() -> None:
         used += 1
         runs = {}
         for m in (new, ref):
-            if m in SKINS:
-                set_relax_skin(SKINS[m])
-            if m in FACTORISATIONS:
-                linalg.FACTORISATION = FACTORISATIONS[m]
-            if m in FINISHES:
-                newton_relax.FINISH_BELOW = FINISHES[m]
+            if m in SETTINGS:
+                SETTINGS[m]()
             t = time.process_time()
             runs[m] = res = shear_at_pressure(first.packing, a.dgamma, pressure=a.pressure,
                                               n_steps=a.steps, **options[m])
