@@ -205,6 +205,44 @@ def test_located_verdict_goes_on_with_the_chain_after_a_piece_below_the_bound():
     assert chain_verdict(x0, h, r, jump=x0 + 0.55 * h, drop=1e-5)
 
 
+def test_located_verdict_runs_the_rest_of_the_chain_where_it_carried_a_piece():
+    # Newton fails from 0.2 h on (a rearrangement of 1e-9, below the bound), a kink at 0.5 h,
+    # no jump; the end's branch reaches back only to 0.9 h: the chain's own piece [3/16, 4/16]
+    # keeps less than the bound, so do the pieces after it and, last, the 3 before it — every
+    # piece of the chain ran, once: the verdict is final (False: a kink, as the chain says)
+    # and no piece is redone by the caller
+    h, x0 = 1e-2, 0.1
+    b = TwoBranches(jump=x0 + 0.2 * h, back=x0 + 0.9 * h, drop=1e-9, g2=1.6, kink=x0 + 0.5 * h)
+    r, (jump, pieces) = b.verdict(x0, h)
+    assert 1e-9 < 0.25 * abs(r)
+    assert jump is False and pieces == 16 == b.advances
+    assert not chain_verdict(x0, h, r, g2=1.6, kink=x0 + 0.5 * h, jump=x0 + 0.2 * h, drop=1e-9)
+    # a jump in the pieces before the located one, which Newton's probes crossed (converging
+    # to the post-event minimum close by) up to where they fail, 0.2 h: the located piece and
+    # those after it keep nothing, the chain's first pieces find the jump (before, the caller
+    # ran the whole chain again for this)
+    c = TwoBranches(jump=x0 + 0.1 * h, back=x0 + 0.9 * h, drop=1e-5, g2=1.6, kink=x0 + 0.5 * h)
+
+    def probe_across_the_jump(state, dh):
+        branch, x = state
+        x2 = x + dh
+        c.probes.append(x2)
+        if (branch == "pre" and x2 > x0 + 0.2 * h) or (branch == "post" and x2 < c.back):
+            return None
+        state = ("post" if x2 > c.jump else branch, x2)
+        return (state, *c.value(state))
+
+    start, end = ("pre", x0), ("post", x0 + h)
+    v0, s0 = c.value(start)
+    v1, s1 = c.value(end)
+    rc = trapezoid_residual(v0, s0, v1, s1, h)
+    jump, pieces = jump_located(probe_across_the_jump, c.advance, start, v0, s0, end, v1, s1,
+                                h, rc, 16)
+    # pieces: [3/16, 4/16], the 12 after it, then [0, 1/16] and [1/16, 2/16] (the jump at 0.1 h)
+    assert jump is True and pieces == 1 + 12 + 2 == c.advances
+    assert chain_verdict(x0, h, rc, g2=1.6, kink=x0 + 0.5 * h, jump=x0 + 0.1 * h, drop=1e-5)
+
+
 def test_located_verdict_leaves_kinks_and_small_jumps_to_the_chain():
     h, x0 = 1e-2, 0.1
     # a kink, the branch never ends: 4 probes reach 15/16, the last piece keeps < |r|/4

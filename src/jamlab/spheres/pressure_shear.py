@@ -45,7 +45,8 @@ candidates, but decides each first on the one piece where the branch of the star
 (:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes find the piece by bisection,
 and the step's own end minimum, continued back by Newton, closes it — the event is not carried
 by FIRE a second time; where the end's branch does not reach back that far, the chain's own
-piece), the whole chain only where that piece does not show a jump. It also counts as plastic
+pieces from there, then those before it: a final verdict), the whole chain only where the piece
+the probes located keeps less than the bound. It also counts as plastic
 the single step that lands in a lower minimum than quasi-static driving reaches (its end is not
 the continuation of its start: the constant-volume rule), which the chain calls a kink; measured
 in ``docs/aqs.md``. By default the redoing is deferred
@@ -96,7 +97,8 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 — all of them (the rule before; with plain FIRE both are ``chain``); ``located`` — those of
 ``continued``, each first decided on the one piece where the branch ends
 (:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes, no second FIRE run of the
-event), the chain only where that piece does not show a jump (plain FIRE: ``continued``)."""
+event), the chain only where that piece, located by the probes alone, keeps less than the
+bound (plain FIRE: ``continued``)."""
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
                                      "n_candidates_below_threshold", "n_candidates_located",
@@ -104,8 +106,9 @@ CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
 """Trace attributes: candidate steps, those of them not redone because Newton continued,
 (``defer_confirmation``) those not redone because they cannot be plastic (``|r_n|`` at or below
 the run's final threshold, or an unjammed end), (``confirm="located"``) those decided a
-jump on the located piece, without the chain, and (``defer_confirmation``) those not redone
-because they released for certain more than ``confirm_below · max(threshold, δγ²)`` (a jump:
+jump by :func:`~jamlab.spheres.confirm.jump_located`, without a second whole chain, and
+(``defer_confirmation``) those not redone because they released for certain more than
+``confirm_below · max(threshold, δγ²)`` (a jump:
 :func:`~jamlab.spheres.confirm.released_at_least`)."""
 
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
@@ -444,9 +447,9 @@ def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, 
                 _counted(_advance(pressure, kw, slope), spent), start, v0, s0, end,
                 rows["enthalpy"][n], rows["shear_stress"][n], step, r, k)
             rows["iterations"][n] += sum(spent)
-            if jump:
-                confirmed[n] = True
-                counts["n_candidates_located"] += 1
+            if jump is not None:  # (False: the chain's pieces ran inside, none kept the bound)
+                confirmed[n] = jump
+                counts["n_candidates_located"] += int(jump)
                 continue
         confirmed[n], extra = jump_in_chain(
             _advance(pressure, kw, slope), start, v0, s0, step, r, k, v_end=rows["enthalpy"][n])
