@@ -27,11 +27,12 @@ import jamlab.spheres.pressure_shear as ps
 from jamlab.spheres.confirm import jump_in_chain
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_pressure.py"
+LOCATED = ps.jump_located  # the function itself (each packing's run wraps it afresh)
 
 
 def instrument(rows: list[dict]) -> None:
     """Wrap the located verdict as the pressure driver calls it (module docstring)."""
-    located = ps.jump_located
+    located = LOCATED
 
     def checked(probe, advance, start, v0, s0, end, v1, s1, step, r, k, share=0.25):
         # CPU time by part: the probes, the located piece (the first advance), the pieces after
