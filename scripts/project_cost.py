@@ -154,8 +154,10 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
         prep = [sum(r[k] for k in prep_keys) for r in results]
         pa, pb = power_law(ns, [max(p, 1e-3) for p in prep])
         for code in codes:
+            # (a code timed at some N only is fitted over those)
+            code_ns = [r["N"] for r in results if code in r[proto]]
             step_s = [r[proto][code]["ms_per_step"] / 1e3 for r in results if code in r[proto]]
-            a, b = power_law(ns, step_s)
+            a, b = power_law(code_ns, step_s)
 
             known = measured.get(proto, {}) if code == "jamlab" else {}
             stepped = measured_step if (code == "jamlab" and proto == "fixed_pressure") else {}
@@ -173,7 +175,7 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
                     "exponent": b,
                     "sample_s_1000": sample_s(1000),
                     "cpu_h": cpu_h,
-                    "extrapolated": max(sizes) > max(ns) or min(sizes) < min(ns),
+                    "extrapolated": max(sizes) > max(code_ns) or min(sizes) < min(code_ns),
                     "measured_n": sorted(n for n in known if n in sizes),
                     "measured_step_n": sorted(n for n in stepped if n in sizes and n not in known),
                 }

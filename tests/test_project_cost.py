@@ -47,6 +47,26 @@ def test_projection_by_hand(pc):
     assert fp["cpu_h"] == pytest.approx(10 * (16.8 + 43.2) / 3600, rel=1e-9)
 
 
+def test_a_code_timed_at_some_n_only_is_fitted_over_those(pc):
+    # code "x" at N = 250, 500, 1000 (1 ms × k²), code "z" at N = 250 and 500 only (2 ms × k³):
+    # each law is recovered from its own sizes; z is extrapolated to 1000, x is not
+    res = []
+    for n in (250, 500, 1000):
+        k = n / 250
+        cv = {"x": {"ms_per_step": 1.0 * k**2}}
+        if n < 1000:
+            cv["z"] = {"ms_per_step": 2.0 * k**3}
+        res.append({"N": n, "jam_s": 2.0 * k, "constant_volume": cv})
+    rows = pc.project({"results": res, "pressure": 1e-4}, [1000], samples=10, steps=100)
+    x = next(r for r in rows if r["code"] == "x")
+    z = next(r for r in rows if r["code"] == "z")
+    # N = 1000, k = 4: x 8 s + 100 × 16 ms = 9.6 s; z 8 s + 100 × 128 ms = 20.8 s
+    assert x["exponent"] == pytest.approx(2.0) and not x["extrapolated"]
+    assert x["sample_s_1000"] == pytest.approx(9.6, rel=1e-9)
+    assert z["exponent"] == pytest.approx(3.0) and z["extrapolated"]
+    assert z["sample_s_1000"] == pytest.approx(20.8, rel=1e-9)
+
+
 def test_a_measured_sample_time_replaces_the_fit_at_its_n(pc):
     # the by-hand benchmark above (fixed pressure, code "jamlab"), and a whole sample of 50 s
     # measured at N = 1000: the set is 10 × (50 + the fit's 43.2 s at N = 2000)
