@@ -20,10 +20,20 @@ Newton iteration failed (it then hands the start to FIRE), FIRE to ``1e-12`` fro
 minimum, or the failed iteration's start): iterations, and the two minima's energy and largest
 displacement.
 
+``dtmax``: FIRE's largest time step. The inner problems the fixed-pressure relaxer handed to FIRE
+in ``--steps`` steps of ``jam(N, 3, seed, p_target=1e-4)`` at p = 1e-4
+(``scripts/fire_fallback_probe.py``'s collection), and the first ``--cv-runs`` FIRE runs of the
+constant-volume ``cv`` protocol from ``jam(N, 3, seed, 1e-7)``, each minimised to ``1e-12`` with
+``FireParameters(dt_max=…)`` for every ``--dt-max``: iterations, CPU time, how many converged
+within ``--max-iter``, and the largest energy and position difference from the first value's
+minima.
+
     PYTHONPATH=src python scripts/fire_tail_probe.py cv --start jam --n 1000 --seed 1 --steps 8
     PYTHONPATH=src python scripts/fire_tail_probe.py cv --start phi08 --n 1000 --seed 2 --steps 200
     PYTHONPATH=src python scripts/fire_tail_probe.py restart --n 1000 --seed 3 --steps 40 \\
         --cache CACHE
+    PYTHONPATH=src python scripts/fire_tail_probe.py dtmax --n 1000 --seed 1 --steps 40 \\
+        --cv-runs 3 --dt-max 0.3 0.4 0.5 0.6
 """
 
 from __future__ import annotations
@@ -41,7 +51,7 @@ import jamlab.spheres.newton_relax as relax_module
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.aqs.linalg import cholesky
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
-from jamlab.spheres.fire import minimize
+from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.packing import jam, prepare
 from jamlab.spheres.potential import Packing, evaluate, hessian
@@ -199,6 +209,53 @@ def restart(a: argparse.Namespace) -> None:
               f"{its[:, 2].sum():,.0f}")
 
 
+def cv_starts(n: int, seed: int, steps: int, dgamma: float) -> list[Packing]:
+    """The starts of the stepper's FIRE runs in constant-volume AQS from ``jam(n, 3, seed,
+    1e-7)`` (``cv``)."""
+    packing = jam(n, 3, seed=seed, p_target=1e-7).packing
+    starts: list[Packing] = []
+    fire = steps_module.minimize
+
+    def caught(start, ftol, max_iter, params=None, neighbors=None, **kw):
+        starts.append(start)
+        return fire(start, ftol, max_iter, params, neighbors=neighbors, **kw)
+
+    steps_module.minimize = caught
+    try:
+        shear(packing, dgamma, n_steps=steps)
+    finally:
+        steps_module.minimize = fire
+    return starts
+
+
+def dtmax(a: argparse.Namespace) -> None:
+    import fire_fallback_probe
+
+    groups = {
+        "fixed pressure, the relaxer's FIRE fallbacks": [
+            start for start, _ in
+            fire_fallback_probe.collect(a.n, 1e-4, a.dgamma, a.steps, a.seed)],
+        "constant volume at jamming": cv_starts(a.n, a.seed, a.cv_runs, a.dgamma)[:a.cv_runs],
+    }
+    for name, starts in groups.items():
+        print(f"{name}: {len(starts)} starts (N = {a.n}, seed {a.seed})")
+        first = None
+        for value in a.dt_max:
+            params = FireParameters(dt_max=value)
+            t = time.process_time()
+            runs = [minimize(s, FTOL, a.max_iter, params, skin=RELAX_SKIN) for s in starts]
+            cpu = time.process_time() - t
+            first = runs if first is None else first
+            pairs = list(zip(runs, first, strict=True))
+            de = max(abs(r.energy - f.energy) / abs(f.energy) for r, f in pairs)
+            dx = max(float(np.max(np.abs(r.packing.box.minimum_image(
+                r.packing.positions - f.packing.positions)))) for r, f in pairs)
+            its = sum(r.iterations for r in runs)
+            print(f"  dt_max {value:g}: {its:,} iterations, {cpu:.2f} s, "
+                  f"converged {sum(r.converged for r in runs)}/{len(runs)}; against dt_max "
+                  f"{a.dt_max[0]:g}: energy {de:.1e} relative, positions {dx:.1e}", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="command", required=True)
@@ -217,8 +274,16 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--pressure", type=float, default=1e-4)
     r.add_argument("--dgamma", type=float, default=1e-5)
     r.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
+    t = sub.add_parser("dtmax")
+    t.add_argument("--n", type=int, default=1000)
+    t.add_argument("--seed", type=int, default=1)
+    t.add_argument("--steps", type=int, default=40)
+    t.add_argument("--cv-runs", type=int, default=3)
+    t.add_argument("--dgamma", type=float, default=1e-5)
+    t.add_argument("--dt-max", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.6])
+    t.add_argument("--max-iter", type=int, default=2_000_000)
     a = ap.parse_args(argv)
-    cv(a) if a.command == "cv" else restart(a)
+    {"cv": cv, "restart": restart, "dtmax": dtmax}[a.command](a)
     return 0
 
 
