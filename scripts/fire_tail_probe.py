@@ -99,11 +99,9 @@ def levenberg_marquardt(start: Packing, max_factorisations: int = 300, mu: float
     return x, max_factorisations, fmax < FTOL
 
 
-def cv(a: argparse.Namespace) -> None:
-    if a.start == "jam":
-        packing = jam(a.n, 3, seed=a.seed, p_target=1e-7).packing
-    else:
-        packing = prepare(a.n, 3, 0.8, seed=a.seed).packing
+def fire_starts(packing: Packing, steps: int, dgamma: float) -> list[Packing]:
+    """The starts of the stepper's FIRE runs in ``steps`` steps of constant-volume AQS (``shear``,
+    the default path) from ``packing``."""
     starts: list[Packing] = []
     fire = steps_module.minimize
 
@@ -113,11 +111,20 @@ def cv(a: argparse.Namespace) -> None:
 
     steps_module.minimize = caught
     try:
-        shear(packing, a.dgamma, n_steps=a.steps)
+        shear(packing, dgamma, n_steps=steps)
     finally:
         steps_module.minimize = fire
+    return starts
+
+
+def cv(a: argparse.Namespace) -> None:
+    if a.start == "jam":
+        packing = jam(a.n, 3, seed=a.seed, p_target=1e-7).packing
+    else:
+        packing = prepare(a.n, 3, 0.8, seed=a.seed).packing
+    starts = fire_starts(packing, a.steps, a.dgamma)
     print(f"{a.start} N={a.n} seed={a.seed}: {len(starts)} FIRE runs in {a.steps} steps")
-    totals = {"fire": 0.0, "hybrid": 0.0, "its": 0, "tail": 0}
+    totals = {"fire": 0.0, "hybrid": 0.0}
     for k, start in enumerate(starts):
         t = time.process_time()
         full = minimize(start, FTOL, 1_000_000, skin=RELAX_SKIN)
@@ -209,25 +216,6 @@ def restart(a: argparse.Namespace) -> None:
               f"{its[:, 2].sum():,.0f}")
 
 
-def cv_starts(n: int, seed: int, steps: int, dgamma: float) -> list[Packing]:
-    """The starts of the stepper's FIRE runs in constant-volume AQS from ``jam(n, 3, seed,
-    1e-7)`` (``cv``)."""
-    packing = jam(n, 3, seed=seed, p_target=1e-7).packing
-    starts: list[Packing] = []
-    fire = steps_module.minimize
-
-    def caught(start, ftol, max_iter, params=None, neighbors=None, **kw):
-        starts.append(start)
-        return fire(start, ftol, max_iter, params, neighbors=neighbors, **kw)
-
-    steps_module.minimize = caught
-    try:
-        shear(packing, dgamma, n_steps=steps)
-    finally:
-        steps_module.minimize = fire
-    return starts
-
-
 def dtmax(a: argparse.Namespace) -> None:
     import fire_fallback_probe
 
@@ -235,7 +223,8 @@ def dtmax(a: argparse.Namespace) -> None:
         "fixed pressure, the relaxer's FIRE fallbacks": [
             start for start, _ in
             fire_fallback_probe.collect(a.n, 1e-4, a.dgamma, a.steps, a.seed)],
-        "constant volume at jamming": cv_starts(a.n, a.seed, a.cv_runs, a.dgamma)[:a.cv_runs],
+        "constant volume at jamming": fire_starts(
+            jam(a.n, 3, seed=a.seed, p_target=1e-7).packing, a.cv_runs, a.dgamma)[:a.cv_runs],
     }
     for name, starts in groups.items():
         print(f"{name}: {len(starts)} starts (N = {a.n}, seed {a.seed})")

@@ -32,7 +32,6 @@ LOCATED = ps.jump_located  # the function itself (each packing's run wraps it af
 
 def instrument(rows: list[dict]) -> None:
     """Wrap the located verdict as the pressure driver calls it (module docstring)."""
-    located = LOCATED
 
     def checked(probe, advance, start, v0, s0, end, v1, s1, step, r, k, share=0.25):
         # CPU time by part: the probes, the located piece (the first advance), the pieces after
@@ -59,7 +58,7 @@ def instrument(rows: list[dict]) -> None:
             spent[part] += time.process_time() - t
             return out
 
-        jump, pieces = located(timed_probe, watched, start, v0, s0, end, v1, s1, step, r, k, share)
+        jump, pieces = LOCATED(timed_probe, watched, start, v0, s0, end, v1, s1, step, r, k, share)
         if pieces == 0:
             return jump, pieces
         t = time.process_time()

@@ -111,7 +111,7 @@ def jump_located(
     final. It differs from :func:`jump_in_chain`'s only in where the pieces from ``lo`` on
     start: at the probe's minimum at ``lo``, not the chain's (the same branch's minimum unless
     the chain's first pieces cross an event below the bound). Before, the caller ran the whole
-    chain again (at N = 1000, p = 1e-4, one such candidate in 200 steps took 16 % of a run).
+    chain again (``docs/aqs.md``, "The located confirmation finishes the chain it started").
 
     Why a located piece below the bound is not final: a probe that succeeds may have crossed a
     small event (Newton from ``start`` converging to a post-event minimum close by), so a piece
