@@ -13,9 +13,11 @@ change a trace:
 
 Cases: the shared LAMMPS reference starts (N = 1000 and N = 500, φ = 0.8; fast path, and plain
 FIRE with classification), ``jam`` packings (N = 128 at the default goal pressure 1e-7 and at
-1e-5, N = 500 at 1e-7; fast path and FIRE with classification), and an unjammed packing (no
-backbone). ``--cases`` selects some; ``--quick`` shortens every run, ``--long`` runs five times
-the steps; ``--count-calls NAME ...`` counts calls of functions by name (instrumentation by
+1e-5, N = 500 at 1e-7; fast path and FIRE with classification), an unjammed packing (no
+backbone), and fixed-pressure AQS (``shear_at_pressure``: the Newton path at p = 1e-4 and 1e-3,
+N = 128 and 250, and plain FIRE; every column and counter of the run compared). ``--cases``
+selects some; ``--quick`` shortens every run, ``--long`` runs five times the steps;
+``--count-calls NAME ...`` counts calls of functions by name (instrumentation by
 ``sys.setprofile``, e.g. of a code path that is to be removed). Exit code 1 when
 ``compare`` finds a difference above ``--rtol`` (default 1e-14) or a differing flag, iteration
 count or counter.
@@ -38,7 +40,7 @@ FLOAT_COLUMNS = ("gamma", "energy", "shear_stress", "pressure", "z", "z_nr", "ma
 EXACT_COLUMNS = ("plastic", "iterations")
 COUNTERS = ("n_fallback", "n_substepped", "n_cleanup", "n_factorisations", "n_lean", "n_plastic")
 
-# name: (start, steps, quick steps, minimizer, classify)
+# name: (start, steps, quick steps, minimizer, classify[, fixed pressure])
 CASES = {
     "ref1000-linear": ("ref:lammps-aqs-n1000-phi0.80", 100, 20, "linear", True),
     "ref500-linear": ("ref:lammps-aqs-n500-phi0.80-1000steps", 300, 60, "linear", True),
@@ -48,6 +50,12 @@ CASES = {
     "jam128-p1e-5-fire": ("jam:128:1:1e-5", 30, 8, "fire", True),
     "jam500-p1e-7-linear": ("jam:500:1:1e-7", 20, 5, "linear", True),
     "unjammed-linear": ("random:64:0.5:7", 10, 5, "linear", True),
+    # fixed-pressure AQS (shear_at_pressure; "classify" unused): its default Newton path and
+    # plain FIRE, from jam packings brought to p by the first step
+    "jam128-pressure1e-4-newton": ("jam:128:1:1e-5", 100, 30, "newton", True, 1e-4),
+    "jam250-pressure1e-4-newton": ("jam:250:2:1e-5", 100, 30, "newton", True, 1e-4),
+    "jam250-pressure1e-3-newton": ("jam:250:3:1e-5", 100, 30, "newton", True, 1e-3),
+    "jam128-pressure1e-4-fire": ("jam:128:1:1e-5", 30, 10, "fire", True, 1e-4),
 }
 DGAMMA = 1e-5
 
@@ -103,24 +111,36 @@ def run(
     out.mkdir(parents=True, exist_ok=True)
     cache: dict = {}
     for name in names:
-        spec, steps, quick_steps, minimizer, classify = CASES[name]
+        spec, steps, quick_steps, minimizer, classify, *pressure = CASES[name]
         t0 = time.perf_counter()
         start = start_packing(spec, cache)
         t1 = time.perf_counter()
         n = quick_steps if quick else 5 * steps if long else steps
         counts = count_calls(count) if count else None
-        res = shear(start, DGAMMA, n_steps=n, minimizer=minimizer, classify=classify)
+        if pressure:
+            from jamlab.spheres.pressure_shear import shear_at_pressure
+
+            res = shear_at_pressure(start, DGAMMA, pressure=pressure[0], n_steps=n,
+                                    minimizer=minimizer)
+            # every column, and every numeric attribute (the run's counters)
+            data = {k: np.asarray(v) for k, v in res.columns.items()}
+            data.update({f"attr_{k}": np.asarray(v) for k, v in res.attrs.items()
+                         if isinstance(v, int | float) and not isinstance(v, bool)})
+            n_plastic, seconds = int(res.columns["plastic"].sum()), res.time
+        else:
+            res = shear(start, DGAMMA, n_steps=n, minimizer=minimizer, classify=classify)
+            tr = res.trace
+            data = {k: np.asarray(getattr(tr, k)) for k in FLOAT_COLUMNS + EXACT_COLUMNS}
+            data.update({k: np.asarray(tr.attrs.get(k, -1)) for k in COUNTERS})
+            n_plastic, seconds = int(tr.plastic.sum()), res.time
         if counts is not None:
             sys.setprofile(None)
-        tr = res.trace
-        data = {k: np.asarray(getattr(tr, k)) for k in FLOAT_COLUMNS + EXACT_COLUMNS}
-        data.update({k: np.asarray(tr.attrs.get(k, -1)) for k in COUNTERS})
         data["start_positions"] = np.asarray(start.positions)
         data["final_positions"] = np.asarray(res.packing.positions)
         np.savez(out / f"{name}.npz", **data)
         print(
-            f"{name:22s} {n:4d} steps  {int(tr.plastic.sum()):3d} plastic  start "
-            f"{t1 - t0:6.1f} s  shear {res.time:6.1f} s",
+            f"{name:22s} {n:4d} steps  {n_plastic:3d} plastic  start "
+            f"{t1 - t0:6.1f} s  shear {seconds:6.1f} s",
             flush=True,
         )
         if counts is not None:
@@ -145,13 +165,19 @@ def compare(a: Path, b: Path, rtol: float) -> int:
         return 1
     for name in names:
         x, y = np.load(a / f"{name}.npz"), np.load(b / f"{name}.npz")
-        parts, ok = [], True
-        for k in FLOAT_COLUMNS + ("start_positions", "final_positions"):
+        parts, ok = [], set(x.files) == set(y.files)
+        if not ok:
+            parts.append(f"arrays differ: {sorted(set(x.files) ^ set(y.files))}")
+        # floating-point arrays to rtol, the rest (flags, counts, counters) exactly
+        floats = [k for k in x.files if k in y.files and x[k].dtype.kind == "f"
+                  and not k.startswith("attr_")]
+        exact = [k for k in x.files if k in y.files and k not in floats]
+        for k in floats:
             r = _rel(x[k], y[k])
-            same = x[k].shape == y[k].shape and np.array_equal(x[k], y[k])
-            ok &= r <= rtol
+            same = x[k].shape == y[k].shape and np.array_equal(x[k], y[k], equal_nan=True)
+            ok &= same or r <= rtol
             parts.append(f"{k}={'bit' if same else f'{r:.1e}'}")
-        for k in EXACT_COLUMNS + COUNTERS:
+        for k in exact:
             same = x[k].shape == y[k].shape and np.array_equal(x[k], y[k])
             ok &= same
             if not same:
@@ -163,13 +189,12 @@ def compare(a: Path, b: Path, rtol: float) -> int:
             + " ".join(parts)
         )
         if not ok:
-            for k in EXACT_COLUMNS:
-                if x[k].shape == y[k].shape:
+            for k in exact:
+                if x[k].ndim and x[k].shape == y[k].shape:
                     where = np.flatnonzero(x[k] != y[k])
                     if where.size:
                         print(f"     {k} differs at rows {where[:20].tolist()}")
-            for k in COUNTERS:
-                if not np.array_equal(x[k], y[k]):
+                elif not np.array_equal(x[k], y[k]):
                     print(f"     {k}: {x[k]} vs {y[k]}")
         bad += not ok
     print(f"{len(names) - bad}/{len(names)} cases identical to rtol {rtol:g}")
