@@ -30,6 +30,13 @@ nothing else running).
 
     python scripts/project_cost.py --average S1.json S2.json --runs RUNS/n1000-p1e-4
 
+With ``--fit-runs`` as well, where the runs hold two N or more for a protocol, the default path's
+sample time at every other N is a power law ``t = a N^b`` fitted to the runs' mean sample times
+(the exponent printed is then that of a whole sample) instead of the benchmark's fit. For the
+constant-volume protocol at jamming the benchmark's few steps are not typical of a sample: the
+shear unjams the packing or raises its pressure by decades, and the cost per step changes with
+it (``benchmarks/bench_cv_sample.py``).
+
 With ``--per-step`` (JSONs of ``benchmarks/bench_pressure.py --json``, e.g. 100 steps at N = 2000
 and 4000): at each N they hold (and no run does), the default path's time per step is their
 measured CPU time per step (deferred confirmations included; the mean over their packings)
@@ -133,12 +140,15 @@ def measured_steps(files: list[Path], data: dict) -> dict[int, float]:
 
 def project(data: dict, sizes: list[int], samples: int, steps: int,
             measured: dict[str, dict[int, float]] | None = None,
-            measured_step: dict[int, float] | None = None) -> list[dict]:
+            measured_step: dict[int, float] | None = None,
+            fit_runs: bool = False) -> list[dict]:
     """One dict per (protocol, code): exponent, sample time at N = 1000, set CPU-hours.
     ``measured``: per protocol, measured seconds per whole sample at some N, taken for the
     default path (``jamlab``) there instead of the fit; ``measured_step``: at fixed pressure,
     measured seconds per step of the default path at some N (the preparation still from the
-    fit), where no whole sample was measured."""
+    fit), where no whole sample was measured. ``fit_runs``: where ``measured`` holds two N or
+    more for a protocol, the default path's samples at the other N come from ``t = a N^b``
+    fitted to the measured samples (its ``b`` reported) instead of the benchmark's fit."""
     measured = measured or {}
     measured_step = measured_step or {}
     results = data["results"]
@@ -161,10 +171,17 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
 
             known = measured.get(proto, {}) if code == "jamlab" else {}
             stepped = measured_step if (code == "jamlab" and proto == "fixed_pressure") else {}
+            whole = None  # (a, b) of the whole samples measured, with fit_runs
+            if fit_runs and len(known) >= 2:
+                whole = power_law(sorted(known), [known[n] for n in sorted(known)])
+                b, code_ns = whole[1], sorted(known)
 
-            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb, known=known, stepped=stepped) -> float:
+            def sample_s(n: float, a=a, b=b, pa=pa, pb=pb, known=known, stepped=stepped,
+                         whole=whole) -> float:
                 if n in known:
                     return known[n]
+                if whole is not None:
+                    return whole[0] * n ** whole[1]
                 return pa * n**pb + steps * stepped.get(n, a * n**b)
 
             cpu_h = sum(samples * sample_s(n) for n in sizes) / 3600.0
@@ -178,6 +195,7 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
                     "extrapolated": max(sizes) > max(code_ns) or min(sizes) < min(code_ns),
                     "measured_n": sorted(n for n in known if n in sizes),
                     "measured_step_n": sorted(n for n in stepped if n in sizes and n not in known),
+                    "fitted_to_runs": whole is not None,
                 }
             )
     return out
@@ -222,7 +240,13 @@ def main() -> None:
     ap.add_argument("--runs", type=Path, nargs="+", default=[],
                     help="finished ensemble run directories whose mean time per sample replaces "
                     "the fit of the default path at their N (module docstring)")
+    ap.add_argument("--fit-runs", action="store_true",
+                    help="where --runs hold two N or more for a protocol, extrapolate the "
+                    "default path from a power law fitted to their samples, not the benchmark's "
+                    "(module docstring)")
     args = ap.parse_args()
+    if args.fit_runs and not args.runs:
+        fail("--fit-runs needs --runs")
     files = [json.loads(f.read_text()) for f in args.bench_json]
     data = files[0]
     for other in files[1:]:
@@ -240,7 +264,7 @@ def main() -> None:
                 )
     measured = measured_samples(args.runs, data, args.steps) if args.runs else None
     stepped = measured_steps(args.per_step, data) if args.per_step else None
-    rows = project(data, args.sizes, args.samples, args.steps, measured, stepped)
+    rows = project(data, args.sizes, args.samples, args.steps, measured, stepped, args.fit_runs)
     ns = [r["N"] for r in data["results"]]
     print(
         f"measured N = {ns}; projected N = {args.sizes} × {args.samples} samples × "
@@ -259,6 +283,8 @@ def main() -> None:
         ext = " (extrapolated)" if r["extrapolated"] else ""
         if r["measured_n"]:
             ext += f" (whole samples measured at N = {', '.join(map(str, r['measured_n']))})"
+        if r["fitted_to_runs"]:
+            ext += " (other N: a power law through the measured samples, b per sample)"
         if r["measured_step_n"]:
             ext += (f" (steps measured at N = {', '.join(map(str, r['measured_step_n']))}, "
                     "preparation fitted)")

@@ -134,3 +134,31 @@ def test_measured_steps_replace_the_fitted_step_time(pc, tmp_path):
     with pytest.raises(SystemExit) as err:
         pc.measured_steps([f], {"pressure": 1e-3, "dgamma": 1e-5})
     assert err.value.code == 2
+
+
+def test_fit_runs_extrapolates_from_the_measured_samples(pc):
+    # the benchmark says one thing (constant volume, 1 ms × k² per step), the whole samples
+    # measured at N = 500 and 1000 another (40 s and 160 s: t = 40 (N/500)²); with fit_runs
+    # N = 2000 is 640 s, without it the benchmark's fit: 16 s + 100 × 64 ms = 22.4 s
+    res = []
+    for n in (250, 500):
+        k = n / 250
+        res.append({"N": n, "jam_s": 2.0 * k,
+                    "constant_volume": {"jamlab": {"ms_per_step": 1.0 * k**2}}})
+    data = {"results": res, "pressure": 1e-4}
+    measured = {"constant_volume": {500: 40.0, 1000: 160.0}}
+    fitted = next(r for r in pc.project(data, [500, 1000, 2000], 10, 100, measured,
+                                        fit_runs=True) if r["code"] == "jamlab")
+    assert fitted["fitted_to_runs"] and fitted["exponent"] == pytest.approx(2.0)
+    assert fitted["cpu_h"] == pytest.approx(10 * (40 + 160 + 640) / 3600, rel=1e-9)
+    assert fitted["extrapolated"]  # N = 2000 is beyond the measured samples
+    plain = next(r for r in pc.project(data, [500, 1000, 2000], 10, 100, measured)
+                 if r["code"] == "jamlab")
+    assert not plain["fitted_to_runs"]
+    assert plain["cpu_h"] == pytest.approx(10 * (40 + 160 + 22.4) / 3600, rel=1e-9)
+    # one measured N is not a law: the benchmark's fit stays
+    one = next(r for r in pc.project(data, [1000, 2000], 10, 100,
+                                     {"constant_volume": {1000: 160.0}}, fit_runs=True)
+               if r["code"] == "jamlab")
+    assert not one["fitted_to_runs"]
+    assert one["cpu_h"] == pytest.approx(10 * (160 + 22.4) / 3600, rel=1e-9)
