@@ -5,8 +5,8 @@ its run directories (``--studies``, by name; default the fixed-pressure ensemble
 the costliest pressure) into ``--runs``, exactly as ``jamlab reproduce --scale medium --runs
 RUNS`` would (same studies, seeds and layout, so a later full run reuses these samples), then
 prints per finished sample its worker wall time (the ``seconds`` stored with it), the τ fits of the
-report (the scale's rule, and at fixed pressure the fit with an exponential cut-off) from the
-finished samples (``jamlab.reproduce.measurements.tau_estimate``: jammed
+report (the scale's rule, and at fixed pressure and at jamming the fit with an exponential
+cut-off) from the finished samples (``jamlab.reproduce.measurements.tau_estimate``: jammed
 steps only, S = −ΔH at fixed pressure), and the scale's projected cost with the measured
 seconds per sample put in place of the benchmark-based estimate for the studies run.
 
@@ -34,7 +34,8 @@ from jamlab.runs import Execution, Study, open_run, run_study
 
 def analyse(ds, study: Study, scale, name: str) -> None:
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
-    fixed pressure also the fit with an exponential cut-off) of one run directory."""
+    fixed pressure and at jamming also the fit with an exponential cut-off) of one run
+    directory."""
     done = ds.status.values == "done"
     seconds = np.asarray(ds.seconds.values)[done]
     n_values = list(study.n)
@@ -55,7 +56,7 @@ def analyse(ds, study: Study, scale, name: str) -> None:
     else:
         print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
               f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
-    if study.pressure is not None:
+    if study.pressure is not None or label == "jamming":  # (the report's rows with a cut-off)
         sizes = np.concatenate([avalanche_set(ds, label, n).sizes for n in n_values])
         cut = fit_tau_cutoff(sizes, scale)
         print("tau with an exponential cut-off (the report's second row): "

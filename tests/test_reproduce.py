@@ -133,6 +133,28 @@ def test_tau_rows_recomputed_from_the_runs(tiny):
         assert any(v.startswith("theory: " + word) for v in row["verdicts"])
 
 
+def test_jamming_cutoff_row_is_the_cutoff_fit_of_the_runs_avalanches(tiny):
+    # the constant-volume τ also with an exponential cut-off (issue 18): the analysis fit of
+    # the same jammed-step sizes, recounted here from the traces, and its JSON numbers (tiny
+    # has too few for the fit: "n/a"; a made fit's row is checked on synthetic sizes in
+    # test_reproduce_pressure.py)
+    from jamlab.analysis import fit_cutoff_power_law
+
+    out, _, data, rows = tiny
+    sizes, _ = _sizes(out / "runs" / "jamming", "jamming", SCALE.jamming_n)
+    row = _row(rows, "τ with an exponential cut-off at jamming")
+    assert "constant volume" in row["quantity"]
+    assert row["samples"] == f"the same {sizes.size} avalanches"
+    tail = max(SCALE.min_tail, 10)
+    if sizes.size <= tail:
+        assert row["value_text"] == "n/a" and data["data"]["tau_jamming_cutoff"] is None
+        return
+    ref = fit_cutoff_power_law(sizes, min_tail=tail, max_candidates=20, n_boot=SCALE.n_boot,
+                               seed=SCALE.seed)
+    assert row["value"] == pytest.approx(ref.tau, rel=1e-12)
+    assert data["data"]["tau_jamming_cutoff"]["x_min"] == ref.x_min
+
+
 def test_phi_j_row_recomputed(tiny):
     out, _, _, rows = tiny
     phis = [s["attrs"]["phi_actual"] for n in SCALE.jamming_n

@@ -102,3 +102,30 @@ def test_cutoff_tau_of_the_pressure_rows_is_the_analysis_fit():
     assert row.value == cut.tau and row.error == tau_sigma(cut)
     assert f"{cut.tau:.3f}" in row.value_text and "S_c = " in row.value_text
     assert fit_tau_cutoff(sizes[:30], scale) is None
+
+
+def test_the_constant_volume_tau_has_a_cutoff_row_too():
+    # the paper's protocol at jamming pools p over decades (docs/aqs.md): its τ rows are the
+    # scale's rule and, below it, the cut-off fit of the same sizes, printed as the analysis
+    # function gives it
+    from jamlab.analysis import sample_cutoff_power_law
+    from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
+    from jamlab.reproduce.table import TAU_TITLES, tau_data, tau_rows
+
+    scale = replace(SCALES["tiny"], min_tail=30, n_boot=10)
+    sizes = sample_cutoff_power_law(400, 1.3, 1e-6, 1e-9, np.random.default_rng(5))
+    cut = fit_tau_cutoff(sizes, scale)
+    ref = fit_cutoff_power_law(sizes, min_tail=30, max_candidates=20, n_boot=10,
+                               seed=scale.seed)
+    assert (cut.tau, cut.x_min) == (ref.tau, ref.x_min)
+    est = {label: TauEstimate(label, None, float("nan"), 0, 10, 1, {}, None)
+           for label in TAU_TITLES}
+    est["jamming"] = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
+                                 cutoff=cut, cutoff_sigma=tau_sigma(cut))
+    rows = tau_rows(est)
+    assert len(rows) == len(TAU_TITLES) + 1
+    jam = [r for r in rows if "jamming" in r.quantity]
+    assert jam[0].quantity.startswith("τ at jamming") and "cut-off" in jam[1].quantity
+    assert jam[1].value == cut.tau and jam[1].error == tau_sigma(cut)
+    assert jam[1].samples == f"the same {sizes.size} avalanches"
+    assert tau_data(est)["tau_jamming_cutoff"]["tau"] == cut.tau

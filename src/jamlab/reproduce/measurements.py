@@ -55,6 +55,7 @@ __all__ = [
     "stress_strain",
     "tau_estimates",
     "tau_sigma",
+    "with_cutoff",
 ]
 
 TAU_LABELS = ("jamming",) + tuple(repr(p) for p in UNSAT_PHI)
@@ -132,7 +133,7 @@ class TauEstimate:
     n_avalanches_excluded: int = 0
     fit_pressures: tuple[float, float, float] | None = None
     sampled_pressures: tuple[float, float, float] | None = None
-    cutoff: Any = None  # the fit with an exponential cut-off (fixed-pressure ensembles)
+    cutoff: Any = None  # the fit with an exponential cut-off (fixed pressure; jamming)
     cutoff_sigma: float = math.nan
 
     @property
@@ -185,13 +186,27 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
                        pressure_summary(np.concatenate(minima_p) if minima_p else np.empty(0)))
 
 
+def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
+    """``est`` (of the avalanches pooled over ``sources``) with the fit of the same avalanches
+    with an exponential cut-off (:func:`fit_tau_cutoff`)."""
+    sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
+    cut = fit_tau_cutoff(np.concatenate(sizes) if sizes else np.empty(0), scale)
+    return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut))
+
+
 def tau_estimates(jamming: Any, unsat: Any, scale: Scale) -> dict[str, TauEstimate]:
     """:class:`TauEstimate` for each of :data:`TAU_LABELS`, from the ``jamming`` and ``unsat``
-    run datasets."""
+    run datasets; the constant-volume one at jamming also with the cut-off fit (its
+    distribution pools pressures over decades and is curved: docs/aqs.md, "Constant volume:
+    whole samples measured")."""
     sources = [("jamming", jamming, scale.jamming_n)] + [
         (repr(p), unsat, scale.unsat_n) for p in UNSAT_PHI]
-    return {label: tau_estimate(label, [(ds, n) for n in ns], scale)
-            for label, ds, ns in sources}
+    out = {}
+    for label, ds, ns in sources:
+        pairs = [(ds, n) for n in ns]
+        est = tau_estimate(label, pairs, scale)
+        out[label] = with_cutoff(est, pairs, scale) if label == "jamming" else est
+    return out
 
 
 def pressure_tau_estimates(runs: Any, scale: Scale) -> dict[float, TauEstimate]:
@@ -203,10 +218,7 @@ def pressure_tau_estimates(runs: Any, scale: Scale) -> dict[float, TauEstimate]:
     out = {}
     for p in scale.pressures:
         sources = [(runs[pressure_run_name(p)], n) for n in scale.pressure_n]
-        est = tau_estimate("jamming", sources, scale)
-        sizes = [avalanche_set(ds, "jamming", n).sizes for ds, n in sources]
-        cut = fit_tau_cutoff(np.concatenate(sizes) if sizes else np.empty(0), scale)
-        out[p] = replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut))
+        out[p] = with_cutoff(tau_estimate("jamming", sources, scale), sources, scale)
     return out
 
 

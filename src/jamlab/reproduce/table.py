@@ -124,7 +124,29 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
                 Comparison(f"|τ − {theory:.3g}| ≤ {tol:g}", theory, tolerance=tol),
             ),
         ))
+        if label == "jamming":
+            rows.append(cutoff_row(
+                "τ with an exponential cut-off at jamming (constant volume, the paper's "
+                "protocol; S^−τ e^(−S/S_c), KS window)",
+                f"{paper} ± {paper_err} (paper's fit); theory {theory:.5g}", e,
+                (Comparison("the paper's fit", paper, paper_err),
+                 Comparison("theory", theory))))
     return rows
+
+
+def cutoff_row(quantity: str, reference_text: str, e: TauEstimate,
+               comparisons: tuple[Comparison, ...]) -> Row:
+    """The row of ``e``'s fit with an exponential cut-off (the same avalanches as its τ row)."""
+    c = e.cutoff
+    return Row(
+        quantity=quantity,
+        reference_text=reference_text,
+        value=c.tau if c is not None else float("nan"),
+        error=e.cutoff_sigma,
+        value_text=cutoff_fit_text(c, e.cutoff_sigma),
+        samples=f"the same {e.n_avalanches} avalanches",
+        comparisons=comparisons,
+    )
 
 
 def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
@@ -148,22 +170,14 @@ def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
                 Comparison("the paper's fit", paper, paper_err),
             ),
         ))
-        c = e.cutoff
-        rows.append(Row(
-            quantity=(f"τ at fixed pressure p = {p:g}, power law with an exponential cut-off "
-                      "(S^−τ e^(−S/S_c), KS window)"),
-            reference_text=(f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
-                            f"constant-volume fit {paper} ± {paper_err}"),
-            value=c.tau if c is not None else float("nan"),
-            error=e.cutoff_sigma,
-            value_text=cutoff_fit_text(c, e.cutoff_sigma),
-            samples=f"the same {e.n_avalanches} avalanches",
-            comparisons=(
-                Comparison("theory τ_J (p → 0)", theory),
-                Comparison("τ_UNSAT", 1.0),
-                Comparison("the paper's fit", paper, paper_err),
-            ),
-        ))
+        rows.append(cutoff_row(
+            (f"τ at fixed pressure p = {p:g}, power law with an exponential cut-off "
+             "(S^−τ e^(−S/S_c), KS window)"),
+            (f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
+             f"constant-volume fit {paper} ± {paper_err}"), e,
+            (Comparison("theory τ_J (p → 0)", theory),
+             Comparison("τ_UNSAT", 1.0),
+             Comparison("the paper's fit", paper, paper_err))))
     return rows
 
 
@@ -181,15 +195,19 @@ def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
     out = {}
     for p, e in estimates.items():
         f = e.fit
-        c = e.cutoff
         out[f"{p:g}"] = dict(
             tau=None if f is None else f.tau, sigma=e.sigma, n_avalanches=e.n_avalanches,
             steps=e.steps, samples=e.samples, n_steps_excluded=e.n_steps_excluded,
-            fit_pressures=e.fit_pressures,
-            cutoff=None if c is None else dict(
-                tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
-                x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail))
+            fit_pressures=e.fit_pressures, cutoff=cutoff_data(e))
     return {"tau_pressure": out} if out else {}
+
+
+def cutoff_data(e: TauEstimate) -> dict[str, Any] | None:
+    """The numbers of ``e``'s fit with an exponential cut-off (None without one)."""
+    c = e.cutoff
+    return None if c is None else dict(
+        tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
+        x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail)
 
 
 def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
@@ -200,6 +218,8 @@ def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
         data[f"tau_{label}"] = None if f is None else dict(
             tau=f.tau, sigma=e.sigma, ci_low=f.ci_low, ci_high=f.ci_high, x_min=f.x_min,
             n_tail=f.n_tail, n_avalanches=e.n_avalanches)
+        if label == "jamming":
+            data["tau_jamming_cutoff"] = cutoff_data(e)
     data["avalanche_counts"] = {k: e.n_avalanches for k, e in estimates.items()}
     data["exclusions"] = {
         k: dict(jammed_known=e.jammed_known, n_steps=e.steps,
