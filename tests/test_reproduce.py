@@ -133,26 +133,27 @@ def test_tau_rows_recomputed_from_the_runs(tiny):
         assert any(v.startswith("theory: " + word) for v in row["verdicts"])
 
 
-def test_jamming_cutoff_row_is_the_cutoff_fit_of_the_runs_avalanches(tiny):
-    # the constant-volume τ also with an exponential cut-off (issue 18): the analysis fit of
-    # the same jammed-step sizes, recounted here from the traces, and its JSON numbers (tiny
-    # has too few for the fit: "n/a"; a made fit's row is checked on synthetic sizes in
+def test_no_cutoff_row_at_a_scale_without_pressures(tiny):
+    # the constant-volume τ's cut-off row belongs to the scales with fixed-pressure ensembles
+    # (medium, paper); tiny and quick do not pay its bootstrap (tested in
     # test_reproduce_pressure.py)
-    from jamlab.analysis import fit_cutoff_power_law
+    _, _, data, rows = tiny
+    assert not SCALE.pressures
+    assert not [q for q in rows if q.startswith("τ with an exponential cut-off")]
+    assert "tau_jamming_cutoff" not in data["data"]
+    # the same runs read as a scale with pressures: the constant-volume estimate gets the fit
+    from dataclasses import replace
 
-    out, _, data, rows = tiny
-    sizes, _ = _sizes(out / "runs" / "jamming", "jamming", SCALE.jamming_n)
-    row = _row(rows, "τ with an exponential cut-off at jamming")
-    assert "constant volume" in row["quantity"]
-    assert row["samples"] == f"the same {sizes.size} avalanches"
-    tail = max(SCALE.min_tail, 10)
-    if sizes.size <= tail:
-        assert row["value_text"] == "n/a" and data["data"]["tau_jamming_cutoff"] is None
-        return
-    ref = fit_cutoff_power_law(sizes, min_tail=tail, max_candidates=20, n_boot=SCALE.n_boot,
-                               seed=SCALE.seed)
-    assert row["value"] == pytest.approx(ref.tau, rel=1e-12)
-    assert data["data"]["tau_jamming_cutoff"]["x_min"] == ref.x_min
+    from jamlab.reproduce.ensembles import RunSet
+    from jamlab.reproduce.measurements import tau_estimates
+
+    runs = RunSet(out_dir := tiny[0] / "runs")
+    assert out_dir.is_dir()
+    with_p = replace(SCALE, pressures=(1e-3,), pressure_n=SCALE.jamming_n, pressure_samples=1,
+                     pressure_gamma_max=10 * SCALE.dgamma)
+    est = tau_estimates(runs["jamming"], runs["unsat"], with_p)
+    assert est["jamming"].cutoff_made and not est["0.75"].cutoff_made
+    assert not tau_estimates(runs["jamming"], runs["unsat"], SCALE)["jamming"].cutoff_made
 
 
 def test_phi_j_row_recomputed(tiny):

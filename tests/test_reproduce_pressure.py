@@ -105,9 +105,9 @@ def test_cutoff_tau_of_the_pressure_rows_is_the_analysis_fit():
 
 
 def test_the_constant_volume_tau_has_a_cutoff_row_too():
-    # the paper's protocol at jamming pools p over decades (docs/aqs.md): its τ rows are the
-    # scale's rule and, below it, the cut-off fit of the same sizes, printed as the analysis
-    # function gives it
+    # the paper's protocol at jamming pools p over decades (docs/aqs.md): at a scale with
+    # pressures its τ rows are the scale's rule and, below it, the cut-off fit of the same
+    # sizes, printed as the analysis function gives it
     from jamlab.analysis import sample_cutoff_power_law
     from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
     from jamlab.reproduce.table import TAU_TITLES, tau_data, tau_rows
@@ -121,7 +121,7 @@ def test_the_constant_volume_tau_has_a_cutoff_row_too():
     est = {label: TauEstimate(label, None, float("nan"), 0, 10, 1, {}, None)
            for label in TAU_TITLES}
     est["jamming"] = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
-                                 cutoff=cut, cutoff_sigma=tau_sigma(cut))
+                                 cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True)
     rows = tau_rows(est)
     assert len(rows) == len(TAU_TITLES) + 1
     jam = [r for r in rows if "jamming" in r.quantity]

@@ -133,8 +133,9 @@ class TauEstimate:
     n_avalanches_excluded: int = 0
     fit_pressures: tuple[float, float, float] | None = None
     sampled_pressures: tuple[float, float, float] | None = None
-    cutoff: Any = None  # the fit with an exponential cut-off (fixed pressure; jamming)
+    cutoff: Any = None  # the fit with an exponential cut-off (None: too few sizes, or not made)
     cutoff_sigma: float = math.nan
+    cutoff_made: bool = False  # whether the cut-off fit was asked for (with_cutoff)
 
     @property
     def exclusion_text(self) -> str:
@@ -191,21 +192,24 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     with an exponential cut-off (:func:`fit_tau_cutoff`)."""
     sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
     cut = fit_tau_cutoff(np.concatenate(sizes) if sizes else np.empty(0), scale)
-    return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut))
+    return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True)
 
 
 def tau_estimates(jamming: Any, unsat: Any, scale: Scale) -> dict[str, TauEstimate]:
     """:class:`TauEstimate` for each of :data:`TAU_LABELS`, from the ``jamming`` and ``unsat``
-    run datasets; the constant-volume one at jamming also with the cut-off fit (its
-    distribution pools pressures over decades and is curved: docs/aqs.md, "Constant volume:
-    whole samples measured")."""
+    run datasets; at a scale with fixed-pressure ensembles (``scale.pressures``) the
+    constant-volume one at jamming also with the cut-off fit, as its τ(p) rows have it (its
+    avalanches pool pressures over decades and their distribution is curved: docs/aqs.md,
+    "Constant volume: whole samples measured"; the fit's bootstrap costs ≈ 100 CPU-s on 1000
+    sizes, which the ``quick`` scale does not spend)."""
     sources = [("jamming", jamming, scale.jamming_n)] + [
         (repr(p), unsat, scale.unsat_n) for p in UNSAT_PHI]
     out = {}
     for label, ds, ns in sources:
         pairs = [(ds, n) for n in ns]
         est = tau_estimate(label, pairs, scale)
-        out[label] = with_cutoff(est, pairs, scale) if label == "jamming" else est
+        out[label] = (with_cutoff(est, pairs, scale) if label == "jamming" and scale.pressures
+                      else est)
     return out
 
 

@@ -79,11 +79,12 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 6.8 CPU-hours ≈ 3.4 h on 2 cores, projected (a session cannot host it; docs/reproduce.md) "
-    "from samples re-measured with the current code: constant volume ≈ 1.4 CPU-h from "
-    "benchmarks/bench_jamming.py (δγ = 1e-5, two packings per N: 0.02–0.22 s/step at N = 500, "
-    "0.8–2.3 s/step at N = 1000, 3 samples each; a packing that hovers at the edge of jamming "
-    "costs up to 10× more); fixed pressure ≈ 5.0 CPU-h from the scale's first 2 samples at every "
+    "≈ 5.9 CPU-hours ≈ 3.0 h on 2 cores, projected (a session cannot host it; docs/reproduce.md) "
+    "from samples measured with the current code: constant volume 0.54 CPU-h, the scale's "
+    "study run whole (CPU s per sample with its preparation: N = 500 51, 84, 122; N = 1000 713, "
+    "231, 733 — the costly ones hover at the edge of jamming; τ 1.305 ± 0.062 by the rule, "
+    "1.239 ± 0.038 with an exponential cut-off, at p ≈ 1e-5 – 2e-4); fixed pressure ≈ 5.0 "
+    "CPU-h from the scale's first 2 samples at every "
     "(N, p), preparation included: N = 500 115 s per 1000-step sample at p = 1e-5, 38 s at 1e-4, "
     "20 s at 1e-3, 11 s at 1e-2; N = 1000 509, 125, 49 and 34 s (20 samples each in the scale) "
     "— τ on the ensembles measured earlier, with an exponential cut-off at N = 500: "

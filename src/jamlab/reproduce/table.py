@@ -124,7 +124,7 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
                 Comparison(f"|τ − {theory:.3g}| ≤ {tol:g}", theory, tolerance=tol),
             ),
         ))
-        if label == "jamming":
+        if e.cutoff_made:
             rows.append(cutoff_row(
                 "τ with an exponential cut-off at jamming (constant volume, the paper's "
                 "protocol; S^−τ e^(−S/S_c), KS window)",
@@ -218,8 +218,8 @@ def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
         data[f"tau_{label}"] = None if f is None else dict(
             tau=f.tau, sigma=e.sigma, ci_low=f.ci_low, ci_high=f.ci_high, x_min=f.x_min,
             n_tail=f.n_tail, n_avalanches=e.n_avalanches)
-        if label == "jamming":
-            data["tau_jamming_cutoff"] = cutoff_data(e)
+        if e.cutoff_made:
+            data[f"tau_{label}_cutoff"] = cutoff_data(e)
     data["avalanche_counts"] = {k: e.n_avalanches for k, e in estimates.items()}
     data["exclusions"] = {
         k: dict(jammed_known=e.jammed_known, n_steps=e.steps,
