@@ -16,6 +16,11 @@ reported: it is part of every sample's cost), then ``--steps`` steps of ``δγ =
   not relax the box in LAMMPS). LAMMPS's per-step time is the sum of its minimisation "Loop
   time"s (the process start, data file and the initial box relaxation are not counted).
 
+At constant volume the first steps are not typical of a sample: the shear unjams the packing or
+dilatancy raises its pressure by decades, and the cost per step falls with it; the 1000-step
+projection from ``--steps`` 20 overstated whole samples 4–7× at N = 1000
+(``benchmarks/bench_cv_sample.py`` times whole samples, ``docs/aqs.md``).
+
 jamlab times are wall-clock seconds of the stepping loop (``ShearResult.time``) on one core of a
 shared machine: indicative (ratios in one run are what counts). ``--json`` writes the numbers for
 ``scripts/project_cost.py``. LAMMPS: ``$LAMMPS_BIN`` or ``/tmp/lmpvenv/bin/lmp``; without it only
