@@ -124,7 +124,7 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
                 Comparison(f"|τ − {theory:.3g}| ≤ {tol:g}", theory, tolerance=tol),
             ),
         ))
-        if e.cutoff_made:
+        if label == "jamming" and e.cutoff_made:
             rows.append(cutoff_row(
                 "τ with an exponential cut-off at jamming (constant volume, the paper's "
                 "protocol; S^−τ e^(−S/S_c), KS window)",
