@@ -26,8 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set
-from jamlab.reproduce.measurements import fit_tau_cutoff, tau_estimate, tau_sigma
+from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 from jamlab.reproduce.scales import SCALES, studies
 from jamlab.runs import Execution, Study, open_run, run_study
 
@@ -49,7 +48,8 @@ def analyse(ds, study: Study, scale, name: str) -> None:
         print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
               "of one core")
     label = "jamming" if "jamming" in study.phi else repr(study.phi[0])
-    est = tau_estimate(label, [(ds, n) for n in n_values], scale)
+    pairs = [(ds, n) for n in n_values]
+    est = tau_estimate(label, pairs, scale)
     fit = est.fit
     if fit is None:
         print(f"tau: no fit ({est.n_avalanches} avalanches)")
@@ -57,11 +57,11 @@ def analyse(ds, study: Study, scale, name: str) -> None:
         print(f"tau = {fit.tau:.3f} ± {est.sigma:.3f} from {est.n_avalanches} avalanches "
               f"({est.exclusion_text}; fitted avalanches start at p = {est.fit_pressures})")
     if study.pressure is not None or label == "jamming":  # (the report's rows with a cut-off)
-        sizes = np.concatenate([avalanche_set(ds, label, n).sizes for n in n_values])
-        cut = fit_tau_cutoff(sizes, scale)
+        est = with_cutoff(est, pairs, scale)
+        cut = est.cutoff
         print("tau with an exponential cut-off (the report's second row): "
               + ("no fit" if cut is None else
-                 f"{cut.tau:.3f} ± {tau_sigma(cut):.3f} (95 % [{cut.ci_low:.3f}, "
+                 f"{cut.tau:.3f} ± {est.cutoff_sigma:.3f} (95 % [{cut.ci_low:.3f}, "
                  f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
                  f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
 

@@ -84,18 +84,28 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         assert est.cutoff is None and cut_row.value_text == "n/a"
 
 
-def test_cutoff_tau_of_the_pressure_rows_is_the_analysis_fit():
-    # synthetic sizes through the scale's rule: the same numbers as the analysis function called
-    # directly, and a row that prints them
+def _synthetic_cutoff(tau: float, x_min: float, seed: int):
+    """``(scale, sizes, fit)``: 400 synthetic sizes (``S_c = 1e-6``) through the tiny scale's
+    cut-off rule with ``min_tail`` 30 and 10 bootstrap samples, checked to be the analysis
+    function's fit called directly."""
     from jamlab.analysis import sample_cutoff_power_law
-    from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
+    from jamlab.reproduce.measurements import fit_tau_cutoff
 
     scale = replace(SCALES["tiny"], min_tail=30, n_boot=10)
-    sizes = sample_cutoff_power_law(400, 1.4, 1e-6, 1e-8, np.random.default_rng(2))
+    sizes = sample_cutoff_power_law(400, tau, 1e-6, x_min, np.random.default_rng(seed))
     cut = fit_tau_cutoff(sizes, scale)
     ref = fit_cutoff_power_law(sizes, min_tail=30, max_candidates=20, n_boot=10,
                                seed=scale.seed)
     assert (cut.tau, cut.x_min, cut.ci_low) == (ref.tau, ref.x_min, ref.ci_low)
+    return scale, sizes, cut
+
+
+def test_cutoff_tau_of_the_pressure_rows_is_the_analysis_fit():
+    # synthetic sizes through the scale's rule: the same numbers as the analysis function called
+    # directly, and a row that prints them
+    from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
+
+    scale, sizes, cut = _synthetic_cutoff(1.4, 1e-8, 2)
     est = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
                       cutoff=cut, cutoff_sigma=tau_sigma(cut))
     row = pressure_tau_rows({1e-4: est})[1]
@@ -108,16 +118,10 @@ def test_the_constant_volume_tau_has_a_cutoff_row_too():
     # the paper's protocol at jamming pools p over decades (docs/aqs.md): at a scale with
     # pressures its τ rows are the scale's rule and, below it, the cut-off fit of the same
     # sizes, printed as the analysis function gives it
-    from jamlab.analysis import sample_cutoff_power_law
-    from jamlab.reproduce.measurements import TauEstimate, fit_tau_cutoff, tau_sigma
+    from jamlab.reproduce.measurements import TauEstimate, tau_sigma
     from jamlab.reproduce.table import TAU_TITLES, tau_data, tau_rows
 
-    scale = replace(SCALES["tiny"], min_tail=30, n_boot=10)
-    sizes = sample_cutoff_power_law(400, 1.3, 1e-6, 1e-9, np.random.default_rng(5))
-    cut = fit_tau_cutoff(sizes, scale)
-    ref = fit_cutoff_power_law(sizes, min_tail=30, max_candidates=20, n_boot=10,
-                               seed=scale.seed)
-    assert (cut.tau, cut.x_min) == (ref.tau, ref.x_min)
+    _, sizes, cut = _synthetic_cutoff(1.3, 1e-9, 5)
     est = {label: TauEstimate(label, None, float("nan"), 0, 10, 1, {}, None)
            for label in TAU_TITLES}
     est["jamming"] = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
