@@ -195,6 +195,9 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
     params = AQSParameters() if params is None else params
     fire_params = FireParameters() if fire_params is None else fire_params
+    if previous is not None and previous.attrs.get("floppy", "fire") != params.floppy:
+        raise ValueError(f"floppy={params.floppy!r} differs from the run being resumed "
+                         f"({previous.attrs.get('floppy', 'fire')!r})")
 
     nl = NeighborList(packing, skin=RELAX_SKIN)
     rows: dict[str, list] = {k: [] for k in ROW_KEYS}
@@ -229,6 +232,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below
         "n_steps": int(total),
         "ftol": float(ftol),
         "minimizer": minimizer,
+        "floppy": params.floppy,
         "N": int(packing.n),
         "dim": int(packing.dim),
         "phi": float(packing.phi),

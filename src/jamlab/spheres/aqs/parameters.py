@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+FLOPPY = ("fire", "project")
+
 
 @dataclass(frozen=True)
 class AQSParameters:
@@ -25,6 +27,10 @@ class AQSParameters:
     ``event_tol · δγ`` to the current point is switched there; ``max_events``: contact
     switches per step (and ten times as many Newton solves) before the branch is declared
     ended (pathological; FIRE then takes the step).
+    ``floppy``: how a step from an unjammed minimum is taken — ``"fire"`` (the step's usual
+    strategies, FIRE where they end) or ``"project"`` (first the overlap-free configuration
+    nearest to the affine start, :mod:`jamlab.spheres.aqs.projection`; the usual strategies
+    where there is none). A protocol choice for the floppy steps (``docs/aqs.md``).
     """
 
     max_newton: int = 30
@@ -50,8 +56,11 @@ class AQSParameters:
     path_floor: float = 1e-14
     event_tol: float = 1e-3
     max_events: int = 1000
+    floppy: str = "fire"
 
     def __post_init__(self) -> None:
+        if self.floppy not in FLOPPY:
+            raise ValueError(f"floppy must be one of {FLOPPY}, got {self.floppy!r}")
         if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
             raise ValueError(f"max_newton must be an integer >= 1, got {self.max_newton!r}")
         for name in ("contraction", "linear_basin", "min_substep"):

@@ -3,6 +3,9 @@ from one strain step to the next (:class:`Stepper`).
 
 A step from the minimum ``cur`` to the strain ``target`` is taken by one of
 
+- :meth:`Stepper.projected`: from an unjammed minimum with ``floppy="project"``: the
+  overlap-free configuration nearest to the affine start (:mod:`~jamlab.spheres.aqs.projection`),
+  where there is one; the step is elastic (nothing can jump between floppy states);
 - :meth:`Stepper.unjammed`: no rigid backbone (every particle a rattler, ``E ≈ 0``): FIRE
   removes the overlaps; nothing can jump, the step is elastic;
 - :meth:`Stepper.lean`: the lean elastic step (:func:`~jamlab.spheres.aqs.lean.lean_step`),
@@ -29,10 +32,12 @@ from jamlab.spheres.aqs.linalg import Factor, factorise
 from jamlab.spheres.aqs.network import affine_to, contact_keys
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.predictor import BranchPath, Secants
+from jamlab.spheres.aqs.projection import project
 from jamlab.spheres.aqs.record import observe
 from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
+from jamlab.spheres.rigidity import jammed_verdict, pressure_floor
 
 
 @dataclass(eq=False)
@@ -92,6 +97,10 @@ class Stepper:
         self.flags, self.flags_build = (
             consistent_flags(cur, nl, self.fac, params) if self.linear else (None, -1)
         )
+        self.project = self.linear and params.floppy == "project"
+        if self.project:
+            counters.setdefault("n_projected", 0)
+            counters.setdefault("n_projection_failed", 0)
 
     # -- the strategies -------------------------------------------------------------------------
 
@@ -101,6 +110,10 @@ class Stepper:
         affine = affine_to(cur, target)
         if self.linear and self.flags is not None and self.nl.n_builds != self.flags_build:
             self.flags, self.flags_build = consistent_flags(cur, self.nl, self.fac, self.params)
+        if self.project and not _jammed(self.prev, self.ftol):
+            step = self.projected(cur, affine)
+            if step is not None:
+                return step
         if self.fac.free.size == 0:
             return self.unjammed(affine)
         if not self.linear:
@@ -114,6 +127,17 @@ class Stepper:
             start, self.ftol, self.params.max_fire_iter, self.fire_params, neighbors=self.nl
         )
         return res.packing, res.iterations
+
+    def projected(self, cur: Packing, affine: Packing) -> Step | None:
+        """The overlap-free configuration nearest to ``affine`` (elastic), or ``None`` where
+        there is none nearby (the step jams) or it was not found. ``iterations``: the
+        linearisations."""
+        res = project(affine, self.nl, parent=cur)
+        if not res:
+            self.counters["n_projection_failed"] += 1
+            return None
+        self.counters["n_projected"] += 1
+        return Step(res.packing, affine, res.sqp)
 
     def unjammed(self, affine: Packing) -> Step:
         """No rigid backbone: FIRE removes the overlaps; elastic."""
@@ -289,3 +313,14 @@ class Stepper:
         if self.linear and (not step.lean or stale):
             # contacts of the new minimum, per neighbour-list slot, for the next lean step
             self.flags, self.flags_build = consistent_flags(new, nl, self.fac, params)
+
+
+def _jammed(prev: dict, ftol: float) -> bool:
+    """Whether the minimum of the row ``prev`` is jammed (:mod:`jamlab.spheres.rigidity`): from
+    its rigidity counts (a running row) or its recorded flag (a resumed row); unknown counts as
+    jammed (the usual strategies)."""
+    rigidity = prev.get("rigidity", prev.get("jammed"))
+    if isinstance(rigidity, tuple):
+        dim, n, length, n_kept, n_c_kept, p = rigidity
+        return not jammed_verdict(dim, n_kept, n_c_kept, p, pressure_floor(n, dim, length, ftol))
+    return True if rigidity is None else bool(rigidity)

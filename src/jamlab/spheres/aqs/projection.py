@@ -1,0 +1,183 @@
+"""Floppy steps by projection: the overlap-free configuration nearest to the affine start.
+
+A step that starts from an unjammed minimum (``E ≈ 0``, no state of self-stress) ends, if it stays
+floppy, in *some* configuration without overlaps: every such configuration is a minimum
+(``E = 0``, every force zero). Which one is a property of the protocol, not of the landscape.
+FIRE picks the end of its damped dynamics; near jamming it approaches it slowly (a hovering
+sample spends 20–40 thousand iterations per step sliding the last ``1e-8 → 1e-12`` of force along
+nearly flat directions, ``docs/aqs.md``). This module picks instead the overlap-free
+configuration nearest to the affine start ``x₀`` (hard-sphere quasi-static shear, minimal
+displacement):
+
+    minimise ½ |x − x₀|²   subject to   g_c(x) = r_c(x) − σ_c ≥ 0   for every pair c.
+
+Both ends have the same form: to first order in the displacement, FIRE's is ``x − x₀ = Gᵀ Λ``
+with ``Λ_c ≥ 0`` the accumulated repulsive contact impulses (its velocity is a positive mixture
+of past forces), the projection's ``x − x₀ = Gᵀ λ``, ``λ ≥ 0``, with complementarity
+``λ_c g_c = 0``; they differ only by contacts that push for a while and then open, so the two
+minima are close (measured in ``docs/aqs.md``), but not equal: the choice is a protocol choice,
+selectable
+(:class:`~jamlab.spheres.aqs.parameters.AQSParameters` ``floppy``).
+
+**Method.** Sequential convex programming. Linearise the gaps at ``x_k`` (``g + G d``,
+``G_c = ∂r_c/∂x``: ``+n_c`` on ``i``, ``−n_c`` on ``j``); since ``r_c`` is convex in ``x``,
+``g_c(x) ≥ g_c(x_k) + G_c (x − x_k)``, so every solution of the linearised problem is free of
+overlaps (an inner approximation: each iterate is feasible and ``|x_k − x₀|`` cannot grow). The
+linearised problem is a projection onto a polyhedron; its dual is the linear complementarity
+problem
+
+    w = q + M λ ≥ 0,   λ ≥ 0,   wᵀλ = 0,    M = G Gᵀ,   q = g(x_k) − G (x_k − x₀),
+
+``x = x₀ + Gᵀ λ``, solved by the primal–dual active set iteration (semismooth Newton): ``λ_A`` from
+``M_AA λ_A = −q_A`` (CHOLMOD), ``A ← {c : λ_c − w_c > 0}``, until ``A`` repeats. ``M_AA`` is
+positive definite when the active contacts carry no state of self-stress — the floppy case; where
+a factorisation fails, the active set does not settle within ``max_active`` iterations, or the
+linearisations do not settle within ``max_sqp``, there is no nearby floppy end (the step jams,
+or the active set cycles) and :func:`project` says so: the caller takes the step as before.
+Candidate pairs are those of the neighbour list (all pairs within ``σ_max + skin``); the result
+is checked against the full list: no pair overlaps by more than ``overlap_tol``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+from jamlab.spheres.aqs.linalg import cholesky, pcg
+from jamlab.spheres.neighbors import list_positions
+from jamlab.spheres.pair import pair_sigmas
+from jamlab.spheres.potential import NeighborList, Packing
+
+__all__ = ["Projection", "project", "candidate_pairs"]
+
+CG_ATOL = 1e-16  # largest residual of the active gaps (length units) for a CG solution
+CG_MAXITER = 20
+TOUCH_GAP = 1e-9  # pairs of the parent this close start the active set
+
+
+@dataclass(frozen=True, eq=False)
+class Projection:
+    """Outcome of :func:`project`: the overlap-free configuration (``None`` if not found), the
+    number of linearisations ``sqp`` and of factorisations ``solves``, the multipliers
+    ``lam`` of the pairs ``(pi, pj)`` at the end (``λ_c > 0``: the pair touches and pushes) and
+    ``reason`` (empty when found)."""
+
+    packing: Packing | None
+    sqp: int
+    solves: int
+    pi: np.ndarray
+    pj: np.ndarray
+    lam: np.ndarray
+    reason: str = ""
+
+    def __bool__(self) -> bool:
+        return self.packing is not None
+
+
+def candidate_pairs(packing: Packing, nl: NeighborList) -> tuple[np.ndarray, np.ndarray]:
+    """Every pair of the neighbour list (original numbering, ``i < j`` not implied): the pairs
+    within ``σ_max + skin`` at its build, which contain every pair that can touch while the list
+    is valid."""
+    _, nl = list_positions(packing, nl)
+    counts = np.diff(nl.start)
+    i = np.repeat(np.arange(counts.size), counts)
+    return nl.order[i], nl.order[np.asarray(nl.nbr[: nl.start[-1]])]
+
+
+def _gaps(x: np.ndarray, packing: Packing, pi, pj, sigma):
+    dr = packing.box.minimum_image(x[pi] - x[pj])
+    r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+    return r - sigma, dr / r[:, None]
+
+
+def _jacobian(pi, pj, u, n, d) -> sps.csr_matrix:
+    m = pi.size
+    rows = np.repeat(np.arange(m), 2 * d)
+    cols = np.concatenate([pi[:, None] * d + np.arange(d), pj[:, None] * d + np.arange(d)], 1)
+    return sps.csr_matrix((np.concatenate([u, -u], 1).ravel(), (rows, cols.ravel())),
+                          shape=(m, n * d))
+
+
+def project(
+    affine: Packing,
+    nl: NeighborList,
+    parent: Packing | None = None,
+    max_sqp: int = 16,
+    max_active: int = 40,
+    xtol: float = 1e-10,
+    overlap_tol: float = 1e-14,
+) -> Projection:
+    """The overlap-free configuration nearest to ``affine`` (module docstring), or why not.
+
+    ``parent``: the minimum ``affine`` was sheared from; its pairs closer than
+    :data:`TOUCH_GAP` (touching) start the active set, else the pairs overlapping at
+    ``affine``. (A guess only: the linearised problem is a projection onto a convex set, its
+    end does not depend on the start; and from the configuration alone, so a resumed run
+    repeats it.)
+    Stops when a linearisation moves no particle by more than ``xtol``; the end must have no
+    overlap above ``overlap_tol`` among the neighbour list's pairs. A linearisation whose
+    active set is the previous one's is solved by conjugate gradients preconditioned with the
+    previous factor (a nearby ``M_AA``), refactorised only where that does not converge.
+    """
+    n, d = affine.positions.shape
+    pi, pj = candidate_pairs(affine, nl)
+    sigma = pair_sigmas(affine.diameters, pi, pj)
+    x0 = np.array(affine.positions)
+    x = x0.copy()
+    solves = 0
+    lam = np.zeros(pi.size)
+    cached: tuple[np.ndarray, object] | None = None  # (active indices, their factor)
+
+    def failed(k: int, why: str) -> Projection:
+        return Projection(None, k, solves, pi, pj, lam, why)
+
+    for k in range(1, max_sqp + 1):
+        g, u = _gaps(x, affine, pi, pj, sigma)
+        jac = _jacobian(pi, pj, u, n, d)
+        q = g - jac @ (x - x0).ravel()
+        m = (jac @ jac.T).tocsr()
+        if k > 1:
+            a = lam > 0.0  # the last linearisation's touching pairs
+        elif parent is not None:
+            a = _gaps(parent.positions, parent, pi, pj, sigma)[0] < TOUCH_GAP
+        else:
+            a = q < 0.0
+        for _ in range(max_active):
+            idx = np.flatnonzero(a)
+            lam = np.zeros(pi.size)
+            if idx.size:
+                m_aa = m[idx][:, idx]
+                sol = None
+                if cached is not None and np.array_equal(cached[0], idx):
+                    sol, ok, _ = pcg(m_aa, -q[idx], cached[1].solve, CG_ATOL, CG_MAXITER, 1)
+                    sol = sol if ok else None
+                if sol is None:
+                    fac = cholesky(m_aa.tocsc(), natural=False)
+                    solves += 1
+                    if fac is None:
+                        return failed(k, "a state of self-stress among the touching pairs")
+                    cached = (idx, fac)
+                    sol = fac.solve(-q[idx])
+                lam[idx] = sol
+            w = q + m @ lam
+            new = (lam - w) > 0.0
+            if np.array_equal(new, a):
+                break
+            a = new
+        else:
+            return failed(k, f"the touching pairs did not settle in {max_active} iterations")
+        x_new = x0 + (jac.T @ lam).reshape(n, d)
+        moved = float(np.abs(x_new - x).max())
+        x = x_new
+        if moved < xtol:
+            break
+    else:
+        return failed(max_sqp, f"the linearisations did not settle in {max_sqp}")
+    out = affine.with_positions(x)
+    ci, cj = candidate_pairs(out, nl)  # the list at the end (it may have been rebuilt)
+    g, _ = _gaps(x, out, ci, cj, pair_sigmas(out.diameters, ci, cj))
+    if g.size and g.min() < -overlap_tol:
+        return failed(k, f"an overlap of {-g.min():.2e} remains")
+    return Projection(out, k, solves, pi, pj, lam)
