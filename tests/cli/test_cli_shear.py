@@ -149,3 +149,23 @@ def test_shear_at_fixed_pressure(start, tmp_path):
     assert np.all(np.abs(tr.pressure - 1e-2) <= 1e-8)
     assert tr.phi[0] < packing.phi  # phi = 0.8 carries p >> 1e-2: the box expands
     assert tr.jammed.all()
+
+
+def test_floppy_option_is_recorded_and_checked(start, tmp_path):
+    path, _ = start
+    out = tmp_path / "t.h5"
+    args = ("shear", str(path), "--dgamma", "1e-5", "--gamma-max", "3e-5", "--out", str(out))
+    r = jamlab(*args, "--floppy", "project")
+    assert r.returncode == 0, r.stderr
+    assert read_trace(out).attrs["floppy"] == "project"
+    # resumed with another choice: refused, the file kept
+    before = out.read_bytes()
+    r = jamlab("shear", str(path), "--dgamma", "1e-5", "--gamma-max", "5e-5", "--out", str(out),
+               "--resume")
+    assert "floppy" in one_line_error(r) and out.read_bytes() == before
+    for extra, words in ((("--floppy", "newton"), "--floppy must be"),
+                         (("--floppy", "project", "--pressure", "1e-3"), "constant volume"),
+                         (("--floppy", "project", "--minimizer", "fire"), "constant volume")):
+        r = jamlab("shear", str(path), "--dgamma", "1e-5", "--gamma-max", "3e-5", "--out",
+                   str(tmp_path / "other.h5"), *extra)
+        assert words in one_line_error(r)

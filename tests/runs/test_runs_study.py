@@ -20,6 +20,14 @@ def test_study_normalises_order_and_types():
     assert len(set(s.keys())) == s.n_samples
 
 
+def test_floppy_is_stored_only_when_not_the_default():
+    # earlier run directories (no key) keep their study; a projected run records its choice
+    assert "floppy" not in Study(**BASE).to_dict() and Study(**BASE).floppy == "fire"
+    s = Study(**BASE, floppy="project")
+    assert s.to_dict()["floppy"] == "project" and Study.from_dict(s.to_dict()) == s
+    assert [d.split(":")[0] for d in s.differences(Study(**BASE))] == ["floppy"]
+
+
 def test_study_round_trips_through_dict():
     s = Study(**BASE, seed=7, dim=2)
     assert Study.from_dict(s.to_dict()) == s
@@ -48,6 +56,8 @@ def test_study_round_trips_through_dict():
         ({"gamma_max": math.inf}, "gamma_max"),
         ({"dim": 1}, "dim"),
         ({"task": "nope"}, "unknown task"),
+        ({"floppy": "newton"}, "floppy must be"),
+        ({"floppy": "project", "pressure": 1e-4}, "constant-volume runs only"),
     ],
 )
 def test_study_rejects_bad_values_with_a_message(change, words):

@@ -149,6 +149,12 @@ def register(app: typer.Typer) -> None:
             "--pressure",
             help="AQS at this fixed pressure (default: constant volume, the paper's protocol).",
         ),
+        floppy: str | None = typer.Option(
+            None,
+            "--floppy",
+            help="Constant volume: a step from an unjammed minimum by 'fire' (default) or "
+            "'project' (the overlap-free configuration nearest to the affine start; docs/aqs.md).",
+        ),
         task: str | None = typer.Option(None, "--task", hidden=True),
         workers: int | None = typer.Option(
             None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
@@ -200,6 +206,7 @@ def register(app: typer.Typer) -> None:
                 ("sizes", sizes),
                 ("alpha", alpha),
                 ("pressure", pressure),
+                ("floppy", floppy),
                 ("task", task),
             ],
         )

@@ -226,6 +226,15 @@ def register(app: typer.Typer) -> None:
                 "redone as a chain of pieces) or 'chain' (all candidates).",
             ),
         ] = None,
+        floppy: Annotated[
+            str,
+            typer.Option(
+                "--floppy",
+                help="At constant volume: a step from an unjammed minimum by 'fire' (the usual "
+                "strategies) or 'project' (the overlap-free configuration nearest to the affine "
+                "start; docs/aqs.md).",
+            ),
+        ] = "fire",
         confirm_below: Annotated[
             float | None,
             typer.Option(
@@ -239,12 +248,17 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
-        from jamlab.spheres.aqs import checkpoint_paths, shear
+        from jamlab.spheres.aqs import AQSParameters, checkpoint_paths, shear
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
         if minimizer not in ("linear", "fire"):
             raise ValueError(f"--minimizer must be 'linear' or 'fire', got {minimizer!r}")
+        if floppy not in ("fire", "project"):
+            raise ValueError(f"--floppy must be 'fire' or 'project', got {floppy!r}")
+        if floppy != "fire" and (pressure is not None or minimizer != "linear"):
+            raise ValueError("--floppy project applies to constant volume with --minimizer "
+                             "linear (not with --pressure or plain FIRE)")
         validation.positive("--ftol", ftol)
         validation.positive("--avalanche-threshold", avalanche_threshold)
         if pressure is not None:
@@ -316,6 +330,7 @@ def register(app: typer.Typer) -> None:
             ptol=ptol,
             confirm=confirm,
             confirm_below=confirm_below,
+            params=None if pressure is not None else AQSParameters(floppy=floppy),
         )
         tr = result.trace
         protocol = minimizer if pressure is None else f"fixed p={pressure:g}"

@@ -60,8 +60,10 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
         raise SampleFailed(f"preparation did not converge: {prepared.reason or 'FIRE'}")
     if not prepared.ok:
         raise SampleFailed(f"preparation failed its stopping rule: {prepared.reason}")
+    params = None if study.pressure is not None else aqs.AQSParameters(floppy=study.floppy)
     result = aqs.shear(
-        config, study.dgamma, study.gamma_max, ftol=study.force_tol, pressure=study.pressure
+        config, study.dgamma, study.gamma_max, ftol=study.force_tol, pressure=study.pressure,
+        params=params,
     )
     trace = getattr(result, "trace", result)
     traces = {name: np.asarray(getattr(trace, name)) for name in TRACE_FIELDS}

@@ -114,6 +114,11 @@ class Study:
     - ``pressure``: ``None`` (default): AQS at constant volume (the paper's protocol); a number:
       AQS at this fixed pressure (``shear(..., pressure=...)``; the prepared packing is first
       brought to it). Stored only when set, so earlier run directories keep their study.
+    - ``floppy``: how constant-volume AQS takes a step from an unjammed minimum —
+      ``"fire"`` (default: the usual strategies, FIRE where they end) or ``"project"`` (the
+      overlap-free configuration nearest to the affine start;
+      :class:`jamlab.spheres.aqs.AQSParameters`, ``docs/aqs.md``). Stored only when not
+      ``"fire"``, so earlier run directories keep their study.
     - ``task``: ``"aqs"`` (prepare + shear) or ``"toy"`` (machinery tests only).
     """
 
@@ -130,6 +135,7 @@ class Study:
     sizes: str = "mono"
     alpha: float = 2.0
     pressure: float | None = None
+    floppy: str = "fire"
 
     def __post_init__(self) -> None:
         phis = [parse_phi(p) for p in _as_list(self.phi)]
@@ -158,6 +164,10 @@ class Study:
         object.__setattr__(self, "alpha", validation.pair_exponent("alpha", self.alpha))
         if self.pressure is not None:
             object.__setattr__(self, "pressure", validation.positive("pressure", self.pressure))
+        if self.floppy not in ("fire", "project"):
+            raise ValueError(f"floppy must be 'fire' or 'project', got {self.floppy!r}")
+        if self.floppy != "fire" and self.pressure is not None:
+            raise ValueError("floppy applies to constant-volume runs only, not with pressure")
         if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
 
@@ -199,6 +209,8 @@ class Study:
         d["n"] = list(self.n)
         if d["pressure"] is None:  # constant volume: the study of earlier run directories
             del d["pressure"]
+        if d["floppy"] == "fire":  # the default: the study of earlier run directories
+            del d["floppy"]
         return d
 
     @classmethod
@@ -218,7 +230,8 @@ class Study:
 
     def differences(self, other: Study) -> list[str]:
         """Human-readable ``name: this != other`` for each differing parameter."""
-        a, b = self.to_dict(), other.to_dict()
+        # every field, the defaults too (to_dict leaves some out to match earlier studies)
+        a, b = asdict(self), asdict(other)
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
 
 
