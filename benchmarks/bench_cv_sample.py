@@ -19,6 +19,10 @@ volume, as ``bench_jamming.py`` does — for a whole sample, records the CPU tim
 jamming can take hours); it is reported as stopped, with the steps it finished, whose states
 come from a hook after every step (``is_jammed`` and the pressure of each minimum; not timed).
 
+``--floppy fire project`` runs each packing with both protocols for the steps from unjammed
+minima (:class:`jamlab.spheres.aqs.AQSParameters` ``floppy``) in turn, and prints them side by
+side.
+
 CPU time (``time.process_time``, one thread): the machine is shared. ``--json`` keeps the
 per-step times and states.
 
@@ -36,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import jamlab.spheres as sp
-from jamlab.spheres.aqs import shear
+from jamlab.spheres.aqs import AQSParameters, shear
 from jamlab.spheres.potential import pressure
 from jamlab.spheres.rigidity import is_jammed
 
@@ -49,16 +53,22 @@ class _OverBudget(Exception):
     """Raised by the progress callback when a sample has used its CPU budget."""
 
 
-def one(n: int, seed: int, steps: int, first: int, budget: float | None = None) -> dict:
+def jammed_start(n: int, seed: int) -> tuple[sp.Packing, float]:
+    """``jam(n, 3, seed, p_target=1e-7)`` and its CPU seconds."""
     t0 = time.process_time()
     res = sp.jam(n, 3, seed, p_target=1e-7)
-    jam_s = time.process_time() - t0
     if not res.ok:
         raise SystemExit(f"jam({n}, seed={seed}) failed: {res.reason}")
+    return res.packing, time.process_time() - t0
+
+
+def one(n: int, seed: int, steps: int, first: int, budget: float | None = None,
+        floppy: str = "fire", start: tuple[sp.Packing, float] | None = None) -> dict:
+    packing, jam_s = jammed_start(n, seed) if start is None else start
     marks: list[float] = []
     # each minimum's state, measured by a hook (for a sample stopped by --budget, which leaves
     # no trace; its CPU time is not counted as the shear's)
-    start = res.packing
+    start = packing
     rows: dict[str, list] = {"pressure": [pressure(start)],
                              "jammed": [bool(is_jammed(start, FTOL).jammed)],
                              "iterations": [0], "plastic": [False]}
@@ -80,7 +90,7 @@ def one(n: int, seed: int, steps: int, first: int, budget: float | None = None) 
     t1 = time.process_time()
     try:
         r = shear(start, DGAMMA, n_steps=steps, ftol=FTOL, progress=progress,
-                  after_step=after_step)
+                  after_step=after_step, params=AQSParameters(floppy=floppy))
     except _OverBudget:
         r = None
     total = time.process_time() - t1 - hook_s[0]
@@ -95,7 +105,8 @@ def one(n: int, seed: int, steps: int, first: int, budget: float | None = None) 
     jammed = np.asarray(rows["jammed"], bool)
     both = jammed[1:] & jammed[:-1]
     return {
-        "N": n, "seed": seed, "steps": steps, "steps_done": done, "dgamma": DGAMMA,
+        "N": n, "seed": seed, "floppy": floppy, "steps": steps, "steps_done": done,
+        "dgamma": DGAMMA,
         "jam_cpu_s": jam_s, "shear_cpu_s": total, "first": first,
         "first_cpu_s": float(per_step[:first].sum()) if done >= first else None,
         "step_cpu_s": per_step.tolist(), **rows,
@@ -111,7 +122,8 @@ def report(o: dict) -> None:
     its = np.asarray(o["iterations"])
     plastic = np.asarray(o["plastic"], bool)
     both = jam[1:] & jam[:-1]
-    line = (f"N = {o['N']}, seed {o['seed']}: jam {o['jam_cpu_s']:.0f} CPU s; {done} steps "
+    line = (f"N = {o['N']}, seed {o['seed']}, floppy={o['floppy']}: jam {o['jam_cpu_s']:.0f} "
+            f"CPU s; {done} steps "
             f"{o['shear_cpu_s']:.0f} CPU s ({o['shear_cpu_s'] / 60:.1f} min)")
     if done < steps:
         line += f" — STOPPED by the budget after {done} of {steps} steps"
@@ -145,6 +157,9 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=None,
                     help="stop a sample after this many CPU seconds of shear (reported as "
                     "stopped, with the steps it finished)")
+    ap.add_argument("--floppy", nargs="+", choices=("fire", "project"), default=["fire"],
+                    help="the floppy-step protocols to time, each on the same packing in turn "
+                    "(AQSParameters.floppy); with two, a side-by-side summary at the end")
     ap.add_argument("--json", type=Path, default=None)
     a = ap.parse_args()
     if a.json is not None and a.json.exists():
@@ -154,13 +169,28 @@ def main() -> None:
     results = []
     for n in a.n:
         for seed in a.seeds:
-            o = one(n, seed, a.steps, a.first, a.budget)
-            report(o)
-            results.append(o)
-            if a.json is not None:  # after every sample: a long run keeps what it finished
-                tmp = a.json.with_suffix(".tmp")
-                tmp.write_text(json.dumps({"samples": results}))
-                tmp.replace(a.json)
+            start = jammed_start(n, seed)
+            for floppy in a.floppy:
+                o = one(n, seed, a.steps, a.first, a.budget, floppy, start)
+                report(o)
+                results.append(o)
+                if a.json is not None:  # after every sample: a long run keeps what it finished
+                    tmp = a.json.with_suffix(".tmp")
+                    tmp.write_text(json.dumps({"samples": results}))
+                    tmp.replace(a.json)
+    if len(a.floppy) > 1:
+        print(f"\n# whole-sample shear CPU s, side by side ({' / '.join(a.floppy)})")
+        print("| N | seed | " + " | ".join(a.floppy) + f" | {a.floppy[0]} / {a.floppy[1]} | "
+              "counted plastic | jammed minima |")
+        print("|---|---|" + "---|" * (len(a.floppy) + 3))
+        for k in range(0, len(results), len(a.floppy)):
+            group = results[k:k + len(a.floppy)]
+            cpu = [g["shear_cpu_s"] for g in group]
+            done = "" if all(g["steps_done"] == g["steps"] for g in group) else " (stopped)"
+            print(f"| {group[0]['N']} | {group[0]['seed']} | "
+                  + " | ".join(f"{c:.0f}" for c in cpu) + f" | {cpu[0] / cpu[1]:.2f}{done} | "
+                  + " / ".join(str(g["counted_plastic"]) for g in group) + " | "
+                  + " / ".join(str(int(np.sum(g["jammed"]))) for g in group) + " |")
 
 
 if __name__ == "__main__":
