@@ -113,9 +113,9 @@ def project(
 
     ``parent``: the minimum ``affine`` was sheared from; its pairs closer than
     :data:`TOUCH_GAP` (touching) start the active set, else the pairs overlapping at
-    ``affine``. (A guess only: the linearised problem is a projection onto a convex set, its
-    end does not depend on the start; and from the configuration alone, so a resumed run
-    repeats it.)
+    ``affine``. (A guess only: each linearised problem is a projection onto a convex set, with
+    one solution, so the end depends on the guess at rounding level only; and the guess comes
+    from the configuration alone, so a resumed run repeats it.)
     Stops when a linearisation moves no particle by more than ``xtol``; the end must have no
     overlap above ``overlap_tol`` among the neighbour list's pairs. A linearisation whose
     active set is the previous one's is solved by conjugate gradients preconditioned with the
