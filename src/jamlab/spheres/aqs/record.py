@@ -51,19 +51,24 @@ def resumed_rows(previous: Trace, last: dict) -> dict[str, list]:
     return rows
 
 
+def jammed_flag(value: tuple | bool | None, ftol: float) -> bool | None:
+    """One row's ``jammed`` entry resolved: :func:`~jamlab.spheres.rigidity.jammed_verdict` of
+    its rigidity tuple (:func:`observe`: backbone counts and pressure) against
+    ``p_floor(ftol)``, a recorded flag as it is, ``None`` if unknown."""
+    if value is None or isinstance(value, bool | np.bool_):
+        return None if value is None else bool(value)
+    dim, n, length, n_kept, n_c_kept, p = value
+    return not jammed_verdict(dim, n_kept, n_c_kept, p, pressure_floor(n, dim, length, ftol))
+
+
 def jammed_flags(rows: dict[str, list], ftol: float) -> np.ndarray | None:
-    """The ``jammed`` column: :func:`~jamlab.spheres.rigidity.jammed_verdict` of each row's
-    backbone counts and pressure against ``p_floor(ftol)``; ``None`` if a row is unknown."""
+    """The ``jammed`` column: :func:`jammed_flag` of each row; ``None`` if a row is unknown."""
     out = []
     for value in rows.get("jammed", []):
-        if value is None:
+        flag = jammed_flag(value, ftol)
+        if flag is None:
             return None
-        if isinstance(value, bool | np.bool_):
-            out.append(bool(value))
-            continue
-        dim, n, length, n_kept, n_c_kept, p = value
-        floor = pressure_floor(n, dim, length, ftol)
-        out.append(not jammed_verdict(dim, n_kept, n_c_kept, p, floor))
+        out.append(flag)
     return np.asarray(out, dtype=bool)
 
 

@@ -33,11 +33,10 @@ from jamlab.spheres.aqs.network import affine_to, contact_keys
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.predictor import BranchPath, Secants
 from jamlab.spheres.aqs.projection import project
-from jamlab.spheres.aqs.record import observe
+from jamlab.spheres.aqs.record import jammed_flag, observe
 from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.potential import NeighborList, Packing
-from jamlab.spheres.rigidity import jammed_verdict, pressure_floor
 
 
 @dataclass(eq=False)
@@ -316,11 +315,8 @@ class Stepper:
 
 
 def _jammed(prev: dict, ftol: float) -> bool:
-    """Whether the minimum of the row ``prev`` is jammed (:mod:`jamlab.spheres.rigidity`): from
-    its rigidity counts (a running row) or its recorded flag (a resumed row); unknown counts as
+    """Whether the minimum of the row ``prev`` is jammed: ``record.jammed_flag`` of its
+    rigidity counts (a running row) or of its recorded flag (a resumed row); unknown counts as
     jammed (the usual strategies)."""
-    rigidity = prev.get("rigidity", prev.get("jammed"))
-    if isinstance(rigidity, tuple):
-        dim, n, length, n_kept, n_c_kept, p = rigidity
-        return not jammed_verdict(dim, n_kept, n_c_kept, p, pressure_floor(n, dim, length, ftol))
-    return True if rigidity is None else bool(rigidity)
+    flag = jammed_flag(prev.get("rigidity", prev.get("jammed")), ftol)
+    return True if flag is None else flag
