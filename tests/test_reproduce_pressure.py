@@ -28,10 +28,23 @@ def test_medium_scale_studies():
         assert s.pressure == p and s.phi == ("jamming",) and s.dgamma == 1e-5
         assert set(s.n) <= {500, 1000}
     assert st["jamming"].pressure is None  # the paper's protocol stays at constant volume
+    # the floppy steps of the constant-volume study by projection at medium and paper only;
+    # the other studies never carry the choice (it is refused with a pressure)
+    for name, scale in SCALES.items():
+        want = "project" if name in ("medium", "paper") else "fire"
+        assert {k: v.floppy for k, v in studies(scale).items()} == {
+            k: (want if k == "jamming" else "fire") for k in studies(scale)}
+        assert ("by projection" in parameters(scale, __import__("pathlib").Path("r"))[
+            "avalanche ensembles"]) == (want == "project")
     assert "h" in m.expected
     # every scale's projected cost is in the report header
     text = parameters(m, __import__("pathlib").Path("runs"))["projected cost of every scale"]
     assert all(name in text for name in SCALES)
+
+
+def test_a_scale_with_an_unknown_floppy_choice_is_refused():
+    with pytest.raises(ValueError, match="floppy must be"):
+        replace(SCALES["tiny"], floppy="newton")
 
 
 def test_a_scale_with_pressures_needs_their_sizes():

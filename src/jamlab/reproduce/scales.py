@@ -63,8 +63,13 @@ class Scale:
     pressure_n: tuple[int, ...] = ()
     pressure_samples: int = 0
     pressure_gamma_max: float = 0.0
+    # how the constant-volume jamming study takes a step from an unjammed minimum
+    # (jamlab.runs.Study.floppy: "fire", the paper's minimiser, or "project", docs/aqs.md)
+    floppy: str = "fire"
 
     def __post_init__(self) -> None:
+        if self.floppy not in ("fire", "project"):
+            raise ValueError(f"floppy must be 'fire' or 'project', got {self.floppy!r}")
         steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
         if not (self.moduli_lags and max(self.moduli_lags) < steps):
             raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")
@@ -79,11 +84,12 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 5.9 CPU-hours ≈ 3.0 h on 2 cores, projected (a session cannot host it; docs/reproduce.md) "
-    "from samples measured with the current code: constant volume 0.54 CPU-h, the scale's "
-    "study run whole (CPU s per sample with its preparation: N = 500 51, 84, 122; N = 1000 713, "
-    "231, 733 — the costly ones hover at the edge of jamming; τ 1.305 ± 0.062 by the rule, "
-    "1.239 ± 0.038 with an exponential cut-off, at p ≈ 1e-5 – 2e-4); fixed pressure ≈ 5.0 "
+    "≈ 5.8 CPU-hours ≈ 2.9 h on 2 cores, projected (a session cannot host it; docs/reproduce.md) "
+    "from samples measured with the current code: constant volume 0.37 CPU-h, the scale's "
+    "study run whole with its floppy steps projected (CPU s per sample with its preparation: "
+    "N = 500 13, 81, 91; N = 1000 308, 217, 631 — the costly ones hover at the edge of "
+    "jamming; τ 1.310 ± 0.039 by the rule, 1.272 ± 0.028 with an exponential cut-off, at "
+    "p ≈ 1e-5 – 2e-4; with FIRE on the floppy steps 0.54 CPU-h); fixed pressure ≈ 5.0 "
     "CPU-h from the scale's first 2 samples at every "
     "(N, p), preparation included: N = 500 115 s per 1000-step sample at p = 1e-5, 38 s at 1e-4, "
     "20 s at 1e-3, 11 s at 1e-2; N = 1000 509, 125, 49 and 34 s (20 samples each in the scale) "
@@ -182,6 +188,7 @@ SCALES: dict[str, Scale] = {
         pressure_n=(500, 1000),
         pressure_samples=MEDIUM_P_SAMPLES,
         pressure_gamma_max=0.01,
+        floppy="project",
         expected=MEDIUM_EXPECTED,
     ),
     "paper": Scale(
@@ -209,6 +216,7 @@ SCALES: dict[str, Scale] = {
         cascade_samples=200_000,
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
+        floppy="project",
         expected="10³–10⁴ CPU hours, extrapolated (jamming samples dominate): a Dask cluster",
     ),
 }
@@ -221,7 +229,8 @@ def studies(scale: Scale) -> dict[str, Any]:
     return {
         "jamming": Study(phi=("jamming",), n=scale.jamming_n, samples=scale.jamming_samples,
                          dgamma=scale.dgamma, gamma_max=scale.jamming_gamma_max,
-                         seed=scale.seed, sizes=scale.sizes, alpha=scale.alpha),
+                         seed=scale.seed, sizes=scale.sizes, alpha=scale.alpha,
+                         floppy=scale.floppy),
         "unsat": Study(phi=UNSAT_PHI, n=scale.unsat_n, samples=scale.unsat_samples,
                        dgamma=scale.dgamma, gamma_max=scale.gamma_max, seed=scale.seed,
                        sizes=scale.sizes, alpha=scale.alpha),

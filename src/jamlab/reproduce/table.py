@@ -420,7 +420,8 @@ def parameters(scale: Scale, runs: Path) -> dict[str, str]:
             f"({round(scale.jamming_gamma_max / scale.dgamma)} steps); φ = 0.75, 0.80: "
             f"N = {', '.join(map(str, scale.unsat_n))}, {scale.unsat_samples} samples each, "
             f"γ_max = {scale.gamma_max:g} ({round(scale.gamma_max / scale.dgamma)} steps); "
-            f"δγ = {scale.dgamma:g}"
+            f"δγ = {scale.dgamma:g}; the jamming ensemble's floppy steps by "
+            f"{'projection' if scale.floppy == 'project' else 'FIRE'}"
         ),
         "stress–strain ensemble": (
             f"φ = {scale.stress_phi:g}, N = {scale.stress_n}, {scale.stress_samples} samples, "
@@ -463,6 +464,15 @@ def notes(scale: Scale) -> list[str]:
         "truncated power law by maximum likelihood, x_max = largest size, x_min by the "
         "Kolmogorov–Smirnov rule (Clauset et al. 2009), pooled over N at each φ.",
     ]
+    if scale.floppy == "project":
+        out.append(
+            "Floppy steps of the jamming ensemble (those that start from an unjammed minimum) "
+            "end at the overlap-free configuration nearest to the affine start (projection, "
+            "docs/aqs.md) instead of at the end of FIRE's slide; FIRE takes every other step. "
+            "Such steps are excluded from every statistic; the projection changes only where "
+            "the system goes next (measured against FIRE on 40 samples at N = 250 and 12 at "
+            "N = 500: two-sample KS on the sizes p = 1.000, τ within 0.1σ)."
+        )
     if scale.dgamma != 1e-5 or scale.gamma_max != 0.01 or scale.jamming_gamma_max != 0.01:
         out.append(
             f"**Protocol differs from the paper at this scale:** δγ = {scale.dgamma:g}, "
