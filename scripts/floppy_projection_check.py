@@ -16,6 +16,10 @@ saved runs together (e.g. halves run on two cores).
     python scripts/floppy_projection_check.py --n 250 --seeds 1-20 --save a.npz &
     python scripts/floppy_projection_check.py --n 250 --seeds 21-40 --save b.npz
     python scripts/floppy_projection_check.py --combine a.npz b.npz
+
+``--only project`` runs the variant alone; ``--combine`` then takes the reference's columns
+from earlier saved runs given with ``--reference`` (matched by seed; the FIRE path does not
+depend on the projection, so a changed projection is compared with the same FIRE runs).
 """
 
 from __future__ import annotations
@@ -51,12 +55,13 @@ def counted(cols: dict) -> tuple[np.ndarray, np.ndarray, int, int]:
 
 
 def run(a) -> dict[str, np.ndarray]:
-    """Shear every seed's packing in both modes; the traces' columns and CPU times."""
+    """Shear every seed's packing in both modes (or ``a.only``); the traces' columns and CPU
+    times."""
     keep: dict[str, list] = {}
     for seed in a.seeds:
         start = jam(a.n, 3, seed=seed, p_target=a.p_target).packing
         line = f"seed {seed}:"
-        for m in MODES:
+        for m in (a.only,) if a.only else MODES:
             t = time.process_time()
             res = shear(start, a.dgamma, n_steps=a.steps, params=AQSParameters(floppy=m))
             cpu_s = time.process_time() - t
@@ -123,15 +128,31 @@ def main() -> None:
     ap.add_argument("--save", type=Path, default=None, help="write the columns (npz)")
     ap.add_argument("--combine", type=Path, nargs="+", default=None,
                     help="report on saved runs (npz from --save) instead of running")
+    ap.add_argument("--only", choices=MODES, default=None,
+                    help="run this mode alone (combine with --reference)")
+    ap.add_argument("--reference", type=Path, nargs="+", default=None,
+                    help="with --combine: the reference mode's columns from these saved runs")
     a = ap.parse_args()
     if a.combine:
         parts = [dict(np.load(p)) for p in a.combine]
         data = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        if a.reference:
+            ref = [dict(np.load(p)) for p in a.reference]
+            ref_data = {k: np.concatenate([p[k] for p in ref]) for k in ref[0]}
+            row = {int(s): i for i, s in enumerate(ref_data["seed"])}
+            missing = [int(s) for s in data["seed"] if int(s) not in row]
+            if missing:
+                raise SystemExit(f"seeds {missing} are not in the reference runs")
+            take = [row[int(s)] for s in data["seed"]]
+            m = MODES[1]
+            data |= {k: v[take] for k, v in ref_data.items() if k.startswith(f"{m}_")}
         report(data, f"{len(parts)} saved runs combined")
         return
     data = run(a)
     if a.save is not None:
         np.savez(a.save, **data)
+    if a.only:
+        return
     report(data, f"N={a.n}, constant volume from p={a.p_target:g}, δγ={a.dgamma:g}, "
                  f"{a.steps} steps")
 

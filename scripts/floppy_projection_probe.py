@@ -1,9 +1,12 @@
 """FIRE against the projection on the floppy steps of one hovering constant-volume sample.
 
-From the last configuration of a sample file (a ``jamlab run`` sample, e.g. the ``medium``
-scale's N = 1000 index 0, which hovers at the edge of jamming), FIRE takes ``--steps`` steps of
-``δγ`` at constant volume (the usual chain). From step ``--skip`` on, each step's affine start is
-also minimised by FIRE to ``max|F| < 1e-8`` only, and projected
+From a sample file's packing (a ``jamlab run`` sample, e.g. the ``medium`` scale's N = 1000
+index 0, which hovers at the edge of jamming) placed at the sample's final strain, FIRE takes
+``--steps`` steps of ``δγ`` at constant volume (the usual chain). Sample files keep the
+*prepared* packing (at γ = 0), not the run's last minimum, so the first step here relaxes an
+affine jump of the whole strain (1 %) and the chain runs from that state, not from the run's own
+(``scripts/projection_settle_probe.py`` replays the run instead). From step ``--skip`` on,
+each step's affine start is also minimised by FIRE to ``max|F| < 1e-8`` only, and projected
 (:func:`jamlab.spheres.aqs.projection.project`, cold and with the parent's touching pairs).
 Printed per step: FIRE's iterations and CPU time to 1e-12, its energy and pressure; where FIRE
 is at 1e-8 (iterations, distance to its end); the projection's CPU time (cold, warm), its

@@ -78,6 +78,19 @@ def test_projection_equals_an_independent_solver(dim, n, phi, seed):
     assert e < 1e-26 and np.abs(f).max() < 1e-13
 
 
+@pytest.mark.parametrize("dim,n,phi,seed", [(2, 24, 0.6, 3), (3, 24, 0.45, 5)])
+def test_anderson_mixing_reaches_the_same_projection(dim, n, phi, seed):
+    # the accelerated iteration only moves the linearisation points: the same fixed point as
+    # the plain one, to the stopping tolerance, and no more linearisations
+    start = overlapping_start(n, dim, phi, seed)
+    nl = NeighborList(start, skin=0.3)
+    plain, mixed = project(start, nl, anderson=0), project(start, nl)
+    assert plain and mixed
+    assert np.abs(start.box.minimum_image(
+        plain.packing.positions - mixed.packing.positions)).max() < 1e-9
+    assert mixed.sqp <= plain.sqp
+
+
 def test_projection_optimality_conditions():
     start = overlapping_start(64, 3, 0.5, 7)
     res = project(start, NeighborList(start, skin=0.3))

@@ -100,12 +100,27 @@ def _jacobian(pi, pj, u, n, d) -> sps.csr_matrix:
                           shape=(m, n * d))
 
 
+def _anderson(xs: list[np.ndarray], fs: list[np.ndarray], m: int) -> np.ndarray:
+    """The Anderson-mixed next point of the fixed point ``x ← x + f`` from the last ``m + 1``
+    points ``xs`` and residuals ``fs`` (type II: ``x + f − (ΔX + ΔF) γ``, ``γ`` the least-squares
+    solution of ``ΔF γ ≈ f``); the plain step ``x + f`` with one point."""
+    del xs[: -(m + 1)], fs[: -(m + 1)]
+    x, f = xs[-1], fs[-1]
+    if len(xs) < 2:
+        return x + f
+    dx = np.diff(np.array(xs), axis=0).T
+    df = np.diff(np.array(fs), axis=0).T
+    gamma = np.linalg.lstsq(df, f, rcond=None)[0]
+    return x + f - (dx + df) @ gamma
+
+
 def project(
     affine: Packing,
     nl: NeighborList,
     parent: Packing | None = None,
-    max_sqp: int = 16,
+    max_sqp: int = 40,
     max_active: int = 40,
+    anderson: int = 4,
     xtol: float = 1e-10,
     overlap_tol: float = 1e-14,
 ) -> Projection:
@@ -120,6 +135,15 @@ def project(
     overlap above ``overlap_tol`` among the neighbour list's pairs. A linearisation whose
     active set is the previous one's is solved by conjugate gradients preconditioned with the
     previous factor (a nearby ``M_AA``), refactorised only where that does not converge.
+
+    Once the touching pairs have settled, the linearisations converge linearly (each takes
+    ``x`` to ``T(x)``, the projection onto the gaps linearised at ``x``; measured ratio ≈ 0.5
+    near jamming, where the touching network is nearly isostatic and the gaps' curvature
+    matters on its soft modes). ``anderson`` > 0 accelerates this fixed point by Anderson
+    mixing of the last ``anderson`` residuals ``T(x) − x`` of one active set (reset when it
+    changes): the next linearisation point only, so every iterate ``T(x)`` stays an inner
+    approximation (free of overlaps) and the end is the same fixed point; ``0`` is the plain
+    iteration.
     """
     n, d = affine.positions.shape
     pi, pj = candidate_pairs(affine, nl)
@@ -133,6 +157,9 @@ def project(
     def failed(k: int, why: str) -> Projection:
         return Projection(None, k, solves, pi, pj, lam, why)
 
+    hist_x: list[np.ndarray] = []  # accelerated linearisation points (one active set)
+    hist_f: list[np.ndarray] = []  # their residuals T(x) − x
+    last_active: np.ndarray | None = None
     for k in range(1, max_sqp + 1):
         g, u = _gaps(x, affine, pi, pj, sigma)
         jac = _jacobian(pi, pj, u, n, d)
@@ -170,9 +197,16 @@ def project(
             return failed(k, f"the touching pairs did not settle in {max_active} iterations")
         x_new = x0 + (jac.T @ lam).reshape(n, d)
         moved = float(np.abs(x_new - x).max())
-        x = x_new
         if moved < xtol:
+            x = x_new
             break
+        active = lam > 0.0
+        if last_active is None or not np.array_equal(active, last_active):
+            hist_x, hist_f = [], []
+        last_active = active
+        hist_x.append(x.ravel())
+        hist_f.append((x_new - x).ravel())
+        x = _anderson(hist_x, hist_f, anderson).reshape(n, d) if anderson else x_new
     else:
         return failed(max_sqp, f"the linearisations did not settle in {max_sqp}")
     out = affine.with_positions(x)
