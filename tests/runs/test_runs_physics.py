@@ -63,3 +63,27 @@ def test_study_pressure_field_and_a_fixed_pressure_sample(tmp_path):
     ds = open_run(tmp_path / "r")
     assert "jammed" in ds and "phi_step" in ds
     np.testing.assert_array_equal(ds.jammed.values[0, 0, 0], direct.jammed.astype(float))
+
+
+def test_a_projected_sample_records_its_protocol(tmp_path):
+    # floppy="project" reaches the shear, and the sample file says so (with the counters); a
+    # FIRE sample of the same study keeps its earlier attributes
+    base = dict(phi=["jamming"], n=[32], samples=1, dgamma=1e-3, gamma_max=1e-2, seed=4)
+    for floppy in ("project", "fire"):
+        study = Study(**base, floppy=floppy)
+        run_study(study, tmp_path / floppy, Execution(workers=0))
+        rd = RunDir(tmp_path / floppy)
+        key = study.keys()[0]
+        assert rd.state(key) == "done", rd.read_failure(key)
+        stored = read_sample(rd.sample_path(key))
+        config = packing.jam(32, 3, sample_seed(study.seed, key), p_target=study.p_target).packing
+        direct = aqs.shear(config, 1e-3, 1e-2, params=aqs.AQSParameters(floppy=floppy)).trace
+        for name in ("gamma", "energy", "jammed", "plastic"):
+            np.testing.assert_array_equal(stored["trace"][name], getattr(direct, name))
+        if floppy == "project":
+            assert stored["attrs"]["shear_floppy"] == "project"
+            assert stored["attrs"]["shear_n_projected"] == direct.attrs["n_projected"] > 0
+            assert stored["attrs"]["shear_n_projection_failed"] == direct.attrs[
+                "n_projection_failed"]
+        else:
+            assert not any("floppy" in k or "projec" in k for k in stored["attrs"])

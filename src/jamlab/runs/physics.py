@@ -71,6 +71,11 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
         traces[name] = np.asarray(column)
     attrs.update(scalars("shear_", result) if trace is not result else {})
     attrs.pop("shear_time", None)  # wall time: not reproducible, kept out of the sample's data
+    if study.floppy != "fire":  # the protocol of the floppy steps, and what it did (FIRE samples
+        # keep their earlier attributes, bit for bit)
+        attrs["shear_floppy"] = study.floppy
+        for name in ("n_projected", "n_projection_failed"):
+            attrs[f"shear_{name}"] = int(trace.attrs.get(name, 0))
     n_bad = int(attrs.get("shear_n_not_converged", 0))
     if n_bad:
         raise SampleFailed(f"AQS minimisation did not converge at {n_bad} step(s) (max |F_i|)")
