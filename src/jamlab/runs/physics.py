@@ -74,7 +74,7 @@ def prepare_and_shear(study: Study, key: SampleKey, seed: int) -> SampleResult:
     if study.floppy != "fire":  # the protocol of the floppy steps, and what it did (FIRE samples
         # keep their earlier attributes, bit for bit)
         attrs["shear_floppy"] = study.floppy
-        for name in ("n_projected", "n_projection_failed", "n_projected_from_fire"):
+        for name in ("n_projected", "n_projection_failed"):
             attrs[f"shear_{name}"] = int(trace.attrs.get(name, 0))
     n_bad = int(attrs.get("shear_n_not_converged", 0))
     if n_bad:

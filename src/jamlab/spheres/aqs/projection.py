@@ -50,14 +50,11 @@ from jamlab.spheres.neighbors import list_positions
 from jamlab.spheres.pair import pair_sigmas
 from jamlab.spheres.potential import NeighborList, Packing
 
-__all__ = ["LOOSE_FTOL", "Projection", "project", "candidate_pairs"]
+__all__ = ["Projection", "project", "candidate_pairs"]
 
 CG_ATOL = 1e-16  # largest residual of the active gaps (length units) for a CG solution
 CG_MAXITER = 20
 TOUCH_GAP = 1e-9  # pairs of the parent this close start the active set
-LOOSE_FTOL = 1e-10
-"""Where the first projection fails, FIRE from the affine start to ``max|F_i| <`` this gives the
-point the second one is first linearised at (``docs/aqs.md``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,7 +121,6 @@ def project(
     max_sqp: int = 40,
     max_active: int = 40,
     anderson: int = 4,
-    start: Packing | None = None,
     xtol: float = 1e-10,
     overlap_tol: float = 1e-14,
 ) -> Projection:
@@ -148,18 +144,12 @@ def project(
     changes): the next linearisation point only, so every iterate ``T(x)`` stays an inner
     approximation (free of overlaps) and the end is the same fixed point; ``0`` is the plain
     iteration.
-
-    ``start``: where the gaps are first linearised (default ``affine`` itself). Any point will
-    do — each iterate is the projection of ``affine`` onto gaps linearised somewhere — and where
-    the linearisation at ``affine`` has no solution (a chain of contacts under self-stress that
-    opens only at second order, by bending) one nearer the end can have one: the caller's
-    second attempt starts from FIRE's loose minimum (:data:`LOOSE_FTOL`).
     """
     n, d = affine.positions.shape
     pi, pj = candidate_pairs(affine, nl)
     sigma = pair_sigmas(affine.diameters, pi, pj)
     x0 = np.array(affine.positions)
-    x = x0.copy() if start is None else np.array(start.positions)
+    x = x0.copy()
     solves = 0
     lam = np.zeros(pi.size)
     cached: tuple[np.ndarray, object] | None = None  # (active indices, their factor)

@@ -32,11 +32,10 @@ from jamlab.spheres.aqs.linalg import Factor, factorise
 from jamlab.spheres.aqs.network import affine_to, contact_keys
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.predictor import BranchPath, Secants
-from jamlab.spheres.aqs.projection import LOOSE_FTOL, project
+from jamlab.spheres.aqs.projection import project
 from jamlab.spheres.aqs.record import jammed_flag, observe
 from jamlab.spheres.aqs.saddle import descend
 from jamlab.spheres.fire import FireParameters, minimize
-from jamlab.spheres.neighbors import RELAX_SKIN
 from jamlab.spheres.potential import NeighborList, Packing
 
 
@@ -101,7 +100,6 @@ class Stepper:
         if self.project:
             counters.setdefault("n_projected", 0)
             counters.setdefault("n_projection_failed", 0)
-            counters.setdefault("n_projected_from_fire", 0)
 
     # -- the strategies -------------------------------------------------------------------------
 
@@ -132,27 +130,13 @@ class Stepper:
     def projected(self, cur: Packing, affine: Packing) -> Step | None:
         """The overlap-free configuration nearest to ``affine`` (elastic), or ``None`` where
         there is none nearby (the step jams) or it was not found. ``iterations``: the
-        linearisations, plus FIRE's where the second attempt was made.
-
-        Where that fails (mostly because the gaps linearised at ``affine`` admit no solution:
-        a state of self-stress, an active set that does not settle), a second projection is
-        first linearised at FIRE's minimum to ``max|F_i| < LOOSE_FTOL`` from ``affine`` (its
-        own neighbour list: the stepper's is left as the usual strategies find it when this
-        fails too)."""
+        linearisations."""
         res = project(affine, self.nl, parent=cur)
-        iterations = 0
-        if not res:
-            loose = minimize(affine, LOOSE_FTOL, self.params.max_fire_iter, self.fire_params,
-                             neighbors=NeighborList(affine, skin=RELAX_SKIN))
-            iterations = loose.iterations
-            res = project(affine, self.nl, parent=cur, start=loose.packing)
-            if res:
-                self.counters["n_projected_from_fire"] += 1
         if not res:
             self.counters["n_projection_failed"] += 1
             return None
         self.counters["n_projected"] += 1
-        return Step(res.packing, affine, iterations + res.sqp)
+        return Step(res.packing, affine, res.sqp)
 
     def unjammed(self, affine: Packing) -> Step:
         """No rigid backbone: FIRE removes the overlaps; elastic."""
