@@ -8,10 +8,11 @@ jamming (unjammed by the verdict, ``E ≈ 1e-17``). From there FIRE carries ``--
 ``δγ``; at each, the affine start is also projected (:func:`jamlab.spheres.aqs.projection.project`,
 the parent's touching pairs first) with the settings of ``VARIANTS``: the earlier
 ``max_sqp = 16`` without mixing, ``max_sqp = 40`` without mixing, and the defaults (40, Anderson
-mixing of 4), and where the last fails the stepper's second attempt (first linearised at FIRE's
-minimum to ``LOOSE_FTOL``). Printed per step: FIRE's iterations, CPU time and energy; per
-variant, found or why not, linearisations / factorisations and CPU time (the second attempt's
-with its FIRE). Asserts nothing.
+mixing of 4), and where the last fails a second attempt first linearised at FIRE's minimum to
+``LOOSE_FTOL`` (``project(..., start=...)``; tried in the stepper and not kept, docs/aqs.md).
+Printed per step: FIRE's iterations, CPU time and energy; per variant, found or why not,
+linearisations / factorisations and CPU time (the second attempt's with its FIRE). Asserts
+nothing.
 
     PYTHONPATH=src python scripts/projection_settle_probe.py SAMPLE.h5 --warm 337 --steps 24
 """
@@ -24,12 +25,13 @@ import time
 import h5py
 
 from jamlab.spheres.aqs import AQSParameters, shear
-from jamlab.spheres.aqs.projection import LOOSE_FTOL, project
+from jamlab.spheres.aqs.projection import project
 from jamlab.spheres.box import Box
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.state import Packing, affine_shear
 
+LOOSE_FTOL = 1e-10  # the second attempt's FIRE tolerance (tried in the stepper, not kept)
 VARIANTS = ({"max_sqp": 16, "anderson": 0}, {"max_sqp": 40, "anderson": 0}, {})
 
 

@@ -91,6 +91,39 @@ def test_anderson_mixing_reaches_the_same_projection(dim, n, phi, seed):
     assert mixed.sqp <= plain.sqp
 
 
+def test_a_chain_that_opens_only_by_bending_needs_another_linearisation_point():
+    # a straight periodic chain of 4 spheres, compressed along x: to first order its gaps cannot
+    # all open (a state of self-stress), so the first linearisation has no solution; the
+    # projection first linearised at a bent point finds the nearest zigzag, as SLSQP does
+    # from the same point
+    length = 3.99
+    box = Box(length, 2, 0.0)
+    x = np.stack([np.arange(4) * length / 4, np.full(4, length / 2)], axis=1)
+    straight = Packing(x, box)
+    nl = NeighborList(straight, skin=0.3)
+    first = project(straight, nl)
+    assert not first  # (CHOLMOD may pass the singular M_AA on a rounding-level pivot: then
+    # the multipliers are huge and the end check finds the overlap left)
+    bent = straight.with_positions(x + np.array([[0, 0.02], [0, -0.02]] * 2))
+    res = project(straight, nl, start=bent)
+    assert res, res.reason
+    y = res.packing.positions
+    assert all_pairs_gaps(y, box)[0].min() > -1e-14
+    dy = y[:, 1] - length / 2
+    assert np.allclose(np.abs(dy), np.sqrt(1 - (length / 4) ** 2) / 2, rtol=1e-6)
+    assert np.all(dy[::2] > 0) and np.all(dy[1::2] < 0)
+    x0 = straight.positions.ravel()
+
+    def cons(v):
+        return all_pairs_gaps(v.reshape(4, 2), box)[0]
+
+    ref = sp_minimize(lambda v: 0.5 * np.sum((v - x0) ** 2), bent.positions.ravel(),
+                      jac=lambda v: v - x0, constraints=[{"type": "ineq", "fun": cons}],
+                      method="SLSQP", options={"ftol": 1e-15, "maxiter": 500})
+    assert ref.success
+    assert np.abs(box.minimum_image(y - ref.x.reshape(4, 2))).max() < 1e-6
+
+
 def test_projection_optimality_conditions():
     start = overlapping_start(64, 3, 0.5, 7)
     res = project(start, NeighborList(start, skin=0.3))

@@ -121,6 +121,7 @@ def project(
     max_sqp: int = 40,
     max_active: int = 40,
     anderson: int = 4,
+    start: Packing | None = None,
     xtol: float = 1e-10,
     overlap_tol: float = 1e-14,
 ) -> Projection:
@@ -144,12 +145,19 @@ def project(
     changes): the next linearisation point only, so every iterate ``T(x)`` stays an inner
     approximation (free of overlaps) and the end is the same fixed point; ``0`` is the plain
     iteration.
+
+    ``start``: where the gaps are first linearised (default ``affine`` itself). Any point will
+    do — each iterate is the projection of ``affine`` onto gaps linearised somewhere — and where
+    the linearisation at ``affine`` has no solution (a chain of contacts under self-stress that
+    opens only at second order, by bending) one nearer the end can have one (measured with
+    FIRE's loose minimum as ``start`` in ``docs/aqs.md``; the stepper does not use it: it did not
+    pay on whole samples).
     """
     n, d = affine.positions.shape
     pi, pj = candidate_pairs(affine, nl)
     sigma = pair_sigmas(affine.diameters, pi, pj)
     x0 = np.array(affine.positions)
-    x = x0.copy()
+    x = x0.copy() if start is None else np.array(start.positions)
     solves = 0
     lam = np.zeros(pi.size)
     cached: tuple[np.ndarray, object] | None = None  # (active indices, their factor)
