@@ -25,6 +25,8 @@ __all__ = [
     "MAX_STEPS",
     "MAX_STRAIN",
     "STRAIN_RESOLUTION",
+    "FLOPPY",
+    "floppy",
     "integer",
     "number",
     "positive",
@@ -46,6 +48,18 @@ MAX_STRAIN = 1e6
 
 STRAIN_RESOLUTION = 2.0**-40
 """Smallest ``δγ / max(1, |γ|)``: below it ``γ + δγ`` loses more than ~12 bits of ``δγ``."""
+
+
+FLOPPY = ("fire", "project")
+"""How a constant-volume step from an unjammed minimum is taken (``docs/aqs.md``): ``"fire"``
+(the usual strategies; the default) or ``"project"`` (the nearest overlap-free configuration)."""
+
+
+def floppy(value: Any) -> str:
+    """One of :data:`FLOPPY`, or ``ValueError`` naming the choices."""
+    if value not in FLOPPY:
+        raise _reject("floppy", "'fire' or 'project'", value)
+    return value
 
 
 def _reject(name: str, what: str, value: Any) -> ValueError:

@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Any
 
+from jamlab import validation
+
 __all__ = [
     "SCALES",
     "UNSAT_PHI",
@@ -68,8 +70,7 @@ class Scale:
     floppy: str = "fire"
 
     def __post_init__(self) -> None:
-        if self.floppy not in ("fire", "project"):
-            raise ValueError(f"floppy must be 'fire' or 'project', got {self.floppy!r}")
+        validation.floppy(self.floppy)
         steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
         if not (self.moduli_lags and max(self.moduli_lags) < steps):
             raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")

@@ -164,8 +164,7 @@ class Study:
         object.__setattr__(self, "alpha", validation.pair_exponent("alpha", self.alpha))
         if self.pressure is not None:
             object.__setattr__(self, "pressure", validation.positive("pressure", self.pressure))
-        if self.floppy not in ("fire", "project"):
-            raise ValueError(f"floppy must be 'fire' or 'project', got {self.floppy!r}")
+        validation.floppy(self.floppy)
         if self.floppy != "fire" and self.pressure is not None:
             raise ValueError("floppy applies to constant-volume runs only, not with pressure")
         if not isinstance(self.task, str) or self.task not in TASKS:

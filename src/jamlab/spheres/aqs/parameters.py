@@ -5,7 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-FLOPPY = ("fire", "project")
+from jamlab import validation
+
+FLOPPY = validation.FLOPPY
 
 
 @dataclass(frozen=True)
@@ -59,8 +61,7 @@ class AQSParameters:
     floppy: str = "fire"
 
     def __post_init__(self) -> None:
-        if self.floppy not in FLOPPY:
-            raise ValueError(f"floppy must be one of {FLOPPY}, got {self.floppy!r}")
+        validation.floppy(self.floppy)
         if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
             raise ValueError(f"max_newton must be an integer >= 1, got {self.max_newton!r}")
         for name in ("contraction", "linear_basin", "min_substep"):
