@@ -471,7 +471,7 @@ def notes(scale: Scale) -> list[str]:
             "docs/aqs.md) instead of at the end of FIRE's slide; FIRE takes every other step. "
             "Such steps are excluded from every statistic; the projection changes only where "
             "the system goes next (measured against FIRE on 40 samples at N = 250 and 12 at "
-            "N = 500: two-sample KS on the sizes p = 1.000, τ within 0.1σ)."
+            "N = 500: two-sample KS on the sizes p = 1.000, τ within 0.2σ)."
         )
     if scale.dgamma != 1e-5 or scale.gamma_max != 0.01 or scale.jamming_gamma_max != 0.01:
         out.append(
