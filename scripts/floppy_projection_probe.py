@@ -25,12 +25,13 @@ import time
 import h5py
 import numpy as np
 
+from jamlab.runs import prepared_packing
 from jamlab.spheres.aqs.projection import project
 from jamlab.spheres.box import Box
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import pressure
-from jamlab.spheres.state import Packing, affine_shear
+from jamlab.spheres.state import affine_shear
 
 
 def distance(box: Box, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -45,10 +46,8 @@ def main() -> None:
     ap.add_argument("--dgamma", type=float, default=1e-5)
     a = ap.parse_args()
     with h5py.File(a.sample, "r") as f:
-        pos = f["packing/positions"][:]
-        start = Packing(pos, Box(float(f.attrs["box_length"]), pos.shape[1],
-                                 float(f["trace/gamma"][-1])))
-    cur = start
+        gamma_end = float(f["trace/gamma"][-1])
+    cur = prepared_packing(a.sample, gamma_end)
     nl = NeighborList(cur, skin=RELAX_SKIN)
     print("| step | FIRE its / CPU s | E, p | at 1e-8: its, distance to the end | projection "
           "cold / warm CPU s (linearisations, factorisations) | max distance to FIRE's | "

@@ -22,14 +22,12 @@ from __future__ import annotations
 import argparse
 import time
 
-import h5py
-
+from jamlab.runs import prepared_packing
 from jamlab.spheres.aqs import AQSParameters, shear
 from jamlab.spheres.aqs.projection import project
-from jamlab.spheres.box import Box
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
-from jamlab.spheres.state import Packing, affine_shear
+from jamlab.spheres.state import affine_shear
 
 LOOSE_FTOL = 1e-10  # the second attempt's FIRE tolerance (tried in the stepper, not kept)
 VARIANTS = ({"max_sqp": 16, "anderson": 0}, {"max_sqp": 40, "anderson": 0}, {})
@@ -42,9 +40,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=24)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     a = ap.parse_args()
-    with h5py.File(a.sample, "r") as f:
-        pos = f["packing/positions"][:]
-        start = Packing(pos, Box(float(f.attrs["box_length"]), pos.shape[1], 0.0))
+    start = prepared_packing(a.sample)
     t = time.process_time()
     warm = shear(start, a.dgamma, n_steps=a.warm, params=AQSParameters(floppy="project"))
     cur = warm.packing

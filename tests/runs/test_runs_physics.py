@@ -87,3 +87,22 @@ def test_a_projected_sample_records_its_protocol(tmp_path):
                 "n_projection_failed"]
         else:
             assert not any("floppy" in k or "projec" in k for k in stored["attrs"])
+
+
+def test_prepared_packing_is_the_samples_start(tmp_path):
+    # the packing a sample file keeps, read back: positions, diameters and the pair law of the
+    # run's study, the box side — equal to the preparation made directly with the sample's seed
+    from jamlab.runs import prepared_packing
+
+    study = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=2,
+                  sizes="bidisperse", alpha=2.5)
+    run_study(study, tmp_path / "r", Execution(workers=0))
+    rd = RunDir(tmp_path / "r")
+    key = study.keys()[0]
+    assert rd.state(key) == "done", rd.read_failure(key)
+    direct = packing.jam(16, 3, sample_seed(study.seed, key), p_target=study.p_target,
+                         sizes="bidisperse", alpha=2.5).packing
+    got = prepared_packing(rd.sample_path(key), gamma=0.25)
+    np.testing.assert_array_equal(got.positions, direct.positions)
+    np.testing.assert_array_equal(got.diameters, direct.diameters)
+    assert got.alpha == 2.5 and got.box.length == direct.box.length and got.box.strain == 0.25

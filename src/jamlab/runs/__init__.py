@@ -7,7 +7,7 @@
 """
 
 from jamlab.runs.execute import Execution, RunSummary, run_study
-from jamlab.runs.load import open_run, read_sample
+from jamlab.runs.load import open_run, prepared_packing, read_sample
 from jamlab.runs.seeds import sample_seed, sample_seed_sequence
 from jamlab.runs.storage import RunDir, RunError
 from jamlab.runs.study import SampleKey, Study, load_toml
@@ -25,6 +25,7 @@ __all__ = [
     "Study",
     "load_toml",
     "open_run",
+    "prepared_packing",
     "read_sample",
     "run_study",
     "sample_seed",

@@ -56,6 +56,25 @@ def read_sample(path: str | os.PathLike) -> dict[str, Any]:
         }
 
 
+def prepared_packing(path: str | os.PathLike, gamma: float = 0.0) -> Any:
+    """The prepared packing a sample file keeps, as a :class:`~jamlab.spheres.state.Packing`
+    placed at strain ``gamma``: ``packing/positions`` (and ``packing/diameters`` where stored),
+    the box side ``box_length``, and the pair exponent of the run's study (the file must sit in
+    its run directory, ``RUN/samples/phi=…/N=…/sample-*.h5``). It is the start of the sample's
+    shear, not its last minimum: a sample is replayed from it, not continued."""
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.state import Packing
+
+    path = Path(path)
+    study = RunDir(path.parents[3]).study()
+    with h5py.File(path, "r") as h5:
+        pos = h5["packing/positions"][()]
+        dia = h5["packing/diameters"][()] if "diameters" in h5["packing"] else None
+        length = float(h5.attrs["box_length"])
+    return Packing(pos, Box(length, pos.shape[1], float(gamma)), diameters=dia,
+                   alpha=study.alpha)
+
+
 def _plain(value: Any) -> Any:
     if isinstance(value, bytes):
         return value.decode()
