@@ -55,10 +55,10 @@ FLOPPY = ("fire", "project")
 (the usual strategies; the default) or ``"project"`` (the nearest overlap-free configuration)."""
 
 
-def floppy(value: Any) -> str:
+def floppy(value: Any, name: str = "floppy") -> str:
     """One of :data:`FLOPPY`, or ``ValueError`` naming the choices."""
     if value not in FLOPPY:
-        raise _reject("floppy", "'fire' or 'project'", value)
+        raise _reject(name, " or ".join(repr(c) for c in FLOPPY), value)
     return value
 
 

@@ -249,14 +249,12 @@ def register(app: typer.Typer) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
         from jamlab.spheres.aqs import AQSParameters, checkpoint_paths, shear
-        from jamlab.spheres.aqs.parameters import FLOPPY
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
         if minimizer not in ("linear", "fire"):
             raise ValueError(f"--minimizer must be 'linear' or 'fire', got {minimizer!r}")
-        if floppy not in FLOPPY:
-            raise ValueError(f"--floppy must be one of {', '.join(FLOPPY)}, got {floppy!r}")
+        validation.floppy(floppy, "--floppy")
         if floppy != "fire" and (pressure is not None or minimizer != "linear"):
             raise ValueError("--floppy project applies to constant volume with --minimizer "
                              "linear (not with --pressure or plain FIRE)")

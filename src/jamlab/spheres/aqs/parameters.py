@@ -7,8 +7,6 @@ from dataclasses import dataclass
 
 from jamlab import validation
 
-FLOPPY = validation.FLOPPY
-
 
 @dataclass(frozen=True)
 class AQSParameters:

@@ -103,7 +103,8 @@ def _jacobian(pi, pj, u, n, d) -> sps.csr_matrix:
 def _anderson(xs: list[np.ndarray], fs: list[np.ndarray], m: int) -> np.ndarray:
     """The Anderson-mixed next point of the fixed point ``x ← x + f`` from the last ``m + 1``
     points ``xs`` and residuals ``fs`` (type II: ``x + f − (ΔX + ΔF) γ``, ``γ`` the least-squares
-    solution of ``ΔF γ ≈ f``); the plain step ``x + f`` with one point."""
+    solution of ``ΔF γ ≈ f``); the plain step ``x + f`` with one point. Trims both lists to
+    those last ``m + 1`` entries."""
     del xs[: -(m + 1)], fs[: -(m + 1)]
     x, f = xs[-1], fs[-1]
     if len(xs) < 2:
