@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from cli_helpers import jamlab, one_line_error
-from jamlab.cli.shear import resume_configuration
 from jamlab.spheres import jam
-from jamlab.spheres.aqs import shear
+from jamlab.spheres.aqs import resume_configuration, shear
 from jamlab.spheres.io import write_packing
 from jamlab.spheres.trace import FIXED_PRESSURE_COLUMNS, read_trace
 

@@ -109,45 +109,6 @@ def resume_save_every(previous: Any, save_every: int | None) -> int | None:
     return save_every
 
 
-def resume_configuration(out: Path, previous: Any) -> Any:
-    """The saved configuration at the strain of the trace's last row: the one stored in the
-    trace file itself (written with it by one rename), else ``<stem>.last.h5`` or, if the run was
-    killed between writing that and the trace, the snapshot of the same step."""
-    from jamlab.spheres.aqs import checkpoint_paths
-    from jamlab.spheres.box import Box
-    from jamlab.spheres.io import read_packing
-    from jamlab.spheres.potential import Packing
-    from jamlab.spheres.trace import read_trace_configuration
-
-    last, snapshots = checkpoint_paths(out)
-    step = previous.n_steps
-    strain = float(previous.gamma[-1])
-    stored = read_trace_configuration(out)
-    if stored is not None and stored["step"] == step:
-        seed = int(stored["seed"])
-        positions = stored["positions"]
-        box = Box(float(stored["box_length"]), positions.shape[1], float(stored["strain"]))
-        return Packing(
-            positions,
-            box,
-            seed=None if seed < 0 else seed,
-            diameters=stored.get("diameters"),
-            alpha=stored.get("alpha", 2.0),
-        )
-    tried = []
-    for candidate in (last, snapshots / f"step_{step:08d}.h5"):
-        if not candidate.is_file():
-            continue
-        packing = read_packing(candidate)
-        if math.isclose(packing.strain, strain, rel_tol=0, abs_tol=1e-15):
-            return packing
-        tried.append(f"{candidate} is at strain {packing.strain!r}")
-    raise ValueError(
-        f"no saved configuration at the last strain {strain!r} (step {step}) of {out}"
-        + (f": {'; '.join(tried)}" if tried else f"; expected {last}")
-    )
-
-
 def register(app: typer.Typer) -> None:
     """Add ``jamlab shear``."""
 
@@ -248,7 +209,12 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
-        from jamlab.spheres.aqs import AQSParameters, checkpoint_paths, shear
+        from jamlab.spheres.aqs import (
+            AQSParameters,
+            checkpoint_paths,
+            resume_configuration,
+            shear,
+        )
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 

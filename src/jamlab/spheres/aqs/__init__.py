@@ -60,7 +60,7 @@ strategy in :mod:`~jamlab.spheres.aqs.steps`; below them :mod:`~jamlab.spheres.a
 tolerances in :mod:`~jamlab.spheres.aqs.parameters`.
 """
 
-from jamlab.spheres.aqs.checkpoint import checkpoint_paths
+from jamlab.spheres.aqs.checkpoint import checkpoint_paths, resume_configuration
 from jamlab.spheres.aqs.driver import MINIMIZERS, ShearResult, n_steps_for, shear
 from jamlab.spheres.aqs.parameters import AQSParameters
 
@@ -70,5 +70,6 @@ __all__ = [
     "ShearResult",
     "checkpoint_paths",
     "n_steps_for",
+    "resume_configuration",
     "shear",
 ]

@@ -1,11 +1,14 @@
-"""Checkpoints of an AQS run: where the configurations go and how the run is saved."""
+"""Checkpoints of an AQS run: where the configurations go, how the run is saved
+(:func:`save_checkpoint`) and the configuration a resumed run starts from
+(:func:`resume_configuration`)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from jamlab.spheres.potential import Packing
-from jamlab.spheres.trace import Trace, write_trace
+from jamlab.spheres.trace import Trace, read_trace_configuration, write_trace
 
 
 def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
@@ -28,7 +31,45 @@ def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
         snapshots.mkdir(exist_ok=True)
         write_packing(snapshots / f"step_{step:08d}.h5", packing, aqs_step=int(step))
     # the trace carries its last configuration: one atomic rename writes the checkpoint pair, so
-    # a SIGKILL at any moment leaves a resumable trace (jamlab.cli.shear.resume_configuration);
-    # <stem>.last.h5 is written after it for the user (a convenience copy, never needed to resume)
+    # a SIGKILL at any moment leaves a resumable trace (resume_configuration); <stem>.last.h5 is
+    # written after it for the user (a convenience copy, never needed to resume)
     write_trace(out, trace, configuration=packing)
     write_packing(last, packing, aqs_step=int(step))
+
+
+def resume_configuration(out: str | Path, previous: Trace) -> Packing:
+    """The saved configuration at the strain of the trace's last row: the one stored in the
+    trace file ``out`` itself (written with it by one rename), else ``<stem>.last.h5`` or, if the
+    run was killed between writing that and the trace, the snapshot of the same step.
+    ``ValueError`` if there is none."""
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.io import read_packing
+
+    out = Path(out)
+    last, snapshots = checkpoint_paths(out)
+    step = previous.n_steps
+    strain = float(previous.gamma[-1])
+    stored = read_trace_configuration(out)
+    if stored is not None and stored["step"] == step:
+        seed = int(stored["seed"])
+        positions = stored["positions"]
+        box = Box(float(stored["box_length"]), positions.shape[1], float(stored["strain"]))
+        return Packing(
+            positions,
+            box,
+            seed=None if seed < 0 else seed,
+            diameters=stored.get("diameters"),
+            alpha=stored.get("alpha", 2.0),
+        )
+    tried = []
+    for candidate in (last, snapshots / f"step_{step:08d}.h5"):
+        if not candidate.is_file():
+            continue
+        packing = read_packing(candidate)
+        if math.isclose(packing.strain, strain, rel_tol=0, abs_tol=1e-15):
+            return packing
+        tried.append(f"{candidate} is at strain {packing.strain!r}")
+    raise ValueError(
+        f"no saved configuration at the last strain {strain!r} (step {step}) of {out}"
+        + (f": {'; '.join(tried)}" if tried else f"; expected {last}")
+    )
