@@ -36,6 +36,13 @@ def test_medium_scale_studies():
             k: (want if k == "jamming" else "fire") for k in studies(scale)}
         assert ("by projection" in parameters(scale, __import__("pathlib").Path("r"))[
             "avalanche ensembles"]) == (want == "project")
+    # the samples of every paper-scale study are saved as they go, the others' not (their runs
+    # exist: a checkpointed study is another study)
+    for name, scale in SCALES.items():
+        want = 100 if name == "paper" else 0
+        assert {v.checkpoint_every for v in studies(scale).values()} == {want}
+        assert ("saved every 100 steps" in parameters(scale, __import__("pathlib").Path("r"))[
+            "avalanche ensembles"]) == (name == "paper")
     assert "h" in m.expected
     # every scale's projected cost is in the report header
     text = parameters(m, __import__("pathlib").Path("runs"))["projected cost of every scale"]

@@ -66,6 +66,7 @@ def test_bad_input_is_one_line_and_touches_nothing(tmp_path):
         "mismatch": (["--seed", "4"], "different study (seed: 3 != 4"),
         "unwritable": (["--out", tmp_path / "afile" / "run"], "not a directory"),
         "scheduler": (["--scheduler", "nowhere"], "tcp://HOST:8786"),
+        "checkpoint": (["--checkpoint-every", "-5"], "checkpoint_every must be an integer >= 0"),
     }
     for name, (extra, message) in cases.items():
         line = one_line_error(jamlab("run", *STUDY_ARGS, *base, *extra))
@@ -120,6 +121,39 @@ def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path):
     r = jamlab("run", *args, "--out", run)
     assert r.returncode == 0, r.stderr
     assert not list(run.rglob("*.tmp"))
+    assert_same_runs(ref, run)
+
+
+@pytest.mark.slow
+def test_sigkill_mid_sample_then_resume_from_its_checkpoint(tmp_path):
+    # one physics sample saved every 50 of its 2000 steps; the run is killed once the first
+    # saves are on disk, and the same command resumes the sample from its last save
+    args = ["--phi", "0.8", "--n", "64", "--samples", "1", "--dgamma", "1e-4", "--gamma-max",
+            "0.2", "--seed", "2", "--checkpoint-every", "50", "--workers", "1"]  # fmt: skip
+    ref, run = tmp_path / "ref", tmp_path / "run"
+    assert jamlab("run", *args, "--quiet", "--out", ref).returncode == 0
+    assert not (ref / "checkpoints").exists()  # removed with the sample written
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "jamlab", "run", *args, "--quiet", "--out", str(run)],
+        start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    trace = run / "checkpoints" / "phi=0.8" / "N=64" / "sample-00000" / "trace.h5"
+    start = time.monotonic()
+    try:
+        while not trace.is_file():
+            assert proc.poll() is None, "the run ended before its first save"
+            assert time.monotonic() - start < 120
+            time.sleep(0.01)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+    assert not sample_files(run), "the kill did not land mid-sample"
+    r = jamlab("status", run)
+    assert r.returncode == 0 and "checkpoint phi=0.8 N=64 sample=0: at step " in r.stdout
+    r = jamlab("run", *args, "--out", run)
+    assert r.returncode == 0, r.stderr
+    assert "1 with a checkpoint" in r.stderr and "(1 resumed from a checkpoint)" in r.stderr
+    assert not (run / "checkpoints").exists()
     assert_same_runs(ref, run)
 
 

@@ -155,6 +155,13 @@ def register(app: typer.Typer) -> None:
             help="Constant volume: a step from an unjammed minimum by 'fire' (default) or "
             "'project' (the overlap-free configuration nearest to the affine start; docs/aqs.md).",
         ),
+        checkpoint_every: str | None = typer.Option(
+            None,
+            "--checkpoint-every",
+            help="Save each sample's shear every K steps in RUN/checkpoints/, so that an "
+            "interrupted sample resumes from its last save (default 0: off; part of the study; "
+            "docs/runs.md).",
+        ),
         task: str | None = typer.Option(None, "--task", hidden=True),
         workers: int | None = typer.Option(
             None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
@@ -207,6 +214,7 @@ def register(app: typer.Typer) -> None:
                 ("alpha", alpha),
                 ("pressure", pressure),
                 ("floppy", floppy),
+                ("checkpoint_every", checkpoint_every),
                 ("task", task),
             ],
         )
@@ -241,7 +249,9 @@ def register(app: typer.Typer) -> None:
         )
         if not quiet:
             print(
-                f"{summary.done} samples written, {summary.failed} failed, "
+                f"{summary.done} samples written"
+                + (f" ({summary.resumed} resumed from a checkpoint)" if summary.resumed else "")
+                + f", {summary.failed} failed, "
                 f"{summary.skipped} already done, in {summary.seconds:.1f} s",
                 file=sys.stderr,
             )
@@ -277,6 +287,14 @@ def register(app: typer.Typer) -> None:
         table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
         console = Console()
         console.print(table)
+        if study.checkpoint_every:
+            steps = round(study.gamma_max / study.dgamma)
+            for key in study.keys():
+                if run.state(key, study) == "done" or (step := run.checkpoint_step(key)) is None:
+                    continue
+                where = "unreadable, will be redone" if step < 0 else f"at step {step} of {steps}"
+                console.print(f"checkpoint phi={key.phi_label} N={key.n} sample={key.index}: "
+                              f"{where}", markup=False)
         if failures:
             for key in study.keys():
                 if run.state(key, study) == "failed":

@@ -68,9 +68,13 @@ class Scale:
     # how the constant-volume jamming study takes a step from an unjammed minimum
     # (jamlab.runs.Study.floppy: "fire", the paper's minimiser, or "project", docs/aqs.md)
     floppy: str = "fire"
+    # every study's samples saved every this many steps (jamlab.runs.Study.checkpoint_every; 0:
+    # off): the paper's samples at N = 2000-4000 take hours, longer than a SLURM allocation
+    checkpoint_every: int = 0
 
     def __post_init__(self) -> None:
         validation.floppy(self.floppy)
+        validation.integer("checkpoint_every", self.checkpoint_every, minimum=0)
         steps = round(min(self.gamma_max, self.jamming_gamma_max) / self.dgamma)
         if not (self.moduli_lags and max(self.moduli_lags) < steps):
             raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")
@@ -218,6 +222,7 @@ SCALES: dict[str, Scale] = {
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
         floppy="project",
+        checkpoint_every=100,
         expected="10³–10⁴ CPU hours, extrapolated (jamming samples dominate): a Dask cluster",
     ),
 }
@@ -231,19 +236,22 @@ def studies(scale: Scale) -> dict[str, Any]:
         "jamming": Study(phi=("jamming",), n=scale.jamming_n, samples=scale.jamming_samples,
                          dgamma=scale.dgamma, gamma_max=scale.jamming_gamma_max,
                          seed=scale.seed, sizes=scale.sizes, alpha=scale.alpha,
-                         floppy=scale.floppy),
+                         floppy=scale.floppy, checkpoint_every=scale.checkpoint_every),
         "unsat": Study(phi=UNSAT_PHI, n=scale.unsat_n, samples=scale.unsat_samples,
                        dgamma=scale.dgamma, gamma_max=scale.gamma_max, seed=scale.seed,
-                       sizes=scale.sizes, alpha=scale.alpha),
+                       sizes=scale.sizes, alpha=scale.alpha,
+                       checkpoint_every=scale.checkpoint_every),
         "stress-strain": Study(phi=(scale.stress_phi,), n=(scale.stress_n,),
                                samples=scale.stress_samples, dgamma=scale.stress_dgamma,
                                gamma_max=scale.stress_gamma_max, seed=scale.seed,
-                               sizes=scale.sizes, alpha=scale.alpha),
+                               sizes=scale.sizes, alpha=scale.alpha,
+                               checkpoint_every=scale.checkpoint_every),
     } | {
         pressure_run_name(p): Study(phi=("jamming",), n=scale.pressure_n,
                                     samples=scale.pressure_samples, dgamma=scale.dgamma,
                                     gamma_max=scale.pressure_gamma_max, seed=scale.seed,
-                                    sizes=scale.sizes, alpha=scale.alpha, pressure=p)
+                                    sizes=scale.sizes, alpha=scale.alpha, pressure=p,
+                                    checkpoint_every=scale.checkpoint_every)
         for p in scale.pressures
     }
 

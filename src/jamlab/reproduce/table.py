@@ -422,6 +422,8 @@ def parameters(scale: Scale, runs: Path) -> dict[str, str]:
             f"γ_max = {scale.gamma_max:g} ({round(scale.gamma_max / scale.dgamma)} steps); "
             f"δγ = {scale.dgamma:g}; the jamming ensemble's floppy steps by "
             f"{'projection' if scale.floppy == 'project' else 'FIRE'}"
+            + (f"; every sample saved every {scale.checkpoint_every} steps (an interrupted "
+               "sample resumes from its last save)" if scale.checkpoint_every else "")
         ),
         "stress–strain ensemble": (
             f"φ = {scale.stress_phi:g}, N = {scale.stress_n}, {scale.stress_samples} samples, "

@@ -107,11 +107,13 @@ class RunSummary:
     done: int = 0
     failed: int = 0
     removed_temporaries: int = 0
+    resumed: int = 0  # samples resumed from a checkpoint (Study.checkpoint_every)
     seconds: float = 0.0
     failures: list[tuple[SampleKey, str]] = field(default_factory=list)
 
 
 Outcome = SampleResult | SampleFailure
+Item = tuple[SampleKey, int, str | None]  # a sample, its seed and its checkpoint folder
 Progress = Callable[[SampleKey, Outcome], None]
 
 
@@ -165,11 +167,11 @@ def die_with_parent(parent: int, poll: float = 0.5) -> None:
 
 
 def _local_outcomes(
-    items: list[tuple[SampleKey, int]], study: Study, workers: int, task: Task | None
+    items: list[Item], study: Study, workers: int, task: Task | None
 ) -> Iterator[tuple[SampleKey, Outcome]]:
     if workers == 0:
-        for key, seed in items:
-            yield key, run_sample(study, key, seed, task)
+        for key, seed, checkpoint in items:
+            yield key, run_sample(study, key, seed, task, checkpoint)
         return
     saved = {k: os.environ.get(k) for k in _SINGLE_THREAD_ENV}
     os.environ.update(_SINGLE_THREAD_ENV)  # inherited by the spawned workers
@@ -187,7 +189,10 @@ def _local_outcomes(
             else:
                 os.environ[k] = v
     try:
-        futures = {pool.submit(run_sample, study, key, seed, task): key for key, seed in items}
+        futures = {
+            pool.submit(run_sample, study, key, seed, task, checkpoint): key
+            for key, seed, checkpoint in items
+        }
         for future in as_completed(futures):
             yield futures[future], future.result()
     finally:
@@ -196,14 +201,15 @@ def _local_outcomes(
 
 
 def _dask_outcomes(
-    items: list[tuple[SampleKey, int]], study: Study, client: Any, task: Task | None
+    items: list[Item], study: Study, client: Any, task: Task | None
 ) -> Iterator[tuple[SampleKey, Outcome]]:
     from distributed import as_completed as dask_as_completed
 
     futures = {}
-    for key, seed in items:
+    for key, seed, checkpoint in items:
         name = f"jamlab-sample-{key.phi_label}-{key.n}-{key.index}-{seed}"
-        futures[client.submit(run_sample, study, key, seed, task, key=name, pure=False)] = key
+        futures[client.submit(run_sample, study, key, seed, task, checkpoint, key=name,
+                              pure=False)] = key
     try:
         for future in dask_as_completed(futures):
             key = futures[future]
@@ -239,7 +245,7 @@ def _dask_client(execution: Execution) -> Iterator[Any]:
 
 
 def _outcomes(
-    items: list[tuple[SampleKey, int]], study: Study, execution: Execution, task: Task | None
+    items: list[Item], study: Study, execution: Execution, task: Task | None
 ) -> Iterator[tuple[SampleKey, Outcome]]:
     if not items:
         return
@@ -277,8 +283,13 @@ def run_study(
         run.start(study)
         removed = run.remove_temporaries()
         states = run.scan(study)
+        # a sample written by a driver that stopped before removing its checkpoint
+        run.remove_checkpoints([key for key, state in states.items() if state == "done"])
         redo = {"pending", "corrupt"} | ({"failed"} if retry_failed else set())
         todo = [key for key, state in states.items() if state in redo]
+        # the built-in physics task saves a sample as it goes where the study asks for it
+        checkpointing = study.checkpoint_every > 0 and task is None and study.task == "aqs"
+        saved = [key for key in todo if checkpointing and run.checkpoint_dir(key).is_dir()]
         summary = RunSummary(
             total=len(states), skipped=len(states) - len(todo), removed_temporaries=len(removed)
         )
@@ -286,11 +297,17 @@ def run_study(
             corrupt = sum(1 for s in states.values() if s == "corrupt")
             log(
                 f"{run.path}: {summary.skipped} of {summary.total} samples done, "
-                f"{len(todo)} to run ({corrupt} corrupt, {len(removed)} temporary files removed) "
-                f"on {execution.describe()}"
+                f"{len(todo)} to run ({corrupt} corrupt, {len(removed)} temporary files removed"
+                + (f", {len(saved)} with a checkpoint" if checkpointing else "")
+                + f") on {execution.describe()}"
             )
-        items = [(key, sample_seed(study.seed, key)) for key in todo]
-        seeds = dict(items)
+        seeds = {key: sample_seed(study.seed, key) for key in todo}
+        # the checkpoint folders as absolute paths: workers may run elsewhere (a shared file
+        # system, as the SLURM logs need)
+        items = [
+            (key, seeds[key], str(run.checkpoint_dir(key).resolve()) if checkpointing else None)
+            for key in todo
+        ]
         callback = progress(len(todo), summary.skipped) if progress is not None else None
         if execution.cluster == "slurm" and "log_directory" not in execution.slurm:
             # the SLURM jobs' logs (dask-worker-JOBID.out/.err) go to the run directory
@@ -304,12 +321,15 @@ def run_study(
                     outcome = SampleFailure("InvalidResult", f"the task's result: {exc}", "")
             if isinstance(outcome, SampleResult):
                 run.write_sample(key, outcome, seeds[key], study)
+                run.remove_checkpoints([key])
                 summary.done += 1
+                summary.resumed += outcome.resumed_from >= 0
             else:
                 run.write_failure(key, outcome, seeds[key])
                 summary.failed += 1
                 summary.failures.append((key, f"{outcome.error_type}: {outcome.message}"))
             if callback is not None:
                 callback(key, outcome)
+        run.prune_checkpoints()
     summary.seconds = time.perf_counter() - start
     return summary

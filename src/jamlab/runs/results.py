@@ -37,6 +37,12 @@ class SampleResult:
     seconds: float = 0.0
     # CPU time of the thread that ran it (the workers are single-threaded; NaN: not measured)
     cpu_seconds: float = math.nan
+    # a sample resumed from a checkpoint (Study.checkpoint_every): the step it resumed from (-1:
+    # it was not), and the wall and CPU seconds its earlier invocations spent up to that save
+    # (added to ``seconds`` and ``cpu_seconds``, which then cover the whole sample)
+    resumed_from: int = -1
+    earlier_seconds: float = 0.0
+    earlier_cpu_seconds: float = 0.0
 
 
 @dataclass

@@ -32,6 +32,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -58,6 +59,8 @@ __all__ = [
 
 MANIFEST = "manifest.json"
 LOCK = "run.lock"
+CHECKPOINT_PREPARED = "prepared.h5"  # in a sample's checkpoint folder (jamlab.runs.physics)
+CHECKPOINT_TRACE = "trace.h5"
 RUN_FORMAT = "jamlab-run"
 SAMPLE_FORMAT = "jamlab-sample"
 FORMAT_VERSION = 1
@@ -73,7 +76,9 @@ class RunError(ValueError):
     """A run directory that cannot be used as asked (reported as a one-line user error)."""
 
 
-def _write_json(path: Path, data: dict[str, Any]) -> None:
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """``data`` as indented JSON at ``path``, atomically (:func:`jamlab.files.atomic_write`)."""
+
     def write(tmp: str) -> None:
         with open(tmp, "w") as fh:
             json.dump(data, fh, indent=2, sort_keys=False)
@@ -203,6 +208,46 @@ class RunDir:
     def sample_path(self, key: SampleKey) -> Path:
         return self.path / key.relpath()
 
+    def checkpoint_dir(self, key: SampleKey) -> Path:
+        """The folder where a sample of a study with ``checkpoint_every`` is saved as it goes
+        (:mod:`jamlab.runs.physics`): ``checkpoints/phi=…/N=…/sample-XXXXX/``."""
+        inside = Path(key.relpath()).relative_to("samples").with_suffix("")
+        return self.path / "checkpoints" / inside
+
+    def remove_checkpoints(self, keys: list[SampleKey]) -> None:
+        """Delete the checkpoint folders of ``keys`` (their samples are written)."""
+        for key in keys:
+            folder = self.checkpoint_dir(key)
+            if folder.is_dir():
+                shutil.rmtree(folder)
+
+    def checkpoint_step(self, key: SampleKey) -> int | None:
+        """The step of ``key``'s last save (0: only its prepared packing is saved), ``None``
+        without a checkpoint, ``-1`` for one that cannot be read (it will be redone)."""
+        folder = self.checkpoint_dir(key)
+        if not (folder / CHECKPOINT_PREPARED).is_file():
+            return None
+        if not (folder / CHECKPOINT_TRACE).is_file():
+            return 0
+        from jamlab.spheres.trace import read_trace
+
+        try:
+            return read_trace(folder / CHECKPOINT_TRACE).n_steps
+        except (OSError, ValueError, KeyError):
+            return -1
+
+    def prune_checkpoints(self) -> None:
+        """Remove the empty folders left in ``checkpoints/`` (at the end of a run: a worker may
+        be creating its folder while the run goes on)."""
+        root = self.path / "checkpoints"
+        if not root.is_dir():
+            return
+        for folder in sorted(root.rglob("*"), key=lambda p: len(p.parts), reverse=True):
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
+        if not any(root.iterdir()):
+            root.rmdir()
+
     def failure_path(self, key: SampleKey) -> Path:
         p = self.sample_path(key)
         return p.with_name(p.stem + ".failed.json")
@@ -293,7 +338,7 @@ class RunDir:
             "seed_derivation": SEED_RULE,
             "layout": "samples/phi=<phi>/N=<N>/sample-<index:05d>.h5",
         }
-        _write_json(self.manifest_path, manifest)
+        write_json(self.manifest_path, manifest)
 
     @staticmethod
     def _check_writable(directory: Path) -> None:
@@ -327,11 +372,11 @@ class RunDir:
     def remove_temporaries(self) -> list[Path]:
         """Delete leftovers of interrupted writes (call only while holding :meth:`lock`)."""
         removed = []
-        samples = self.path / "samples"
-        if samples.is_dir():
-            for tmp in samples.rglob(".*.tmp"):
-                tmp.unlink(missing_ok=True)
-                removed.append(tmp)
+        for folder in (self.path / "samples", self.path / "checkpoints"):
+            if folder.is_dir():
+                for tmp in folder.rglob(".*.tmp"):
+                    tmp.unlink(missing_ok=True)
+                    removed.append(tmp)
         for tmp in self.path.glob(f".{MANIFEST}.*.tmp"):
             tmp.unlink(missing_ok=True)
             removed.append(tmp)
@@ -394,7 +439,7 @@ class RunDir:
     def write_failure(self, key: SampleKey, failure: SampleFailure, seed: int) -> Path:
         """Record ``key``'s failure (a sample file, if any, is left alone)."""
         path = self.failure_path(key)
-        _write_json(
+        write_json(
             path,
             {
                 "phi": key.phi_label,

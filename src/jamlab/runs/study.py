@@ -119,6 +119,13 @@ class Study:
       overlap-free configuration nearest to the affine start;
       :class:`jamlab.spheres.aqs.AQSParameters`, ``docs/aqs.md``). Stored only when not
       ``"fire"``, so earlier run directories keep their study.
+    - ``checkpoint_every``: ``0`` (default): a sample is computed in one go; ``k >= 1``: its
+      shear is saved every ``k`` steps (with the prepared packing) in the run directory's
+      ``checkpoints/``, and a sample interrupted mid-way (a killed worker, the end of a SLURM
+      allocation) resumes from its last save instead of from the start (``docs/runs.md``).
+      It changes results at rounding level (each save is a restart point of the solver state,
+      as ``shear(save_every=k)``), hence part of the study; an interrupted and an
+      uninterrupted sample of the same study are identical bit for bit. Stored only when set.
     - ``task``: ``"aqs"`` (prepare + shear) or ``"toy"`` (machinery tests only).
     """
 
@@ -136,6 +143,7 @@ class Study:
     alpha: float = 2.0
     pressure: float | None = None
     floppy: str = "fire"
+    checkpoint_every: int = 0
 
     def __post_init__(self) -> None:
         phis = [parse_phi(p) for p in _as_list(self.phi)]
@@ -167,6 +175,9 @@ class Study:
         validation.floppy(self.floppy)
         if self.floppy != "fire" and self.pressure is not None:
             raise ValueError("floppy applies to constant-volume runs only, not with pressure")
+        object.__setattr__(
+            self, "checkpoint_every", _int("checkpoint_every", self.checkpoint_every, minimum=0)
+        )
         if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
 
@@ -210,6 +221,8 @@ class Study:
             del d["pressure"]
         if d["floppy"] == "fire":  # the default: the study of earlier run directories
             del d["floppy"]
+        if d["checkpoint_every"] == 0:  # the default: the study of earlier run directories
+            del d["checkpoint_every"]
         return d
 
     @classmethod

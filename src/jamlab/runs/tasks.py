@@ -78,9 +78,13 @@ def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
     return SampleResult(traces, attrs, {"positions": rng.random((key.n, study.dim))})
 
 
-def aqs_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
-    """Prepare (``jam`` at ``φ = "jamming"``, ``prepare`` at a number) and shear one sample."""
-    return physics.prepare_and_shear(study, key, seed)
+def aqs_task(
+    study: Study, key: SampleKey, seed: int, checkpoint: str | None = None
+) -> SampleResult:
+    """Prepare (``jam`` at ``φ = "jamming"``, ``prepare`` at a number) and shear one sample;
+    ``checkpoint``: its checkpoint folder (``Study.checkpoint_every``; the only task that
+    writes, and only there: :mod:`jamlab.runs.physics`)."""
+    return physics.prepare_and_shear(study, key, seed, checkpoint=checkpoint)
 
 
 _TASKS: dict[str, Task] = {"toy": toy_task, "aqs": aqs_task}
@@ -95,19 +99,24 @@ def get_task(name: str) -> Task:
 
 
 def run_sample(
-    study: Study, key: SampleKey, seed: int, task: Task | None = None
+    study: Study, key: SampleKey, seed: int, task: Task | None = None,
+    checkpoint: str | None = None,
 ) -> SampleResult | SampleFailure:
     """Run one sample on a worker, turning any exception into a :class:`SampleFailure` so that
-    one bad sample never stops a run."""
+    one bad sample never stops a run. ``checkpoint``: the sample's checkpoint folder, passed to
+    the ``aqs`` task (``Study.checkpoint_every``); a resumed sample's times include its earlier
+    invocations'."""
     fn = task if task is not None else get_task(study.task)
     start = time.perf_counter()
     cpu_start = time.thread_time()
     try:
-        result = fn(study, key, seed)
+        result = fn(study, key, seed) if checkpoint is None else fn(
+            study, key, seed, checkpoint=checkpoint
+        )
     except Exception as exc:  # noqa: BLE001 - every failure is recorded, none stops the run
         return SampleFailure(
             type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start
         )
-    result.seconds = time.perf_counter() - start
-    result.cpu_seconds = time.thread_time() - cpu_start
+    result.seconds = result.earlier_seconds + time.perf_counter() - start
+    result.cpu_seconds = result.earlier_cpu_seconds + time.thread_time() - cpu_start
     return result

@@ -54,6 +54,21 @@ class ShearResult:
     n_not_converged: int
     time: float
 
+    @classmethod
+    def of_trace(cls, trace: Trace, packing: Packing) -> ShearResult:
+        """The result of a finished run rebuilt from its saved ``trace`` and last ``packing`` (a
+        run whose process ended after writing its final trace): the counters are the trace's
+        (they cover the whole run, a resumed one too); ``time`` is 0, it was not measured."""
+        if trace.attrs.get("protocol") == "fixed-pressure":
+            # the fixed-pressure result has no continuation counters; its convergence is the
+            # force and the pressure, recorded in the attribute
+            counts, bad = (0, 0, 0), int(trace.attrs["n_not_converged"])
+        else:
+            counts = tuple(int(trace.attrs.get(k, 0))
+                           for k in ("n_fallback", "n_substepped", "n_cleanup"))
+            bad = int(np.count_nonzero(trace.max_force >= float(trace.attrs["ftol"])))
+        return cls(trace, packing, *counts, n_not_converged=bad, time=0.0)
+
 
 def n_steps_for(dgamma: float, gamma_max: float, gamma0: float = 0.0) -> int:
     """``M = round(γ_max / δγ)`` strain steps from ``γ_0``; validated by
