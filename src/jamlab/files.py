@@ -24,7 +24,14 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_write", "atomic_write_bytes", "atomic_write_hdf5", "check_outputs", "fsync_dir"]
+__all__ = [
+    "atomic_write",
+    "atomic_write_bytes",
+    "atomic_write_hdf5",
+    "check_outputs",
+    "fsync_dir",
+    "run_directory_of",
+]
 
 PathLike = str | os.PathLike
 
@@ -58,14 +65,37 @@ def _inside(path: Path, directory: Path) -> bool:
     return real == root or real.startswith(root.rstrip(os.sep) + os.sep)
 
 
+def run_directory_of(path: PathLike) -> Path | None:
+    """The jamlab run directory (one holding a ``manifest.json``) that ``path`` is a member of —
+    its manifest or lock, or a file below its ``samples/`` or ``checkpoints/`` — or ``None``."""
+    path = Path(os.path.abspath(path))
+    for parent in path.parents:
+        if (parent / "manifest.json").is_file():
+            rel = path.relative_to(parent).parts
+            if rel[0] in ("manifest.json", "run.lock", "samples", "checkpoints"):
+                return parent
+            return None
+    return None
+
+
 def check_outputs(
     outputs: Mapping[str, PathLike | None],
     inputs: Mapping[str, PathLike | None] | None = None,
     *,
     directories: Mapping[str, PathLike | None] | None = None,
+    force: bool = False,
+    continued: tuple[str, ...] = (),
+    figures: tuple[str, ...] = (),
 ) -> None:
     """The output-path guard of every command; raises ``ValueError`` (one line) before anything
     is computed or written.
+
+    An output file that exists already is refused unless ``force`` (``--force``) or its
+    description is in ``continued`` (a file the command continues, e.g. the trace of
+    ``shear --resume``): no finished data is replaced by accident. A member of a jamlab run
+    directory (:func:`run_directory_of`) is refused even with ``force``: only ``jamlab run``
+    writes there. Outputs named in ``figures`` must have a suffix matplotlib can write (checked
+    here, not after the computation).
 
     ``outputs``: ``{description: file to be written}``; ``inputs``: ``{description: file that is
     read}``; ``directories``: ``{description: directory that will be written into}`` (an input
@@ -94,6 +124,19 @@ def check_outputs(
         if ident in seen:
             raise ValueError(f"{name} {path} is the same file as {seen[ident]}")
         seen[ident] = f"{name} {path}"
+        run = run_directory_of(path)
+        if run is not None:
+            raise ValueError(f"{name} {path} is a file of the run directory {run}; "
+                             "only jamlab run writes there")
+        if path.exists() and not (force or name in continued):
+            raise ValueError(f"{name} {path} exists; give --force to replace it")
+        if name in figures:
+            from matplotlib.backend_bases import FigureCanvasBase
+
+            kinds = FigureCanvasBase.get_supported_filetypes()
+            if path.suffix.lower().lstrip(".") not in kinds:
+                raise ValueError(f"{name} {path}: a figure needs one of the suffixes "
+                                 f"{', '.join('.' + k for k in sorted(kinds))}")
     for name, directory in dirs.items():
         if directory.exists() and not directory.is_dir():
             raise ValueError(f"{name} {directory} exists and is not a directory")

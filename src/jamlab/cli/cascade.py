@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import typer
 
+from jamlab.cli._options import Force
+
 
 def _floats(text: str, name: str) -> list[float]:
     try:
@@ -33,6 +35,7 @@ def register(app: typer.Typer) -> None:
         out: str = typer.Option("cascade.png", "--out", help="Histogram figure (PNG)."),
         csv: str = typer.Option(None, "--csv", help="Write the samples as CSV."),
         tree: str = typer.Option(None, "--tree", help="Also draw one sampled cascade (PNG)."),
+        force: Force = False,
     ) -> None:
         """Sample jumps of the k-level cascade (SPEC §2) at strain δγ; histogram |ΔE| (log bins)
         beside the printed theory and the exact recursion; print p_no_jump sampled vs theory."""
@@ -48,7 +51,8 @@ def register(app: typer.Typer) -> None:
 
         validation.seed("--seed", seed)
         validation.integer("--k", k, minimum=1)
-        check_outputs({"--out": out, "--csv": csv, "--tree": tree})
+        check_outputs({"--out": out, "--csv": csv, "--tree": tree}, force=force,
+                      figures=("--out", "--tree"))
         given = [x is not None for x in (q, linear, power_law)]
         if sum(given) != 1:
             raise ValueError("give exactly one of --q/--y, --linear, --power-law")

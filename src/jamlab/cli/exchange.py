@@ -9,14 +9,8 @@ from typing import Annotated
 
 import typer
 
-
-def _check_out(out: Path, inputs: list[Path], force: bool) -> None:
-    """Never overwrite an input; overwrite another existing file only with ``--force``."""
-    for path in inputs:
-        if out.exists() and path.exists() and out.resolve() == path.resolve():
-            raise ValueError(f"--out {out} is the input file; choose another name")
-    if out.exists() and not force:
-        raise FileExistsError(f"{out} exists; give --force to replace it")
+from jamlab.cli._options import Force
+from jamlab.files import check_outputs
 
 
 def _pick(frames: list, frame: int | None, what: str) -> list:
@@ -50,7 +44,7 @@ def register(app: typer.Typer) -> None:
             int | None,
             typer.Option("--frame", help="Only this frame of a trace (0 = first, -1 = last)."),
         ] = None,
-        force: Annotated[bool, typer.Option("--force", help="Replace an existing --out.")] = False,
+        force: Force = False,
     ) -> None:
         from jamlab.cli import UserError
         from jamlab.spheres import exchange as ex
@@ -60,7 +54,7 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"
             )
-        _check_out(out, [source], force)
+        check_outputs({"--out": out}, {"input": source}, force=force)
         frames = _pick(ex.frames_of(source), frame, str(source))
         try:
             ex.export_frames(frames, fmt, out)
@@ -99,7 +93,7 @@ def register(app: typer.Typer) -> None:
         strain: Annotated[
             float, typer.Option("--strain", help="positions only: strain of the positions.")
         ] = 0.0,
-        force: Annotated[bool, typer.Option("--force", help="Replace an existing --out.")] = False,
+        force: Force = False,
     ) -> None:
         import numpy as np
 
@@ -110,7 +104,7 @@ def register(app: typer.Typer) -> None:
         fmt = fmt or ex.format_from_suffix(source)
         if box_length is not None and not box_length > 0:
             raise ValueError(f"--box-length must be > 0, got {box_length}")
-        _check_out(out, [source], force)
+        check_outputs({"--out": out}, {"input": source}, force=force)
         try:
             packings = ex.read_frames(source, fmt, box_length=box_length, strain=strain)
         except ImportError as exc:

@@ -15,6 +15,8 @@ from typing import Annotated
 
 import typer
 
+from jamlab.cli._options import Force
+
 PHI_CLEARLY_UNJAMMED_3D = 0.62
 """In 3D no monodisperse random packing jams below ~0.63 (O'Hern et al. 2003 φ_J ≈ 0.639): a
 direct minimisation there would only return an unjammed, zero-pressure state."""
@@ -77,6 +79,7 @@ def register(app: typer.Typer) -> None:
         ptol: Annotated[
             float, typer.Option("--ptol", help="Relative pressure tolerance (--pressure).")
         ] = 1e-6,
+        force: Force = False,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -91,14 +94,26 @@ def register(app: typer.Typer) -> None:
         validation.positive("--ftol", ftol)
         validation.positive("--p-target", p_target)
         validation.packing_fraction("--phi-init", phi_init)
+        validation.positive("--ptol", ptol)
         if pressure is not None:
             validation.positive("--pressure", pressure)
-            validation.positive("--ptol", ptol)
             if phi.strip().lower() != "jamming":
                 raise ValueError("--pressure prepares at jamming: use it with --phi jamming")
-        check_outputs({"--out": out})
         parse_sizes(sizes)
         check_alpha(alpha)
+        value = None  # the packing fraction of --phi NUMBER
+        if phi.strip().lower() != "jamming":
+            try:
+                value = float(phi)
+            except ValueError:
+                raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
+            value = validation.packing_fraction("--phi", value)
+            if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
+                raise ValueError(
+                    f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
+                    f"or a value >= {PHI_CLEARLY_UNJAMMED_3D}"
+                )
+        check_outputs({"--out": out}, force=force)
         if pressure is not None:
             from jamlab.spheres.packing import jam_at_pressure
 
@@ -130,16 +145,6 @@ def register(app: typer.Typer) -> None:
                     alpha=alpha,
                 )
         else:
-            try:
-                value = float(phi)
-            except ValueError:
-                raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
-            value = validation.packing_fraction("--phi", value)
-            if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
-                raise ValueError(
-                    f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
-                    f"or a value >= {PHI_CLEARLY_UNJAMMED_3D}"
-                )
             with _status(quiet, f"minimising N={n} d={dim} phi={value}"):
                 res = prepare(n, dim, value, seed, ftol=ftol, sizes=sizes, alpha=alpha)
         write_packing(out, res.packing, **res.attrs())
@@ -164,6 +169,7 @@ def register(app: typer.Typer) -> None:
         dphi_max: Annotated[float, typer.Option("--dphi-max")] = 0.3,
         ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
         quiet: Annotated[bool, typer.Option("--quiet", help="No progress display.")] = False,
+        force: Force = False,
     ) -> None:
         import h5py
         import numpy as np
@@ -180,7 +186,8 @@ def register(app: typer.Typer) -> None:
         validation.positive("--dphi-max", dphi_max, maximum=1.0)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
-        check_outputs({"--out": out, "--csv": csv}, {"configuration": config})
+        check_outputs({"--out": out, "--csv": csv}, {"configuration": config}, force=force,
+                      figures=("--out",))
         packing = read_packing(config)
         with h5py.File(config, "r") as h5:
             ok = bool(h5.attrs.get("ok", True))

@@ -8,6 +8,8 @@ from typing import Annotated
 
 import typer
 
+from jamlab.cli._options import Force
+
 
 def reproduce_command(
     out: Annotated[Path, typer.Option("--out", help="Report directory (index.html, report.md).")],
@@ -77,11 +79,14 @@ def figure_command(
     scale: Annotated[str, typer.Option("--scale", help="Scale the runs were made with.")] = (
         "quick"
     ),
+    force: Force = False,
 ) -> None:
     """Make one figure of the report from existing runs (figs. 1-3 and theory_vs_cascade need
     none: they are computed)."""
+    from jamlab.files import check_outputs
     from jamlab.reproduce import FIGURE_PART, make_figure
 
+    check_outputs({"--out": out}, force=force, figures=("--out",))
     if name in ("fig4", "fig5", "fig6", "fig7") and runs is None:
         raise ValueError(f"{name} needs --runs (the runs/ directory of a `jamlab reproduce`)")
     if name not in FIGURE_PART:

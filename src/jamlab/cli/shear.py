@@ -12,6 +12,8 @@ from typing import Annotated, Any
 
 import typer
 
+from jamlab.cli._options import Force
+
 
 def check_resume(
     previous: Any, packing: Any, *, dgamma: float, ftol: float, minimizer: str
@@ -206,6 +208,7 @@ def register(app: typer.Typer) -> None:
                 "docs/aqs.md).",
             ),
         ] = None,
+        force: Force = False,
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
@@ -226,9 +229,9 @@ def register(app: typer.Typer) -> None:
                              "linear (not with --pressure or plain FIRE)")
         validation.positive("--ftol", ftol)
         validation.positive("--avalanche-threshold", avalanche_threshold)
+        validation.positive("--ptol", ptol)
         if pressure is not None:
             validation.positive("--pressure", pressure)
-            validation.positive("--ptol", ptol)
         if confirm is not None and pressure is None:
             raise ValueError("--confirm applies to fixed-pressure runs: give --pressure too")
         if confirm is not None and confirm not in ("located", "continued", "chain"):
@@ -246,14 +249,28 @@ def register(app: typer.Typer) -> None:
         last, snapshots = checkpoint_paths(out)
         outputs = {"--out": out, "--plot": plot}
         if resume:
-            check_outputs(outputs, {"configuration": config})
+            check_outputs(outputs, {"configuration": config}, force=force, continued=("--out",),
+                          figures=("--plot",))
         else:
             outputs["checkpoint"] = last
+            # the snapshots of an earlier run to --out would be read as this run's
+            stale = sorted(snapshots.glob("step_*.h5")) if snapshots.is_dir() else []
             check_outputs(
                 outputs,
                 {"configuration": config},
-                directories={"the snapshot directory": snapshots if save_every else None},
+                directories={
+                    "the snapshot directory": snapshots if save_every or stale else None
+                },
+                force=force,
+                figures=("--plot",),
             )
+            if stale and not force:
+                raise ValueError(f"{snapshots} holds {len(stale)} snapshot(s) of an earlier "
+                                 "run; give --force to remove them")
+            for path in stale:
+                path.unlink()
+            if stale and not any(snapshots.iterdir()):
+                snapshots.rmdir()
         previous = None
         if resume:
             if not out.is_file():
@@ -311,3 +328,10 @@ def register(app: typer.Typer) -> None:
 
             stress_strain_figure(tr, plot)
             typer.echo(f"figure -> {plot}")
+        if result.n_not_converged:
+            # the trace is written (its rows say which minima are not converged); the run is not
+            # reported as fine (as `jamlab minimize`)
+            typer.echo(f"jamlab: {result.n_not_converged} step(s) did not converge "
+                       f"(max|F_i| >= {ftol:g}{' or |p - p_t| > ptol' if pressure else ''})",
+                       err=True)
+            raise typer.Exit(1)

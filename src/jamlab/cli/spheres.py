@@ -12,6 +12,7 @@ from typing import Annotated
 import typer
 
 from jamlab import validation
+from jamlab.cli._options import Force
 from jamlab.summary import SUMMARY_KEYS, compute_summary, stored_summary
 
 INSPECT_KEYS = SUMMARY_KEYS
@@ -64,6 +65,7 @@ def register(app: typer.Typer) -> None:
         max_iter: Annotated[
             int, typer.Option("--max-iter", help="Largest number of steps.")
         ] = 1_000_000,
+        force: Force = False,
     ) -> None:
         from jamlab.files import check_outputs
         from jamlab.spheres.fire import minimize
@@ -73,7 +75,7 @@ def register(app: typer.Typer) -> None:
         validation.integer("--max-iter", max_iter, minimum=0)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
-        check_outputs({"--out": out}, {"configuration": config})
+        check_outputs({"--out": out}, {"configuration": config}, force=force)
         packing = read_packing(config)
         result = minimize(packing, ftol=ftol, max_iter=max_iter)
         write_packing(
@@ -99,6 +101,7 @@ def register(app: typer.Typer) -> None:
         phi: Annotated[float, typer.Option("--phi", help="Packing fraction N v_d(1/2)/L^d (> 0).")],
         dim: Annotated[int, typer.Option("--dim", help="Dimension (>= 2).")] = 3,
         seed: Annotated[int, typer.Option("--seed", help="Seed of numpy.random.default_rng.")] = 0,
+        force: Force = False,
     ) -> None:
         import jamlab.spheres as sp
         from jamlab.files import check_outputs
@@ -108,7 +111,7 @@ def register(app: typer.Typer) -> None:
         validation.integer("--dim", dim, minimum=2)
         validation.seed("--seed", seed)
         validation.packing_fraction("--phi", phi)
-        check_outputs({"--out": out})
+        check_outputs({"--out": out}, force=force)
         packing = sp.random_packing(n, dim, phi, seed)
         write_packing(out, packing)
         typer.echo(f"N={n} d={dim} phi={phi} L={packing.box.length!r} seed={seed} -> {out}")
@@ -128,6 +131,7 @@ def register(app: typer.Typer) -> None:
         strain: Annotated[
             float, typer.Option("--strain", help="Accumulated strain of the positions.")
         ] = 0.0,
+        force: Force = False,
     ) -> None:
         from jamlab.files import check_outputs
         from jamlab.spheres.io import read_lammps_positions, write_packing
@@ -138,7 +142,9 @@ def register(app: typer.Typer) -> None:
         if not positions.is_file():
             raise FileNotFoundError(f"no such positions file: {positions}")
         meta = positions.parent / "meta.json" if box_length is None else None
-        check_outputs({"--out": out}, {"positions file": positions, "meta.json": meta})
+        check_outputs(
+            {"--out": out}, {"positions file": positions, "meta.json": meta}, force=force
+        )
         packing = read_lammps_positions(positions, box_length=box_length, strain=strain)
         write_packing(out, packing)
         typer.echo(f"N={packing.n} d={packing.dim} phi={packing.phi:.10g} -> {out}")

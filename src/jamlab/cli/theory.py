@@ -9,6 +9,8 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperCommand
 
+from jamlab.cli._options import Force
+
 THEORY_DGAMMA = (1e-30, 1e6)
 """Accepted ``|δγ|`` of ``jamlab theory``."""
 
@@ -52,6 +54,7 @@ def theory(
     q_max: Annotated[float, typer.Option("--q-max", help="Cut-off q_max in (0, 1].")] = 1.0,
     amplitude: Annotated[float, typer.Option("--amplitude", help="Amplitude A of y(q).")] = 1.0,
     points: Annotated[int, typer.Option("--points", help="Points per curve.")] = 300,
+    force: Force = False,
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
     from jamlab import validation
@@ -66,7 +69,7 @@ def theory(
         validation.number("|--dgamma|", abs(dg), low=THEORY_DGAMMA[0], high=THEORY_DGAMMA[1])
     validation.integer("--points", points, minimum=2, maximum=1_000_000)
     ParisiFunction.power_law(mu, amplitude=amplitude, q_max=q_max)  # validates the parameters
-    check_outputs({"--out": out, "--csv": csv})
+    check_outputs({"--out": out, "--csv": csv}, force=force, figures=("--out",))
     table = plot_jump_distributions(
         mu, dgammas, out, q_max=q_max, amplitude=amplitude, n_points=points, csv=csv
     )

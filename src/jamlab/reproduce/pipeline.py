@@ -296,6 +296,8 @@ def make_figure(
     import shutil
     import tempfile
 
+    from jamlab.runs import RunDir
+
     if name not in FIGURE_PART:
         raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
     scale = get_scale(scale)
@@ -304,10 +306,16 @@ def make_figure(
     needs = {"avalanches": ("jamming", "unsat"), "moduli": ("jamming", "unsat"),
              "criticality": ("jamming", "unsat"), "finite_size": ("jamming", "unsat"),
              "trace": ("jamming",), "stress_strain": ("stress-strain",)}.get(part, ())
+    wanted = studies(scale)
     for run in needs:
         if not (runs / run / "manifest.json").is_file():
             raise ValueError(f"{runs / run} is not a run directory: run `jamlab reproduce "
                              f"--scale {scale.name}` first (or give --runs)")
+        # the figures select the scale's φ and N: runs of another scale do not hold them
+        diffs = RunDir(runs / run).study().differences(wanted[run])
+        if diffs:
+            raise ValueError(f"{runs / run} was not made with the scale {scale.name!r} "
+                             f"({'; '.join(diffs)}; recorded != the scale's): give its --scale")
     out_file = Path(out_file)
     if not out_file.parent.is_dir():
         raise FileNotFoundError(f"output directory does not exist: {out_file.parent}")

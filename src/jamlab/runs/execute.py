@@ -87,6 +87,7 @@ class Execution:
                 f"unknown slurm option(s) {', '.join(unknown)}; "
                 f"valid: {', '.join(sorted(_SLURM_KEYS))}"
             )
+        slurm_cluster_kwargs(self.slurm)  # their values are checked even when not used
 
     def describe(self) -> str:
         if self.scheduler:

@@ -165,12 +165,24 @@ def frames_of(path: str | os.PathLike) -> list[Frame]:
         raise ValueError(
             f"{path}: no saved configuration beside the trace ({last.name} or {snapshots.name}/)"
         )
+    every = int(trace.attrs.get("save_every", 0) or 0)
+    if every:
+        # a run with save_every saves every multiple of it and its last step: a missing one
+        # would silently drop a frame of the movie
+        expected = set(range(every, trace.n_steps, every)) | {trace.n_steps}
+        missing = sorted(expected - set(files))
+        if missing:
+            shown = ", ".join(map(str, missing[:5])) + (", ..." if len(missing) > 5 else "")
+            raise ValueError(f"{path}: {len(missing)} saved configuration(s) missing from "
+                             f"{snapshots.name}/ (steps {shown}; the run saved every {every})")
     frames = []
     for step in sorted(files):
-        row = {}
-        if 0 <= step <= trace.n_steps:
-            row = {k: float(getattr(trace, k)[step]) for k in _ROW_KEYS}
-        frames.append(Frame(read_packing(files[step]), step, row))
+        packing = read_packing(files[step])
+        if not 0 <= step <= trace.n_steps or packing.strain != float(trace.gamma[step]):
+            raise ValueError(f"{files[step]} (step {step}, strain {packing.strain!r}) is not a "
+                             f"configuration of the run in {path.name}: a leftover of another run")
+        row = {k: float(getattr(trace, k)[step]) for k in _ROW_KEYS}
+        frames.append(Frame(packing, step, row))
     return frames
 
 

@@ -176,6 +176,13 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below
         # the resumed trace would be written without them: the records would be lost
         raise ValueError("the run being resumed kept avalanche records: resume it with "
                          "keep_avalanches (--keep-avalanches), or not at all")
+    if previous is not None and previous.avalanches is not None:
+        kept = float(previous.avalanches.get("attrs", {}).get("threshold", MOVED_THRESHOLD))
+        asked = MOVED_THRESHOLD if avalanche_threshold is None else float(avalanche_threshold)
+        if asked != kept:
+            # one threshold labels the whole table: its earlier rows used the recorded one
+            raise ValueError(f"avalanche_threshold={asked!r} differs from the run being resumed "
+                             f"({kept!r}); resume it with the same --avalanche-threshold")
     if pressure is not None:
         if minimizer not in MINIMIZERS:
             raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")

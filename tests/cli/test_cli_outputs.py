@@ -1,0 +1,196 @@
+"""No finished data is replaced by accident: every command refuses an existing output file
+without ``--force`` (the file byte-identical afterwards) and replaces it with it; a file of a run
+directory is refused even with ``--force``; figure suffixes are checked before any work. And the
+smaller contracts found with them: ``shear`` exits 1 when a step did not converge, leftover
+snapshots of an earlier run are not mixed into a new one or into an export, a resumed run keeps
+its avalanche threshold, SLURM options are checked even when unused, ``figure`` refuses runs of
+another scale."""
+
+from __future__ import annotations
+
+import hashlib
+
+import h5py
+import pytest
+
+from jamlab.cli import main
+
+
+def run(args: list) -> int:
+    with pytest.raises(SystemExit) as exc:
+        main([str(a) for a in args])
+    return int(exc.value.code)
+
+
+def digest(path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), err
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def packing08(tmp_path_factory):
+    path = tmp_path_factory.mktemp("in") / "p08.h5"
+    assert run(["prepare", "--phi", "0.8", "--n", "32", "--seed", "1", "--out", path,
+                "--quiet"]) == 0  # fmt: skip
+    return path
+
+
+def commands(p08, out, other):
+    """Each command writing a file, with ``out`` as the file written (``other``: a second output
+    where the command has one)."""
+    return {
+        "random-packing": ["random-packing", "--n", "8", "--phi", "0.3", "--out", out],
+        "prepare": ["prepare", "--phi", "0.8", "--n", "16", "--out", out, "--quiet"],
+        "minimize": ["minimize", p08, "--out", out],
+        "shear": ["shear", p08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.02"],
+        "shear --plot": ["shear", p08, "--out", other, "--dgamma", "0.01", "--gamma-max", "0.02",
+                         "--plot", out],
+        "export": ["export", p08, "--out", out, "--format", "extxyz"],
+        "cascade --csv": ["cascade", "--q", "0.2,0.5", "--y", "1,2", "--n", "100", "--out",
+                          other, "--csv", out],
+        "theory --csv": ["theory", "--out", other, "--points", "5", "--csv", out],
+        "figure": ["figure", "fig3", "--out", out],
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("name", ["random-packing", "prepare", "minimize", "shear", "shear --plot",
+                                  "export", "cascade --csv", "theory --csv", "figure"])
+def test_an_existing_output_needs_force(packing08, tmp_path, capsys, name):
+    out = tmp_path / ("out.png" if name in ("shear --plot", "figure") else "out.h5")
+    other = tmp_path / ("other.png" if name in ("cascade --csv", "theory --csv") else "o.h5")
+    out.write_bytes(b"finished data")
+    before = digest(out)
+    args = commands(packing08, out, other)[name]
+    assert run(args) == 2
+    assert f"{out} exists; give --force to replace it" in error_line(capsys)
+    assert digest(out) == before and not other.exists()  # nothing written, nothing computed
+    assert run([*args, "--force"]) == 0
+    assert digest(out) != before
+
+
+def test_a_run_directory_file_is_refused_even_with_force(tmp_path, capsys):
+    runs = tmp_path / "runs"
+    assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--task", "toy", "--out", runs / "jamming", "--workers",
+                "0", "--quiet"]) == 0  # fmt: skip
+    manifest = runs / "jamming" / "manifest.json"
+    sample = next((runs / "jamming" / "samples").rglob("sample-*.h5"))
+    before = {p: digest(p) for p in (manifest, sample)}
+    for target in (manifest, sample, runs / "jamming" / "samples" / "new.png"):
+        assert run(["figure", "fig3", "--out", target, "--force"]) == 2
+        assert "is a file of the run directory" in error_line(capsys)
+    assert {p: digest(p) for p in before} == before
+    # beside the run's own files a figure may go
+    assert run(["figure", "fig3", "--out", runs / "jamming" / "fig3.png"]) == 0
+
+
+def test_figure_suffix_is_checked_before_the_work(packing08, tmp_path, capsys):
+    out = tmp_path / "t.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.02",
+                "--plot", tmp_path / "x.txt"]) == 2  # fmt: skip
+    assert "a figure needs one of the suffixes" in error_line(capsys)
+    assert not out.exists()
+    assert run(["cascade", "--q", "0.2,0.5", "--y", "1,2", "--n", "100", "--out",
+                tmp_path / "o.png", "--tree", tmp_path / "t.h5"]) == 2  # fmt: skip
+    assert "--tree" in error_line(capsys) and not (tmp_path / "o.png").exists()
+
+
+def test_shear_replaces_a_run_with_its_snapshots_only_with_force(packing08, tmp_path, capsys):
+    out = tmp_path / "a.h5"
+    args = ["shear", packing08, "--out", out, "--dgamma", "0.01"]
+    assert run([*args, "--gamma-max", "0.04", "--save-every", "1"]) == 0
+    snapshots = sorted((tmp_path / "a.configs").glob("step_*.h5"))
+    assert len(snapshots) == 4
+    (tmp_path / "a.h5").unlink()
+    (tmp_path / "a.last.h5").unlink()
+    # the old run's snapshots would be read as the new run's frames
+    assert run([*args, "--gamma-max", "0.02"]) == 2
+    assert "holds 4 snapshot(s) of an earlier run" in error_line(capsys)
+    assert run([*args, "--gamma-max", "0.02", "--force"]) == 0
+    assert not (tmp_path / "a.configs").exists()
+    capsys.readouterr()
+    assert run(["export", out, "--out", tmp_path / "a.xyz"]) == 0
+    assert "1 frame(s), AQS steps 2..2" in capsys.readouterr().out
+
+
+def test_export_refuses_a_movie_with_missing_or_foreign_frames(packing08, tmp_path, capsys):
+    out = tmp_path / "tr.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
+                "--save-every", "1"]) == 0  # fmt: skip
+    assert run(["export", out, "--out", tmp_path / "all.xyz"]) == 0
+    capsys.readouterr()
+    step3 = tmp_path / "tr.configs" / "step_00000003.h5"
+    kept = step3.read_bytes()
+    step3.unlink()
+    assert run(["export", out, "--out", tmp_path / "n.xyz"]) == 2
+    assert "1 saved configuration(s) missing from tr.configs/ (steps 3" in error_line(capsys)
+    # a snapshot of another run in its place (another strain at that step)
+    step3.write_bytes(kept)
+    with h5py.File(step3, "r+") as h5:
+        h5.attrs["strain"] = 0.5
+    assert run(["export", out, "--out", tmp_path / "n.xyz"]) == 2
+    assert "a leftover of another run" in error_line(capsys)
+
+
+def test_shear_exits_1_when_a_step_did_not_converge(tmp_path, capsys):
+    low = tmp_path / "low.h5"
+    assert run(["random-packing", "--n", "32", "--phi", "0.1", "--out", low]) == 0
+    out = tmp_path / "s.h5"
+    code = run(["shear", low, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
+                "--pressure", "1e-2"])  # fmt: skip
+    err = capsys.readouterr().err
+    with h5py.File(out, "r") as h5:  # the trace is written: its rows say which did not converge
+        bad = int(h5.attrs["n_not_converged"])
+    assert bad >= 1
+    assert code == 1 and f"{bad} step(s) did not converge" in err
+
+
+def test_resume_keeps_the_avalanche_threshold(packing08, tmp_path, capsys):
+    out = tmp_path / "av.h5"
+    args = ["shear", packing08, "--out", out, "--dgamma", "0.01", "--keep-avalanches"]
+    assert run([*args, "--gamma-max", "0.05"]) == 0
+    before = digest(out)
+    assert run([*args, "--gamma-max", "0.15", "--resume", "--avalanche-threshold", "0.5"]) == 2
+    assert "differs from the run being resumed (0.001)" in error_line(capsys)
+    assert digest(out) == before
+    assert run([*args, "--gamma-max", "0.15", "--resume"]) == 0
+
+
+@pytest.mark.parametrize("bad", [["--ptol", "-1"], ["--ptol", "nan"], ["--ptol", "0"]])
+def test_ptol_is_checked_without_pressure(packing08, tmp_path, capsys, bad):
+    assert run(["shear", packing08, "--out", tmp_path / "o.h5", "--dgamma", "0.01",
+                "--gamma-max", "0.02", *bad]) == 2  # fmt: skip
+    assert "--ptol" in error_line(capsys)
+    assert run(["prepare", "--n", "16", "--out", tmp_path / "p.h5", "--quiet", *bad]) == 2
+    assert "--ptol" in error_line(capsys)
+    assert not (tmp_path / "o.h5").exists() and not (tmp_path / "p.h5").exists()
+
+
+def test_slurm_options_are_checked_even_without_a_cluster(tmp_path, capsys):
+    assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--task", "toy", "--out", tmp_path / "r", "--workers",
+                "0", "--slurm-jobs", "-1"]) == 2  # fmt: skip
+    assert "slurm jobs must be an integer >= 1, got -1" in error_line(capsys)
+    assert not (tmp_path / "r").exists()
+
+
+def test_figure_refuses_runs_of_another_scale(tmp_path, capsys):
+    from jamlab.reproduce import SCALES
+    from jamlab.reproduce.scales import studies
+    from jamlab.runs import Execution, Study, run_study
+
+    tiny = studies(SCALES["tiny"])
+    for name in ("jamming", "unsat"):  # toy runs with the tiny scale's φ and N
+        study = Study(**{**tiny[name].to_dict(), "task": "toy"})
+        run_study(study, tmp_path / "runs" / name, Execution(workers=0))
+    code = run(["figure", "fig4", "--out", tmp_path / "f.png", "--runs", tmp_path / "runs",
+                "--scale", "quick"])  # fmt: skip
+    line = error_line(capsys)
+    assert code == 2 and "was not made with the scale 'quick'" in line
+    assert not (tmp_path / "f.png").exists()
