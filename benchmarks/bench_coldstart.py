@@ -101,8 +101,8 @@ class Tree:
         self.clear_cache()
         self.record("cold prepare", self.jamlab(*prepare, "--out", str(config)))
         self.record("cold shear", self.jamlab("shear", str(config), *shear, "--out", str(trace)))
-        for path in (config, trace):
-            path.unlink(missing_ok=True)
+        for path in (config, trace, trace.with_name(f"{trace.stem}.last.h5")):
+            path.unlink(missing_ok=True)  # (commands refuse an existing output)
         self.record("warm prepare", self.jamlab(*prepare, "--out", str(config)))
         self.record("warm shear", self.jamlab("shear", str(config), *shear, "--out", str(trace)))
         self.record("warm --help", self.jamlab("--help"))
@@ -119,8 +119,8 @@ class Tree:
             tuple(a + b for a, b in zip(self.times["cold prepare"][-1],
                                         self.times["cold shear"][-1], strict=True))
         )
-        for path in (config, trace):
-            path.unlink(missing_ok=True)
+        for path in (config, trace, trace.with_name(f"{trace.stem}.last.h5")):
+            path.unlink(missing_ok=True)  # (commands refuse an existing output)
         self.clear_cache()
         self.record("install: warmup", self.jamlab("warmup"))
         self.record("then prepare", self.jamlab(*prepare, "--out", str(config)))
