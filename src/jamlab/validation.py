@@ -166,6 +166,22 @@ def packing_fraction(name: str, value: Any) -> float:
     return number(name, value, low=0.0, high=1.0, low_open=True, high_open=True)
 
 
+PHI_CLEARLY_UNJAMMED_3D = 0.62
+"""In 3D no monodisperse random packing jams below ~0.63 (O'Hern et al. 2003: φ_J ≈ 0.639): a
+direct (over-jammed, UNSAT) preparation there only returns an unjammed, zero-pressure state."""
+
+
+def above_jamming(name: str, phi: float, dim: int) -> float:
+    """``phi`` for an over-jammed (UNSAT) preparation: refused in 3D below
+    :data:`PHI_CLEARLY_UNJAMMED_3D` (other dimensions: the preparation's own stopping rule)."""
+    if dim == 3 and phi < PHI_CLEARLY_UNJAMMED_3D:
+        raise ValueError(
+            f"{name} {phi} is below jamming (phi_J ~ 0.64 in 3D): use 'jamming' or a value >= "
+            f"{PHI_CLEARLY_UNJAMMED_3D}"
+        )
+    return phi
+
+
 def strain(name: str, value: Any) -> float:
     """An accumulated strain: finite, ``|γ| <= MAX_STRAIN``."""
     return number(name, value, low=-MAX_STRAIN, high=MAX_STRAIN)

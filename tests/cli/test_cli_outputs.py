@@ -194,3 +194,43 @@ def test_figure_refuses_runs_of_another_scale(tmp_path, capsys):
     line = error_line(capsys)
     assert code == 2 and "was not made with the scale 'quick'" in line
     assert not (tmp_path / "f.png").exists()
+
+
+def test_coordination_needs_a_jammed_minimum(packing08, tmp_path, capsys):
+    rp = tmp_path / "rp.h5"
+    assert run(["random-packing", "--n", "64", "--phi", "0.7", "--out", rp]) == 0
+    capsys.readouterr()
+    out = tmp_path / "z.png"
+    assert run(["coordination", rp, "--out", out, "--steps", "3", "--quiet"]) == 2
+    assert "is not a jammed minimum (max|F_i| = " in error_line(capsys)
+    assert not out.exists()
+    # an over-jammed minimum is accepted, with a warning that dphi is measured from its phi
+    assert run(["coordination", packing08, "--out", out, "--steps", "3", "--dphi-max", "0.1",
+                "--quiet"]) == 0  # fmt: skip
+    assert "far above jamming" in capsys.readouterr().err
+
+
+def test_run_refuses_a_preparation_below_jamming(tmp_path, capsys):
+    assert run(["run", "--phi", "0.3", "--n", "16", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--out", tmp_path / "r", "--workers", "0", "-q"]) == 2
+    assert "phi 0.3 is below jamming" in error_line(capsys)
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["prepare", "--phi", "0.8", "--n", "16", "--p-target", "1e-3"],
+     "--p-target applies to --phi jamming, not to --phi 0.8"),
+    (["prepare", "--phi", "0.8", "--n", "16", "--phi-init", "0.5"],
+     "--phi-init applies to --phi jamming"),
+    (["cascade", "--q", "0.2,0.5", "--y", "1,2", "--n", "100", "--amplitude", "5"],
+     "--amplitude applies to --linear and --power-law, not to --q/--y"),
+    (["cascade", "--q", "0.2,0.5", "--y", "1,2", "--n", "100", "--k", "3"],
+     "--k applies to --linear and --power-law"),
+    (["cascade", "--linear", "2", "--n", "100", "--amplitude", "5"],
+     "--amplitude applies to --power-law, not to --linear"),
+])
+def test_options_that_do_not_apply_are_refused(tmp_path, capsys, args, message):
+    out = tmp_path / ("o.png" if args[0] == "cascade" else "o.h5")
+    assert run([*args, "--out", out]) == 2
+    assert message in error_line(capsys)
+    assert not out.exists()

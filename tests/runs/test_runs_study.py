@@ -115,3 +115,13 @@ def test_example_study_file_is_valid():
     study = Study.from_dict(params)
     assert study.phi == ("jamming", 0.75, 0.8, 0.9) and study.n == (500, 1000)
     assert out is not None and execution["workers"] >= 1
+
+
+def test_an_aqs_study_below_jamming_is_refused():
+    # an over-jammed preparation at phi < 0.62 in 3D fails every sample (as `prepare` refuses it)
+    with pytest.raises(ValueError, match="phi 0.3 is below jamming"):
+        Study(phi=[0.3], n=[16], samples=1, dgamma=1e-3, gamma_max=1e-2)
+    assert Study(phi=[0.62], n=[16], samples=1, dgamma=1e-3, gamma_max=1e-2).phi == (0.62,)
+    # other dimensions: the preparation's own rule; the toy task has no preparation
+    Study(phi=[0.3], n=[16], samples=1, dgamma=1e-3, gamma_max=1e-2, dim=2)
+    Study(phi=[0.3], n=[16], samples=1, dgamma=1e-3, gamma_max=1e-2, task="toy")

@@ -25,10 +25,19 @@ def register(app: typer.Typer) -> None:
         power_law: float = typer.Option(
             None, "--power-law", help="y(q) = A((1-q)^-MU - 1) + y0 (use with --k)."
         ),
-        amplitude: float = typer.Option(1.0, "--amplitude", help="A of --power-law."),
-        y0: float = typer.Option(0.0, "--y0", help="Atom of y' at q = 0 (y(0+))."),
-        q_max: float = typer.Option(1.0, "--q-max", help="Cut-off: y constant above q_max."),
-        k: int = typer.Option(16, "--k", help="Levels when discretising a Parisi function."),
+        amplitude: float = typer.Option(
+            None, "--amplitude", help="A of --power-law (default 1)."
+        ),
+        y0: float = typer.Option(
+            None, "--y0", help="Atom of y' at q = 0 (y(0+); --linear, --power-law; default 0)."
+        ),
+        q_max: float = typer.Option(
+            None, "--q-max", help="Cut-off: y constant above q_max (--linear, --power-law; "
+            "default 1)."
+        ),
+        k: int = typer.Option(
+            None, "--k", help="Levels when discretising --linear or --power-law (default 16)."
+        ),
         dgamma: float = typer.Option(0.1, "--dgamma", help="Strain step δγ."),
         n: int = typer.Option(100_000, "--n", help="Number of samples."),
         seed: int = typer.Option(1, "--seed", help="Random seed (explicit, reproducible)."),
@@ -50,7 +59,17 @@ def register(app: typer.Typer) -> None:
         from jamlab.theory.parisi import ParisiFunction
 
         validation.seed("--seed", seed)
-        validation.integer("--k", k, minimum=1)
+        # the options of a Parisi function given by its formula, not by --q/--y levels
+        shape = {"--amplitude": amplitude, "--y0": y0, "--q-max": q_max, "--k": k}
+        for name, value in shape.items():
+            if value is not None and q is not None:
+                raise ValueError(f"{name} applies to --linear and --power-law, not to --q/--y")
+        if amplitude is not None and linear is not None:
+            raise ValueError("--amplitude applies to --power-law, not to --linear")
+        amplitude = 1.0 if amplitude is None else amplitude
+        y0 = 0.0 if y0 is None else y0
+        q_max = 1.0 if q_max is None else q_max
+        k = validation.integer("--k", 16 if k is None else k, minimum=1)
         check_outputs({"--out": out, "--csv": csv, "--tree": tree}, force=force,
                       figures=("--out", "--tree"))
         given = [x is not None for x in (q, linear, power_law)]

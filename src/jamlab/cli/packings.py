@@ -15,11 +15,7 @@ from typing import Annotated
 
 import typer
 
-from jamlab.cli._options import Force
-
-PHI_CLEARLY_UNJAMMED_3D = 0.62
-"""In 3D no monodisperse random packing jams below ~0.63 (O'Hern et al. 2003 φ_J ≈ 0.639): a
-direct minimisation there would only return an unjammed, zero-pressure state."""
+from jamlab.cli._options import Force
 
 
 @contextlib.contextmanager
@@ -50,11 +46,13 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option("--seed", help="Seed of the random start.")] = 0,
         out: Annotated[Path, typer.Option("--out", help="Output HDF5 file.")] = Path("packing.h5"),
         p_target: Annotated[
-            float, typer.Option("--p-target", help="Target pressure at jamming.")
-        ] = 1e-7,
+            float | None,
+            typer.Option("--p-target", help="Target pressure at jamming (default 1e-7)."),
+        ] = None,
         phi_init: Annotated[
-            float, typer.Option("--phi-init", help="Quench packing fraction (jamming).")
-        ] = 0.66,
+            float | None,
+            typer.Option("--phi-init", help="Quench packing fraction (jamming; default 0.66)."),
+        ] = None,
         ftol: Annotated[float, typer.Option("--ftol", help="Max force tolerance.")] = 1e-12,
         sizes: Annotated[
             str,
@@ -92,8 +90,16 @@ def register(app: typer.Typer) -> None:
         validation.integer("--dim", dim, minimum=2)
         validation.seed("--seed", seed)
         validation.positive("--ftol", ftol)
-        validation.positive("--p-target", p_target)
-        validation.packing_fraction("--phi-init", phi_init)
+        at_jamming = phi.strip().lower() == "jamming"
+        for name, value in (("--p-target", p_target), ("--phi-init", phi_init)):
+            if value is not None and not at_jamming:
+                raise ValueError(f"{name} applies to --phi jamming, not to --phi {phi}")
+        # the jamming protocol's own defaults where not given
+        protocol = {}
+        if p_target is not None:
+            protocol["p_target"] = validation.positive("--p-target", p_target)
+        if phi_init is not None:
+            protocol["phi_init"] = validation.packing_fraction("--phi-init", phi_init)
         validation.positive("--ptol", ptol)
         if pressure is not None:
             validation.positive("--pressure", pressure)
@@ -107,12 +113,9 @@ def register(app: typer.Typer) -> None:
                 value = float(phi)
             except ValueError:
                 raise ValueError(f"--phi must be 'jamming' or a number, got {phi!r}") from None
-            value = validation.packing_fraction("--phi", value)
-            if dim == 3 and value < PHI_CLEARLY_UNJAMMED_3D:
-                raise ValueError(
-                    f"--phi {value} is below jamming (phi_J ~ 0.64 in 3D): use --phi jamming "
-                    f"or a value >= {PHI_CLEARLY_UNJAMMED_3D}"
-                )
+            value = validation.above_jamming(
+                "--phi", validation.packing_fraction("--phi", value), dim
+            )
         check_outputs({"--out": out}, force=force)
         if pressure is not None:
             from jamlab.spheres.packing import jam_at_pressure
@@ -123,10 +126,9 @@ def register(app: typer.Typer) -> None:
                     dim,
                     seed,
                     pressure,
-                    p_target=p_target,
                     ptol=ptol,
-                    phi_init=phi_init,
                     ftol=ftol,
+                    **protocol,
                     progress=progress,
                     sizes=sizes,
                     alpha=alpha,
@@ -137,9 +139,8 @@ def register(app: typer.Typer) -> None:
                     n,
                     dim,
                     seed,
-                    p_target=p_target,
-                    phi_init=phi_init,
                     ftol=ftol,
+                    **protocol,
                     progress=progress,
                     sizes=sizes,
                     alpha=alpha,
@@ -179,6 +180,8 @@ def register(app: typer.Typer) -> None:
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected
+        from jamlab.spheres.potential import max_force
+        from jamlab.spheres.rigidity import is_jammed
 
         validation.integer("--steps", steps, minimum=2)
         validation.positive("--ftol", ftol)
@@ -189,11 +192,23 @@ def register(app: typer.Typer) -> None:
         check_outputs({"--out": out, "--csv": csv}, {"configuration": config}, force=force,
                       figures=("--out",))
         packing = read_packing(config)
+        # the curve's dphi is measured from the start: it must be a jammed minimum
+        state = is_jammed(packing, ftol)
+        fmax = max_force(packing)
+        if not (fmax < ftol and state.jammed):
+            raise ValueError(
+                f"{config} is not a jammed minimum (max|F_i| = {fmax:.2e}, ftol {ftol:g}; "
+                f"{'jammed' if state.jammed else 'not jammed: ' + state.reason}): start from "
+                "jamlab prepare --phi jamming"
+            )
         with h5py.File(config, "r") as h5:
             ok = bool(h5.attrs.get("ok", True))
             phi_j = float(h5.attrs.get("phi_j", packing.phi))
         if not ok:
             typer.echo(f"jamlab: warning: {config} is flagged ok=False", err=True)
+        if state.pressure > 1e-4:
+            typer.echo(f"jamlab: warning: {config} is far above jamming (p = "
+                       f"{state.pressure:.2e}): dphi is measured from its phi", err=True)
         if not math.isfinite(phi_j):
             phi_j = packing.phi
         with _status(quiet, "compressing") as progress:

@@ -165,6 +165,10 @@ class Study:
         object.__setattr__(self, "samples", _int("samples", self.samples, minimum=1))
         object.__setattr__(self, "seed", validation.seed("seed", self.seed))
         object.__setattr__(self, "dim", _int("dim", self.dim, minimum=2))
+        if self.task == "aqs":  # an over-jammed preparation below jamming fails every sample
+            for p in phis:
+                if not isinstance(p, str):
+                    validation.above_jamming("phi", p, self.dim)
         for name in ("dgamma", "gamma_max", "p_target", "force_tol"):
             object.__setattr__(self, name, _positive_float(name, getattr(self, name)))
         validation.strain_steps(self.dgamma, self.gamma_max)
