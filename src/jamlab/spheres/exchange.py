@@ -136,10 +136,16 @@ def _h5_format(path: Path) -> str:
 
 
 def _saved_step(path: Path) -> int:
-    with h5py.File(path, "r") as h5:
-        if "aqs_step" not in h5.attrs:
-            raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
-        return int(h5.attrs["aqs_step"])
+    try:
+        with h5py.File(path, "r") as h5:
+            step = h5.attrs.get("aqs_step")
+    except OSError:
+        raise ValueError(
+            f"{path}: not a readable HDF5 file (a damaged saved configuration)"
+        ) from None
+    if step is None:
+        raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
+    return int(step)
 
 
 def frames_of(path: str | os.PathLike) -> list[Frame]:
