@@ -24,7 +24,14 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_write", "atomic_write_bytes", "atomic_write_hdf5", "check_outputs", "fsync_dir"]
+__all__ = [
+    "atomic_write",
+    "atomic_write_bytes",
+    "atomic_write_hdf5",
+    "check_distinct_inputs",
+    "check_outputs",
+    "fsync_dir",
+]
 
 PathLike = str | os.PathLike
 
@@ -56,6 +63,18 @@ def _identity(path: Path) -> tuple[Any, ...]:
 def _inside(path: Path, directory: Path) -> bool:
     real, root = os.path.realpath(path), os.path.realpath(directory)
     return real == root or real.startswith(root.rstrip(os.sep) + os.sep)
+
+
+def check_distinct_inputs(paths: list[PathLike], what: str = "input") -> None:
+    """``ValueError`` (one line) if two of ``paths`` are the same file: the same path, or the
+    same file through a symbolic or hard link (same device and inode)."""
+    seen: dict[tuple[Any, ...], Path] = {}
+    for path in map(Path, paths):
+        ident = _identity(path)
+        if ident in seen:
+            same = "given twice" if seen[ident] == path else f"the same file as {seen[ident]}"
+            raise ValueError(f"{what} {path} is {same}: each file may be given once")
+        seen[ident] = path
 
 
 def check_outputs(
