@@ -28,6 +28,7 @@ __all__ = [
     "atomic_write",
     "atomic_write_bytes",
     "atomic_write_hdf5",
+    "check_distinct_inputs",
     "check_outputs",
     "fsync_dir",
     "run_directory_of",
@@ -76,6 +77,18 @@ def run_directory_of(path: PathLike) -> Path | None:
                 return parent
             return None
     return None
+
+
+def check_distinct_inputs(paths: list[PathLike], what: str = "input") -> None:
+    """``ValueError`` (one line) if two of ``paths`` are the same file: the same path, or the
+    same file through a symbolic or hard link (same device and inode)."""
+    seen: dict[tuple[Any, ...], Path] = {}
+    for path in map(Path, paths):
+        ident = _identity(path)
+        if ident in seen:
+            same = "given twice" if seen[ident] == path else f"the same file as {seen[ident]}"
+            raise ValueError(f"{what} {path} is {same}: each file may be given once")
+        seen[ident] = path
 
 
 def check_outputs(

@@ -221,18 +221,16 @@ def box_fits(n: int, dim: int, phi: float, sizes: str = "mono") -> None:
     """``ValueError`` unless ``N`` spheres (diameters ``sizes``) at ``φ`` in ``d`` dimensions
     give a valid box (``Packing``'s rule: side ``L > 2 max D``, twice the cut-off); checked
     before any computation."""
-    import numpy as np
-
     from jamlab.spheres.box import Box
-    from jamlab.spheres.state import Packing, box_length_for_diameters, size_distribution
+    from jamlab.spheres.state import box_length_for_diameters, check_box_side, size_distribution
 
     n = integer("N", n, minimum=2)
     dim = integer("dim", dim, minimum=2)
     phi = packing_fraction("phi", phi)
     diam = size_distribution(n, sizes)
-    # Packing applies the rule; positions are irrelevant to it
+    # Packing's own rule; positions are irrelevant to it
     length = box_length_for_diameters(diam, dim, phi)
-    Packing(np.zeros((n, dim)), Box(length, dim, 0.0), diameters=diam)
+    check_box_side(Box(length, dim, 0.0), diam)
 
 
 def sizes(name: str, value: Any) -> str:

@@ -88,3 +88,67 @@ def test_user_errors(packings, tmp_path):
     # the automatic window needs statistics: one small packing has none for the localized forces
     err = one_line_error(jamlab("criticality", paths[0], "--out", tmp_path / "p", "--n-boot", "5"))
     assert "window" in err
+
+
+def _strict_json(text: str) -> dict:
+    """Parse as standard JSON: NaN, Infinity are not JSON and fail the test."""
+
+    def refuse(token: str) -> None:
+        raise AssertionError(f"not valid JSON: {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_one_packing_has_no_interval_and_says_why(packings, tmp_path, capsys):
+    """One packing: the bootstrap over packings has no spread, so no 95 % interval (it was
+    printed as "95% [nan, nan]", with NaN in --json and an empty warnings list)."""
+    paths, _ = packings
+    out = tmp_path / "one"
+    assert run(["criticality", str(paths[0]), "--out", str(out), "--json", *WINDOWS]) == 0
+    captured = capsys.readouterr()
+    summary = _strict_json(captured.out)
+    for name in ("theta_e", "theta_l", "gamma"):
+        assert summary[name]["ci95"] == [None, None]
+        assert summary[name]["n_packings"] == 1
+        assert np.isfinite(summary[name]["value"])
+        warning = f"{name}: the 95% interval could not be estimated: 1 packing"
+        assert sum(w.startswith(warning) for w in summary["warnings"]) == 1
+        assert f"jamlab: warning: {warning}" in captured.err
+    saved = _strict_json((out / "criticality.json").read_text())
+    assert saved["warnings"] == summary["warnings"] and saved["gamma"]["ci95"] == [None, None]
+    out2 = tmp_path / "text"
+    assert run(["criticality", str(paths[0]), "--out", str(out2), *WINDOWS]) == 0
+    text = capsys.readouterr().out
+    assert "nan" not in text.lower()
+    assert text.count("95% interval not estimated") == 3
+
+
+def test_a_group_of_one_packing_is_warned(packings, tmp_path, capsys):
+    """N = 128 three times, N = 160 once: the pooled and N = 128 fits have intervals, the
+    N = 160 fits none, each with its warning."""
+    paths, _ = packings
+    args = ["criticality", *map(str, paths[:4]), "--out", str(tmp_path / "c"), "--json"]
+    assert run([*args, *WINDOWS]) == 0
+    summary = _strict_json(capsys.readouterr().out)
+    for name in ("theta_e", "theta_l", "gamma"):
+        assert None not in summary[name]["ci95"]
+        assert None not in summary["by_n"]["128"][name]["ci95"]
+        assert summary["by_n"]["160"][name]["ci95"] == [None, None]
+    assert sorted(summary["warnings"]) == sorted(
+        f"{name} at N=160: the 95% interval could not be estimated: 1 packing (the bootstrap "
+        "resamples packings: it needs at least 2)"
+        for name in ("theta_e", "theta_l", "gamma")
+    )
+
+
+def test_the_same_packing_twice_is_refused(packings, tmp_path):
+    """Given twice (same path, a symbolic or a hard link) a packing would count as two and give
+    a degenerate interval: refused with one line, nothing written."""
+    paths, _ = packings
+    (tmp_path / "soft.h5").symlink_to(paths[1])
+    (tmp_path / "hard.h5").hardlink_to(paths[1])
+    for twin in (paths[1], tmp_path / "soft.h5", tmp_path / "hard.h5"):
+        out = tmp_path / "twice"
+        line = one_line_error(jamlab("criticality", paths[0], paths[1], twin, "--out", out))
+        assert f"packing {twin} is" in line and "each file may be given once" in line
+        assert not out.exists()

@@ -84,3 +84,29 @@ def test_bad_input_is_one_line_exit_2(tmp_path, make_args):
     with h5py.File(tmp_path / "empty.h5", "w") as h5:
         h5["x"] = np.zeros(3)
     one_line_error(jamlab(*make_args(tmp_path)))
+
+
+def test_coincident_particles_are_one_line(tmp_path):
+    """Two particles at the same point (ZeroDivisionError tracebacks before): every reader and
+    command refuses them with one line naming the two particles."""
+    import h5py
+
+    (tmp_path / "dup.txt").write_text("0 0 0\n0 0 0\n1.5 1.5 1.5\n")
+    for command in ("import-xyz", "import"):
+        line = one_line_error(
+            jamlab(command, tmp_path / "dup.txt", "--out", tmp_path / "d.h5", "--box-length", 3)
+        )
+        assert "particles 0 and 1 coincide" in line
+        assert not (tmp_path / "d.h5").exists()
+    good = tmp_path / "r.h5"
+    write_packing(good, sp.random_packing(8, 3, 0.3, seed=0))
+    with h5py.File(good, "r+") as h5:
+        pos = h5["positions"][()]
+        pos[5] = pos[2]
+        h5["positions"][...] = pos
+    for args in (
+        ["inspect", good],
+        ["minimize", good, "--out", tmp_path / "m.h5"],
+        ["shear", good, "--out", tmp_path / "s", "--gamma-max", 0.01, "--dgamma", 0.001],
+    ):
+        assert "particles 2 and 5 coincide" in one_line_error(jamlab(*args))

@@ -104,3 +104,75 @@ def test_packing_is_immutable_copy():
     assert p.positions[0, 0] != 99.0
     with pytest.raises(ValueError):
         p.positions[0, 0] = 1.0
+
+
+def _brute_closest(pos: np.ndarray, L: float, gamma: float) -> float:
+    """Smallest distance over all pairs and all 3^d lattice images (independent of Box)."""
+    shifts = image_shifts(L, pos.shape[1], gamma - math.floor(gamma + 0.5))
+    best = math.inf
+    for i in range(len(pos)):
+        for j in range(i + 1, len(pos)):
+            d = pos[i] - (pos[j] + shifts)
+            best = min(best, float(np.sqrt((d**2).sum(axis=1)).min()))
+    return best
+
+
+@pytest.mark.parametrize(
+    ("strain", "at_origin", "offset"),
+    [
+        (0.0, False, (0.0, 0.0, 0.0)),  # the same point
+        (0.0, False, (1.0, 0.0, 0.0)),  # one box side along x: a periodic image
+        (0.3, False, (0.3, 1.0, 0.0)),  # across y under strain 0.3: x shifted by γL
+        (1.3, False, (-1.3, -1.0, 1.0)),  # across -y and z at γ = 1.3 (γ' = 0.3)
+        (0.0, True, (1e-201, 0.0, 0.0)),  # r ≈ 6e-201: r² underflows to 0 in the kernels
+        (0.0, False, (0.0, 1e-13, 0.0)),  # r = 6e-13 < 2^-40 L
+    ],
+)
+def test_coincident_particles_are_refused(strain, at_origin, offset):
+    L = 6.0
+    box = sp.Box(L, 3, strain)
+    pos = np.random.default_rng(3).uniform(0, L, size=(20, 3))
+    if at_origin:
+        pos[7] = 0.0
+    pos[13] = pos[7] + np.array(offset) * L
+    assert _brute_closest(pos, L, strain) < sp.state.COINCIDENCE * L  # the planted pair
+    with pytest.raises(ValueError, match=r"particles 7 and 13 coincide"):
+        sp.Packing(pos, box)
+
+
+def test_near_but_distinct_particles_are_kept():
+    # 1e-9 L apart (above the 2^-40 L tolerance): a valid, if absurd, configuration
+    L = 6.0
+    pos = np.random.default_rng(4).uniform(0, L, size=(20, 3))
+    pos[5] = pos[2] + [0.0, 1e-9 * L, 0.0]
+    p = sp.Packing(pos, sp.Box(L, 3, 0.2))
+    assert np.array_equal(p.positions, pos)
+
+
+@pytest.mark.parametrize("dim", [2, 3, 4])
+def test_coincidence_on_a_lattice_and_at_cell_boundaries(dim):
+    """A square lattice (equal coordinates everywhere: the quick pass cannot decide) with pairs
+    planted astride the cell boundaries of the first grid, against brute force."""
+    from jamlab.spheres.state import coincident_pair
+
+    k = 3 if dim == 4 else 5
+    L = 6.0
+    axes = [np.arange(k) * (L / k)] * dim
+    lattice = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, dim)
+    box = sp.Box(L, dim, 0.0)
+    assert coincident_pair(lattice, box) is None
+    assert _brute_closest(lattice, L, 0.0) == pytest.approx(L / k)
+    m = 1 << min(20, 62 // dim)
+    tiny = 1e-14 * L
+    for axis in range(dim):
+        pos = lattice.copy()
+        i, j = 3, len(pos) - 2
+        # particle j sits just across a cell boundary of grid 0 from particle i, along `axis`
+        pos[i] = L * (np.arange(dim) * 0.1 + 0.2)
+        pos[i, axis] = L * (round(0.5 * m) / m) - 0.5 * tiny
+        pos[j] = pos[i]
+        pos[j, axis] += tiny
+        found = coincident_pair(pos, box)
+        assert found is not None and found[:2] == (i, j)
+        assert found[2] == pytest.approx(tiny, rel=1e-2)
+        assert _brute_closest(pos, L, 0.0) == pytest.approx(found[2], rel=1e-2)

@@ -75,6 +75,47 @@ def test_round_trip_keeps_diameters(tmp_path, fmt, alpha):
         assert q.alpha == alpha
 
 
+SEEDS = [0, 2**63 - 1, 2**63, 2**64 - 1, None]
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("seed", SEEDS)
+def test_every_valid_seed_round_trips(tmp_path, fmt, seed):
+    """Seeds >= 2^63 overflowed GSD's int64 seed chunk (OverflowError)."""
+    p = dataclasses.replace(_packing(3, 0.1), seed=seed)
+    out = ex.export_frames([ex.Frame(p)], fmt, tmp_path / f"c{FORMATS[fmt]}")
+    (q,) = ex.read_frames(out)
+    assert q.seed == seed and (seed is None or type(q.seed) is int)
+    _assert_identical(q, p)
+
+
+def test_gsd_seeds_of_a_movie_and_of_older_files(tmp_path):
+    """One file whose frames carry different seeds, an unknown one after known ones (GSD takes a
+    chunk missing from a frame from frame 0); and the int64 chunk of files written before."""
+    base = _packing(3, 0.1)
+    seeds = [2**64 - 1, None, 2**63, 0, None]
+    frames = [ex.Frame(dataclasses.replace(base, seed=s)) for s in seeds]
+    out = ex.export_frames(frames, "gsd", tmp_path / "movie.gsd")
+    assert [q.seed for q in ex.read_frames(out)] == seeds
+    with gsd.hoomd.open(str(out), "r") as traj:
+        assert traj[0].log["jamlab/seed"].dtype == np.uint64
+        assert traj[1].log["jamlab/seed"].dtype == np.int64
+    for old, expected in (([-1], None), ([7], 7), ([2**63 - 1], 2**63 - 1)):
+        with gsd.hoomd.open(str(out), "r") as traj:
+            frame = traj[0]
+        frame.log["jamlab/seed"] = np.array(old, np.int64)  # what jamlab wrote before
+        with gsd.hoomd.open(str(tmp_path / "old.gsd"), "w") as traj:
+            traj.append(frame)
+        (q,) = ex.read_frames(tmp_path / "old.gsd")
+        assert q.seed == expected
+    for bad in (np.array([-2], np.int64), np.array([1.5]), np.array([1, 2], np.uint64)):
+        frame.log["jamlab/seed"] = bad
+        with gsd.hoomd.open(str(tmp_path / "bad.gsd"), "w") as traj:
+            traj.append(frame)
+        with pytest.raises(ValueError, match="seed"):
+            ex.read_frames(tmp_path / "bad.gsd")
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("strain", [0.0, 0.3, 1.37])
 def test_gsd_read_by_gsd_with_hoomd_box_convention(tmp_path, dim, strain):
@@ -218,3 +259,14 @@ def test_format_from_suffix():
     assert ex.format_from_suffix("a.lmp") == "lammps-data"
     with pytest.raises(ValueError, match="--format"):
         ex.format_from_suffix("a.h5")
+
+
+@pytest.mark.parametrize("text", ["1.5", "1.8446744073709552e+19", "18446744073709551616", "-2"])
+def test_extxyz_seed_that_is_no_valid_seed_is_refused(tmp_path, text):
+    """ASE reads a decimal above 2^63 - 1 as a float: the exact one comes from the comment line,
+    and what is not an integer seed in [0, 2^64 - 1] is refused, not rounded."""
+    out = ex.export_frames([ex.Frame(dataclasses.replace(_packing(3, 0.1), seed=5))], "extxyz",
+                           tmp_path / "c.extxyz")
+    out.write_text(out.read_text().replace(" seed=5 ", f" seed={text} "))
+    with pytest.raises(ValueError, match="seed"):
+        ex.read_frames(out)

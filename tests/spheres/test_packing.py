@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from spheres_brute import pair_terms
+from spheres_brute import brute_jammed_state, pair_terms
 
 import jamlab.spheres as sp
 from jamlab.spheres.box import box_length_for
@@ -179,6 +179,20 @@ def test_prepare_unsat() -> None:
     n_kept, n_c = independent_backbone(res.packing)
     assert n_c > 3 * (n_kept - 1) + 1  # hyperstatic well above jamming
     assert res.state.pressure > 0
+
+
+def test_prepare_refuses_a_floppy_backbone() -> None:
+    """N = 16, 2D, φ = 0.8, seed 0: 14 particles survive rattler removal, but with 24 contacts
+    (27 needed) at p ≈ 1.8e-12, below the force resolution: unjammed, reported ok before. The
+    verdict is recounted by brute force (every pair and image, rattlers removed here)."""
+    floppy = prepare(16, 2, 0.8, seed=0)
+    b = brute_jammed_state(floppy.packing, 1e-12)
+    assert floppy.converged and b["n_kept"] == 14 and b["n_c"] == 24
+    assert b["n_c"] < 2 * (b["n_kept"] - 1) + 1 and b["p"] < b["floor"] and not b["jammed"]
+    assert not floppy.ok and "hypostatic backbone (3 contacts short" in floppy.reason
+    jammed = prepare(16, 2, 0.9, seed=0)
+    assert brute_jammed_state(jammed.packing, 1e-12)["jammed"]
+    assert jammed.ok and jammed.reason == ""
 
 
 def test_failure_is_reported_not_hidden() -> None:

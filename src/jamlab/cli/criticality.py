@@ -29,6 +29,39 @@ def _window(text: str | None, option: str) -> tuple[float, float] | None:
     return lo, hi
 
 
+def _fit_warnings(label: str, fit, n_boot: int) -> list[str]:
+    """Why a fit has no estimate or no 95 % interval (NaN; ``null`` in the JSON), one line each
+    (``ExponentFit.n_boot`` counts the resamples that gave an estimate)."""
+    out = []
+    lo, hi = fit.window
+    if not math.isfinite(fit.value):
+        out.append(
+            f"{label}: no estimate on the window [{lo:.3g}, {hi:.3g}] "
+            f"({fit.n_in_window} samples in it)"
+        )
+    if not all(math.isfinite(c) for c in fit.ci95):
+        if fit.n_packings < 2:
+            why = (f"{fit.n_packings} packing (the bootstrap resamples packings: it needs at "
+                   "least 2)")
+        else:
+            why = (f"only {fit.n_boot} of {n_boot} bootstrap resamples gave an estimate "
+                   "(need 2; too few samples in the window)")
+        out.append(f"{label}: the 95% interval could not be estimated: {why}")
+    return out
+
+
+def finite_or_null(value: object) -> object:
+    """``value`` with every NaN or infinite float replaced by ``None`` (JSON ``null``), in nested
+    dicts and lists, so that ``json.dumps(..., allow_nan=False)`` writes valid JSON."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_or_null(v) for v in value]
+    return value
+
+
 def analyse(
     paths: list[Path],
     h_max: float = 0.5,
@@ -53,8 +86,10 @@ def analyse(
         measure_exponents,
         packing_observables,
     )
+    from jamlab.files import check_distinct_inputs
     from jamlab.spheres.io import read_packing
 
+    check_distinct_inputs(paths, "packing")
     observables, warnings, resolution, pressures, alphas = [], [], [], [], []
     for path in paths:
         packing = read_packing(path)
@@ -85,6 +120,11 @@ def analyse(
 
     fits = measure(observables)
     fits_by_n = {n: measure(g) for n, g in groups.items()} if len(groups) > 1 else {}
+    for name, fit in fits.items():
+        warnings += _fit_warnings(name, fit, n_boot)
+    for n, fs in sorted(fits_by_n.items()):
+        for name, fit in fs.items():
+            warnings += _fit_warnings(f"{name} at N={n}", fit, n_boot)
     theta_e, gamma = fits["theta_e"].value, fits["gamma"].value
     summary: dict[str, object] = {name: fit.as_dict() for name, fit in fits.items()}
     summary.update(
@@ -184,7 +224,7 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option("--overwrite", help="Replace an existing summary in --out.")
         ] = False,
     ) -> None:
-        from jamlab.files import atomic_write
+        from jamlab.files import atomic_write, check_distinct_inputs
 
         if method not in ("cdf", "plain", "mle"):
             raise ValueError(f"--method must be cdf, plain or mle, got {method!r}")
@@ -206,6 +246,7 @@ def register(app: typer.Typer) -> None:
         for p in packings:
             if not p.is_file():
                 raise FileNotFoundError(f"no such packing file: {p}")
+        check_distinct_inputs(packings, "packing")
         if out.exists() and not out.is_dir():
             raise FileExistsError(f"--out {out} exists and is not a directory")
         if (out / SUMMARY).exists() and not overwrite:
@@ -215,14 +256,15 @@ def register(app: typer.Typer) -> None:
             raise ValueError("--out would overwrite an input packing")
         out.mkdir(parents=True, exist_ok=True)
         summary = analyse(packings, h_max, alpha, method, n_boot, seed, windows, out)
-        text = json.dumps(summary, indent=1)
+        summary = finite_or_null(summary)  # NaN and inf are not JSON: null
+        text = json.dumps(summary, indent=1, allow_nan=False)
         atomic_write(out / SUMMARY, lambda tmp: Path(tmp).write_text(text + "\n"))
         for w in summary["warnings"]:  # type: ignore[union-attr]
             typer.echo(f"jamlab: warning: {w}", err=True)
         if as_json:
             brief = {k: summary[k] for k in ("theta_e", "theta_l", "gamma", "counts")}
             brief |= {k: summary[k] for k in summary if k not in brief and k != "local"}
-            typer.echo(json.dumps(brief, indent=1))
+            typer.echo(json.dumps(brief, indent=1, allow_nan=False))
             return
         c = summary["counts"]
         typer.echo(
@@ -232,12 +274,19 @@ def register(app: typer.Typer) -> None:
         for name in ("theta_e", "theta_l", "gamma"):
             f = summary[name]
             ref = summary["reference"][name]  # type: ignore[index]
+            value = "not estimated" if f["value"] is None else f"{f['value']:.4f}"
+            if None in f["ci95"]:
+                ci = "95% interval not estimated (see the warning)"
+            else:
+                ci = f"95% [{f['ci95'][0]:.4f}, {f['ci95'][1]:.4f}]"
             typer.echo(
-                f"{name} = {f['value']:.4f}  95% [{f['ci95'][0]:.4f}, {f['ci95'][1]:.4f}]  "
+                f"{name} = {value}  {ci}  "
                 f"window [{f['window'][0]:.3g}, {f['window'][1]:.3g}]  (reference {ref})"
             )
+        tau_e, tau_g = summary["tau_j_from_theta_e"], summary["tau_j_from_gamma"]
         typer.echo(
-            f"tau_J = (3+theta_e)/(2+theta_e) = {summary['tau_j_from_theta_e']:.4f}, "
-            f"1+gamma = {summary['tau_j_from_gamma']:.4f}"
+            f"tau_J = (3+theta_e)/(2+theta_e) = "
+            f"{'not estimated' if tau_e is None else f'{tau_e:.4f}'}, "
+            f"1+gamma = {'not estimated' if tau_g is None else f'{tau_g:.4f}'}"
         )
         typer.echo(f"wrote {out / SUMMARY} and {', '.join(FIGURES)}")

@@ -38,6 +38,7 @@ import numpy as np
 from jamlab.files import atomic_write
 from jamlab.spheres import Box, Packing
 from jamlab.spheres.box import reduced_strain
+from jamlab.spheres.exchange_seed import extxyz_seed, gsd_seed_chunk, seed_of_gsd_chunk
 from jamlab.spheres.io import read_lammps_positions, read_packing
 from jamlab.spheres.trace import read_trace
 
@@ -300,7 +301,7 @@ def write_gsd(out: str | os.PathLike, frames: list[Frame]) -> Path:
                 f.log["jamlab/box_length"] = np.array([L])
                 f.log["jamlab/strain"] = np.array([gamma])
                 f.log["jamlab/alpha"] = np.array([p.alpha])
-                f.log["jamlab/seed"] = np.array([-1 if p.seed is None else p.seed], np.int64)
+                f.log["jamlab/seed"] = gsd_seed_chunk(p.seed)
                 f.log["particles/jamlab/position"] = np.ascontiguousarray(p.positions)
                 f.log["particles/jamlab/diameter"] = np.ascontiguousarray(diam)
                 if fr.step is not None:
@@ -326,7 +327,6 @@ def read_gsd(path: str | os.PathLike) -> list[Packing]:
             log = f.log
             if "particles/jamlab/position" in log and "jamlab/box_length" in log:
                 pos = np.asarray(log["particles/jamlab/position"], dtype=np.float64)
-                seed = int(log["jamlab/seed"][0]) if "jamlab/seed" in log else -1
                 packings.append(
                     make_packing(
                         pos,
@@ -334,7 +334,7 @@ def read_gsd(path: str | os.PathLike) -> list[Packing]:
                         float(log["jamlab/strain"][0]),
                         log.get("particles/jamlab/diameter"),
                         float(log["jamlab/alpha"][0]) if "jamlab/alpha" in log else None,
-                        None if seed < 0 else seed,
+                        seed_of_gsd_chunk(log.get("jamlab/seed"), path),
                     )
                 )
                 continue
@@ -450,11 +450,9 @@ def read_extxyz(path: str | os.PathLike) -> list[Packing]:
             diam = 2.0 * np.asarray(atoms.arrays["radius"], dtype=np.float64)
         else:
             diam = None
-        seed = int(info.get("seed", -1))
+        seed = extxyz_seed(info.get("seed", -1), path, i)
         alpha = float(info["alpha"]) if "alpha" in info else None
-        packings.append(
-            make_packing(pos[:, :dim], L, gamma, diam, alpha, None if seed < 0 else seed)
-        )
+        packings.append(make_packing(pos[:, :dim], L, gamma, diam, alpha, seed))
     if not packings:
         raise ValueError(f"{path}: no configuration")
     return packings

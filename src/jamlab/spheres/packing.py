@@ -37,6 +37,7 @@ from jamlab.spheres.jam_search import (
 )
 from jamlab.spheres.pair import HARMONIC, check_alpha
 from jamlab.spheres.relax import JAM_FIRE, RelaxResult, compress_to, relax, rescale
+from jamlab.spheres.rigidity import jammed_verdict, pressure_floor
 from jamlab.spheres.state import Packing, parse_sizes, random_packing
 
 __all__ = [
@@ -355,8 +356,10 @@ def prepare(
     Returns
     -------
     PreparedPacking
-        ``ok`` iff FIRE converged and the packing is jammed (``p > 0`` with a non-empty
-        backbone); otherwise ``reason`` says why.
+        ``ok`` iff FIRE converged and the packing is jammed by the rule of
+        :mod:`jamlab.spheres.rigidity` (a non-empty backbone with ``N_c' ≥ d(N' − 1) + 1``
+        contacts and ``p`` above the resolution floor of ``ftol``); otherwise ``reason`` says
+        why.
 
     Examples
     --------
@@ -378,6 +381,18 @@ def prepare(
         reason = f"minimisation did not converge (max force {r.max_force:.3e} >= ftol {ftol:.1e})"
     elif state.n_contacts_nr == 0:
         reason = f"not jammed at phi={phi} (p={state.pressure:.3e}): below jamming"
+    else:
+        # the project's rule (jamlab.spheres.rigidity): a backbone that survives rattler removal
+        # can still be floppy (hypostatic, p at the force resolution: N = 16 in 2D at 0.8)
+        verdict = jammed_verdict(
+            r.packing.dim,
+            r.packing.n - state.n_rattlers,
+            state.n_contacts_nr,
+            state.pressure,
+            pressure_floor(r.packing.n, r.packing.dim, r.packing.box.length, ftol),
+        )
+        if verdict:
+            reason = f"not jammed at phi={phi}: {verdict}"
     return PreparedPacking(
         packing=r.packing,
         state=state,

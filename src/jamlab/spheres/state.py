@@ -37,6 +37,9 @@ __all__ = [
     "box_length_for_diameters",
     "random_packing",
     "affine_shear",
+    "COINCIDENCE",
+    "check_box_side",
+    "coincident_pair",
 ]
 
 SIZE_KINDS = ("mono", "bidisperse", "polydisperse")
@@ -118,6 +121,78 @@ def _check_diameters(diameters, n: int) -> np.ndarray:
     return d
 
 
+COINCIDENCE = 2.0**-40
+"""Two particles closer than ``COINCIDENCE · L`` (minimum image, ``≈ 9.1e-13 L``) coincide: the
+direction of their pair force is undefined at ``r = 0`` and, below a few thousand rounding units
+of a coordinate of size ``L``, made of rounding noise, so :class:`Packing` refuses them."""
+
+
+def check_box_side(box: Box, diameters: np.ndarray) -> None:
+    """``ValueError`` unless the box side exceeds ``2 max D`` (twice the cut-off), so that every
+    pair interacts through at most one periodic image."""
+    sigma_max = float(diameters.max())
+    if not box.length > 2.0 * sigma_max:
+        n, d = diameters.size, box.dim
+        raise ValueError(
+            f"box length must exceed 2 max(D) = {2.0 * sigma_max:.4g} (twice the cut-off) for "
+            f"a unique interacting image, got L={box.length} (N={n}, d={d}, "
+            f"phi={solid_volume(diameters, d) / box.volume:.4g}); use more particles"
+        )
+
+
+def coincident_pair(positions: np.ndarray, box: Box) -> tuple[int, int, float] | None:
+    """A pair ``(i, j, r)``, ``i < j``, of particles closer than ``COINCIDENCE · L`` (minimum
+    image) if there is one, else ``None``. ``O(N log N)``, no pair search.
+
+    If no two particles are that close along ``y`` (sorted), there is none. Otherwise: in the
+    reduced frame ``s = h⁻¹ r`` (wrapped into ``[0, 1)^d``) such a pair differs by less
+    than ``(1 + |γ'|) COINCIDENCE ≤ 1.5 COINCIDENCE`` along every axis. The unit cube is cut into
+    ``m^d`` cells (``m = 2^⌊62/d⌋`` at most ``2^20``) in ``d + 1`` grids offset by ``1/(d + 1)``
+    of a cell: boundaries of all grids along one axis are ``1/(m (d + 1))`` apart, far more than
+    the pair's separation, so along each axis the pair straddles a boundary of at most one grid,
+    and in at least one grid it shares a cell. Particles sharing a cell (sorted cell keys) are
+    compared by their minimum-image distance."""
+    n, d = positions.shape
+    length = box.length
+    s = positions / length
+    s[:, 0] -= box.reduced_strain * s[:, 1]
+    s -= np.floor(s)
+    limit = COINCIDENCE * length
+    # quick pass: such a pair is within COINCIDENCE of each other along y (periodic)
+    y = np.sort(s[:, 1])
+    if np.diff(y).min() >= COINCIDENCE and y[0] + 1.0 - y[-1] >= COINCIDENCE:
+        return None
+    bits = min(20, 62 // d)
+    m = 1 << bits
+    # fine = ⌊s m (d + 1)⌋ >= 0; the cell of grid k along an axis is ⌊(fine + k)/(d + 1)⌋ mod m
+    fine = (s * (m * (d + 1))).astype(np.int64)
+    for k in range(d + 1):
+        cells = ((fine + k) // (d + 1)) & (m - 1)
+        key = cells[:, 0].copy()
+        for a in range(1, d):
+            key |= cells[:, a] << (bits * a)
+        ranked = np.sort(key)
+        if not np.any(ranked[1:] == ranked[:-1]):
+            continue
+        order = np.argsort(key, kind="stable")
+        ranked = key[order]
+        same = np.flatnonzero(ranked[1:] == ranked[:-1])
+        # the groups of equal keys: compare every pair in a group
+        for start in same[np.r_[True, np.diff(same) > 1]]:
+            stop = start + 1
+            while stop < n and ranked[stop] == ranked[start]:
+                stop += 1
+            group = np.sort(order[start:stop])
+            for a in range(len(group) - 1):
+                dr = box.minimum_image(positions[group[a + 1 :]] - positions[group[a]])
+                r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+                close = np.flatnonzero(r < limit)
+                if close.size:
+                    b = close[0]
+                    return int(group[a]), int(group[a + 1 + b]), float(r[b])
+    return None
+
+
 @dataclass(frozen=True, eq=False)
 class Packing:
     """``N`` spheres in a Lees–Edwards box.
@@ -155,12 +230,13 @@ class Packing:
         diam = _check_diameters(np.ones(n) if self.diameters is None else self.diameters, n)
         object.__setattr__(self, "diameters", diam)
         object.__setattr__(self, "alpha", check_alpha(self.alpha))
-        sigma_max = float(diam.max())
-        if not self.box.length > 2.0 * sigma_max:
+        check_box_side(self.box, diam)
+        pair = coincident_pair(pos, self.box)
+        if pair is not None:
+            i, j, r = pair
             raise ValueError(
-                f"box length must exceed 2 max(D) = {2.0 * sigma_max:.4g} (twice the cut-off) for "
-                f"a unique interacting image, got L={self.box.length} (N={n}, d={d}, "
-                f"phi={solid_volume(diam, d) / self.box.volume:.4g}); use more particles"
+                f"particles {i} and {j} coincide (minimum-image distance {r:.3g} < "
+                f"{COINCIDENCE:.3g} L): the direction of their pair force is undefined"
             )
         if self.seed is not None:
             if not isinstance(self.seed, int | np.integer) or isinstance(self.seed, bool):
