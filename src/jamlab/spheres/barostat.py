@@ -68,6 +68,7 @@ def rescale_box(packing: Packing, length: float) -> Packing:
         packing,
         positions=packing.positions * scale,
         box=Box(float(length), packing.dim, packing.box.strain),
+        check_coincidence=False,  # a dilation keeps distinct particles distinct
     )
 
 

@@ -136,23 +136,10 @@ def _h5_format(path: Path) -> str:
     return fmt.decode() if isinstance(fmt, bytes) else str(fmt)
 
 
-def _saved_step(path: Path) -> int:
-    try:
-        with h5py.File(path, "r") as h5:
-            step = h5.attrs.get("aqs_step")
-    except OSError:
-        raise ValueError(
-            f"{path}: not a readable HDF5 file (a damaged saved configuration)"
-        ) from None
-    if step is None:
-        raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
-    return int(step)
-
-
 def frames_of(path: str | os.PathLike) -> list[Frame]:
     """The frames of a jamlab configuration (one) or AQS trace (every configuration the run saved
     beside it, in step order, with its trace row); ``ValueError`` for any other file."""
-    from jamlab.spheres.aqs import checkpoint_paths
+    from jamlab.spheres.aqs.checkpoint import saved_configurations
 
     path = Path(path)
     fmt = _h5_format(path)
@@ -161,27 +148,7 @@ def frames_of(path: str | os.PathLike) -> list[Frame]:
     if fmt != "jamlab-aqs-trace":
         raise ValueError(f"not a jamlab configuration or AQS trace (format {fmt!r}): {path}")
     trace = read_trace(path)
-    last, snapshots = checkpoint_paths(path)
-    files = {}
-    if snapshots.is_dir():
-        for snap in sorted(snapshots.glob("step_*.h5")):
-            files[_saved_step(snap)] = snap
-    if last.is_file():
-        files.setdefault(_saved_step(last), last)
-    if not files:
-        raise ValueError(
-            f"{path}: no saved configuration beside the trace ({last.name} or {snapshots.name}/)"
-        )
-    every = int(trace.attrs.get("save_every", 0) or 0)
-    if every:
-        # a run with save_every saves every multiple of it and its last step: a missing one
-        # would silently drop a frame of the movie
-        expected = set(range(every, trace.n_steps, every)) | {trace.n_steps}
-        missing = sorted(expected - set(files))
-        if missing:
-            shown = ", ".join(map(str, missing[:5])) + (", ..." if len(missing) > 5 else "")
-            raise ValueError(f"{path}: {len(missing)} saved configuration(s) missing from "
-                             f"{snapshots.name}/ (steps {shown}; the run saved every {every})")
+    files = saved_configurations(path, trace)
     frames = []
     for step in sorted(files):
         packing = read_packing(files[step])

@@ -159,7 +159,7 @@ def minimize(
         neighbors.adopt(start, nbr, shift, img_y, ref, box.strain)
         neighbors.n_builds += int(n_rebuild) - 1
     elapsed = time.perf_counter() - t0
-    final = replace(packing, positions=neighbors.unsorted(pos))
+    final = replace(packing, positions=neighbors.unsorted(pos), check_coincidence=False)
     return MinimizeResult(
         packing=final,
         energy=float(energy),

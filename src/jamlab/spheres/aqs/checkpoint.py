@@ -1,6 +1,7 @@
 """Checkpoints of an AQS run: where the configurations go, how the run is saved
-(:func:`save_checkpoint`) and the configuration a resumed run starts from
-(:func:`resume_configuration`)."""
+(:func:`save_checkpoint`), the configuration a resumed run starts from
+(:func:`resume_configuration`) and every configuration a run saved
+(:func:`saved_configurations`)."""
 
 from __future__ import annotations
 
@@ -73,3 +74,47 @@ def resume_configuration(out: str | Path, previous: Trace) -> Packing:
         f"no saved configuration at the last strain {strain!r} (step {step}) of {out}"
         + (f": {'; '.join(tried)}" if tried else f"; expected {last}")
     )
+
+
+def saved_configurations(out: str | Path, trace: Trace) -> dict[int, Path]:
+    """``{step: file}`` of every configuration the run of ``trace`` (written to ``out``) saved
+    beside it (``<stem>.configs/step_*.h5`` and ``<stem>.last.h5``), in step order.
+    ``ValueError`` (naming the file) for an unreadable one or one without ``aqs_step``, when
+    there is none, and when one that a run with ``save_every`` saves (every multiple of it and
+    its last step) is missing: a movie of the run would silently lack a frame."""
+    import h5py
+
+    out = Path(out)
+    last, snapshots = checkpoint_paths(out)
+
+    def step_of(path: Path) -> int:
+        try:
+            with h5py.File(path, "r") as h5:
+                step = h5.attrs.get("aqs_step")
+        except OSError:
+            raise ValueError(
+                f"{path}: not a readable HDF5 file (a damaged saved configuration)"
+            ) from None
+        if step is None:
+            raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
+        return int(step)
+
+    files = {}
+    if snapshots.is_dir():
+        for snap in sorted(snapshots.glob("step_*.h5")):
+            files[step_of(snap)] = snap
+    if last.is_file():
+        files.setdefault(step_of(last), last)
+    if not files:
+        raise ValueError(
+            f"{out}: no saved configuration beside the trace ({last.name} or {snapshots.name}/)"
+        )
+    every = int(trace.attrs.get("save_every", 0) or 0)
+    if every:
+        expected = set(range(every, trace.n_steps, every)) | {trace.n_steps}
+        missing = sorted(expected - set(files))
+        if missing:
+            shown = ", ".join(map(str, missing[:5])) + (", ..." if len(missing) > 5 else "")
+            raise ValueError(f"{out}: {len(missing)} saved configuration(s) missing from "
+                             f"{snapshots.name}/ (steps {shown}; the run saved every {every})")
+    return dict(sorted(files.items()))

@@ -52,7 +52,9 @@ def affine_to(packing: Packing, strain: float) -> Packing:
     """``packing`` sheared affinely to ``strain``: ``x_i += (γ − γ_packing) y_i``."""
     pos = np.array(packing.positions)
     pos[:, 0] += (strain - packing.strain) * pos[:, 1]
-    return replace(packing, positions=pos, box=packing.box.with_strain(strain))
+    # an affine map keeps distinct particles distinct: no coincidence test (Packing)
+    return replace(packing, positions=pos, box=packing.box.with_strain(strain),
+                   check_coincidence=False)
 
 
 def network_forces(packing: Packing, ci: np.ndarray, cj: np.ndarray) -> tuple[np.ndarray, ...]:
