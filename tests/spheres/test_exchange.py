@@ -270,3 +270,17 @@ def test_extxyz_seed_that_is_no_valid_seed_is_refused(tmp_path, text):
     out.write_text(out.read_text().replace(" seed=5 ", f" seed={text} "))
     with pytest.raises(ValueError, match="seed"):
         ex.read_frames(out)
+
+
+def test_lammps_data_seed_is_checked(tmp_path):
+    # the seed in the title line is a user-editable string: checked as every other seed
+    import jamlab.spheres as sp
+    from jamlab.spheres import exchange as ex
+
+    ex.write_lammps_data(tmp_path / "x.data", sp.random_packing(8, 3, 0.3, seed=5))
+    assert ex.read_lammps_data(tmp_path / "x.data").seed == 5
+    for bad in ("abc", "-7", "18446744073709551616"):
+        text = (tmp_path / "x.data").read_text().replace("jamlab_seed=5", f"jamlab_seed={bad}")
+        (tmp_path / "y.data").write_text(text)
+        with pytest.raises(ValueError, match="jamlab_seed must be an integer"):
+            ex.read_lammps_data(tmp_path / "y.data")

@@ -35,6 +35,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from jamlab import validation
 from jamlab.files import atomic_write
 from jamlab.spheres import Box, Packing
 from jamlab.spheres.box import reduced_strain
@@ -573,5 +574,6 @@ def read_lammps_data(path: str | os.PathLike) -> Packing:
         gamma = xy / L
     diam = data[:, 2] if style == "sphere" else None
     alpha = float(title["jamlab_alpha"]) if "jamlab_alpha" in title else None
-    seed = int(title.get("jamlab_seed", -1))
-    return make_packing(pos[:, :dim], L, gamma, diam, alpha, None if seed < 0 else seed)
+    seed = title.get("jamlab_seed", "-1")
+    seed = None if seed == "-1" else validation.seed(f"{path}: jamlab_seed", seed)
+    return make_packing(pos[:, :dim], L, gamma, diam, alpha, seed)
