@@ -37,6 +37,11 @@ constant-volume protocol at jamming the benchmark's few steps are not typical of
 shear unjams the packing or raises its pressure by decades, and the cost per step changes with
 it (``benchmarks/bench_cv_sample.py``).
 
+With ``--cv-samples`` (JSONs of ``benchmarks/bench_cv_sample.py --json``: whole constant-volume
+samples of the benchmark's packings, jam + 1000 steps, CPU time), their mean per N counts as a
+run's at that N (for ``--fit-runs`` too); a sample stopped at its ``--budget`` counts with the
+time it had spent, and the row says the projection is then a lower bound.
+
 With ``--per-step`` (JSONs of ``benchmarks/bench_pressure.py --json``, e.g. 100 steps at N = 2000
 and 4000): at each N they hold (and no run does), the default path's time per step is their
 measured CPU time per step (deferred confirmations included; the mean over their packings)
@@ -115,6 +120,34 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
                 print(f"{path}: N = {int(n)}, {secs.size} finished samples, {secs.mean():.0f} "
                       f"{what} s each on average ({secs.min():.0f}–{secs.max():.0f})")
     return out
+
+
+def measured_cv_samples(files: list[Path], data: dict,
+                        steps: int) -> tuple[dict[int, float], set[int]]:
+    """``({N: mean CPU seconds per sample}, {N where a sample was stopped})`` of the whole
+    constant-volume samples in the JSONs of ``benchmarks/bench_cv_sample.py --json`` (jam and
+    shear, each checked against the benchmark's δγ and ``steps``). A sample stopped at its
+    ``--budget`` counts with the time it had spent: the mean there is a lower bound."""
+    per_n: dict[int, list[float]] = {}
+    stopped: set[int] = set()
+    for path in files:
+        try:
+            samples = json.loads(path.read_text())["samples"]
+        except (OSError, ValueError, KeyError) as err:
+            fail(f"{path}: not a bench_cv_sample.py --json file ({err})")
+        for smp in samples:
+            same_conditions(path, None, smp["dgamma"], data)
+            if smp["steps"] != steps:
+                fail(f"{path}: {smp['steps']} steps per sample, the projection's are {steps}")
+            n = int(smp["N"])
+            per_n.setdefault(n, []).append(smp["jam_cpu_s"] + smp["shear_cpu_s"])
+            if smp["steps_done"] < smp["steps"]:
+                stopped.add(n)
+            print(f"{path}: N = {n}, seed {smp['seed']} ({smp.get('floppy', 'fire')}): "
+                  f"{smp['jam_cpu_s'] + smp['shear_cpu_s']:.0f} CPU s"
+                  + (f", stopped after {smp['steps_done']} steps" if smp["steps_done"] < steps
+                     else ""))
+    return {n: float(np.mean(ts)) for n, ts in per_n.items()}, stopped
 
 
 def measured_steps(files: list[Path], data: dict) -> dict[int, float]:
@@ -240,13 +273,17 @@ def main() -> None:
     ap.add_argument("--runs", type=Path, nargs="+", default=[],
                     help="finished ensemble run directories whose mean time per sample replaces "
                     "the fit of the default path at their N (module docstring)")
+    ap.add_argument("--cv-samples", type=Path, nargs="+", default=[],
+                    help="JSONs of benchmarks/bench_cv_sample.py --json: whole constant-volume "
+                    "samples (jam + 1000 steps) whose mean replaces the fit at their N, as --runs "
+                    "(a sample stopped at its budget makes that mean a lower bound)")
     ap.add_argument("--fit-runs", action="store_true",
                     help="where --runs hold two N or more for a protocol, extrapolate the "
                     "default path from a power law fitted to their samples, not the benchmark's "
                     "(module docstring)")
     args = ap.parse_args()
-    if args.fit_runs and not args.runs:
-        fail("--fit-runs needs --runs")
+    if args.fit_runs and not (args.runs or args.cv_samples):
+        fail("--fit-runs needs --runs or --cv-samples")
     files = [json.loads(f.read_text()) for f in args.bench_json]
     data = files[0]
     for other in files[1:]:
@@ -262,7 +299,15 @@ def main() -> None:
                 mine.update(
                     {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
                 )
-    measured = measured_samples(args.runs, data, args.steps) if args.runs else None
+    measured = measured_samples(args.runs, data, args.steps) if args.runs else {}
+    stopped: set[int] = set()
+    if args.cv_samples:
+        whole, stopped = measured_cv_samples(args.cv_samples, data, args.steps)
+        cv = measured.setdefault("constant_volume", {})
+        both = sorted(set(whole) & set(cv))
+        if both:
+            fail(f"--runs and --cv-samples both hold N = {both}")
+        cv.update(whole)
     stepped = measured_steps(args.per_step, data) if args.per_step else None
     rows = project(data, args.sizes, args.samples, args.steps, measured, stepped, args.fit_runs)
     ns = [r["N"] for r in data["results"]]
@@ -283,6 +328,11 @@ def main() -> None:
         ext = " (extrapolated)" if r["extrapolated"] else ""
         if r["measured_n"]:
             ext += f" (whole samples measured at N = {', '.join(map(str, r['measured_n']))})"
+        low = sorted(n for n in stopped if n in r["measured_n"] and r["protocol"] ==
+                     "constant_volume" and r["code"] == "jamlab")
+        if low:
+            ext += (f" (a lower bound: samples at N = {', '.join(map(str, low))} stopped at "
+                    "their budget)")
         if r["fitted_to_runs"]:
             ext += " (other N: a power law through the measured samples, b per sample)"
         if r["measured_step_n"]:
