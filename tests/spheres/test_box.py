@@ -176,3 +176,14 @@ def test_coincidence_on_a_lattice_and_at_cell_boundaries(dim):
         assert found is not None and found[:2] == (i, j)
         assert found[2] == pytest.approx(tiny, rel=1e-2)
         assert _brute_closest(pos, L, 0.0) == pytest.approx(found[2], rel=1e-2)
+
+
+def test_packing_seed_is_a_valid_seed():
+    # every seed jamlab writes and reads is in [0, 2^64 - 1]: a negative one was kept and only
+    # failed later (GSD export)
+    pos = np.random.default_rng(0).random((8, 3)) * 3.0
+    assert sp.Packing(pos, sp.Box(3.0, 3, 0.0), seed=2**64 - 1).seed == 2**64 - 1
+    assert sp.Packing(pos, sp.Box(3.0, 3, 0.0), seed=np.uint64(7)).seed == 7
+    for bad in (-5, 2**64):
+        with pytest.raises(ValueError, match=r"seed must be an integer in \[0, "):
+            sp.Packing(pos, sp.Box(3.0, 3, 0.0), seed=bad)

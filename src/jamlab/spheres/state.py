@@ -23,6 +23,7 @@ from dataclasses import InitVar, dataclass, field, replace
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres.box import Box, box_length_for, sphere_volume
 from jamlab.spheres.pair import HARMONIC, check_alpha, kernel_law
 
@@ -244,7 +245,8 @@ class Packing:
         if self.seed is not None:
             if not isinstance(self.seed, int | np.integer) or isinstance(self.seed, bool):
                 raise ValueError(f"seed must be an integer or None, got seed={self.seed!r}")
-            object.__setattr__(self, "seed", int(self.seed))
+            # every seed jamlab writes and reads is in [0, 2^64 - 1] (GSD, LAMMPS data, runs)
+            object.__setattr__(self, "seed", validation.seed("seed", int(self.seed)))
         pos.setflags(write=False)
         object.__setattr__(self, "positions", pos)
 
