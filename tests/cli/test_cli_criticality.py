@@ -152,3 +152,18 @@ def test_the_same_packing_twice_is_refused(packings, tmp_path):
         line = one_line_error(jamlab("criticality", paths[0], paths[1], twin, "--out", out))
         assert f"packing {twin} is" in line and "each file may be given once" in line
         assert not out.exists()
+
+
+def test_a_failed_run_leaves_no_empty_out_and_outputs_need_force(tmp_path, capsys):
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"not a packing")
+    out = tmp_path / "c"
+    assert run(["criticality", str(bad), "--out", str(out)]) == 2
+    assert not out.exists()  # it was created for the run, and the run failed
+    # an earlier run's figure (or summary) in --out is not replaced without --force
+    out.mkdir()
+    (out / "distributions.png").write_bytes(b"an earlier figure")
+    capsys.readouterr()
+    assert run(["criticality", str(bad), "--out", str(out)]) == 2
+    assert "distributions.png exists; give --force" in capsys.readouterr().err
+    assert (out / "distributions.png").read_bytes() == b"an earlier figure"

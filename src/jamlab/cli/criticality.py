@@ -220,11 +220,15 @@ def register(app: typer.Typer) -> None:
         window_gamma: Annotated[
             str, typer.Option("--window-gamma", help="'auto' or 'LO,HI' in h.")
         ] = "auto",
-        overwrite: Annotated[
-            bool, typer.Option("--overwrite", help="Replace an existing summary in --out.")
+        force: Annotated[
+            bool,
+            typer.Option(
+                "--force", "--overwrite",
+                help="Replace the summary and figures of an earlier run in --out.",
+            ),
         ] = False,
     ) -> None:
-        from jamlab.files import atomic_write, check_distinct_inputs
+        from jamlab.files import atomic_write, check_distinct_inputs, check_outputs
 
         if method not in ("cdf", "plain", "mle"):
             raise ValueError(f"--method must be cdf, plain or mle, got {method!r}")
@@ -249,13 +253,18 @@ def register(app: typer.Typer) -> None:
         check_distinct_inputs(packings, "packing")
         if out.exists() and not out.is_dir():
             raise FileExistsError(f"--out {out} exists and is not a directory")
-        if (out / SUMMARY).exists() and not overwrite:
-            raise FileExistsError(f"{out / SUMMARY} exists (use --overwrite to replace it)")
-        resolved = {p.resolve() for p in packings}
-        if any((out / f).resolve() in resolved for f in (SUMMARY, *FIGURES)):
-            raise ValueError("--out would overwrite an input packing")
+        made = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
-        summary = analyse(packings, h_max, alpha, method, n_boot, seed, windows, out)
+        try:
+            # the summary and the figures: no input among them, none replaced without --force
+            check_outputs({f"the {'summary' if f == SUMMARY else 'figure'} {f} in --out":
+                           out / f for f in (SUMMARY, *FIGURES)},
+                          {f"packing {k}": p for k, p in enumerate(packings)}, force=force)
+            summary = analyse(packings, h_max, alpha, method, n_boot, seed, windows, out)
+        except BaseException:
+            if made and not any(out.iterdir()):
+                out.rmdir()  # a failed run leaves no empty --out behind
+            raise
         summary = finite_or_null(summary)  # NaN and inf are not JSON: null
         text = json.dumps(summary, indent=1, allow_nan=False)
         atomic_write(out / SUMMARY, lambda tmp: Path(tmp).write_text(text + "\n"))
