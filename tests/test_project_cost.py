@@ -162,3 +162,25 @@ def test_fit_runs_extrapolates_from_the_measured_samples(pc):
                if r["code"] == "jamlab")
     assert not one["fitted_to_runs"]
     assert one["cpu_h"] == pytest.approx(10 * (160 + 22.4) / 3600, rel=1e-9)
+
+
+def test_cv_samples_means_and_their_stopped_ones(pc, tmp_path, capsys):
+    # whole samples of bench_cv_sample.py: the mean per N of jam + shear CPU s; a sample stopped
+    # at its budget is counted with its time and marks that N
+    def sample(n, seed, jam, shear, done):
+        return {"N": n, "seed": seed, "floppy": "project", "steps": 100, "steps_done": done,
+                "dgamma": 1e-5, "jam_cpu_s": jam, "shear_cpu_s": shear}
+
+    path = tmp_path / "cv.json"
+    path.write_text(json.dumps({"samples": [
+        sample(2000, 1, 10.0, 90.0, 100), sample(2000, 2, 20.0, 280.0, 60),
+        sample(4000, 1, 40.0, 760.0, 100),
+    ]}))
+    means, stopped = pc.measured_cv_samples([path], {"dgamma": 1e-5}, steps=100)
+    assert means == {2000: pytest.approx(200.0), 4000: pytest.approx(800.0)}
+    assert stopped == {2000}
+    assert "stopped after 60 steps" in capsys.readouterr().out
+    with pytest.raises(SystemExit):  # another δγ than the benchmark's
+        pc.measured_cv_samples([path], {"dgamma": 1e-4}, steps=100)
+    with pytest.raises(SystemExit):  # another number of steps than the projection's
+        pc.measured_cv_samples([path], {"dgamma": 1e-5}, steps=1000)
