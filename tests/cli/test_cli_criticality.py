@@ -167,3 +167,11 @@ def test_a_failed_run_leaves_no_empty_out_and_outputs_need_force(tmp_path, capsy
     assert run(["criticality", str(bad), "--out", str(out)]) == 2
     assert "distributions.png exists; give --force" in capsys.readouterr().err
     assert (out / "distributions.png").read_bytes() == b"an earlier figure"
+
+
+def test_a_bad_bootstrap_seed_is_named(tmp_path, capsys):
+    bad = tmp_path / "p.h5"
+    bad.write_bytes(b"x")
+    assert run(["criticality", str(bad), "--out", str(tmp_path / "c"), "--seed", "-1"]) == 2
+    assert "--seed must be an integer in [0, " in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()

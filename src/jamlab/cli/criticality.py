@@ -228,6 +228,7 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
     ) -> None:
+        from jamlab import validation
         from jamlab.files import atomic_write, check_distinct_inputs, check_outputs
 
         if method not in ("cdf", "plain", "mle"):
@@ -238,6 +239,7 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--alpha must be > 1, got {alpha}")
         if n_boot < 2:
             raise ValueError(f"--n-boot must be >= 2, got {n_boot}")
+        validation.seed("--seed", seed)  # (numpy's own message did not name the option)
         windows = {
             k: w
             for k, w in (
