@@ -40,6 +40,7 @@ __all__ = [
     "Row",
     "VERDICT_RULES",
     "format_value",
+    "json_safe",
     "target_verdict",
     "verdict",
     "write_report",
@@ -281,13 +282,16 @@ def html_page(rows: Sequence[Row], figures: Sequence[Figure], meta: ReportMeta) 
     return "\n".join(out)
 
 
-def _json_safe(x: Any) -> Any:
+def json_safe(x: Any) -> Any:
+    """``x`` with every NaN or infinite float replaced by ``None`` (JSON ``null``), in nested dicts
+    and lists (tuples become lists), so that ``json.dumps(..., allow_nan=False)`` writes valid
+    JSON."""
     if isinstance(x, float) and not math.isfinite(x):
         return None
     if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
+        return {k: json_safe(v) for k, v in x.items()}
     if isinstance(x, list | tuple):
-        return [_json_safe(v) for v in x]
+        return [json_safe(v) for v in x]
     return x
 
 
@@ -321,5 +325,5 @@ def write_report(
         "figures": [asdict(f) for f in figures],
         "data": extra or {},
     }
-    paths["json"].write_text(json.dumps(_json_safe(payload), indent=1), encoding="utf-8")
+    paths["json"].write_text(json.dumps(json_safe(payload), indent=1), encoding="utf-8")
     return paths

@@ -50,18 +50,6 @@ def _fit_warnings(label: str, fit, n_boot: int) -> list[str]:
     return out
 
 
-def finite_or_null(value: object) -> object:
-    """``value`` with every NaN or infinite float replaced by ``None`` (JSON ``null``), in nested
-    dicts and lists, so that ``json.dumps(..., allow_nan=False)`` writes valid JSON."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: finite_or_null(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [finite_or_null(v) for v in value]
-    return value
-
-
 def analyse(
     paths: list[Path],
     h_max: float = 0.5,
@@ -230,6 +218,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from jamlab import validation
         from jamlab.files import atomic_write, check_distinct_inputs, check_outputs
+        from jamlab.report import json_safe
 
         if method not in ("cdf", "plain", "mle"):
             raise ValueError(f"--method must be cdf, plain or mle, got {method!r}")
@@ -267,7 +256,7 @@ def register(app: typer.Typer) -> None:
             if made and not any(out.iterdir()):
                 out.rmdir()  # a failed run leaves no empty --out behind
             raise
-        summary = finite_or_null(summary)  # NaN and inf are not JSON: null
+        summary = json_safe(summary)  # NaN and inf are not JSON: null
         text = json.dumps(summary, indent=1, allow_nan=False)
         atomic_write(out / SUMMARY, lambda tmp: Path(tmp).write_text(text + "\n"))
         for w in summary["warnings"]:  # type: ignore[union-attr]
