@@ -31,6 +31,7 @@ __all__ = [
     "check_distinct_inputs",
     "check_outputs",
     "fsync_dir",
+    "RUN_MEMBERS",
     "run_directory_of",
 ]
 
@@ -66,16 +67,19 @@ def _inside(path: Path, directory: Path) -> bool:
     return real == root or real.startswith(root.rstrip(os.sep) + os.sep)
 
 
+RUN_MEMBERS = ("manifest.json", "run.lock", "samples", "checkpoints")
+"""The entries of a jamlab run directory that only ``jamlab run`` writes: its manifest, its lock,
+the sample and the checkpoint folders. :mod:`jamlab.runs.storage` takes its names from here (this
+module must not import the run machinery: every command imports it)."""
+
+
 def run_directory_of(path: PathLike) -> Path | None:
-    """The jamlab run directory (one holding a ``manifest.json``) that ``path`` is a member of —
-    its manifest or lock, or a file below its ``samples/`` or ``checkpoints/`` — or ``None``."""
+    """The jamlab run directory (one holding a manifest) that ``path`` is a member of — an entry
+    of :data:`RUN_MEMBERS` or a file below one — or ``None``."""
     path = Path(os.path.abspath(path))
     for parent in path.parents:
-        if (parent / "manifest.json").is_file():
-            rel = path.relative_to(parent).parts
-            if rel[0] in ("manifest.json", "run.lock", "samples", "checkpoints"):
-                return parent
-            return None
+        if (parent / RUN_MEMBERS[0]).is_file():
+            return parent if path.relative_to(parent).parts[0] in RUN_MEMBERS else None
     return None
 
 

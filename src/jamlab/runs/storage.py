@@ -42,7 +42,7 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab.files import atomic_write, atomic_write_hdf5
+from jamlab.files import RUN_MEMBERS, atomic_write, atomic_write_hdf5
 from jamlab.runs.results import TRACE_FIELDS, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study, phi_label
 
@@ -57,8 +57,8 @@ __all__ = [
     "sample_state",
 ]
 
-MANIFEST = "manifest.json"
-LOCK = "run.lock"
+# the run directory's own entries (named in jamlab.files, whose output guard protects them)
+MANIFEST, LOCK, SAMPLES, CHECKPOINTS = RUN_MEMBERS
 CHECKPOINT_PREPARED = "prepared.h5"  # in a sample's checkpoint folder (jamlab.runs.physics)
 CHECKPOINT_TRACE = "trace.h5"
 RUN_FORMAT = "jamlab-run"
@@ -211,8 +211,8 @@ class RunDir:
     def checkpoint_dir(self, key: SampleKey) -> Path:
         """The folder where a sample of a study with ``checkpoint_every`` is saved as it goes
         (:mod:`jamlab.runs.physics`): ``checkpoints/phi=…/N=…/sample-XXXXX/``."""
-        inside = Path(key.relpath()).relative_to("samples").with_suffix("")
-        return self.path / "checkpoints" / inside
+        inside = Path(key.relpath()).relative_to(SAMPLES).with_suffix("")
+        return self.path / CHECKPOINTS / inside
 
     def remove_checkpoints(self, keys: list[SampleKey]) -> None:
         """Delete the checkpoint folders of ``keys`` (their samples are written)."""
@@ -239,7 +239,7 @@ class RunDir:
     def prune_checkpoints(self) -> None:
         """Remove the empty folders left in ``checkpoints/`` (at the end of a run: a worker may
         be creating its folder while the run goes on)."""
-        root = self.path / "checkpoints"
+        root = self.path / CHECKPOINTS
         if not root.is_dir():
             return
         for folder in sorted(root.rglob("*"), key=lambda p: len(p.parts), reverse=True):
@@ -372,7 +372,7 @@ class RunDir:
     def remove_temporaries(self) -> list[Path]:
         """Delete leftovers of interrupted writes (call only while holding :meth:`lock`)."""
         removed = []
-        for folder in (self.path / "samples", self.path / "checkpoints"):
+        for folder in (self.path / SAMPLES, self.path / CHECKPOINTS):
             if folder.is_dir():
                 for tmp in folder.rglob(".*.tmp"):
                     tmp.unlink(missing_ok=True)
