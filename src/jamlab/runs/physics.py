@@ -74,7 +74,7 @@ def prepare_and_shear(
     if saved is None:
         config, attrs = _prepare(study, key, seed)
         if folder is not None:
-            config = _save_prepared(folder, config, attrs, seed, (wall0, cpu0))
+            config, times = _save_prepared(folder, config, attrs, seed, (wall0, cpu0))
     else:
         config, attrs, previous, start, times = saved
         resumed_from = 0 if previous is None else previous.n_steps
@@ -93,7 +93,6 @@ def prepare_and_shear(
             # the times at a save (and at the last step), written before it: a kill in between
             # leaves an entry that is not used
             if n % every == 0 or n == total:
-                times = _read_times(folder)
                 times[str(n)] = [earlier[0] + time.perf_counter() - wall0,
                                  earlier[1] + time.thread_time() - cpu0]
                 write_json(folder / TIMES, times)
@@ -174,22 +173,18 @@ def _prepare(study: Study, key: SampleKey, seed: int) -> tuple[Any, dict[str, An
     return prepared.packing, attrs
 
 
-def _read_times(folder: Path) -> dict[str, list[float]]:
-    return json.loads((folder / TIMES).read_text())
-
-
 def _save_prepared(folder: Path, config: Any, attrs: dict[str, Any], seed: int,
-                   started: tuple[float, float]) -> Any:
+                   started: tuple[float, float]) -> tuple[Any, dict[str, list[float]]]:
     """Write the prepared packing with its attributes and the sample's ``seed``
-    (``prepared.h5``) and the times so far, then return the packing read back from the file
-    (the start of every invocation)."""
+    (``prepared.h5``) and the times so far; return the packing read back from the file (the
+    start of every invocation) and the times."""
     from jamlab.spheres.io import read_packing, write_packing
 
     folder.mkdir(parents=True, exist_ok=True)
-    write_json(folder / TIMES, {"prepared": [time.perf_counter() - started[0],
-                                              time.thread_time() - started[1]]})
+    times = {"prepared": [time.perf_counter() - started[0], time.thread_time() - started[1]]}
+    write_json(folder / TIMES, times)
     write_packing(folder / PREPARED, config, prep_attrs=json.dumps(attrs), sample_seed=str(seed))
-    return read_packing(folder / PREPARED)
+    return read_packing(folder / PREPARED), times
 
 
 def _read_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> tuple | None:
@@ -209,7 +204,7 @@ def _read_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> t
         with h5py.File(folder / PREPARED, "r") as h5:
             attrs = json.loads(h5.attrs["prep_attrs"])
             saved_seed = str(h5.attrs["sample_seed"])
-        times = _read_times(folder)
+        times = json.loads((folder / TIMES).read_text())
         previous = start = None
         if (folder / TRACE).is_file():
             previous = read_trace(folder / TRACE)
