@@ -122,6 +122,15 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
     return out
 
 
+def json_list(path: Path, key: str, producer: str) -> list[dict]:
+    """The list ``key`` of the JSON file ``path`` written by ``producer --json`` (bad input: one
+    line, exit code 2)."""
+    try:
+        return json.loads(path.read_text())[key]
+    except (OSError, ValueError, KeyError) as err:
+        fail(f"{path}: not a {producer} --json file ({err})")
+
+
 def measured_cv_samples(files: list[Path], data: dict,
                         steps: int) -> tuple[dict[int, float], set[int]]:
     """``({N: mean CPU seconds per sample}, {N where a sample was stopped})`` of the whole
@@ -131,22 +140,18 @@ def measured_cv_samples(files: list[Path], data: dict,
     per_n: dict[int, list[float]] = {}
     stopped: set[int] = set()
     for path in files:
-        try:
-            samples = json.loads(path.read_text())["samples"]
-        except (OSError, ValueError, KeyError) as err:
-            fail(f"{path}: not a bench_cv_sample.py --json file ({err})")
-        for smp in samples:
+        for smp in json_list(path, "samples", "benchmarks/bench_cv_sample.py"):
             same_conditions(path, None, smp["dgamma"], data)
             if smp["steps"] != steps:
                 fail(f"{path}: {smp['steps']} steps per sample, the projection's are {steps}")
-            n = int(smp["N"])
-            per_n.setdefault(n, []).append(smp["jam_cpu_s"] + smp["shear_cpu_s"])
-            if smp["steps_done"] < smp["steps"]:
+            n, cpu = int(smp["N"]), smp["jam_cpu_s"] + smp["shear_cpu_s"]
+            per_n.setdefault(n, []).append(cpu)
+            cut = smp["steps_done"] < steps
+            if cut:
                 stopped.add(n)
             print(f"{path}: N = {n}, seed {smp['seed']} ({smp.get('floppy', 'fire')}): "
-                  f"{smp['jam_cpu_s'] + smp['shear_cpu_s']:.0f} CPU s"
-                  + (f", stopped after {smp['steps_done']} steps" if smp["steps_done"] < steps
-                     else ""))
+                  f"{cpu:.0f} CPU s"
+                  + (f", stopped after {smp['steps_done']} steps" if cut else ""))
     return {n: float(np.mean(ts)) for n, ts in per_n.items()}, stopped
 
 
@@ -156,11 +161,7 @@ def measured_steps(files: list[Path], data: dict) -> dict[int, float]:
     their seeds)."""
     per_n: dict[int, list[float]] = {}
     for path in files:
-        try:
-            cases = json.loads(path.read_text())["cases"]
-        except (OSError, ValueError, KeyError) as err:
-            fail(f"{path}: not a bench_pressure.py --json file ({err})")
-        for case in cases:
+        for case in json_list(path, "cases", "benchmarks/bench_pressure.py"):
             if "newton" not in case["variants"]:
                 continue
             same_conditions(path, case["pressure"], case["dgamma"], data)
