@@ -217,7 +217,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         from jamlab import validation
-        from jamlab.files import atomic_write, check_distinct_inputs, check_outputs
+        from jamlab.files import atomic_write, check_outputs
         from jamlab.report import json_safe
 
         if method not in ("cdf", "plain", "mle"):
@@ -241,7 +241,6 @@ def register(app: typer.Typer) -> None:
         for p in packings:
             if not p.is_file():
                 raise FileNotFoundError(f"no such packing file: {p}")
-        check_distinct_inputs(packings, "packing")
         if out.exists() and not out.is_dir():
             raise FileExistsError(f"--out {out} exists and is not a directory")
         made = not out.exists()
