@@ -162,7 +162,8 @@ def test_specialised_and_general_kernels_agree_bit_for_bit():
 def test_branch_free_kernel_gives_the_same_bits(sizes):
     """The branch-free force kernel (3D, harmonic law, the contact test as a select) computes
     the branchy kernel's numbers bit for bit, including pairs exactly at contact distance, and
-    agrees with the brute force; ``energy_forces_any`` takes it on long lists."""
+    agrees with the brute force; ``energy_forces_any`` takes it on lists longer than its
+    threshold, with the same result."""
     from jamlab.spheres.kernels import pairs as P
 
     pk = sp.random_packing(1800, 3, 0.66, 4, sizes=sizes)
@@ -183,9 +184,10 @@ def test_branch_free_kernel_gives_the_same_bits(sizes):
     e1 = plain(pos, nl.start, nl.nbr, nl.shift, nl.diameters, None, f1)
     e2 = masked(pos, nl.start, nl.nbr, nl.shift, nl.diameters, f2)
     assert e1 == e2 and np.array_equal(f1, f2)
-    assert nl.start[-1] > P.BRANCH_FREE_PAIRS  # the dispatch takes the masked kernel
-    assert P.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, nl.diameters, None, f3) == e1
-    assert np.array_equal(f3, f1)
+    lst = (pos, nl.start, nl.nbr, nl.shift, nl.diameters, None)
+    for threshold in (0, nl.start[-1] - 1, nl.start[-1], 2**62):  # masked, masked, branchy ×2
+        assert P.energy_forces_any(*lst, f3, threshold) == e1
+        assert np.array_equal(f3, f1)
     # on the unmoved packing (the list is valid there), against the brute force
     original = np.ascontiguousarray(nl.sorted(pk.positions))
     e4 = masked(original, nl.start, nl.nbr, nl.shift, nl.diameters, f2)

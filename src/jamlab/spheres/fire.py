@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from jamlab.spheres import kernels as K
+from jamlab.spheres.kernel_choice import threshold_for
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList
 from jamlab.spheres.state import Packing
 
@@ -153,6 +154,7 @@ def minimize(
         int(params.n_negative_max),
         float(params.dmax),
         params.variant == "fire2",
+        threshold_for(neighbors.nbr.size),
     )
     iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
     if n_rebuild > 0:

@@ -25,6 +25,7 @@ import numpy as np
 
 from jamlab.spheres import kernels as K
 from jamlab.spheres.contacts import RattlerResult, contacts, coordination, remove_rattlers
+from jamlab.spheres.kernel_choice import threshold_for
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList, list_positions, spatial_order
 from jamlab.spheres.state import Packing, affine_shear, random_packing
 
@@ -69,7 +70,9 @@ def energy_and_forces(
     """``(E, F)`` with ``F_i = −∂E/∂r_i = −Σ_j V'(r_ij) r_ij / r_ij`` (shape ``(N, d)``)."""
     pos, nl = list_positions(packing, neighbors)
     f = np.empty_like(pos)
-    e = K.energy_forces_any(pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f)
+    e = K.energy_forces_any(
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f, threshold_for(nl.nbr.size)
+    )
     return float(e), nl.unsorted(f)
 
 

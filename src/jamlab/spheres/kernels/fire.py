@@ -55,6 +55,7 @@ def fire(
     n_negative_max,
     dmax,
     fire2,
+    branch_free_pairs,
 ):
     """FIRE minimisation of ``E`` at fixed strain, entirely in compiled code; ``pos`` in place.
 
@@ -76,7 +77,9 @@ def fire(
     steps since its build) is rebuilt, with ``budget = skin``, as soon as that fails.
 
     The pair law is ``diam`` (list order) and ``pair_alpha`` (:mod:`jamlab.spheres.pair`); the
-    list holds pairs closer than ``rc = sigma_max + skin``.
+    list holds pairs closer than ``rc = sigma_max + skin``. Lists longer than
+    ``branch_free_pairs`` take the branch-free force kernel (the same bits;
+    :mod:`jamlab.spheres.kernel_choice`).
 
     Returns ``(iterations, max_force, converged, energy, n_rebuilds, start, nbr, shift, img_y,
     ref)``.
@@ -84,7 +87,7 @@ def fire(
     n, d = pos.shape
     f = np.empty((n, d), np.float64)
     v = np.zeros((n, d), np.float64)
-    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f)
+    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
     fmax2, ff, p = _force_stats(f, v)
     ftol2 = ftol * ftol
     dt = dt0
@@ -164,7 +167,7 @@ def fire(
                     ref[i, a] = pos[i, a]
             n_rebuild += 1
             half_budget2 = 0.25 * skin * skin
-        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f)
+        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
         fmax2, ff, p = _force_stats(f, v)
     fmax = np.sqrt(fmax2)
     return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref

@@ -13,16 +13,6 @@ from numba import njit
 
 from jamlab.spheres.pair import harmonic_terms_masked, pair_sigma, pair_terms
 
-BRANCH_FREE_PAIRS = 8000
-"""Lists longer than this (harmonic law, ``d = 3``) take the branch-free force kernel
-(:func:`energy_forces_3d_masked`). Measured (``benchmarks/bench_force_kernel.py``, d = 3 near a
-minimum, skin 0.1): on short lists the branchy kernel is 7–15 % faster (N ≤ 1000, ≤ 4.5k
-pairs: the branch predictor can learn the contact pattern, which repeats from one evaluation to
-the next), on long ones the branch-free kernel is 1.3–1.4× faster (N = 4000–8000, 18–36k
-pairs). Between, the crossover depends on the load: 9k pairs (N = 2000) favour the branchy
-kernel by 5–10 % on an idle machine and the branch-free one by 1.3× with a second process on the
-other core. Both give the same bits (``docs/spheres.md``)."""
-
 
 @njit(cache=True)
 def energy(pos, start, nbr, shift, diam, alpha):
@@ -175,14 +165,16 @@ def energy_forces_3d_masked(pos, start, nbr, shift, diam, forces):
 
 
 @njit(cache=True)
-def energy_forces_any(pos, start, nbr, shift, diam, alpha, forces):
+def energy_forces_any(pos, start, nbr, shift, diam, alpha, forces, branch_free_pairs):
     """Dispatch to the unrolled ``d = 2, 3`` kernels (in ``d = 3`` branch-free for the harmonic
-    law on lists longer than :data:`BRANCH_FREE_PAIRS`), the generic one otherwise. (``d = 2``
+    law on lists longer than ``branch_free_pairs``: the machine's crossover, measured by
+    :func:`jamlab.spheres.kernel_choice.threshold_for`; both give the same bits), the generic
+    one otherwise. (``d = 2``
     stays branchy: a 2D branch-free kernel measured no gain at N = 4000, 10.8k pairs, 17.0
     against 17.5 ns per particle, and was not kept.)"""
     d = pos.shape[1]
     if d == 3:
-        if alpha is None and nbr.shape[0] > BRANCH_FREE_PAIRS:
+        if alpha is None and nbr.shape[0] > branch_free_pairs:
             return energy_forces_3d_masked(pos, start, nbr, shift, diam, forces)
         return energy_forces_3d(pos, start, nbr, shift, diam, alpha, forces)
     if d == 2:
