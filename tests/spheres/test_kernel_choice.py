@@ -83,3 +83,14 @@ def test_fire_result_does_not_depend_on_the_choice(fresh):
     a, b = out["branchy"], out["branch-free"]
     assert a.iterations == b.iterations and a.energy == b.energy
     assert np.array_equal(a.packing.positions, b.packing.positions)
+
+
+def test_command_line_refuses_a_bad_environment_value_before_any_work(monkeypatch, capsys):
+    from jamlab.cli import main
+
+    monkeypatch.setenv(KC.ENV, "fastest")
+    with pytest.raises(SystemExit) as exc:
+        main(["theory", "--help"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("jamlab: error: JAMLAB_FORCE_KERNEL must be")

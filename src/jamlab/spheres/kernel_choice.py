@@ -44,6 +44,7 @@ __all__ = [
     "branch_free_pairs",
     "calibrate",
     "choose_threshold",
+    "environment_mode",
     "threshold_for",
 ]
 
@@ -139,19 +140,29 @@ def calibrate(sizes: tuple[int, ...] = SIZES, rounds: int = ROUNDS) -> Calibrati
 _CALIBRATION: Calibration | None = None
 
 
+MODES = ("auto", "branchy", "branch-free")
+
+
+def environment_mode() -> str:
+    """``JAMLAB_FORCE_KERNEL`` (default ``auto``), checked: ``ValueError`` for anything but
+    :data:`MODES` (the command line checks it before any work starts)."""
+    mode = os.environ.get(ENV, "auto").strip().lower() or "auto"
+    if mode not in MODES:
+        raise ValueError(f"{ENV} must be 'auto', 'branchy' or 'branch-free', got {mode!r}")
+    return mode
+
+
 def branch_free_pairs() -> Calibration:
     """This process's choice (``JAMLAB_FORCE_KERNEL``, else measured once and kept)."""
     global _CALIBRATION
     if _CALIBRATION is None:
-        mode = os.environ.get(ENV, "auto").strip().lower() or "auto"
+        mode = environment_mode()
         if mode == "branchy":
             _CALIBRATION = Calibration(NEVER, ())
         elif mode == "branch-free":
             _CALIBRATION = Calibration(CALIBRATE_ABOVE, ())
-        elif mode == "auto":
-            _CALIBRATION = calibrate()
         else:
-            raise ValueError(f"{ENV} must be 'auto', 'branchy' or 'branch-free', got {mode!r}")
+            _CALIBRATION = calibrate()
     return _CALIBRATION
 
 
