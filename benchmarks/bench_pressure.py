@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from jamlab.spheres.kernel_choice import branch_free_pairs
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -143,7 +144,9 @@ def main() -> None:
                                       "plastic": int(best[m][1][0]["plastic"].sum())}
                                   for m in names}})
                 if a.json is not None:
-                    a.json.write_text(json.dumps({"cases": cases}, indent=1))
+                    kernel = branch_free_pairs().describe()  # the machine, for the reader
+                    out = {"cases": cases, "force_kernel": kernel}
+                    a.json.write_text(json.dumps(out, indent=1))
                 t0, (c0, at0) = best[ref]
                 plastic = "/".join(str(int(best[m][1][0]["plastic"].sum())) for m in names)
                 same = "/".join("yes" if np.array_equal(best[m][1][0]["plastic"], c0["plastic"])
