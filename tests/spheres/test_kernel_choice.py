@@ -54,10 +54,13 @@ def test_environment_override(fresh):
         KC.threshold_for(10**6)
 
 
-def test_short_lists_do_not_calibrate(fresh):
-    fresh.setattr(KC, "calibrate", lambda *a, **k: pytest.fail("calibrated for a short list"))
+def test_lists_without_a_branch_free_twin_do_not_calibrate(fresh):
+    """Short lists, 2D lists and non-harmonic laws always take the branchy kernel."""
+    fresh.setattr(KC, "calibrate", lambda *a, **k: pytest.fail("calibrated needlessly"))
     fresh.delenv(KC.ENV, raising=False)
     assert KC.threshold_for(KC.CALIBRATE_ABOVE) == KC.NEVER
+    assert KC.threshold_for(10**6, dim=2) == KC.NEVER
+    assert KC.threshold_for(10**6, dim=3, alpha=2.5) == KC.NEVER
 
 
 def test_calibration_measures_both_kernels():

@@ -154,7 +154,7 @@ def minimize(
         int(params.n_negative_max),
         float(params.dmax),
         params.variant == "fire2",
-        threshold_for(neighbors.nbr.size),
+        threshold_for(neighbors.nbr.size, pos.shape[1], neighbors.alpha),
     )
     iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
     if n_rebuild > 0:

@@ -166,9 +166,11 @@ def branch_free_pairs() -> Calibration:
     return _CALIBRATION
 
 
-def threshold_for(n_pairs: int) -> int:
-    """The threshold to hand a kernel about to evaluate a list of ``n_pairs`` pairs: lists
-    within :data:`CALIBRATE_ABOVE` need no measurement (and get :data:`NEVER`)."""
-    if n_pairs <= CALIBRATE_ABOVE:
+def threshold_for(n_pairs: int, dim: int = 3, alpha: float | None = None) -> int:
+    """The threshold to hand a kernel about to evaluate a list of ``n_pairs`` pairs in ``dim``
+    dimensions with the kernels' pair exponent ``alpha`` (``None``: harmonic). Only the 3D
+    harmonic kernels have a branch-free twin; other lists, and lists within
+    :data:`CALIBRATE_ABOVE`, need no measurement (and get :data:`NEVER`)."""
+    if n_pairs <= CALIBRATE_ABOVE or dim != 3 or alpha is not None:
         return NEVER
     return branch_free_pairs().threshold

@@ -71,7 +71,8 @@ def energy_and_forces(
     pos, nl = list_positions(packing, neighbors)
     f = np.empty_like(pos)
     e = K.energy_forces_any(
-        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f, threshold_for(nl.nbr.size)
+        pos, nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha, f,
+        threshold_for(nl.nbr.size, pos.shape[1], nl.alpha),
     )
     return float(e), nl.unsorted(f)
 
