@@ -1,4 +1,4 @@
-"""Stale numba caches are dropped (:mod:`jamlab.spheres.kernels._cache`): numba keys a cached
+"""Stale numba caches are dropped (:mod:`jamlab.spheres.kernels.cache`): numba keys a cached
 kernel on its own file only, so a change to a file it inlines (``spheres/pair.py``) must clear it.
 
 The end-to-end test runs a copy of the package in fresh processes with a private cache
@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from jamlab.spheres.kernels._cache import (
+from jamlab.spheres.kernels.cache import (
     MARKER,
     drop_stale,
     fingerprint,
@@ -68,14 +68,14 @@ def test_the_sources_include_the_inlined_pair_law():
 
 CHILD = """
 import sys
-from jamlab.spheres.kernels import _cache
+from jamlab.spheres.kernels import cache
 from jamlab.warmup import count_compilations
 import numpy as np
 from jamlab.spheres import kernels as K
 pos = np.array([[0.0, 0.0, 0.0], [0.9, 0.0, 0.0]])
 start = np.array([0, 1, 1]); nbr = np.array([1]); shift = np.zeros((1, 3))
 n = count_compilations(lambda: K.energy(pos, start, nbr, shift, None, None))
-print(_cache.DROPPED, n, _cache.kernel_cache_dir())
+print(cache.DROPPED, n, cache.kernel_cache_dir())
 """
 
 

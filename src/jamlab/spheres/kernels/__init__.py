@@ -10,12 +10,13 @@
 Each kernel's docstring gives the formula it computes. The kernels take plain arrays and are
 meant for the library's own layers and for tests; users call :mod:`jamlab.spheres.potential`.
 
-On first import, cached kernels older than any kernel source are dropped before numba can load
-them (:mod:`~jamlab.spheres.kernels._cache`: numba tracks only a kernel's own file).
+On first import, the package's cached kernels are dropped if any kernel source changed since
+they were compiled, before numba can load them (:mod:`~jamlab.spheres.kernels.cache`: numba
+tracks only a kernel's own file).
 """
 
-# first: importing _cache drops stale cached kernels before any kernel module is loaded
-from jamlab.spheres.kernels import _cache  # noqa: F401  (isort: skip)
+# first: importing cache drops stale cached kernels before any kernel module is loaded
+from jamlab.spheres.kernels import cache  # noqa: F401  (isort: skip)
 from jamlab.spheres.kernels.aqs import (
     backbone_hessian_csr,
     contact_changes,
