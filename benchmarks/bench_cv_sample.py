@@ -41,7 +41,7 @@ import numpy as np
 
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import AQSParameters, shear
-from jamlab.spheres.kernel_choice import branch_free_pairs
+from jamlab.spheres.kernel_choice import calibration
 from jamlab.spheres.potential import pressure
 from jamlab.spheres.rigidity import is_jammed
 
@@ -177,7 +177,7 @@ def main() -> None:
                 results.append(o)
                 if a.json is not None:  # after every sample: a long run keeps what it finished
                     tmp = a.json.with_suffix(".tmp")
-                    kernel = branch_free_pairs().describe()  # the machine, for the reader
+                    kernel = calibration().describe()  # the machine, for the reader
                     tmp.write_text(json.dumps({"samples": results, "force_kernel": kernel}))
                     tmp.replace(a.json)
     if len(a.floppy) > 1:

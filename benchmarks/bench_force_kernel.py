@@ -37,7 +37,7 @@ import numpy as np
 
 from jamlab.spheres import kernel_choice as KC
 from jamlab.spheres.fire import minimize
-from jamlab.spheres.kernel_choice import branch_free_pairs, threshold_for
+from jamlab.spheres.kernel_choice import calibration, threshold_for
 from jamlab.spheres.kernels import pairs as P
 from jamlab.spheres.neighbors import DEFAULT_SKIN, RELAX_SKIN, NeighborList
 from jamlab.spheres.state import affine_shear, random_packing
@@ -57,9 +57,8 @@ def per_particle(fn, n: int, repeat: int) -> float:
 
 def fire_runs(files: list[Path], dgamma: float, repeat: int) -> None:
     """Whole FIRE relaxations with each kernel (module docstring)."""
-    auto = branch_free_pairs()
-    fixed = {"branchy": KC.Calibration(KC.NEVER, ()),
-             "branch-free": KC.Calibration(KC.CALIBRATE_ABOVE, ())}
+    auto = calibration()
+    fixed = {k: KC.fixed(k) for k in ("branchy", "branch-free")}
     print("| packing | N | pairs | FIRE its | branchy: µs/it | branch-free: µs/it | "
           "branch-free / branchy | automatic choice |")
     print("|---|---|---|---|---|---|---|---|")
@@ -69,21 +68,21 @@ def fire_runs(files: list[Path], dgamma: float, repeat: int) -> None:
         best = {k: np.inf for k in fixed}
         its = set()
         for cal in fixed.values():  # load both compiled paths before timing
-            KC._CALIBRATION = cal
+            KC.use(cal)
             minimize(pk, ftol=1e-12, max_iter=10, skin=RELAX_SKIN)
         for _ in range(repeat):
             for k, cal in fixed.items():
-                KC._CALIBRATION = cal
+                KC.use(cal)
                 t = time.process_time()
                 r = minimize(pk, ftol=1e-12, skin=RELAX_SKIN)
                 best[k] = min(best[k], time.process_time() - t)
                 its.add((r.iterations, r.energy))
-        KC._CALIBRATION = auto
+        KC.use(auto)
         if len(its) != 1:
             raise SystemExit(f"{f}: the two kernels gave different FIRE runs: {its}")
         (n_it, _), = its
         a, b = (1e6 * best[k] / n_it for k in ("branchy", "branch-free"))
-        choice = "branch-free" if pairs > auto.threshold else "branchy"
+        choice = "branch-free" if pairs > threshold_for(pairs) else "branchy"
         if pairs <= KC.CALIBRATE_ABOVE:
             choice += " (a short list: both columns ran the branchy kernel)"
         print(f"| {f.name} | {pk.n} | {pairs} | {n_it} | {a:.1f} | {b:.1f} | {b / a:.2f} | "
@@ -98,7 +97,7 @@ def main() -> None:
     ap.add_argument("--fire", type=Path, nargs="+", default=None)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     a = ap.parse_args()
-    print(branch_free_pairs().describe())
+    print(calibration().describe())
     if a.fire:
         fire_runs(a.fire, a.dgamma, a.repeat)
         return

@@ -50,7 +50,7 @@ import numpy as np
 import jamlab.spheres as sp
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.barostat import minimize_enthalpy
-from jamlab.spheres.kernel_choice import branch_free_pairs
+from jamlab.spheres.kernel_choice import calibration
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -237,7 +237,7 @@ def main() -> None:
         if args.json is not None:
             data = {"steps": args.steps, "seed": args.seed, "dgamma": DGAMMA,
                     "pressure": args.pressure}
-            data["force_kernel"] = branch_free_pairs().describe()  # the machine, for the reader
+            data["force_kernel"] = calibration().describe()  # the machine, for the reader
             args.json.write_text(json.dumps({**data, "results": results}, indent=1))
     print(table(results, args.steps, args.pressure))
 

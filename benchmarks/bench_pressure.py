@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.spheres.kernel_choice import branch_free_pairs
+from jamlab.spheres.kernel_choice import calibration
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -144,7 +144,7 @@ def main() -> None:
                                       "plastic": int(best[m][1][0]["plastic"].sum())}
                                   for m in names}})
                 if a.json is not None:
-                    kernel = branch_free_pairs().describe()  # the machine, for the reader
+                    kernel = calibration().describe()  # the machine, for the reader
                     out = {"cases": cases, "force_kernel": kernel}
                     a.json.write_text(json.dumps(out, indent=1))
                 t0, (c0, at0) = best[ref]

@@ -52,6 +52,10 @@ def test_environment_override(fresh):
     fresh.setenv(KC.ENV, "fastest")
     with pytest.raises(ValueError, match="JAMLAB_FORCE_KERNEL"):
         KC.threshold_for(10**6)
+    with pytest.raises(ValueError, match="fixed kernel choice"):
+        KC.fixed("auto")
+    KC.use(KC.fixed("branchy"))  # what a benchmark timing both kernels does
+    assert KC.threshold_for(10**6) == KC.NEVER
 
 
 def test_lists_without_a_branch_free_twin_do_not_calibrate(fresh):

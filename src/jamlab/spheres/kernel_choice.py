@@ -12,7 +12,7 @@ near a minimum) at ≈ 8–9k pairs on the machine of the earlier sessions and a
 AMD EPYC (there the branch-free kernel is 1.35× *slower* at 9–18k pairs, N = 2000–4000, and
 1.4× faster at 36k). A constant threshold is therefore wrong somewhere by up to 1.4×.
 
-:func:`branch_free_pairs` measures it once per process, the first time a list long enough for the
+:func:`calibration` measures it once per process, the first time a list long enough for the
 choice to matter is evaluated (:data:`CALIBRATE_ABOVE` pairs): both kernels on uniformly random
 configurations (φ = 0.645, skin 0.1, about 3.4 listed pairs and 2.6 contacts per particle: a
 contact pattern as unpredictable as near jamming's) from ``N = 2000`` to ``16000`` (≈ 7k–55k
@@ -41,11 +41,13 @@ __all__ = [
     "CALIBRATE_ABOVE",
     "NEVER",
     "Calibration",
-    "branch_free_pairs",
     "calibrate",
+    "calibration",
     "choose_threshold",
     "environment_mode",
+    "fixed",
     "threshold_for",
+    "use",
 ]
 
 NEVER = 2**62
@@ -152,18 +154,30 @@ def environment_mode() -> str:
     return mode
 
 
-def branch_free_pairs() -> Calibration:
+def fixed(mode: str) -> Calibration:
+    """The choice of a fixed ``mode``: ``branchy`` (never branch-free) or ``branch-free`` (every
+    list above :data:`CALIBRATE_ABOVE`)."""
+    if mode == "branchy":
+        return Calibration(NEVER, ())
+    if mode == "branch-free":
+        return Calibration(CALIBRATE_ABOVE, ())
+    raise ValueError(f"a fixed kernel choice is 'branchy' or 'branch-free', got {mode!r}")
+
+
+def calibration() -> Calibration:
     """This process's choice (``JAMLAB_FORCE_KERNEL``, else measured once and kept)."""
     global _CALIBRATION
     if _CALIBRATION is None:
         mode = environment_mode()
-        if mode == "branchy":
-            _CALIBRATION = Calibration(NEVER, ())
-        elif mode == "branch-free":
-            _CALIBRATION = Calibration(CALIBRATE_ABOVE, ())
-        else:
-            _CALIBRATION = calibrate()
+        _CALIBRATION = calibrate() if mode == "auto" else fixed(mode)
     return _CALIBRATION
+
+
+def use(choice: Calibration | None) -> None:
+    """Make ``choice`` this process's choice (``None``: decide again at the next long list) —
+    for benchmarks that time both kernels in one process."""
+    global _CALIBRATION
+    _CALIBRATION = choice
 
 
 def threshold_for(n_pairs: int, dim: int = 3, alpha: float | None = None) -> int:
@@ -173,4 +187,4 @@ def threshold_for(n_pairs: int, dim: int = 3, alpha: float | None = None) -> int
     :data:`CALIBRATE_ABOVE`, need no measurement (and get :data:`NEVER`)."""
     if n_pairs <= CALIBRATE_ABOVE or dim != 3 or alpha is not None:
         return NEVER
-    return branch_free_pairs().threshold
+    return calibration().threshold

@@ -45,10 +45,16 @@ def fingerprint(sources: list[Path]) -> str:
 
 def kernel_cache_dir() -> Path | None:
     """Where numba keeps this package's cached kernels (``__pycache__`` beside the sources, or
-    under ``NUMBA_CACHE_DIR``), as numba's own locators find it; ``None`` when it has none."""
-    from numba.core.caching import CacheImpl
+    under ``NUMBA_CACHE_DIR``), as numba's own locators find it; ``None`` when it has none, or
+    when this numba does not expose its locators as 0.59–0.68 do (then the caches are left to
+    numba: a failed import of the kernels would be worse)."""
+    try:
+        from numba.core.caching import CacheImpl
 
-    for locator in CacheImpl._locator_classes:
+        locators = CacheImpl._locator_classes
+    except (ImportError, AttributeError):
+        return None
+    for locator in locators:
         found = locator.from_function(kernel_cache_dir, str(_HERE / "pairs.py"))
         if found is not None:
             return Path(found.get_cache_path())
