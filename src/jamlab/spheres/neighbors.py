@@ -58,9 +58,11 @@ def spatial_order(positions: np.ndarray, box: Box, cell: float = 1.0) -> np.ndar
 class NeighborList:
     """A Verlet list (pairs closer than ``σ_max + skin``) that follows positions and strain.
 
-    Kept valid across affine strain steps: :meth:`update` moves the stored image shifts with the
-    strain and rebuilds only when ``2 max_i |u_i| + |Δγ| rc ≥ skin``, where ``u_i`` is the
-    non-affine displacement since the last build (see :mod:`jamlab.spheres.kernels.geometry`).
+    Kept valid across affine strain steps: :meth:`update` moves the image shifts with the
+    strain (from the build's, ``built_shift``: a function of the build and the strain alone, not
+    of the strains visited in between) and rebuilds only when ``2 max_i |u_i| + |Δγ| rc ≥
+    skin``, where ``u_i`` is the non-affine displacement since the last build (see
+    :mod:`jamlab.spheres.kernels.geometry`).
 
     For memory locality the list works on the particles permuted by ``order`` (fixed at
     creation, :func:`spatial_order`): index ``k`` of the list is particle ``order[k]``. The
@@ -119,6 +121,7 @@ class NeighborList:
         self.start, self.nbr, self.shift, self.img_y = K.build_neighbor_list(
             pos, self.box.length, strain, self.cutoff
         )
+        self.built_shift = self.shift.copy()
         self.ref = pos.copy()
         self.ref_strain = float(strain)
         self.strain = float(strain)
@@ -148,7 +151,10 @@ class NeighborList:
         budget = self.skin - abs(dg) * self.cutoff
         if budget > 0 and 2.0 * K.max_nonaffine_displacement(pos, self.ref, dg) < budget:
             if strain != self.strain:
-                K.shift_images(self.shift, self.img_y, strain - self.strain, self.box.length)
+                K.shift_images(
+                    self.shift, self.built_shift, self.img_y, strain - self.ref_strain,
+                    self.box.length,
+                )
                 self.strain = float(strain)
             return False
         self.rebuild(pos, strain)
@@ -158,6 +164,7 @@ class NeighborList:
         """Take over a list built elsewhere (e.g. inside the compiled FIRE loop) from positions
         ``ref`` (list order) at strain ``strain``."""
         self.start, self.nbr, self.shift, self.img_y = start, nbr, shift, img_y
+        self.built_shift = shift.copy()
         self.ref = ref
         self.ref_strain = self.strain = float(strain)
         self.n_builds += 1

@@ -274,10 +274,14 @@ def build_neighbor_list(pos, L, gamma, rc):
 
 
 @njit(cache=True)
-def shift_images(shift, img_y, dgamma, L):
-    """In place, after an affine strain step ``Δγ``: ``shift_x −= img_y Δγ L``."""
+def shift_images(shift, built, img_y, dgamma, L):
+    """In place, the shifts at ``Δγ`` from the list's build: ``shift_x = built_x − img_y Δγ L``
+    (``built``: the shifts the build made). From the build, not from the last update: moved by
+    increments, shifts collect a rounding per update, and a continuation that goes back and
+    forth between two strains a thousand times moved them by ~1e-12 (``docs/aqs.md``, "A
+    contact that chatters")."""
     for k in range(shift.shape[0]):
-        shift[k, 0] -= img_y[k] * dgamma * L
+        shift[k, 0] = built[k, 0] - img_y[k] * dgamma * L
 
 
 @njit(cache=True)
