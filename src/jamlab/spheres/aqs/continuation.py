@@ -28,6 +28,13 @@ from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.pair import pair_sigmas
 from jamlab.spheres.potential import NeighborList, Packing
 
+CHATTER_SWITCHES = 8
+"""A pair switched more than this many times at one strain ends the branch (``docs/aqs.md``,
+"A contact that chatters"). At a strain where the network with the pair puts it in tension and
+the network without it overlaps it, no contact set is consistent: the continuation switched
+the pair in and out until ``max_events`` (1000) ended the branch, ≈ 14 ms per switch at N =
+1000. Ending it after a few switches gives the same verdict, and FIRE the same start."""
+
 
 @dataclass(frozen=True, eq=False)
 class Branch:
@@ -203,6 +210,7 @@ def continue_network(
     tol = params.event_tol * abs(total)  # a crossing this close (in strain) is switched at
     aim = None  # a crossing being landed on: (pairs i, j, how many opening, overlaps, at strain)
     failed = None  # the nearest strain Newton failed to reach on the current contact set
+    switched_at, switches = None, {}  # switches of each pair at the strain switched_at
     while True:
         if calls > 10 * params.max_events:
             return ended()  # pathological (never seen in practice): FIRE takes the step
@@ -294,11 +302,18 @@ def continue_network(
         aim = failed = None
         events += 1
         if events > params.max_events:
-            # pathological (events piling up, never seen in practice): the branch is declared
-            # ended and FIRE takes the step (the substep continuation did it until issue 14)
+            # events piling up: the branch is declared ended and FIRE takes the step (the
+            # substep continuation did it until issue 14)
             return ended()
         # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
         drop = pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n)
+        if cur.strain != switched_at:
+            switched_at, switches = cur.strain, {}
+        for key in np.concatenate([drop, pair_keys(pi[n_open:][now[n_open:]],
+                                                   pj[n_open:][now[n_open:]], n)]).tolist():
+            switches[key] = switches.get(key, 0) + 1
+            if switches[key] > CHATTER_SWITCHES:
+                return ended()  # the pair chatters: no consistent contact set at this strain
         keep = ~np.isin(pair_keys(ci, cj, n), drop)
         old_ci, old_cj, old_backbone = ci, cj, backbone
         ci = np.concatenate([ci[keep], pi[n_open:][now[n_open:]]])

@@ -26,7 +26,8 @@ class AQSParameters:
     ``max_fire_iter``: FIRE iteration cap. ``event_tol``: a contact crossing closer than
     ``event_tol · δγ`` to the current point is switched there; ``max_events``: contact
     switches per step (and ten times as many Newton solves) before the branch is declared
-    ended (pathological; FIRE then takes the step).
+    ended (FIRE then takes the step; a single pair switched back and forth ends it sooner,
+    :data:`~jamlab.spheres.aqs.continuation.CHATTER_SWITCHES`).
     ``floppy``: how a step from an unjammed minimum is taken — ``"fire"`` (the step's usual
     strategies, FIRE where they end) or ``"project"`` (first the overlap-free configuration
     nearest to the affine start, :mod:`jamlab.spheres.aqs.projection`; the usual strategies
