@@ -1,7 +1,8 @@
 """FIRE's tail in the constant-volume AQS fallbacks, and whether Newton can finish it.
 
 ``cv``: constant-volume AQS (``shear``, the default path) for ``--steps`` steps of ``δγ`` from
-``jam(N, 3, seed, p_target=1e-7)`` (``--start jam``, the paper's protocol at jamming) or
+``jam(N, 3, seed, p_target=--p-start)`` (``--start jam``; the default 1e-7 is the paper's
+protocol at jamming, 1e-5 the pressures the samples reach by dilatancy) or
 ``prepare(N, 3, 0.8, seed)`` (``--start phi08``); every FIRE run of the stepper (the fallbacks
 that carry events, and FIRE's steps in a floppy state) is caught with its start. For each start:
 FIRE's iterations and CPU time to ``max|F| < 1e-12``, and to each ``--loose`` level (FIRE is
@@ -119,7 +120,7 @@ def fire_starts(packing: Packing, steps: int, dgamma: float) -> list[Packing]:
 
 def cv(a: argparse.Namespace) -> None:
     if a.start == "jam":
-        packing = jam(a.n, 3, seed=a.seed, p_target=1e-7).packing
+        packing = jam(a.n, 3, seed=a.seed, p_target=a.p_start).packing
     else:
         packing = prepare(a.n, 3, 0.8, seed=a.seed).packing
     starts = fire_starts(packing, a.steps, a.dgamma)
@@ -250,6 +251,8 @@ def main(argv: list[str] | None = None) -> int:
     sub = ap.add_subparsers(dest="command", required=True)
     c = sub.add_parser("cv")
     c.add_argument("--start", choices=("jam", "phi08"), default="jam")
+    c.add_argument("--p-start", type=float, default=1e-7,
+                   help="the jammed start's pressure (--start jam)")
     c.add_argument("--n", type=int, default=1000)
     c.add_argument("--seed", type=int, default=1)
     c.add_argument("--steps", type=int, default=8)
