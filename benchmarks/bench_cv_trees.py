@@ -3,13 +3,16 @@
 For a change meant to keep the constant-volume protocol's results bit for bit (a faster path to
 the same verdicts) and to make it cheaper. Each packing — ``jam(N, 3, seed,
 p_target=--p-start)`` (the paper's start at jamming by default), made once with the "after"
-tree and kept in ``--cache`` — is sheared for ``--steps`` steps of ``δγ`` (the default path,
+tree and kept in ``--cache``; its ``packing`` is used whether or not the search met its window
+(``p_target = 1e-5`` ends at p = 4.9e-6 for seed 1 at N = 1000 and 2000, ``ok`` False) — is
+sheared for ``--steps`` steps of ``δγ`` (the default path,
 ``AQSParameters(floppy=--floppy)``) in child processes with ``PYTHONPATH`` set to each tree,
 alternately ``A B A B …`` for ``--repeat`` rounds (the machine is shared). Per packing it prints
-the best CPU time of each tree, their ratio, the counters (FIRE fallbacks, cleanups,
-factorisations) and whether every trace dataset and the final positions are equal bit for bit
-(NaN equal to NaN). ``iterations`` is compared apart: it counts the continuation's Newton
-iterations too, which a change that ends a failing continuation sooner lowers.
+the best CPU time of each tree, their ratio, the counters (FIRE fallbacks, rattler clean-ups,
+substepped steps; in the JSON) and whether every trace dataset and the final positions are
+equal bit for bit (NaN equal to NaN). ``iterations`` is compared apart: it counts the
+continuation's Newton iterations too, which a change that ends a failing continuation sooner
+lowers.
 CPU time of the child (``time.process_time``, one BLAS/numba thread), compiled kernels
 warmed first. Asserts nothing about time; exits 1 if a trace differs.
 
