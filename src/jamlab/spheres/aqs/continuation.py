@@ -307,17 +307,17 @@ def continue_network(
             return ended()
         # switch at cur: the pairs crossing here leave (opening) or join (closing) the set
         drop = pair_keys(pi[:n_open][now[:n_open]], pj[:n_open][now[:n_open]], n)
+        add_i, add_j = pi[n_open:][now[n_open:]], pj[n_open:][now[n_open:]]
         if cur.strain != switched_at:
             switched_at, switches = cur.strain, {}
-        for key in np.concatenate([drop, pair_keys(pi[n_open:][now[n_open:]],
-                                                   pj[n_open:][now[n_open:]], n)]).tolist():
+        for key in np.concatenate([drop, pair_keys(add_i, add_j, n)]).tolist():
             switches[key] = switches.get(key, 0) + 1
             if switches[key] > CHATTER_SWITCHES:
                 return ended()  # the pair chatters: no consistent contact set at this strain
         keep = ~np.isin(pair_keys(ci, cj, n), drop)
         old_ci, old_cj, old_backbone = ci, cj, backbone
-        ci = np.concatenate([ci[keep], pi[n_open:][now[n_open:]]])
-        cj = np.concatenate([cj[keep], pj[n_open:][now[n_open:]]])
+        ci = np.concatenate([ci[keep], add_i])
+        cj = np.concatenate([cj[keep], add_j])
         backbone = backbone_mask(ci, cj, n, dim)
         live = backbone[ci] & backbone[cj]
         ci, cj = ci[live], cj[live]

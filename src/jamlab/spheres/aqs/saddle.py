@@ -62,7 +62,8 @@ def unstable_mode(k: sps.csr_matrix, d: int) -> np.ndarray | None:
         return v[:, 0].reshape(-1, d)
     # ARPACK's own start vector is random (LAPACK's generator, whose state advances with every
     # call): λ_max to tol 1e-3 then differed between runs, and so did ε, the shifts and the
-    # push — a run was not reproducible bit for bit once a minimum needed this test
+    # push — a run was not reproducible bit for bit once a minimum needed this test; the
+    # inverse iteration below starts from the same vector
     start = np.random.default_rng(0).standard_normal(k.shape[0])
     hi = float(
         spla.eigsh(k, k=1, which="LA", tol=1e-3, v0=start, return_eigenvectors=False)[0]
@@ -79,8 +80,7 @@ def unstable_mode(k: sps.csr_matrix, d: int) -> np.ndarray | None:
             break
     if lu is None or not pd:
         return None  # (not reached: K + 4 λ_max I is positive definite)
-    x = np.random.default_rng(0).standard_normal(k.shape[0])
-    x /= np.linalg.norm(x)
+    x = start / np.linalg.norm(start)  # the Lanczos start (eigsh copies it): deterministic
     rayleigh = float(x @ (k @ x))
     for _ in range(INVERSE_ITERATIONS):
         x = lu.solve(x)
