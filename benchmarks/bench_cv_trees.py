@@ -24,12 +24,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trees import run_in_tree  # noqa: E402  (benchmarks run as scripts)
 
 CHILD = r"""
 import json, pickle, sys, time
@@ -65,11 +66,8 @@ print(json.dumps({"cpu": cpu, "fallback": res.n_fallback, "cleanup": res.n_clean
 
 
 def run(src: str, args: list[str]) -> dict:
-    env = dict(os.environ, PYTHONPATH=src, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
-               NUMBA_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    out = subprocess.run([sys.executable, "-c", CHILD, *args], env=env, check=True,
-                         capture_output=True, text=True)
-    lines = out.stdout.strip().splitlines()
+    stdout = run_in_tree(src, CHILD, args)
+    lines = stdout.strip().splitlines()
     return json.loads(lines[-1]) if lines else {}
 
 

@@ -27,11 +27,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trees import run_in_tree  # noqa: E402  (benchmarks run as scripts)
 
 HERE = Path(__file__).resolve()
 REFERENCE = HERE.parents[1] / "tests" / "data" / "reference"
@@ -102,26 +103,19 @@ print("RESULT " + json.dumps(out))
 
 
 def run_child(src: str, args) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(Path(src).resolve()))
-    # one BLAS/numba thread: CPU time then measures the work, not the threads' spinning
-    env.update(OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    env.update(NUMBA_NUM_THREADS="1")
-    cmd = [
-        sys.executable,
-        "-c",
-        CHILD,
-        str(START),
-        str(args.steps),
-        str(args.jam_steps),
+    child_args = [
+        START,
+        args.steps,
+        args.jam_steps,
         "0" if args.no_jamming else "1",
         "1" if args.fast_only else "0",
-        str(args.jam_n),
+        args.jam_n,
         json.dumps([(n, s) for n in args.at_jamming for s in args.at_jamming_seeds]),
         args.cache,
         json.dumps(args.prepared_seeds),
     ]
-    res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
-    line = next(x for x in res.stdout.splitlines() if x.startswith("RESULT "))
+    stdout = run_in_tree(src, CHILD, child_args)
+    line = next(x for x in stdout.splitlines() if x.startswith("RESULT "))
     return json.loads(line[len("RESULT ") :])
 
 
