@@ -9,7 +9,8 @@ without confirmation, and plain FIRE) and, with ``--old-src``, the default of an
 not wall). Printed per case (a markdown table): CPU ms/step of each, the ratios to the first,
 the plastic flags' counts and whether they agree with the first's, the candidate steps (those
 continued by Newton; those not redone because the run's threshold rejects them), and the
-projection of a 1000-step sample.
+projection of a 1000-step sample; the FIRE iterations of each (the trace's ``iterations``: a
+measure of the work that does not depend on the machine's load).
 
     python benchmarks/bench_pressure.py --n 250 500 1000 --pressures 1e-3 1e-4 --seeds 1 2
     python benchmarks/bench_pressure.py --n 1000 --pressures 1e-4 --seeds 1 2 3 \
@@ -23,16 +24,21 @@ import json
 import math
 import os
 import pickle
-import subprocess
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trees import SINGLE_THREAD, run_in_tree  # noqa: E402  (benchmarks run as scripts)
 
-from jamlab.spheres.kernel_choice import calibration
-from jamlab.spheres.packing import jam
-from jamlab.spheres.pressure_shear import shear_at_pressure
+# one thread here too, as in the child and in `jamlab run`'s workers (CPU time = the work)
+os.environ.update(SINGLE_THREAD)
+
+import numpy as np  # noqa: E402
+
+from jamlab.spheres.kernel_choice import calibration  # noqa: E402
+from jamlab.spheres.packing import jam  # noqa: E402
+from jamlab.spheres.pressure_shear import shear_at_pressure  # noqa: E402
 
 
 def start(n: int, p: float, seed: int, cache: Path):
@@ -86,9 +92,7 @@ def run_old(src: str, pk_file: Path, dg: float, p: float, steps: int):
         "sys.stdout.buffer.write(pickle.dumps((t,{k:v for k,v in r.columns.items()},"
         "dict(r.attrs))))\n"
     )
-    env = {**os.environ, "PYTHONPATH": src}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True)
-    return pickle.loads(out.stdout)
+    return pickle.loads(run_in_tree(src, code, text=False))
 
 
 def main() -> None:
@@ -116,9 +120,10 @@ def main() -> None:
     print(f"fixed-pressure AQS, d=3, δγ={a.dgamma:g}, {a.steps} steps, CPU time, best of "
           f"{a.repeat} alternating rounds; ratio = variant's time / {ref}'s")
     print("| N | p | seed | " + " | ".join(f"{m} ms/step" for m in names) + " | "
-          + " | ".join(f"{m}/{ref}" for m in names[1:]) + " | plastic | same flags as "
-          f"{ref} | candidates (continued; below threshold) | {ref}: 1000-step sample |")
-    print("|" + "---|" * (3 + len(names) + len(names) - 1 + 4))
+          + " | ".join(f"{m}/{ref}" for m in names[1:]) + " | plastic | FIRE iterations | "
+          f"same flags as {ref} | candidates (continued; below threshold) | "
+          f"{ref}: 1000-step sample |")
+    print("|" + "---|" * (3 + len(names) + len(names) - 1 + 5))
     total = dict.fromkeys(names, 0.0)
     for n in a.n:
         for p in a.pressures:
@@ -141,7 +146,8 @@ def main() -> None:
                               "dgamma": a.dgamma, "variants": {
                                   m: {"cpu_s": best[m][0],
                                       "ms_per_step": 1e3 * best[m][0] / a.steps,
-                                      "plastic": int(best[m][1][0]["plastic"].sum())}
+                                      "plastic": int(best[m][1][0]["plastic"].sum()),
+                                      "fire_iterations": int(best[m][1][0]["iterations"].sum())}
                                   for m in names}})
                 if a.json is not None:
                     kernel = calibration().describe()  # the machine, for the reader
@@ -149,12 +155,13 @@ def main() -> None:
                     a.json.write_text(json.dumps(out, indent=1))
                 t0, (c0, at0) = best[ref]
                 plastic = "/".join(str(int(best[m][1][0]["plastic"].sum())) for m in names)
+                fire_it = "/".join(str(int(best[m][1][0]["iterations"].sum())) for m in names)
                 same = "/".join("yes" if np.array_equal(best[m][1][0]["plastic"], c0["plastic"])
                                 else "no" for m in names[1:])
                 print(f"| {n} | {p:.0e} | {seed} | "
                       + " | ".join(f"{1e3 * best[m][0] / a.steps:.1f}" for m in names) + " | "
                       + " | ".join(f"{best[m][0] / t0:.2f}" for m in names[1:])
-                      + f" | {plastic} | {same} | {at0.get('n_candidates', 0)} "
+                      + f" | {plastic} | {fire_it} | {same} | {at0.get('n_candidates', 0)} "
                       f"({at0.get('n_candidates_continued', 0)}; "
                       f"{at0.get('n_candidates_below_threshold', 0)}) | "
                       f"{t0 / a.steps * 1000 / 60:.1f} min |", flush=True)
