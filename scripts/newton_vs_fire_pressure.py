@@ -12,10 +12,7 @@ which changes only rounding), or with the candidates that surely released enough
 the backbone factorisation (``--compare factorisation``: CHOLMOD's Cholesky against SuperLU's
 ``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only), or
 with the Newton relaxer's FIRE fallbacks finished by Newton below ``max|F| = 1e-9`` against FIRE
-to ``ftol`` (``--compare finish``, :data:`jamlab.spheres.newton_relax.FINISH_BELOW`), or with
-a refused finish tried again below 1e-10 and a caged rattler's FIRE finished by Newton against
-neither (``--compare finish-again``, :data:`~jamlab.spheres.newton_relax.FINISH_AGAIN_BELOW`,
-:data:`~jamlab.spheres.newton_relax.POLISH_BY_NEWTON`).
+to ``ftol`` (``--compare finish``, :data:`jamlab.spheres.newton_relax.FINISH_BELOW`).
 Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
@@ -55,7 +52,6 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
              ("all redone", {"confirm_below": math.inf})),
     "factorisation": (("CHOLMOD", {}), ("SuperLU", {})),
     "finish": (("finished by Newton", {}), ("FIRE to ftol", {})),
-    "finish-again": (("finished again, polish finished", {}), ("finished once", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
@@ -63,10 +59,6 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
 def set_relax_skin(skin: float) -> None:
     for module in (driver, barostat, newton_relax):
         module.RELAX_SKIN = skin
-
-
-def _set_finish_again(again: float | None, polish: bool) -> None:
-    newton_relax.FINISH_AGAIN_BELOW, newton_relax.POLISH_BY_NEWTON = again, polish
 
 
 def _setter(module, name: str, value) -> Callable[[], None]:
@@ -83,11 +75,6 @@ SETTINGS: dict[str, Callable[[], None]] = {
     # how the Newton relaxer's FIRE fallback ends (jamlab.spheres.newton_relax.FINISH_BELOW)
     "finished by Newton": _setter(newton_relax, "FINISH_BELOW", newton_relax.FINISH_BELOW),
     "FIRE to ftol": _setter(newton_relax, "FINISH_BELOW", None),
-    # a refused finish tried again below 1e-10, and a caged rattler's FIRE finished by Newton
-    # (jamlab.spheres.newton_relax.FINISH_AGAIN_BELOW, POLISH_BY_NEWTON), against neither
-    "finished again, polish finished": lambda: _set_finish_again(newton_relax.FINISH_AGAIN_BELOW,
-                                                                 True),
-    "finished once": lambda: _set_finish_again(None, False),
 }
 """Variants that are a module-wide setting rather than a keyword of ``shear_at_pressure``: what
 sets it, called before each of that variant's runs."""
