@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 SINGLE_THREAD = {
@@ -22,8 +23,9 @@ SINGLE_THREAD = {
 """The environment of every child: one thread of each threading library."""
 
 
-def run_in_tree(src: str | Path, code: str, args: list[str] = (), *, text: bool = True):
-    """Run ``python -c code args…`` with ``src`` (resolved) first on ``PYTHONPATH``.
+def run_in_tree(src: str | Path, code: str, args: Sequence[object] = (), *, text: bool = True):
+    """Run ``python -c code args…`` (each argument as ``str``) with ``src`` (resolved) on
+    ``PYTHONPATH``.
 
     Returns the child's stdout (``str``, or ``bytes`` with ``text=False``); a child that fails
     raises :class:`subprocess.CalledProcessError` with its stderr attached.

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.sparse as sps
+import scipy.sparse.linalg as spla
 
 from jamlab.spheres.aqs.saddle import DENSE_LIMIT, NEGATIVE_CURVATURE, unstable_mode
 
@@ -74,8 +75,6 @@ def test_the_sparse_route_gives_the_same_bits_every_time():
     advances ARPACK's own random generator: the same direction, bit for bit (a random start
     of the λ_max Lanczos made the shifts, the factor and so the direction differ from call to
     call, and a constant-volume run at jamming not reproducible)."""
-    import scipy.sparse.linalg as spla
-
     k = laplacian(N_ROWS) - (lowest_of_laplacian(N_ROWS) + 1e-6) * sps.identity(N_ROWS)
     k = k.tocsr()
     first = unstable_mode(k, 3)
