@@ -28,12 +28,13 @@ def run_in_tree(src: str | Path, code: str, args: Sequence[object] = (), *, text
     ``PYTHONPATH``.
 
     Returns the child's stdout (``str``, or ``bytes`` with ``text=False``); a child that fails
-    raises :class:`subprocess.CalledProcessError` with its stderr attached.
+    has its stderr printed and raises :class:`subprocess.CalledProcessError`.
     """
     env = dict(os.environ, PYTHONPATH=str(Path(src).resolve()), **SINGLE_THREAD)
     out = subprocess.run([sys.executable, "-c", code, *map(str, args)], env=env,
                          capture_output=True, text=text)
     if out.returncode != 0:
         err = out.stderr if text else out.stderr.decode(errors="replace")
+        print(f"child in {src} failed:\n{err}", file=sys.stderr)  # (the traceback hides it)
         raise subprocess.CalledProcessError(out.returncode, f"child in {src}", out.stdout, err)
     return out.stdout

@@ -153,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bench_refactor_") as tmp:
         if args.cache is None:
             args.cache = tmp
+        Path(args.cache).mkdir(parents=True, exist_ok=True)  # (the children only write into it)
         for k in range(args.repeat):
             for label, src in (("A", args.compare_src), ("B", args.src)):
                 runs[label].append(run_child(src, args))
