@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from spheres_brute import brute_force
+from spheres_brute import brute_force, wrap
 
 import jamlab.spheres as sp
 from jamlab.spheres.fire import FireParameters, minimize
@@ -89,3 +89,68 @@ def test_returns_to_lammps_minimum_after_small_kick():
     r = minimize(kicked)
     assert r.converged
     assert r.energy == pytest.approx(e_lammps, rel=1e-10)
+
+
+
+def _reference_fire(pos, L, gamma, stops, par):
+    """FIRE 2.0 (Guénolé et al. 2020, Algorithm 2, with the displacement cap of the module
+    docstring) step by step in plain numpy, forces by brute force over all pairs and images:
+    the positions after each number of steps in ``stops``, and how many steps were restarts
+    (``P = F·v ≤ 0``)."""
+    x = np.array(pos, dtype=float)
+
+    def force(x):
+        return brute_force(wrap(x, L, gamma), L, gamma)["forces"]
+
+    f = force(x)
+    v = np.zeros_like(x)
+    dt, alpha, n_pos, n_neg = par.dt, par.alpha0, 0, 0
+    power, restarts, out = 0.0, 0, {}
+    for it in range(1, max(stops) + 1):
+        if power > 0:
+            n_pos, n_neg = n_pos + 1, 0
+            if n_pos > par.n_delay:
+                dt, alpha = min(dt * par.f_inc, par.dt_max), alpha * par.f_alpha
+        else:
+            n_pos, n_neg = 0, n_neg + 1
+            restarts += it > 1
+            if it >= par.n_delay:
+                if dt * par.f_dec >= par.dt_min:
+                    dt *= par.f_dec
+                alpha = par.alpha0
+            x = x - 0.5 * dt * v
+            v = np.zeros_like(x)
+        v = v + dt * f
+        c1, c2 = 1.0 - alpha, alpha * np.linalg.norm(v) / np.linalg.norm(f)
+        bound = c1 * np.linalg.norm(v, axis=1).max() + c2 * np.linalg.norm(f, axis=1).max()
+        step = min(dt, par.dmax / bound)
+        v = c1 * v + c2 * f
+        x = x + step * v
+        f = force(x)
+        power = float(np.sum(f * v))
+        if it in stops:
+            out[it] = x.copy()
+    return out, restarts
+
+
+@pytest.mark.parametrize(("dim", "n", "strain"), [(3, 64, 0.0), (3, 80, 0.37), (2, 60, 0.2)])
+def test_compiled_loop_follows_the_textbook_algorithm(dim, n, strain):
+    """The compiled loop (one pass fewer per step: the next kick made in the force pass, P's
+    components summed apart) against Algorithm 2 written out in numpy with brute-force forces,
+    after 1 to 300 steps from a random start (restarts with their half step back, the delay,
+    the displacement cap, Δt growing to Δt_max)."""
+    p = sp.random_packing(n, dim, 0.9, seed=7 + dim)
+    p = sp.Packing(p.positions, p.box.with_strain(strain))
+    par = FireParameters()
+    L = p.box.length
+    stops = (1, 2, 25, 90, 300)
+    ref, restarts = _reference_fire(p.positions, L, strain, stops, par)
+    assert restarts >= 1  # the restart branch is exercised
+    for steps in stops:
+        r = minimize(p, ftol=1e-300, max_iter=steps, params=par)
+        assert r.iterations == steps
+        x = ref[steps]
+        dx = p.box.minimum_image(r.packing.positions - x)
+        assert np.abs(dx).max() < 1e-11 * max(1.0, np.abs(x).max()), (steps, np.abs(dx).max())
+        assert r.energy == pytest.approx(brute_force(wrap(x, L, strain), L, strain)["energy"],
+                                         rel=1e-11)
