@@ -114,11 +114,13 @@ def _reference_fire(pos, L, gamma, stops, par):
         else:
             n_pos, n_neg = 0, n_neg + 1
             restarts += it > 1
-            if it >= par.n_delay:
+            fire2 = par.variant == "fire2"
+            if it >= par.n_delay or not fire2:  # the 2006 variant has no initial delay
                 if dt * par.f_dec >= par.dt_min:
                     dt *= par.f_dec
                 alpha = par.alpha0
-            x = x - 0.5 * dt * v
+            if fire2:  # nor the half step back
+                x = x - 0.5 * dt * v
             v = np.zeros_like(x)
         v = v + dt * f
         c1, c2 = 1.0 - alpha, alpha * np.linalg.norm(v) / np.linalg.norm(f)
@@ -133,15 +135,17 @@ def _reference_fire(pos, L, gamma, stops, par):
     return out, restarts
 
 
-@pytest.mark.parametrize(("dim", "n", "strain"), [(3, 64, 0.0), (3, 80, 0.37), (2, 60, 0.2)])
-def test_compiled_loop_follows_the_textbook_algorithm(dim, n, strain):
+@pytest.mark.parametrize(("dim", "n", "strain", "variant"),
+                         [(3, 64, 0.0, "fire2"), (3, 80, 0.37, "fire2"), (2, 60, 0.2, "fire2"),
+                          (3, 64, 0.0, "fire")])
+def test_compiled_loop_follows_the_textbook_algorithm(dim, n, strain, variant):
     """The compiled loop (one pass fewer per step: the next kick made in the force pass, P's
     components summed apart) against Algorithm 2 written out in numpy with brute-force forces,
     after 1 to 300 steps from a random start (restarts with their half step back, the delay,
-    the displacement cap, Δt growing to Δt_max)."""
+    the displacement cap, Δt growing to Δt_max); FIRE 2.0 and the 2006 variant."""
     p = sp.random_packing(n, dim, 0.9, seed=7 + dim)
     p = sp.Packing(p.positions, p.box.with_strain(strain))
-    par = FireParameters()
+    par = FireParameters(variant=variant)
     L = p.box.length
     stops = (1, 2, 25, 90, 300)
     ref, restarts = _reference_fire(p.positions, L, strain, stops, par)
