@@ -12,7 +12,10 @@ which changes only rounding), or with the candidates that surely released enough
 the backbone factorisation (``--compare factorisation``: CHOLMOD's Cholesky against SuperLU's
 ``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only), or
 with the Newton relaxer's FIRE fallbacks finished by Newton below ``max|F| = 1e-9`` against FIRE
-to ``ftol`` (``--compare finish``, :data:`jamlab.spheres.newton_relax.FINISH_BELOW`).
+to ``ftol`` (``--compare finish``, :data:`jamlab.spheres.newton_relax.FINISH_BELOW`), or with
+the rattlers not freed one at a time moved together and, if still caged, put on the backbone for
+one more Newton against FIRE polishing at once (``--compare caged``,
+:data:`jamlab.spheres.newton_relax.SETTLE_CAGED`).
 Paired comparison per sample (plastic flags equal, the sizes
 ``S = −ΔH`` of the flagged steps equal) and the pooled statistics (plastic fraction, ``⟨S⟩``,
 two-sample KS on the sizes), with the CPU time of each. Prints a markdown table.
@@ -52,6 +55,7 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
              ("all redone", {"confirm_below": math.inf})),
     "factorisation": (("CHOLMOD", {}), ("SuperLU", {})),
     "finish": (("finished by Newton", {}), ("FIRE to ftol", {})),
+    "caged": (("caged settled", {}), ("caged by FIRE", {})),
 }
 """Per comparison: the variant under test, then the reference (whose sizes choose S_min)."""
 
@@ -75,6 +79,11 @@ SETTINGS: dict[str, Callable[[], None]] = {
     # how the Newton relaxer's FIRE fallback ends (jamlab.spheres.newton_relax.FINISH_BELOW)
     "finished by Newton": _setter(newton_relax, "FINISH_BELOW", newton_relax.FINISH_BELOW),
     "FIRE to ftol": _setter(newton_relax, "FINISH_BELOW", None),
+    # a rattler not freed alone: moved together with the others, then Newton with the caged
+    # ones on the backbone, or FIRE polishes at once
+    # (jamlab.spheres.newton_relax.SETTLE_CAGED)
+    "caged settled": _setter(newton_relax, "SETTLE_CAGED", True),
+    "caged by FIRE": _setter(newton_relax, "SETTLE_CAGED", False),
 }
 """Variants that are a module-wide setting rather than a keyword of ``shear_at_pressure``: what
 sets it, called before each of that variant's runs."""

@@ -16,7 +16,12 @@ from jamlab.spheres.barostat import rescale_box
 from jamlab.spheres.box import Box
 from jamlab.spheres.contacts import backbone_mask
 from jamlab.spheres.fire import minimize
-from jamlab.spheres.newton_relax import NewtonRelaxer, free_rattlers
+from jamlab.spheres.newton_relax import (
+    NewtonRelaxer,
+    free_rattlers,
+    minimize_rattlers,
+    settle_rattlers,
+)
 from jamlab.spheres.potential import affine_shear, contacts, evaluate
 from jamlab.spheres.pressure_shear import shear_at_pressure
 from jamlab.spheres.state import Packing
@@ -205,3 +210,76 @@ def test_a_fire_fallback_finished_by_newton_reaches_fires_minimum(minimum):
         if finished >= 3:
             break
     assert finished >= 3
+
+
+def _pair_cage(wall_gap: float) -> tuple[Packing, np.ndarray]:
+    """Two rattlers (0 and 1) on the x axis, overlapping each other by 2e-3, between walls: 0
+    touches a wall on its left, 1 has ``wall_gap`` to spare on its right before the other wall;
+    four side particles around each, ``1 + 1e-3`` away (along ±y, ±z for 0; turned by 45° about
+    the axis for 1, clear of 0's), hold them on the axis. Only the rattlers overlap."""
+    a, b = 5.0, 5.998
+    pos = [[a, 5.0, 5.0], [b, 5.0, 5.0], [a - 1.0, 5.0, 5.0], [b + 1.0 + wall_gap, 5.0, 5.0]]
+    for x, turn in ((a, 0.0), (b, np.pi / 4)):
+        for k in range(4):
+            t = turn + k * np.pi / 2
+            pos.append([x, 5.0 + 1.001 * np.cos(t), 5.0 + 1.001 * np.sin(t)])
+    backbone = np.ones(len(pos), dtype=bool)
+    backbone[:2] = False
+    return Packing(np.array(pos), Box(12.0, 3)), backbone
+
+
+def test_rattlers_that_block_each_other_are_freed_together():
+    """Moved one at a time, rattler 0 (first) is pressed into its wall by 1 and stays caged;
+    moved together, 1 steps aside and both are free (room 2e-3 > their overlap). Checked by the
+    independent full evaluation: no force anywhere, the held particles untouched."""
+    pk, backbone = _pair_cage(wall_gap=4e-3)
+    assert free_rattlers(pk, backbone) is None  # one at a time: caged
+    settled, caged = settle_rattlers(pk, backbone)
+    assert caged
+    out, worst = minimize_rattlers(settled, backbone, ftol=1e-12)
+    assert worst < 1e-12
+    assert evaluate(out).max_force < 1e-12
+    np.testing.assert_array_equal(out.positions[2:], pk.positions[2:])
+    # the pair's separation is a contact exactly (the room is larger than the overlap)
+    assert 1.0 - 1e-12 < out.positions[1, 0] - out.positions[0, 0]
+
+
+def test_rattlers_without_room_stay_caged():
+    """No room: the walls are 3 - 3e-3 apart where the chain wall–0–1–wall needs 3 (1's wall
+    sits 1 - 1e-3 from 1, which overlaps 0 by 2e-3). Together they cannot be freed: at the
+    minimum over their places the three overlaps along the axis are equal, 1e-3 each, and each
+    contact carries the force 2 h / σ = 2e-3 (V = h²) while the rattlers' net forces vanish."""
+    pk, backbone = _pair_cage(wall_gap=-1e-3)
+    out, worst = minimize_rattlers(pk, backbone, ftol=1e-12)
+    assert worst == pytest.approx(2e-3, rel=1e-6)
+    assert np.max(np.abs(evaluate(out).forces[:2])) < 1e-12
+    np.testing.assert_array_equal(out.positions[2:], pk.positions[2:])
+
+
+def test_a_caged_rattler_rejoins_by_newton_at_fires_minimum(minimum):
+    """Where a rattler is caged at the backbone's minimum, the rattlers are moved together and
+    Newton runs once more with the caged one on the backbone, before FIRE would polish: the
+    same minimum as FIRE from the same start (energy to 1e-12, positions up to translation and
+    the rattlers), no FIRE iteration. The steps are fixed-box shears of 1e-4 from the module's
+    minimum, where the fifth is such a step."""
+    relax = NewtonRelaxer()
+    cur = relax(minimum).packing
+    seen = 0
+    for _ in range(8):
+        start = affine_shear(cur, 1e-4)
+        before = relax.counters["n_rattler_rejoined"] + relax.counters["n_rattlers_moved_together"]
+        got = relax(start, parent=cur)
+        after = relax.counters["n_rattler_rejoined"] + relax.counters["n_rattlers_moved_together"]
+        if after > before:
+            assert got.converged and got.iterations == 0
+            _same_minimum(got.packing, minimize(start).packing, tol=1e-6)
+            seen += 1
+        cur = got.packing
+    assert seen >= 1 and relax.counters["n_rattler_polish"] == 0
+    # with the option off, FIRE polishes there instead
+    plain = NewtonRelaxer(settle_caged=False)
+    cur = plain(minimum).packing
+    for _ in range(8):
+        cur = plain(affine_shear(cur, 1e-4), parent=cur).packing
+    assert plain.counters["n_rattler_polish"] >= 1
+    assert plain.counters["n_rattler_rejoined"] == plain.counters["n_rattlers_moved_together"] == 0

@@ -65,6 +65,7 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.optimize
 
 from jamlab.spheres.aqs.linalg import Factor, factorise
 from jamlab.spheres.aqs.network import backbone_mask, contact_list, pair_keys
@@ -72,14 +73,30 @@ from jamlab.spheres.aqs.newton import NetworkModel, damped_newton
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
+from jamlab.spheres.pair import contact_force, pair_sigmas
 from jamlab.spheres.potential import Packing, evaluate
 
-__all__ = ["FINISH_BELOW", "NewtonRelaxer", "RELAX_COUNTERS", "free_rattlers"]
+__all__ = [
+    "FINISH_BELOW",
+    "SETTLE_CAGED",
+    "NewtonRelaxer",
+    "RELAX_COUNTERS",
+    "free_rattlers",
+    "minimize_rattlers",
+    "settle_rattlers",
+]
 
 FINISH_BELOW: float | None = 1e-9
 """Default ``finish_below`` of :class:`NewtonRelaxer` (read when one is made): a FIRE fallback
 runs to ``max_i |F_i| < 1e-9`` and Newton finishes from there; ``None`` restores FIRE to
 ``ftol`` (``docs/aqs.md``, "A FIRE fallback finished by Newton")."""
+
+SETTLE_CAGED: bool = True
+"""Default ``settle_caged`` of :class:`NewtonRelaxer` (read when one is made): where a rattler
+cannot be freed alone at the backbone's minimum, the rattlers are moved together
+(:func:`minimize_rattlers`), and where one stays caged it is put on the backbone and Newton runs
+once more, before FIRE polishes (``False``: FIRE polishes at once; ``docs/aqs.md``, "Caged
+rattlers without FIRE")."""
 
 RELAX_COUNTERS: tuple[str, ...] = (
     "n_newton_calls",
@@ -91,6 +108,8 @@ RELAX_COUNTERS: tuple[str, ...] = (
     "n_rattler_polish",
     "n_factorisations",
     "n_fire_finished_by_newton",
+    "n_rattler_rejoined",
+    "n_rattlers_moved_together",
 )
 
 
@@ -121,9 +140,20 @@ def free_rattlers(
     stall) a step along the lowest eigenvector of the Hessian of ``U``; each with
     backtracking until ``U`` decreases. Freed means ``U = 0`` exactly: no pair
     of the rattler overlaps, so it carries no force and exerts none."""
+    moved, caged = settle_rattlers(packing, backbone, max_iter)
+    return None if caged else moved
+
+
+def settle_rattlers(
+    packing: Packing, backbone: np.ndarray, max_iter: int = 40
+) -> tuple[Packing, bool]:
+    """:func:`free_rattlers`' moves, with the rattlers that cannot be freed left where their
+    overlap energy was lowest (in their cage: there they push on the walls that hold them, the
+    contacts with which they join the backbone at the minimum); returns the configuration and
+    whether any rattler is caged."""
     rattlers = np.flatnonzero(~backbone)
     if rattlers.size == 0:
-        return packing
+        return packing, False
     pos = np.array(packing.positions)
     box, diam = packing.box, packing.diameters
     d = packing.dim
@@ -136,6 +166,7 @@ def free_rattlers(
         hit = np.flatnonzero(r < sig)
         return dr[hit], r[hit], sig[hit]
 
+    caged = False
     for i in rattlers:
         x = pos[i].copy()
         dr, r, sig = overlap(i, x)
@@ -162,12 +193,73 @@ def free_rattlers(
                 if trial is None:
                     trial = _better(overlap, i, x, -v * t, u)
                 if trial is None:
-                    return None
+                    break
             x, dr, r, sig = trial
-        if r.size:
-            return None
+        caged = caged or r.size > 0
         pos[i] = x
-    return packing.with_positions(pos)
+    return packing.with_positions(pos), caged
+
+
+def minimize_rattlers(
+    packing: Packing, backbone: np.ndarray, ftol: float, max_iter: int = 200
+) -> tuple[Packing, float]:
+    """The rattlers (``~backbone``) moved together to a minimum of the energy with every
+    backbone particle held (L-BFGS over their coordinates, from ``packing``); returns the
+    configuration and the largest force a contact of a rattler carries there (not the net force
+    on a rattler, which also vanishes where a caged one is balanced by its walls).
+
+    Where :func:`settle_rattlers` cannot free a rattler one at a time, two rattlers often block
+    each other (each held where the other stands): moved together they reach a place where
+    their forces vanish (to ``ftol / 8`` per component), or, where the cage is really too small,
+    the minimum over their places, whose forces stay large (the rattler joins the backbone).
+    Each coordinate moves by at most ``0.04`` (bounds of the L-BFGS-B; a rattler's move is ~
+    its overlaps, ≲ 1e-3 here, and L-BFGS's first trial step is of length 1), so a rattler moves
+    by at most ``0.04 √d < 0.07`` and the partners it can reach are the particles within
+    ``σ_ij + 0.15`` of it at the start (two rattlers approaching each other: ``< 0.14``).
+    Harmonic law (the relaxer's)."""
+    rat = np.flatnonzero(~backbone)
+    pos = np.array(packing.positions)
+    if rat.size == 0:
+        return packing, 0.0
+    box, diam = packing.box, packing.diameters
+    d = packing.dim
+    dr = box.minimum_image(pos[rat][:, None, :] - pos[None, :, :])
+    r = np.sqrt(np.einsum("kjd,kjd->kj", dr, dr))
+    a, j = np.nonzero(r < 0.5 * (diam[rat][:, None] + diam[None, :]) + 0.15)
+    i = rat[a]
+    rattler = ~backbone
+    # each pair once: a rattler–rattler pair is found from both ends; keep i < j
+    keep = (i != j) & (~rattler[j] | (i < j))
+    i, j = i[keep], j[keep]
+    sig = pair_sigmas(diam, i, j)
+    row = np.full(packing.n, -1)
+    row[rat] = np.arange(rat.size)
+
+    def energy_and_gradient(x: np.ndarray):
+        pos[rat] = x.reshape(-1, d)
+        sep = box.minimum_image(pos[i] - pos[j])
+        dist = np.sqrt(np.einsum("ij,ij->i", sep, sep))
+        h = np.maximum(1.0 - dist / sig, 0.0)
+        # V = h², dV/dr_i = −(2h/σ) n (the law of jamlab.spheres.pair, α = 2); −dV/dr_j
+        push = (contact_force(dist, sig, 2.0) / dist)[:, None] * sep
+        g = np.zeros((rat.size, d))
+        on_i, on_j = row[i], row[j]
+        np.add.at(g, on_i, -push)
+        sel = on_j >= 0
+        np.add.at(g, on_j[sel], push[sel])
+        return float(h @ h), g.ravel()
+
+    x0 = pos[rat].ravel()
+    res = scipy.optimize.minimize(
+        energy_and_gradient, x0, jac=True, method="L-BFGS-B",
+        bounds=scipy.optimize.Bounds(x0 - 0.04, x0 + 0.04),
+        options={"maxiter": max_iter, "ftol": 0.0, "gtol": ftol / 8.0},
+    )
+    energy_and_gradient(res.x)
+    sep = box.minimum_image(pos[i] - pos[j])
+    worst = float(np.max(contact_force(np.sqrt(np.einsum("ij,ij->i", sep, sep)), sig, 2.0),
+                         initial=0.0))
+    return packing.with_positions(pos), worst
 
 
 def _backbone_pairs(ci: np.ndarray, cj: np.ndarray, backbone: np.ndarray, n: int):
@@ -194,6 +286,9 @@ class NewtonRelaxer:
     refactor_every: int = 10
     max_active_sets: int = 8
     rattler_iterations: int = 40
+    # a rattler not freed alone: rattlers moved together, then Newton with the caged ones on
+    # the backbone, before FIRE polishes (False: FIRE at once)
+    settle_caged: bool = field(default_factory=lambda: SETTLE_CAGED)
     forcing: float = 1e-3  # inexact Newton: each solve to 1e-3 of the force (then ftol/4)
     # a FIRE fallback stops at this force and Newton finishes (None: FIRE to ftol)
     finish_below: float | None = field(default_factory=lambda: FINISH_BELOW)
@@ -332,9 +427,11 @@ class NewtonRelaxer:
         ``pairs``: the minimum of a contact network (smooth; Newton converges in two or three
         steps), then the network replaced by the backbone pairs that overlap there, until the
         network's minimum overlaps exactly its own pairs; then the rattlers are moved out of
-        their overlaps (at a minimum they carry no force). Returns ``(minimum, None)``;
-        ``(None, None)`` when the iteration fails; ``(None, network minimum)`` when a rattler
-        cannot be freed (:func:`free_rattlers`; caged: at the minimum it joins the backbone).
+        their overlaps (at a minimum they carry no force), one at a time and, where that does
+        not free them, together (:func:`minimize_rattlers`). Returns ``(minimum, None)``;
+        ``(None, None)`` when the iteration fails; ``(None, (network minimum, settled))`` when
+        a rattler cannot be freed (caged: at the minimum it joins the backbone), ``settled`` the
+        network minimum with the rattlers moved as far as they go (:func:`settle_rattlers`).
         A backbone particle that loses contacts in a round leaves the backbone (a new factor on
         the smaller one)."""
         bb = fac.backbone
@@ -371,12 +468,18 @@ class NewtonRelaxer:
                     return None, None
         else:
             return None, None
-        moved = free_rattlers(res.packing, bb, self.rattler_iterations)
-        return moved, (res.packing if moved is None else None)
+        moved, caged = settle_rattlers(res.packing, bb, self.rattler_iterations)
+        if caged and self.settle_caged:
+            # not freed one at a time: all rattlers together (two that block each other)
+            moved, worst = minimize_rattlers(moved, bb, ftol)
+            if worst < 0.125 * ftol and evaluate(moved).max_force < ftol:
+                self.counters["n_rattlers_moved_together"] += 1
+                return moved, None
+        return (None, (res.packing, moved)) if caged else (moved, None)
 
     def _newton(
         self, packing: Packing, parent: Packing, ftol: float, t0: float, max_iter: int,
-        params: FireParameters | None,
+        params: FireParameters | None, rejoin: bool = True,
     ) -> MinimizeResult | None:
         if packing.alpha != 2.0:
             return None  # (α ≠ 2: the continued law's springs and tests assume the harmonic law)
@@ -389,11 +492,24 @@ class NewtonRelaxer:
         ci, cj = self._network(parent)[:2]
         moved, caged = self._active_set(packing, fac, nl, (ci, cj), ftol)
         if caged is not None:
-            # the backbone is at its minimum, a rattler is caged: FIRE from there (it relaxes the
-            # rattler, and the backbone where the rattler joins it; ≈ 1.4k iterations measured
-            # at N = 500, p = 1e-4, against 2–3k from the start)
+            network_minimum, settled = caged
+            if not rejoin:
+                return None  # caged again: the first attempt's FIRE polish
+            if self.settle_caged:
+                # the backbone is at its minimum, a rattler is caged and pushes on its cage's
+                # walls: Newton once more from there, with that point as its own parent (its
+                # contacts, the caged rattler's among them, the first active set and a factor
+                # made on its backbone, which the rattler joins), accepted as any Newton point
+                again = self._newton(settled, settled, ftol, t0, max_iter, params, rejoin=False)
+                if again is not None and again.converged:
+                    self.counters["n_rattler_rejoined"] += 1
+                    return again
+            # FIRE from the backbone's minimum (it relaxes the rattler, and the backbone where
+            # the rattler joins it; ≈ 1.4k iterations measured at N = 500, p = 1e-4, against
+            # 2–3k from the start)
             self.counters["n_rattler_polish"] += 1
-            return minimize(caged, ftol=ftol, max_iter=max_iter, params=params, skin=RELAX_SKIN)
+            return minimize(network_minimum, ftol=ftol, max_iter=max_iter, params=params,
+                            skin=RELAX_SKIN)
         if moved is None:
             return None
         ev = evaluate(moved)
