@@ -504,10 +504,17 @@ def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
 
 
 def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
-    """How often the Newton relaxer has used FIRE so far (fallbacks and rattler polish)."""
+    """How often the Newton relaxer has done more than continue the parent's branch so far:
+    used FIRE (fallbacks and rattler polish), or settled rattlers that could not be freed one
+    at a time (moved together, or a caged one put on the backbone for another Newton run).
+    A step with any of these is not "continued": it is confirmed as a polished one was before
+    the rattlers were settled without FIRE (``docs/aqs.md``, "Caged rattlers without FIRE":
+    counted as continued, one step in 8000 at N = 250 lost a flag the confirmation gives)."""
     if relaxer is None:
         return -1
-    return relaxer.counters["n_fire_fallbacks"] + relaxer.counters["n_rattler_polish"]
+    c = relaxer.counters
+    return (c["n_fire_fallbacks"] + c["n_rattler_polish"] + c["n_rattler_rejoined"]
+            + c["n_rattlers_moved_together"])
 
 
 def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
