@@ -284,9 +284,14 @@ def test_continued_candidates_are_kinks_when_every_candidate_is_redone(both_rule
     assert not chain.confirmed[continued].any()
     cont = runs["continued"]
     assert cont.attrs["n_candidates_continued"] >= 2
-    # a continued step used no FIRE, and a candidate not redone adds none
+    # a continued step used no FIRE, and a candidate not redone adds none; a step not
+    # continued used FIRE or settled rattlers without it (moved together, or a caged one put
+    # on the backbone: each such step counted at least once by the relaxer's counters)
     assert (cont["iterations"][cont.continued] == 0).all()
-    assert (cont["iterations"][~cont.continued][1:] > 0).all()
+    without_fire = int((cont["iterations"][~cont.continued][1:] == 0).sum())
+    assert without_fire <= (cont.attrs["n_rattlers_moved_together"]
+                            + cont.attrs["n_rattler_rejoined"])
+    assert (cont["iterations"][~cont.continued][1:] > 0).sum() >= 2
     np.testing.assert_array_equal(cont["plastic"], chain["plastic"])
     assert chain.attrs["confirm"] == "chain" and cont.attrs["confirm"] == "continued"
 
