@@ -509,7 +509,7 @@ def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
     at a time (moved together, or a caged one put on the backbone for another Newton run).
     A step with any of these is not "continued": it is confirmed as a polished one was before
     the rattlers were settled without FIRE (``docs/aqs.md``, "Caged rattlers without FIRE":
-    counted as continued, one step in 8000 at N = 250 lost a flag the confirmation gives)."""
+    counted as continued, two steps in 8000 at N = 250 lost the flag the confirmation gives)."""
     if relaxer is None:
         return -1
     c = relaxer.counters
