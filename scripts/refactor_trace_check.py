@@ -15,7 +15,8 @@ Cases: the shared LAMMPS reference starts (N = 1000 and N = 500, φ = 0.8; fast 
 FIRE with classification), ``jam`` packings (N = 128 at the default goal pressure 1e-7 and at
 1e-5, N = 500 at 1e-7; fast path and FIRE with classification), an unjammed packing (no
 backbone), and fixed-pressure AQS (``shear_at_pressure``: the Newton path at p = 1e-4 and 1e-3,
-N = 128 and 250, and plain FIRE; every column and counter of the run compared). ``--cases``
+N = 128 and 250, and plain FIRE; one N = 128 run whose rattlers block each other and are
+settled without FIRE; every column and counter of the run compared). ``--cases``
 selects some; ``--quick`` shortens every run, ``--long`` runs five times the steps;
 ``--count-calls NAME ...`` counts calls of functions by name (instrumentation by
 ``sys.setprofile``, e.g. of a code path that is to be removed). Exit code 1 when
@@ -56,6 +57,8 @@ CASES = {
     "jam250-pressure1e-4-newton": ("jam:250:2:1e-5", 100, 30, "newton", True, 1e-4),
     "jam250-pressure1e-3-newton": ("jam:250:3:1e-5", 100, 30, "newton", True, 1e-3),
     "jam128-pressure1e-4-fire": ("jam:128:1:1e-5", 30, 10, "fire", True, 1e-4),
+    # rattlers that block each other (moved together: 22) and caged ones put on the backbone (2)
+    "jam128s2-pressure1e-4-caged": ("jam:128:2:1e-4", 200, 30, "newton", True, 1e-4),
 }
 DGAMMA = 1e-5
 

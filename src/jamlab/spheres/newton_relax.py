@@ -73,8 +73,8 @@ from jamlab.spheres.aqs.newton import NetworkModel, damped_newton
 from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
-from jamlab.spheres.pair import contact_force, pair_sigmas
-from jamlab.spheres.potential import Packing, evaluate
+from jamlab.spheres.pair import HARMONIC, contact_force, pair_energy, pair_sigmas
+from jamlab.spheres.potential import Evaluation, Packing, evaluate
 
 __all__ = [
     "FINISH_BELOW",
@@ -223,10 +223,14 @@ def minimize_rattlers(
         return packing, 0.0
     box, diam = packing.box, packing.diameters
     d = packing.dim
-    dr = box.minimum_image(pos[rat][:, None, :] - pos[None, :, :])
-    r = np.sqrt(np.einsum("kjd,kjd->kj", dr, dr))
-    a, j = np.nonzero(r < 0.5 * (diam[rat][:, None] + diam[None, :]) + 0.15)
-    i = rat[a]
+    # partners: one rattler at a time against all particles (memory O(N), not O(rattlers × N))
+    found = []
+    for ri in rat:
+        dr = box.minimum_image(pos[ri] - pos)
+        r = np.sqrt(np.einsum("jd,jd->j", dr, dr))
+        found.append(np.flatnonzero(r < 0.5 * (diam[ri] + diam) + 0.15))
+    i = np.repeat(rat, [f.size for f in found])
+    j = np.concatenate(found)
     rattler = ~backbone
     # each pair once: a rattler–rattler pair is found from both ends; keep i < j
     keep = (i != j) & (~rattler[j] | (i < j))
@@ -234,20 +238,22 @@ def minimize_rattlers(
     sig = pair_sigmas(diam, i, j)
     row = np.full(packing.n, -1)
     row[rat] = np.arange(rat.size)
+    last = {}
 
     def energy_and_gradient(x: np.ndarray):
         pos[rat] = x.reshape(-1, d)
         sep = box.minimum_image(pos[i] - pos[j])
         dist = np.sqrt(np.einsum("ij,ij->i", sep, sep))
-        h = np.maximum(1.0 - dist / sig, 0.0)
-        # V = h², dV/dr_i = −(2h/σ) n (the law of jamlab.spheres.pair, α = 2); −dV/dr_j
-        push = (contact_force(dist, sig, 2.0) / dist)[:, None] * sep
+        force = contact_force(dist, sig, HARMONIC)  # the relaxer's law (jamlab.spheres.pair)
+        last["force"] = force
+        # the energy's gradient on rattler i is −f n_ij, on j (a rattler too) +f n_ij
+        push = (force / dist)[:, None] * sep
         g = np.zeros((rat.size, d))
         on_i, on_j = row[i], row[j]
         np.add.at(g, on_i, -push)
         sel = on_j >= 0
         np.add.at(g, on_j[sel], push[sel])
-        return float(h @ h), g.ravel()
+        return float(np.sum(pair_energy(dist, sig, HARMONIC))), g.ravel()
 
     x0 = pos[rat].ravel()
     res = scipy.optimize.minimize(
@@ -256,10 +262,7 @@ def minimize_rattlers(
         options={"maxiter": max_iter, "ftol": 0.0, "gtol": ftol / 8.0},
     )
     energy_and_gradient(res.x)
-    sep = box.minimum_image(pos[i] - pos[j])
-    worst = float(np.max(contact_force(np.sqrt(np.einsum("ij,ij->i", sep, sep)), sig, 2.0),
-                         initial=0.0))
-    return packing.with_positions(pos), worst
+    return packing.with_positions(pos), float(np.max(last["force"], initial=0.0))
 
 
 def _backbone_pairs(ci: np.ndarray, cj: np.ndarray, backbone: np.ndarray, n: int):
@@ -422,14 +425,15 @@ class NewtonRelaxer:
 
     def _active_set(
         self, packing: Packing, fac: Factor, nl: NeighborList, pairs: tuple, ftol: float
-    ) -> tuple[Packing | None, Packing | None]:
+    ) -> tuple[Packing | None, Evaluation | None, tuple | None]:
         """The minimum near ``packing`` on ``fac``'s backbone, starting from the network
         ``pairs``: the minimum of a contact network (smooth; Newton converges in two or three
         steps), then the network replaced by the backbone pairs that overlap there, until the
         network's minimum overlaps exactly its own pairs; then the rattlers are moved out of
         their overlaps (at a minimum they carry no force), one at a time and, where that does
-        not free them, together (:func:`minimize_rattlers`). Returns ``(minimum, None)``;
-        ``(None, None)`` when the iteration fails; ``(None, (network minimum, settled))`` when
+        not free them, together (:func:`minimize_rattlers`). Returns ``(minimum, evaluation,
+        None)`` (the evaluation where one was made here, else ``None``); ``(None, None, None)``
+        when the iteration fails; ``(None, None, (network minimum, settled))`` when
         a rattler cannot be freed (caged: at the minimum it joins the backbone), ``settled`` the
         network minimum with the rattlers moved as far as they go (:func:`settle_rattlers`).
         A backbone particle that loses contacts in a round leaves the backbone (a new factor on
@@ -448,7 +452,7 @@ class NewtonRelaxer:
             self.counters["n_newton_iterations"] += res.iterations
             self.counters["n_cg_iterations"] += res.cg_iterations
             if not res.ok:
-                return None, None
+                return None, None, None
             ci, cj, new_keys = _backbone_pairs(*contact_list(res.packing, nl)[:2], bb, packing.n)
             if np.array_equal(new_keys, keys):
                 break
@@ -465,17 +469,19 @@ class NewtonRelaxer:
                 self.age = 1
                 self.counters["n_factorisations"] += 1
                 if not _usable(fac):
-                    return None, None
+                    return None, None, None
         else:
-            return None, None
+            return None, None, None
         moved, caged = settle_rattlers(res.packing, bb, self.rattler_iterations)
         if caged and self.settle_caged:
             # not freed one at a time: all rattlers together (two that block each other)
             moved, worst = minimize_rattlers(moved, bb, ftol)
-            if worst < 0.125 * ftol and evaluate(moved).max_force < ftol:
-                self.counters["n_rattlers_moved_together"] += 1
-                return moved, None
-        return (None, (res.packing, moved)) if caged else (moved, None)
+            if worst < 0.125 * ftol:
+                ev = evaluate(moved)
+                if ev.max_force < ftol:
+                    self.counters["n_rattlers_moved_together"] += 1
+                    return moved, ev, None
+        return (None, None, (res.packing, moved)) if caged else (moved, None, None)
 
     def _newton(
         self, packing: Packing, parent: Packing, ftol: float, t0: float, max_iter: int,
@@ -490,7 +496,7 @@ class NewtonRelaxer:
             return None
         nl = NeighborList(packing, skin=RELAX_SKIN)
         ci, cj = self._network(parent)[:2]
-        moved, caged = self._active_set(packing, fac, nl, (ci, cj), ftol)
+        moved, ev, caged = self._active_set(packing, fac, nl, (ci, cj), ftol)
         if caged is not None:
             network_minimum, settled = caged
             if not rejoin:
@@ -512,7 +518,8 @@ class NewtonRelaxer:
                             skin=RELAX_SKIN)
         if moved is None:
             return None
-        ev = evaluate(moved)
+        if ev is None:
+            ev = evaluate(moved)
         if not ev.max_force < ftol:
             return None
         return MinimizeResult(

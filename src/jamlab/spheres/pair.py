@@ -39,6 +39,7 @@ __all__ = [
     "pair_terms",
     "harmonic_terms_masked",
     "pair_sigmas",
+    "pair_energy",
     "contact_force",
     "kernel_law",
 ]
@@ -131,6 +132,14 @@ def kernel_law(diameters: np.ndarray, alpha: float) -> tuple[np.ndarray | None, 
     ``α = 2``, so that the paper's system runs the specialised harmonic monodisperse kernels."""
     d = np.ascontiguousarray(diameters, dtype=np.float64)
     return (None if np.all(d == 1.0) else d), (None if alpha == 2.0 else float(alpha))
+
+
+def pair_energy(r: np.ndarray, sigma: np.ndarray, alpha: float) -> np.ndarray:
+    """Numpy form of ``V``: the energy ``(1 − r/σ)^α`` of pairs at ``r < σ`` (0 beyond), for
+    arrays (numpy code; kernels use :func:`pair_terms`)."""
+    r = np.asarray(r, dtype=np.float64)
+    sigma = np.asarray(sigma, dtype=np.float64)
+    return np.clip(1.0 - r / sigma, 0.0, None) ** alpha
 
 
 def contact_force(r: np.ndarray, sigma: np.ndarray, alpha: float) -> np.ndarray:

@@ -371,12 +371,12 @@ def shear_at_pressure(
         guess = None
         if extrapolate_volume and n >= 2:
             guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
-        fire_before = _fire_calls(relaxer)
+        departed_before = _departures(relaxer)
         res = minimize_enthalpy(
             affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
             slope_guess=slope, parent=cur, **kw
         )
-        continued[n] = relaxer is not None and _fire_calls(relaxer) == fire_before
+        continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
         row = _row(res, ftol)
@@ -503,8 +503,8 @@ def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
     return plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor, confirm_below)[1:]
 
 
-def _fire_calls(relaxer: NewtonRelaxer | None) -> int:
-    """How often the Newton relaxer has done more than continue the parent's branch so far:
+def _departures(relaxer: NewtonRelaxer | None) -> int:
+    """How often the Newton relaxer has departed from continuing the parent's branch so far:
     used FIRE (fallbacks and rattler polish), or settled rattlers that could not be freed one
     at a time (moved together, or a caged one put on the backbone for another Newton run).
     A step with any of these is not "continued": it is confirmed as a polished one was before
