@@ -1,0 +1,118 @@
+"""FIRE on the step that unjams a packing at constant volume: why it takes ~3e5 iterations.
+
+The issue's example (issue 18): ``jam(N, 3, seed, p_target=1e-7)`` sheared affinely by ``δγ``
+at constant volume, then FIRE to ``max|F| < 1e-12``. The compiled FIRE loop is run from a copy
+made at run time from its source (``jamlab/spheres/kernels/fire.py``) with counters added: the
+restarts (``P ≤ 0``), the iterations with ``Δt < Δt_max / 2`` (a time step that has collapsed),
+and ``max|F|`` at iterations ``2^k``. Each ``--params`` is a set of :class:`FireParameters`
+fields (``"alpha0=0.1,f_alpha=0.999"``) run on the same start after the defaults. The copy
+fails loudly if the kernel's text changed where the counters go.
+
+    PYTHONPATH=src python scripts/fire_unjamming_probe.py --n 1000 --seed 21 \\
+        --params f_alpha=0.999 alpha0=0.1 alpha0=0.1,f_alpha=0.999
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import jamlab.spheres.kernels as K
+from jamlab.spheres.fire import FireParameters
+from jamlab.spheres.kernel_choice import threshold_for
+from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
+from jamlab.spheres.packing import jam
+from jamlab.spheres.potential import affine_shear
+
+KERNEL = Path(K.__file__).resolve().parent / "fire.py"
+
+EDITS = [
+    ("    while fmax2 >= ftol2 and it < max_iter:\n        it += 1\n",
+     "    n_restart = 0\n    n_small = 0\n    trace = np.full(64, np.nan)\n"
+     "    while fmax2 >= ftol2 and it < max_iter:\n        it += 1\n"
+     "        if dt < 0.5 * dt_max:\n            n_small += 1\n"
+     "        if (it & (it - 1)) == 0:\n"
+     "            trace[int(np.log2(it) + 0.5)] = np.sqrt(fmax2)\n"),
+    ("            n_pos = 0\n            n_neg += 1\n",
+     "            n_pos = 0\n            n_restart += 1\n            n_neg += 1\n"),
+    ("    return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref\n",
+     "    return it, fmax, fmax < ftol, e, n_restart, n_small, trace\n"),
+]
+
+
+def instrumented_fire():
+    """The compiled FIRE loop with the counters (module docstring)."""
+    text = KERNEL.read_text()
+    text = text.replace("@njit(cache=True)", "@njit(cache=False)")  # every kernel of the copy
+    for old, new in EDITS:
+        if text.count(old) != 1:
+            raise SystemExit(f"fire_unjamming_probe: the kernel changed; cannot place {old!r}")
+        text = text.replace(old, new)
+    path = Path(tempfile.mkdtemp()) / "fire_counted.py"
+    path.write_text(text)
+    spec = importlib.util.spec_from_file_location("fire_counted", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["fire_counted"] = module
+    spec.loader.exec_module(module)
+    return module.fire
+
+
+def run(fire, packing, params: FireParameters, ftol: float, max_iter: int):
+    box = packing.box
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    K.wrap_positions(pos, box.length, box.strain)
+    nl = NeighborList(packing.with_positions(pos), skin=RELAX_SKIN)
+    pos = nl.sorted(pos)
+    return fire(
+        pos, float(box.length), float(box.strain), float(nl.skin), float(nl.sigma_max),
+        float(nl.budget(box.strain)), nl.start, nl.nbr, nl.shift, nl.img_y,
+        nl.affine_reference(), nl.diameters, nl.alpha, float(ftol), int(max_iter),
+        float(params.dt), float(params.dt_max), float(params.dt_min), int(params.n_delay),
+        float(params.f_inc), float(params.f_dec), float(params.alpha0), float(params.f_alpha),
+        int(params.n_negative_max), float(params.dmax), params.variant == "fire2",
+        threshold_for(nl.nbr.size, pos.shape[1], nl.alpha),
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--seed", type=int, default=21)
+    ap.add_argument("--p-target", type=float, default=1e-7)
+    ap.add_argument("--dgamma", type=float, default=1e-5)
+    ap.add_argument("--max-iter", type=int, default=2_000_000)
+    ap.add_argument("--params", nargs="*", default=[])
+    a = ap.parse_args()
+    fire = instrumented_fire()
+    start = affine_shear(jam(a.n, 3, seed=a.seed, p_target=a.p_target).packing, a.dgamma)
+    sets = [("defaults", FireParameters())]
+    for text in a.params:
+        fields = {k: float(v) if "." in v or "e" in v else int(v)
+                  for k, v in (item.split("=") for item in text.split(","))}
+        sets.append((text, FireParameters(**fields)))
+    print(f"jam({a.n}, 3, seed={a.seed}, p_target={a.p_target:g}), sheared by {a.dgamma:g}, "
+          f"FIRE to 1e-12:")
+    print("| FIRE parameters | iterations | converged | E at the end | restarts | "
+          "iterations at Δt < Δt_max/2 | CPU s |")
+    print("|---|---|---|---|---|---|---|")
+    traces = []
+    for label, params in sets:
+        t = time.process_time()
+        it, _fmax, conv, e, n_restart, n_small, trace = run(fire, start, params, 1e-12,
+                                                            a.max_iter)
+        print(f"| {label} | {it:,} | {bool(conv)} | {e:.3g} | {n_restart} | {n_small} | "
+              f"{time.process_time() - t:.1f} |", flush=True)
+        traces.append((label, trace[~np.isnan(trace)]))
+    for label, trace in traces:
+        print(f"max|F| at iterations 2^0, 2^1, … ({label}):",
+              " ".join(f"{x:.1e}" for x in trace))
+
+
+if __name__ == "__main__":
+    main()
