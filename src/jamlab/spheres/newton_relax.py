@@ -144,6 +144,18 @@ def free_rattlers(
     return None if caged else moved
 
 
+def _near(box, pos: np.ndarray, diam: np.ndarray, i: int, x: np.ndarray, margin: float):
+    """The particles other than ``i`` closer to the point ``x`` (particle ``i``'s place) than
+    ``σ_ij + margin``: their indices, the separations ``x − r_j`` (minimum image), the distances
+    and ``σ_ij``. One particle against all: memory ``O(N)``."""
+    dr = box.minimum_image(x - pos)
+    r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
+    sig = 0.5 * (diam[i] + diam)
+    idx = np.flatnonzero(r < sig + margin)
+    idx = idx[idx != i]
+    return idx, dr[idx], r[idx], sig[idx]
+
+
 def settle_rattlers(
     packing: Packing, backbone: np.ndarray, max_iter: int = 40
 ) -> tuple[Packing, bool]:
@@ -159,12 +171,7 @@ def settle_rattlers(
     d = packing.dim
 
     def overlap(i: int, x: np.ndarray):
-        dr = box.minimum_image(x - pos)
-        dr[i] = np.inf
-        r = np.sqrt(np.einsum("ij,ij->i", dr, dr))
-        sig = 0.5 * (diam[i] + diam)
-        hit = np.flatnonzero(r < sig)
-        return dr[hit], r[hit], sig[hit]
+        return _near(box, pos, diam, i, x, 0.0)[1:]
 
     caged = False
     for i in rattlers:
@@ -224,28 +231,26 @@ def minimize_rattlers(
     box, diam = packing.box, packing.diameters
     d = packing.dim
     # partners: one rattler at a time against all particles (memory O(N), not O(rattlers × N))
-    found = []
-    for ri in rat:
-        dr = box.minimum_image(pos[ri] - pos)
-        r = np.sqrt(np.einsum("jd,jd->j", dr, dr))
-        found.append(np.flatnonzero(r < 0.5 * (diam[ri] + diam) + 0.15))
+    found = [_near(box, pos, diam, ri, pos[ri], 0.15)[0] for ri in rat]
     i = np.repeat(rat, [f.size for f in found])
     j = np.concatenate(found)
     rattler = ~backbone
     # each pair once: a rattler–rattler pair is found from both ends; keep i < j
-    keep = (i != j) & (~rattler[j] | (i < j))
+    keep = ~rattler[j] | (i < j)
     i, j = i[keep], j[keep]
     sig = pair_sigmas(diam, i, j)
     row = np.full(packing.n, -1)
     row[rat] = np.arange(rat.size)
-    last = {}
 
-    def energy_and_gradient(x: np.ndarray):
+    def contacts(x: np.ndarray):
+        """The rattlers placed at ``x``: the pairs' separations, distances and forces."""
         pos[rat] = x.reshape(-1, d)
         sep = box.minimum_image(pos[i] - pos[j])
         dist = np.sqrt(np.einsum("ij,ij->i", sep, sep))
-        force = contact_force(dist, sig, HARMONIC)  # the relaxer's law (jamlab.spheres.pair)
-        last["force"] = force
+        return sep, dist, contact_force(dist, sig, HARMONIC)  # the relaxer's law
+
+    def energy_and_gradient(x: np.ndarray):
+        sep, dist, force = contacts(x)
         # the energy's gradient on rattler i is −f n_ij, on j (a rattler too) +f n_ij
         push = (force / dist)[:, None] * sep
         g = np.zeros((rat.size, d))
@@ -261,8 +266,8 @@ def minimize_rattlers(
         bounds=scipy.optimize.Bounds(x0 - 0.04, x0 + 0.04),
         options={"maxiter": max_iter, "ftol": 0.0, "gtol": ftol / 8.0},
     )
-    energy_and_gradient(res.x)
-    return packing.with_positions(pos), float(np.max(last["force"], initial=0.0))
+    worst = float(np.max(contacts(res.x)[2], initial=0.0))
+    return packing.with_positions(pos), worst
 
 
 def _backbone_pairs(ci: np.ndarray, cj: np.ndarray, backbone: np.ndarray, n: int):
