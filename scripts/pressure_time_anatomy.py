@@ -35,17 +35,12 @@ import jamlab.spheres.newton_relax as newton_relax  # noqa: E402
 import jamlab.spheres.pressure_shear as pressure_shear  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_pressure import start  # noqa: E402
+from bench_pressure import add_sample_arguments, start  # noqa: E402
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--n", type=int, default=1000)
-    ap.add_argument("--pressure", type=float, default=1e-4)
-    ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--steps", type=int, default=150)
-    ap.add_argument("--dgamma", type=float, default=1e-5)
-    ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
+    add_sample_arguments(ap)
     a = ap.parse_args()
 
     records: list[dict] = []
