@@ -59,16 +59,19 @@ def start(n: int, p: float, seed: int, cache: Path):
     return pk
 
 
-def add_sample_arguments(ap: argparse.ArgumentParser) -> None:
+def parse_sample_arguments(doc: str) -> argparse.Namespace:
     """``--n --pressure --seed --steps --dgamma --cache``: one run from :func:`start`'s packing,
     as the scripts that dissect a run take it (``scripts/pressure_time_anatomy.py``,
-    ``scripts/newton_failure_anatomy.py``)."""
+    ``scripts/newton_failure_anatomy.py``), parsed from the command line; ``doc`` is the
+    script's docstring, whose first paragraph is its description."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--pressure", type=float, default=1e-4)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--steps", type=int, default=150)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
+    return ap.parse_args()
 
 
 VARIANTS: dict[str, dict] = {

@@ -16,17 +16,17 @@ The packing is ``bench_pressure.py``'s (``jam(N, 3, seed, p_target=min(p, 1e-4))
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
 import time
 import traceback
 from collections import Counter
 from pathlib import Path
 
-os.environ.update({k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-                                    "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")})
+# bench_pressure first: it sets one thread for the BLAS, OpenMP and numba before numpy loads
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from bench_pressure import parse_sample_arguments, start  # noqa: E402
 
+# isort: split
 import numpy as np  # noqa: E402
 
 import jamlab.spheres.barostat as barostat  # noqa: E402
@@ -34,14 +34,9 @@ import jamlab.spheres.confirm as confirm  # noqa: E402
 import jamlab.spheres.newton_relax as newton_relax  # noqa: E402
 import jamlab.spheres.pressure_shear as pressure_shear  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_pressure import add_sample_arguments, start  # noqa: E402
-
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    add_sample_arguments(ap)
-    a = ap.parse_args()
+    a = parse_sample_arguments(__doc__)
 
     records: list[dict] = []
     current: dict = {}
