@@ -24,8 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import jamlab.spheres.kernels as K
-from jamlab.spheres.fire import FireParameters
-from jamlab.spheres.kernel_choice import threshold_for
+from jamlab.spheres.fire import FireParameters, kernel_arguments
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.packing import jam
 from jamlab.spheres.potential import affine_shear
@@ -69,16 +68,7 @@ def run(fire, packing, params: FireParameters, ftol: float, max_iter: int):
     K.wrap_positions(pos, box.length, box.strain)
     nl = NeighborList(packing.with_positions(pos), skin=RELAX_SKIN)
     pos = nl.sorted(pos)
-    return fire(
-        pos, float(box.length), float(box.strain), float(nl.skin), float(nl.sigma_max),
-        float(nl.budget(box.strain)), nl.start, nl.nbr, nl.shift, nl.img_y,
-        nl.affine_reference(), nl.diameters, nl.alpha, float(ftol), int(max_iter),
-        float(params.dt), float(params.dt_max), float(params.dt_min), int(params.n_delay),
-        float(params.f_inc), float(params.f_dec), float(params.alpha0), float(params.f_alpha),
-        int(params.n_negative_max), float(params.dmax), params.variant == "fire2",
-        threshold_for(nl.nbr.size, pos.shape[1], nl.alpha),
-    )
-
+    return fire(*kernel_arguments(pos, box, nl, ftol, max_iter, params))
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

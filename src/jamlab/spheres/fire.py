@@ -30,11 +30,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from jamlab.spheres import kernels as K
+from jamlab.spheres.box import Box
 from jamlab.spheres.kernel_choice import threshold_for
 from jamlab.spheres.neighbors import DEFAULT_SKIN, NeighborList
 from jamlab.spheres.state import Packing
 
-__all__ = ["FireParameters", "MinimizeResult", "minimize"]
+__all__ = ["FireParameters", "MinimizeResult", "kernel_arguments", "minimize"]
 
 
 @dataclass(frozen=True)
@@ -93,6 +94,47 @@ class MinimizeResult:
         )
 
 
+def kernel_arguments(
+    pos: np.ndarray,
+    box: Box,
+    neighbors: NeighborList,
+    ftol: float,
+    max_iter: int,
+    params: FireParameters,
+) -> tuple:
+    """The arguments of the compiled loop :func:`jamlab.spheres.kernels.fire` for the positions
+    ``pos`` (in ``neighbors``' order, wrapped into ``box``), as :func:`minimize` passes them."""
+    return (
+        pos,
+        float(box.length),
+        float(box.strain),
+        float(neighbors.skin),
+        float(neighbors.sigma_max),
+        float(neighbors.budget(box.strain)),
+        neighbors.start,
+        neighbors.nbr,
+        neighbors.shift,
+        neighbors.img_y,
+        neighbors.affine_reference(),
+        neighbors.diameters,
+        neighbors.alpha,
+        float(ftol),
+        int(max_iter),
+        float(params.dt),
+        float(params.dt_max),
+        float(params.dt_min),
+        int(params.n_delay),
+        float(params.f_inc),
+        float(params.f_dec),
+        float(params.alpha0),
+        float(params.f_alpha),
+        int(params.n_negative_max),
+        float(params.dmax),
+        params.variant == "fire2",
+        threshold_for(neighbors.nbr.size, pos.shape[1], neighbors.alpha),
+    )
+
+
 def minimize(
     packing: Packing,
     ftol: float = 1e-12,
@@ -125,37 +167,7 @@ def minimize(
             )
         neighbors.update(pos, box.strain)
     pos = neighbors.sorted(pos)
-    budget = neighbors.budget(box.strain)
-    ref = neighbors.affine_reference()
-    out = K.fire(
-        pos,
-        float(box.length),
-        float(box.strain),
-        float(neighbors.skin),
-        float(neighbors.sigma_max),
-        float(budget),
-        neighbors.start,
-        neighbors.nbr,
-        neighbors.shift,
-        neighbors.img_y,
-        ref,
-        neighbors.diameters,
-        neighbors.alpha,
-        float(ftol),
-        int(max_iter),
-        float(params.dt),
-        float(params.dt_max),
-        float(params.dt_min),
-        int(params.n_delay),
-        float(params.f_inc),
-        float(params.f_dec),
-        float(params.alpha0),
-        float(params.f_alpha),
-        int(params.n_negative_max),
-        float(params.dmax),
-        params.variant == "fire2",
-        threshold_for(neighbors.nbr.size, pos.shape[1], neighbors.alpha),
-    )
+    out = K.fire(*kernel_arguments(pos, box, neighbors, ftol, max_iter, params))
     iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
     if n_rebuild > 0:
         neighbors.adopt(start, nbr, shift, img_y, ref, box.strain)
