@@ -14,7 +14,8 @@ seconds per sample put in place of the benchmark-based estimate for the studies 
         --studies pressure-1e-04 --workers 1
 
 ``--dirs DIR ...`` reports the same (time per sample, τ fits with the medium scale's rules) for
-any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N.
+any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N;
+``--n N ...`` restricts the report to those sizes of each study (the scale pools its N).
 """
 
 from __future__ import annotations
@@ -31,19 +32,29 @@ from jamlab.reproduce.scales import SCALES, studies
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
-def analyse(ds, study: Study, scale, name: str) -> None:
+def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None) -> None:
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
     fixed pressure and at jamming also the fit with an exponential cut-off) of one run
-    directory."""
-    done = ds.status.values == "done"
-    seconds = np.asarray(ds.seconds.values)[done]
-    n_values = list(study.n)
+    directory; ``n_only``: only these sizes of the study (default all, pooled as the report
+    pools them)."""
+    n_values = list(study.n) if not n_only else [n for n in study.n if n in n_only]
+    if not n_values:
+        raise SystemExit(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
+    sel = {"N": n_values}
+    done = ds.status.sel(sel).values == "done"
+    seconds = np.asarray(ds.seconds.sel(sel).values)[done]
     print(f"\n# {name}: N = {n_values}, {int(done.sum())} of {done.size} samples finished, "
           f"{study.dgamma:g} x {int(round(study.gamma_max / study.dgamma))} steps each"
           + ("" if study.pressure is None else f", fixed p = {study.pressure:g}"))
     if seconds.size:
         print(f"worker wall time per sample: {', '.join(f'{s:.0f}' for s in seconds)} s "
               f"(mean {seconds.mean():.0f} s)")
+        if "cpu_seconds" in ds:
+            cpu = np.asarray(ds.cpu_seconds.sel(sel).values)[done]
+            cpu = cpu[np.isfinite(cpu)]
+            if cpu.size:
+                print(f"CPU time per sample (preparation included): {cpu.mean():.0f} s mean, "
+                      f"{cpu.min():.0f}–{cpu.max():.0f} s ({cpu.size} samples)")
         total = done.size * seconds.mean()
         print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
               "of one core")
@@ -75,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dirs", type=Path, nargs="+", default=None,
                     help="only report on these run directories (any study, e.g. of `jamlab "
                     "run`), with the medium scale's fit rules")
+    ap.add_argument("--n", type=int, nargs="+", default=None,
+                    help="report only these N of each study (default: all its N, pooled)")
     args = ap.parse_args(argv)
     scale = SCALES["medium"]
     if args.dirs:
@@ -83,7 +96,8 @@ def main(argv: list[str] | None = None) -> int:
                 ds = open_run(path)
             except (OSError, ValueError) as err:
                 ap.error(f"{path}: not a run directory ({err})")
-            analyse(ds, Study.from_dict(json.loads(ds.attrs["study"])), scale, str(path))
+            analyse(ds, Study.from_dict(json.loads(ds.attrs["study"])), scale, str(path),
+                    args.n)
         return 0
     all_studies = studies(scale)
     unknown = [s for s in args.studies if s not in all_studies]
@@ -97,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
                                 log=print)
             print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
                   f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
-        analyse(open_run(args.runs / name), study, scale, name)
+        analyse(open_run(args.runs / name), study, scale, name, args.n)
     return 0
 
 
