@@ -70,6 +70,7 @@ def run(fire, packing, params: FireParameters, ftol: float, max_iter: int):
     pos = nl.sorted(pos)
     return fire(*kernel_arguments(pos, box, nl, ftol, max_iter, params))
 
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=1000)
