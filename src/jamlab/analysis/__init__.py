@@ -17,10 +17,12 @@ from jamlab.analysis.avalanches import (
 )
 from jamlab.analysis.cutoff_powerlaw import (
     CutoffPowerLawFit,
+    CutoffShapeProfile,
     cutoff_power_law_cdf,
     cutoff_power_law_ks,
     cutoff_power_law_log_norm,
     cutoff_power_law_logpdf,
+    cutoff_shape_profile,
     fit_cutoff_power_law,
     log_upper_gamma,
     log_upper_gamma_array,
@@ -57,10 +59,12 @@ from jamlab.analysis.powerlaw import (
 
 __all__ = [
     "CutoffPowerLawFit",
+    "CutoffShapeProfile",
     "cutoff_power_law_cdf",
     "cutoff_power_law_ks",
     "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
+    "cutoff_shape_profile",
     "fit_cutoff_power_law",
     "log_upper_gamma",
     "log_upper_gamma_array",

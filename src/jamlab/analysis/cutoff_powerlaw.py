@@ -28,11 +28,15 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special
 
 __all__ = [
+    "CHI2_1_95",
+    "DEFAULT_STRETCHES",
     "CutoffPowerLawFit",
+    "CutoffShapeProfile",
     "cutoff_power_law_cdf",
     "cutoff_power_law_ks",
     "cutoff_power_law_log_norm",
     "cutoff_power_law_logpdf",
+    "cutoff_shape_profile",
     "fit_cutoff_power_law",
     "log_upper_gamma",
     "log_upper_gamma_array",
@@ -146,19 +150,31 @@ def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float) 
 
 
 def sample_cutoff_power_law(
-    n: int, tau: float, x_c: float, x_min: float, rng: np.random.Generator
+    n: int, tau: float, x_c: float, x_min: float, rng: np.random.Generator, *,
+    stretch: float = 1.0,
 ) -> FloatArray:
     """``n`` draws from the model (``τ ≥ 0``), by rejection: from the pure power law accepted
     with ``e^(−(x − x_min)/x_c)`` when ``τ > 1``, else from ``x_min`` + an exponential of mean
-    ``x_c`` accepted with ``(x/x_min)^(−τ)``."""
+    ``x_c`` accepted with ``(x/x_min)^(−τ)``. ``stretch = a ≠ 1``: the cut-off
+    ``e^(−(x/x_c)^a)`` (``τ > 1`` only; the pure power law accepted with
+    ``e^(−(x/x_c)^a + (x_min/x_c)^a)``)."""
     _check_model(tau, x_c, x_min)
     if tau < 0:
         raise ValueError(f"sample_cutoff_power_law needs tau >= 0, got {tau!r}")
+    stretch = float(stretch)
+    if not (math.isfinite(stretch) and stretch > 0):
+        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
+    if stretch != 1.0 and tau <= 1:
+        raise ValueError(f"a stretched cut-off is sampled for tau > 1 only, got tau={tau!r}")
     out: list[FloatArray] = []
     have = 0
     while have < n:
         m = max(2 * (n - have), 64)
-        if tau > 1:
+        if stretch != 1.0:
+            y = rng.random(m) ** (-1.0 / (tau - 1.0))
+            u_min = (x_min / x_c) ** stretch
+            keep = rng.random(m) < np.exp(u_min - u_min * y**stretch)
+        elif tau > 1:
             y = rng.random(m) ** (-1.0 / (tau - 1.0))
             keep = rng.random(m) < np.exp(-(y - 1.0) * (x_min / x_c))
         else:
@@ -205,18 +221,40 @@ def _nll(params: NDArray, log_y: FloatArray, y: FloatArray) -> float:
     return tau * float(log_y.sum()) + float(y.sum()) / yc + n * log_z
 
 
-def _mle(y: FloatArray) -> tuple[float, float, float, bool, NDArray]:
-    """``(τ, log y_c, −ℓ (without n log x_min), at_bound, bounds)`` for tail data ``y ≥ 1``."""
+def _nll_stretched(params: NDArray, log_y: FloatArray, y: FloatArray, stretch: float,
+                   sum_ya: float) -> float:
+    """``−ℓ`` (without ``n log x_min``) with the cut-off ``e^(−(y/y_c)^a)``, ``a = stretch``,
+    ``sum_ya = Σ y^a``; normaliser :func:`cutoff_power_law_log_norm` at ``x_min = 1``."""
+    tau, log_yc = float(params[0]), float(params[1])
+    log_z = cutoff_power_law_log_norm(tau, math.exp(log_yc), 1.0, stretch)
+    return (tau * float(log_y.sum()) + sum_ya * math.exp(-stretch * log_yc)
+            + y.size * log_z)
+
+
+def _objective(y: FloatArray, log_y: FloatArray, stretch: float) -> tuple:
+    """``(−ℓ, its extra arguments after the parameters)`` for the cut-off's shape ``stretch``
+    (``_nll`` itself for the exponential one)."""
+    if stretch == 1.0:
+        return _nll, (log_y, y)
+    return _nll_stretched, (log_y, y, stretch, float(np.sum(y**stretch)))
+
+
+def _mle(y: FloatArray, stretch: float = 1.0) -> tuple[float, float, float, bool, NDArray]:
+    """``(τ, log y_c, −ℓ (without n log x_min), at_bound, bounds)`` for tail data ``y ≥ 1``;
+    ``stretch = a``: the cut-off ``e^(−(y/y_c)^a)`` (the bounds of ``log y_c`` are those of the
+    exponential one in ``(y/y_c)^a``, the same numbers at ``a = 1``)."""
     log_y = np.log(y)
-    hi = math.log(float(y.max())) + 7.0
-    bounds = np.array([[-1.0, 5.0], [-3.0, hi]])
+    hi = math.log(float(y.max())) + 7.0 / stretch
+    bounds = np.array([[-1.0, 5.0], [-3.0 / stretch, hi]])
     mean_log = float(log_y.mean())
     tau0 = 1.0 + 1.0 / mean_log if mean_log > 0 else 1.5
+    fun, args = _objective(y, log_y, stretch)
     best = None
-    for log_yc0 in (math.log(float(y.max())), math.log(float(np.median(y))) + 2.0, hi - 1.0):
+    for log_yc0 in (math.log(float(y.max())), math.log(float(np.median(y))) + 2.0,
+                    hi - 1.0 / stretch):
         start = np.clip([min(max(tau0, 0.0), 3.0), log_yc0], bounds[:, 0] + 1e-6,
                         bounds[:, 1] - 1e-6)
-        r = optimize.minimize(_nll, start, args=(log_y, y), method="L-BFGS-B", bounds=bounds,
+        r = optimize.minimize(fun, start, args=args, method="L-BFGS-B", bounds=bounds,
                               options={"ftol": 1e-15, "gtol": 1e-10, "maxiter": 2000})
         if best is None or r.fun < best.fun:
             best = r
@@ -224,17 +262,19 @@ def _mle(y: FloatArray) -> tuple[float, float, float, bool, NDArray]:
     return float(best.x[0]), float(best.x[1]), float(best.fun), at_bound, bounds
 
 
-def _stderr(tau: float, log_yc: float, y: FloatArray) -> tuple[float, float]:
+def _stderr(tau: float, log_yc: float, y: FloatArray, stretch: float = 1.0
+            ) -> tuple[float, float]:
     """Standard errors of ``τ`` and ``log y_c`` from the observed information."""
     log_y = np.log(y)
+    fun, args = _objective(y, log_y, stretch)
     p0 = np.array([tau, log_yc])
     h = np.array([1e-4, 1e-3])
     hess = np.empty((2, 2))
     for i in range(2):
         for j in range(2):
             ei, ej = np.eye(2)[i] * h[i], np.eye(2)[j] * h[j]
-            hess[i, j] = (_nll(p0 + ei + ej, log_y, y) - _nll(p0 + ei - ej, log_y, y)
-                          - _nll(p0 - ei + ej, log_y, y) + _nll(p0 - ei - ej, log_y, y)) / (
+            hess[i, j] = (fun(p0 + ei + ej, *args) - fun(p0 + ei - ej, *args)
+                          - fun(p0 - ei + ej, *args) + fun(p0 - ei - ej, *args)) / (
                 4 * h[i] * h[j])
     try:
         cov = np.linalg.inv(hess)
@@ -351,3 +391,93 @@ def fit_cutoff_power_law(
         ci_level=float(ci_level) if n_boot else math.nan,
         n_boot=int(n_boot),
     )
+
+
+#: The default grid of cut-off shapes ``a`` of :func:`cutoff_shape_profile`.
+DEFAULT_STRETCHES = (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.6, 0.7, 0.85, 1.0, 1.25, 1.5, 2.0)
+
+#: ``χ²₁`` 95 % point: the profile set of ``a`` (and the ``τ`` it allows) is
+#: ``2 (ℓ_max − ℓ(a)) ≤ 3.84``.
+CHI2_1_95 = 3.841458820694124
+
+
+@dataclass(frozen=True)
+class CutoffShapeProfile:
+    """Result of :func:`cutoff_shape_profile` at the fixed ``x_min`` (``n_tail`` data at or
+    above it). Per cut-off shape ``a`` of ``stretches``: the MLE ``taus``, ``x_cs``, the
+    maximised ``logliks``, ``tau_stderrs`` (observed information at fixed ``a``) and
+    ``at_bound`` (``x_c`` on its upper search bound: no cut-off resolved). ``best``: the ``a`` of
+    the largest log-likelihood ``ℓ_max`` on the grid (``at_edge`` when it is an end of the grid:
+    the maximum may lie beyond), ``tau_best`` ± ``tau_best_stderr`` the fit there.
+    ``lr_exponential = 2 (ℓ_max − ℓ(a = 1))``: the likelihood-ratio statistic against the
+    exponential cut-off (``χ²₁`` under it; NaN when 1 is not on the grid). ``a_low``, ``a_high``:
+    the grid points with ``2 (ℓ_max − ℓ(a)) ≤ 3.84``, the profile-likelihood 95 % set of the
+    shape. ``tau_low``, ``tau_high``: the 95 % profile-likelihood interval of ``τ`` with the
+    shape and ``x_c`` free, ``{τ : 2 (ℓ_max − max_(a, x_c) ℓ(τ, a, x_c)) ≤ 3.84}``, with
+    ``ℓ`` quadratic in ``τ`` at each ``a`` of the grid: the union over ``a`` of
+    ``τ_a ± σ_a √(3.84 − 2 (ℓ_max − ℓ(a)))`` — the statistical error and the spread the
+    cut-off's shape leaves open, together."""
+
+    x_min: float
+    n_tail: int
+    stretches: tuple[float, ...]
+    taus: tuple[float, ...]
+    x_cs: tuple[float, ...]
+    logliks: tuple[float, ...]
+    tau_stderrs: tuple[float, ...]
+    at_bound: tuple[bool, ...]
+    best: float
+    at_edge: bool
+    tau_best: float
+    tau_best_stderr: float
+    lr_exponential: float
+    a_low: float
+    a_high: float
+    tau_low: float
+    tau_high: float
+
+
+def cutoff_shape_profile(x: ArrayLike, x_min: float,
+                         stretches: tuple[float, ...] = DEFAULT_STRETCHES
+                         ) -> CutoffShapeProfile:
+    """Profile likelihood of the cut-off's shape at a fixed ``x_min``: for each ``a`` of
+    ``stretches`` the maximum-likelihood ``τ`` and ``x_c`` of
+    ``p(x) ∝ x^(−τ) e^(−(x/x_c)^a)`` on ``[x_min, ∞)`` (normaliser
+    :func:`cutoff_power_law_log_norm`; ``a = 1`` is exactly :func:`fit_cutoff_power_law`'s fit),
+    and what the data say about ``a`` and, through it, about ``τ`` (:class:`CutoffShapeProfile`).
+    ``τ`` and ``a`` trade off — a smaller ``a`` bends the tail over more decades, a smaller ``τ``
+    compensates — so an exponent fitted with one assumed shape carries this spread as a
+    systematic error. ``ValueError`` for non-finite data, a bad ``x_min``, fewer than 10 data at
+    or above it, or a grid with a non-positive, non-finite or repeated ``a``."""
+    x = np.asarray(x, dtype=np.float64).ravel()
+    if not np.all(np.isfinite(x)):
+        raise ValueError("the data hold NaN or inf")
+    if not (isinstance(x_min, int | float) and math.isfinite(x_min) and x_min > 0):
+        raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
+    grid = tuple(float(a) for a in stretches)
+    if not grid or not all(math.isfinite(a) and a > 0 for a in grid) or len(set(grid)) < len(grid):
+        raise ValueError(f"stretches must be distinct finite numbers > 0, got {stretches!r}")
+    grid = tuple(sorted(grid))
+    tail = np.sort(x[x >= x_min])
+    if tail.size < _MIN_TAIL:
+        raise ValueError(f"need at least {_MIN_TAIL} data at or above x_min={x_min:g}, "
+                         f"got {tail.size}")
+    y = tail / x_min
+    log_x_min = math.log(x_min)
+    fits = [_mle(y, a) for a in grid]
+    taus = tuple(f[0] for f in fits)
+    x_cs = tuple(x_min * math.exp(f[1]) for f in fits)
+    ll = tuple(-f[2] - tail.size * log_x_min for f in fits)
+    ses = tuple(_stderr(f[0], f[1], y, a)[0] for f, a in zip(fits, grid, strict=True))
+    k = int(np.argmax(ll))
+    inside = [i for i in range(len(grid)) if 2.0 * (ll[k] - ll[i]) <= CHI2_1_95]
+    lr = 2.0 * (ll[k] - ll[grid.index(1.0)]) if 1.0 in grid else math.nan
+    reach = [ses[i] * math.sqrt(CHI2_1_95 - 2.0 * (ll[k] - ll[i])) if math.isfinite(ses[i])
+             else 0.0 for i in inside]
+    return CutoffShapeProfile(
+        x_min=float(x_min), n_tail=int(tail.size), stretches=grid, taus=taus, x_cs=x_cs,
+        logliks=ll, tau_stderrs=ses, at_bound=tuple(f[3] for f in fits), best=grid[k],
+        at_edge=k in (0, len(grid) - 1), tau_best=taus[k], tau_best_stderr=ses[k],
+        lr_exponential=lr, a_low=grid[min(inside)], a_high=grid[max(inside)],
+        tau_low=min(taus[i] - r for i, r in zip(inside, reach, strict=True)),
+        tau_high=max(taus[i] + r for i, r in zip(inside, reach, strict=True)))
