@@ -29,6 +29,7 @@ import numpy as np
 
 from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 from jamlab.reproduce.scales import SCALES, studies
+from jamlab.reproduce.table import shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
@@ -75,6 +76,8 @@ def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None)
                  f"{cut.tau:.3f} ± {est.cutoff_sigma:.3f} (95 % [{cut.ci_low:.3f}, "
                  f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
                  f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
+        print("tau with the cut-off's shape free (the report's third row): "
+              + shape_text(est.cutoff_shape))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,7 +10,7 @@ import h5py
 import numpy as np
 import pytest
 
-from jamlab.analysis import fit_cutoff_power_law
+from jamlab.analysis import cutoff_shape_profile, fit_cutoff_power_law
 from jamlab.reproduce import SCALES
 from jamlab.reproduce.ensembles import RunSet
 from jamlab.reproduce.measurements import pressure_tau_estimates
@@ -100,8 +100,14 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         ref = fit_cutoff_power_law(sizes, min_tail=10, max_candidates=20,
                                    n_boot=scale.n_boot, seed=scale.seed)
         assert est.cutoff.tau == ref.tau and est.cutoff.x_min == ref.x_min
+        # the third row: the profile over the cut-off's shape at that x_min, same sizes
+        shape = cutoff_shape_profile(sizes, ref.x_min)
+        assert est.cutoff_shape.taus == shape.taus
+        assert est.cutoff_shape.logliks == shape.logliks
     else:
         assert est.cutoff is None and cut_row.value_text == "n/a"
+        assert est.cutoff_shape is None
+        assert pressure_tau_rows({1e-3: est})[2].value_text == "n/a"
 
 
 def _synthetic_cutoff(tau: float, x_min: float, seed: int):
@@ -147,9 +153,24 @@ def test_the_constant_volume_tau_has_a_cutoff_row_too():
     est["jamming"] = TauEstimate("jamming", None, float("nan"), sizes.size, 100, 2, {}, None,
                                  cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True)
     rows = tau_rows(est)
-    assert len(rows) == len(TAU_TITLES) + 1
+    assert len(rows) == len(TAU_TITLES) + 2
     jam = [r for r in rows if "jamming" in r.quantity]
     assert jam[0].quantity.startswith("τ at jamming") and "cut-off" in jam[1].quantity
+    assert "shape free" in jam[2].quantity and jam[2].value_text == "n/a"  # no profile made
     assert jam[1].value == cut.tau and jam[1].error == tau_sigma(cut)
     assert jam[1].samples == f"the same {sizes.size} avalanches"
     assert tau_data(est)["tau_jamming_cutoff"]["tau"] == cut.tau
+    # with the profile over the cut-off's shape (with_cutoff makes it): a row of its own
+    shape = cutoff_shape_profile(sizes, cut.x_min, stretches=(0.3, 0.5, 1.0, 1.5))
+    est["jamming"] = replace(est["jamming"], cutoff_shape=shape)
+    rows = tau_rows(est)
+    row = [r for r in rows if "shape free" in r.quantity]
+    assert len(row) == 1 and row[0].quantity.startswith("τ at jamming")
+    assert row[0].value == shape.tau_best
+    # its σ is the 95 % interval with a free over 2 × 1.96
+    assert row[0].error == pytest.approx((shape.tau_high - shape.tau_low) / (2 * 1.959964))
+    assert f"[{shape.tau_low:.3f}, {shape.tau_high:.3f}]" in row[0].value_text
+    assert f"2Δlog L = {shape.lr_exponential:.1f}" in row[0].value_text
+    data = tau_data(est)["tau_jamming_cutoff"]["shape"]
+    assert (data["tau_low"], data["tau_high"], data["best_a"]) == (
+        shape.tau_low, shape.tau_high, shape.best)

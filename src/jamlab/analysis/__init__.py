@@ -16,6 +16,7 @@ from jamlab.analysis.avalanches import (
     noise_floor,
 )
 from jamlab.analysis.cutoff_powerlaw import (
+    CHI2_1_95,
     CutoffPowerLawFit,
     CutoffShapeProfile,
     cutoff_power_law_cdf,
@@ -58,6 +59,7 @@ from jamlab.analysis.powerlaw import (
 )
 
 __all__ = [
+    "CHI2_1_95",
     "CutoffPowerLawFit",
     "CutoffShapeProfile",
     "cutoff_power_law_cdf",

@@ -56,6 +56,7 @@ __all__ = [
     "tau_estimates",
     "tau_sigma",
     "with_cutoff",
+    "cutoff_shape",
 ]
 
 TAU_LABELS = ("jamming",) + tuple(repr(p) for p in UNSAT_PHI)
@@ -136,6 +137,7 @@ class TauEstimate:
     cutoff: Any = None  # the fit with an exponential cut-off (None: too few sizes, or not made)
     cutoff_sigma: float = math.nan
     cutoff_made: bool = False  # whether the cut-off fit was asked for (with_cutoff)
+    cutoff_shape: Any = None  # the profile over the cut-off's shape at the cut-off fit's x_min
 
     @property
     def exclusion_text(self) -> str:
@@ -189,10 +191,23 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
 
 def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
     """``est`` (of the avalanches pooled over ``sources``) with the fit of the same avalanches
-    with an exponential cut-off (:func:`fit_tau_cutoff`)."""
+    with an exponential cut-off (:func:`fit_tau_cutoff`) and the profile over the cut-off's shape
+    at that fit's ``x_min`` (:func:`cutoff_shape`)."""
     sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
-    cut = fit_tau_cutoff(np.concatenate(sizes) if sizes else np.empty(0), scale)
-    return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True)
+    pooled = np.concatenate(sizes) if sizes else np.empty(0)
+    cut = fit_tau_cutoff(pooled, scale)
+    return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
+                   cutoff_shape=cutoff_shape(pooled, cut))
+
+
+def cutoff_shape(sizes: np.ndarray, cut: Any) -> Any:
+    """The profile likelihood over the cut-off's shape ``e^(−(S/S_c)^a)`` of ``sizes`` at the
+    cut-off fit ``cut``'s ``x_min`` (:func:`jamlab.analysis.cutoff_shape_profile`, its default
+    grid of ``a``), or None without that fit: how far τ moves when the exponential shape is not
+    assumed."""
+    from jamlab.analysis import cutoff_shape_profile
+
+    return None if cut is None else cutoff_shape_profile(sizes, cut.x_min)
 
 
 def tau_estimates(jamming: Any, unsat: Any, scale: Scale) -> dict[str, TauEstimate]:

@@ -32,6 +32,7 @@ from jamlab.reproduce.measurements import (
     PhiJEstimate,
     TauEstimate,
     predicted_tau,
+    sigma_from_ci95,
 )
 from jamlab.reproduce.scales import SCALES, Scale
 from jamlab.reproduce.theory_checks import TheoryChecks
@@ -125,13 +126,53 @@ def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
             ),
         ))
         if label == "jamming" and e.cutoff_made:
+            cmp = (Comparison("the paper's fit", paper, paper_err), Comparison("theory", theory))
+            ref = f"{paper} ± {paper_err} (paper's fit); theory {theory:.5g}"
             rows.append(cutoff_row(
                 "τ with an exponential cut-off at jamming (constant volume, the paper's "
-                "protocol; S^−τ e^(−S/S_c), KS window)",
-                f"{paper} ± {paper_err} (paper's fit); theory {theory:.5g}", e,
-                (Comparison("the paper's fit", paper, paper_err),
-                 Comparison("theory", theory))))
+                "protocol; S^−τ e^(−S/S_c), KS window)", ref, e, cmp))
+            rows.append(shape_row(
+                "τ at jamming with the cut-off's shape free (constant volume; "
+                + SHAPE_MODEL + ")", ref, e, cmp))
     return rows
+
+
+SHAPE_MODEL = ("S^−τ e^(−(S/S_c)^a), profile likelihood over a at the cut-off row's x_min")
+"""How the rows of :func:`shape_row` name their model."""
+
+
+def shape_row(quantity: str, reference_text: str, e: TauEstimate,
+              comparisons: tuple[Comparison, ...]) -> Row:
+    """The row of ``e``'s profile over the cut-off's shape (the same avalanches and ``x_min`` as
+    its cut-off row): τ at the best shape ``a``, with the σ of the 95 % profile interval of τ
+    with ``a`` free (its width over 2 × 1.96), so that its verdicts include the spread the
+    shape leaves open."""
+    p = e.cutoff_shape
+    return Row(
+        quantity=quantity,
+        reference_text=reference_text,
+        value=p.tau_best if p is not None else float("nan"),
+        error=sigma_from_ci95(p.tau_low, p.tau_high) if p is not None else float("nan"),
+        value_text=shape_text(p),
+        samples=f"the same {e.n_avalanches} avalanches",
+        comparisons=comparisons,
+    )
+
+
+def shape_text(p: Any) -> str:
+    """A profile over the cut-off's shape: the best ``a`` and its τ, the 95 % interval of τ
+    with ``a`` free, the 95 % set of ``a`` and the likelihood ratio against ``a = 1``."""
+    from jamlab.analysis import CHI2_1_95
+
+    if p is None:
+        return "n/a"
+    lo_end = " (the grid's end)" if p.a_low == p.stretches[0] else ""
+    hi_end = " (the grid's end)" if p.a_high == p.stretches[-1] else ""
+    verdict = "rejected" if p.lr_exponential > CHI2_1_95 else "not rejected"
+    return (f"{p.tau_best:.3f} ± {p.tau_best_stderr:.3f} at a = {p.best:g}; with a free, "
+            f"95% interval [{p.tau_low:.3f}, {p.tau_high:.3f}] (a from {p.a_low:g}{lo_end} to "
+            f"{p.a_high:g}{hi_end}); exponential cut-off (a = 1): 2Δlog L = "
+            f"{p.lr_exponential:.1f}, {verdict} at 5%; x_min = {p.x_min:.3g} ε, tail {p.n_tail}")
 
 
 def cutoff_row(quantity: str, reference_text: str, e: TauEstimate,
@@ -170,14 +211,17 @@ def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
                 Comparison("the paper's fit", paper, paper_err),
             ),
         ))
+        ref = (f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
+               f"constant-volume fit {paper} ± {paper_err}")
+        cmp = (Comparison("theory τ_J (p → 0)", theory),
+               Comparison("τ_UNSAT", 1.0),
+               Comparison("the paper's fit", paper, paper_err))
         rows.append(cutoff_row(
             (f"τ at fixed pressure p = {p:g}, power law with an exponential cut-off "
-             "(S^−τ e^(−S/S_c), KS window)"),
-            (f"theory τ_J = {theory:.5g} as p → 0; τ_UNSAT = 1; paper's "
-             f"constant-volume fit {paper} ± {paper_err}"), e,
-            (Comparison("theory τ_J (p → 0)", theory),
-             Comparison("τ_UNSAT", 1.0),
-             Comparison("the paper's fit", paper, paper_err))))
+             "(S^−τ e^(−S/S_c), KS window)"), ref, e, cmp))
+        rows.append(shape_row(
+            f"τ at fixed pressure p = {p:g} with the cut-off's shape free ({SHAPE_MODEL})",
+            ref, e, cmp))
     return rows
 
 
@@ -204,10 +248,14 @@ def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
 
 def cutoff_data(e: TauEstimate) -> dict[str, Any] | None:
     """The numbers of ``e``'s fit with an exponential cut-off (None without one)."""
-    c = e.cutoff
+    c, p = e.cutoff, e.cutoff_shape
+    shape = None if p is None else dict(
+        best_a=p.best, tau=p.tau_best, tau_stderr=p.tau_best_stderr, tau_low=p.tau_low,
+        tau_high=p.tau_high, a_low=p.a_low, a_high=p.a_high, a_grid=list(p.stretches),
+        lr_exponential=p.lr_exponential)
     return None if c is None else dict(
         tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
-        x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail)
+        x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail, shape=shape)
 
 
 def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
