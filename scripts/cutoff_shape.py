@@ -1,0 +1,167 @@
+"""What the τ of a fixed-pressure run rests on: the plastic flag's threshold, the cut-off's shape.
+
+For the avalanches of finished run directories (φ label ``jamming`` at ``--n``, jammed steps only,
+as the report counts them; ``S = −ΔH`` at fixed pressure):
+
+1. *Detection near the threshold.* Each sample's threshold of the plastic flag is recomputed from
+   its trace (:func:`jamlab.spheres.confirm.plastic_threshold` with the shear's defaults; the
+   script stops if a recorded plastic step does not pass it, i.e. if the recomputation is not the
+   run's rule). Per bin of ``S / threshold``: how many avalanches, and ``−r_n / S`` (median and
+   5–95 %), ``r_n`` the step's trapezoid residual. A step counts only if ``|r_n|`` passes the
+   threshold, so where ``−r_n/S`` times the bin's lower end stays above 1 no event is lost.
+2. *The cut-off's shape.* The window of the report's cut-off row (its KS rule,
+   :func:`jamlab.reproduce.measurements.fit_tau_cutoff` without the bootstrap, which does not move
+   ``x_min``), and windows at ``--thresholds`` times the largest threshold:
+   :func:`jamlab.analysis.cutoff_shape_profile` there — τ and ``2Δlog L`` per ``a``, the
+   likelihood ratio against the exponential cut-off and the interval of τ with ``a`` free.
+
+``--figure``: for the first run, the complementary CDF of the sizes in the report's window
+beside the exponential and the best stretched model, and τ and ``2Δlog L`` against ``a``.
+
+    PYTHONPATH=src python scripts/cutoff_shape.py RUNS/n1000-p1e-5 --n 1000 \\
+        --figure docs/figures/cutoff_shape_n1000_p1e-5.png
+    PYTHONPATH=src python scripts/cutoff_shape.py RUNS/pressure-1e-02 --n 500 1000
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from jamlab.analysis import cutoff_shape_profile, log_upper_gamma, log_upper_gamma_array
+from jamlab.analysis.avalanches import branch_residual, jammed_steps
+from jamlab.reproduce.ensembles import avalanche_set, finished
+from jamlab.reproduce.measurements import fit_tau_cutoff
+from jamlab.reproduce.scales import SCALES
+from jamlab.reproduce.table import shape_text
+from jamlab.runs import open_run
+from jamlab.spheres.confirm import plastic_threshold
+from jamlab.spheres.pressure_shear import CONFIRM_BELOW
+
+PLASTIC_FLOOR = 0.1  # shear_at_pressure's default plastic_floor
+BINS = (1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 30.0, 100.0, np.inf)
+
+
+def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(S, r_n, threshold)`` of every counted avalanche of ``(jamming, n)``, in the order of
+    :func:`~jamlab.reproduce.ensembles.avalanche_set` (samples, then steps)."""
+    d = ds.sel(phi="jamming", N=n)
+    sizes, resid, thr = [], [], []
+    for i in np.flatnonzero(finished(ds, "jamming", n)):
+        t = d.isel(sample=int(i))
+        hj, sj, g = t.energy_jump.values, t.stress_jump.values, t.gamma.values
+        jm, pl = t.jammed.values > 0.5, t.plastic.values > 0.5
+        steps = np.diff(g)
+        threshold, passes, _ = plastic_threshold(hj, sj, g, jm, float(np.median(steps)),
+                                                 PLASTIC_FLOOR, CONFIRM_BELOW)
+        counted = pl[1:] & jammed_steps(jm) & (hj[1:] < 0)
+        if np.any(counted & ~passes[1:]):
+            raise SystemExit(f"sample {i}: a plastic step does not pass the recomputed "
+                             f"threshold {threshold:.3g}: not the run's rule")
+        r = branch_residual(hj[1:], sj[1:], steps)
+        sizes.append(-hj[1:][counted])
+        resid.append(r[counted])
+        thr.append(np.full(int(counted.sum()), threshold))
+    return np.concatenate(sizes), np.concatenate(resid), np.concatenate(thr)
+
+
+def model_ccdf(x: np.ndarray, tau: float, x_c: float, x_min: float, a: float) -> np.ndarray:
+    """``P(S > x)`` of ``S^−τ e^(−(S/S_c)^a)`` on ``[x_min, ∞)``: the ratio of upper incomplete
+    gamma functions ``Γ((1−τ)/a, (x/S_c)^a) / Γ((1−τ)/a, (x_min/S_c)^a)``."""
+    k = (1.0 - tau) / a
+    return np.exp(log_upper_gamma_array(k, (x / x_c) ** a) - log_upper_gamma(k, (x_min / x_c) ** a))
+
+
+def figure(path: Path, s: np.ndarray, p, title: str) -> None:
+    """The complementary CDF in the window with the exponential and best models; the profile."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tail = np.sort(s[s >= p.x_min])
+    ccdf = 1.0 - np.arange(tail.size) / tail.size
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
+    ax.loglog(tail, ccdf, "k.", ms=2, label=f"data ({tail.size} sizes)")
+    grid = np.geomspace(p.x_min, tail[-1], 300)
+    for a, style in ((1.0, "C0-"), (p.best, "C3--")):
+        i = p.stretches.index(a)
+        ax.loglog(grid, model_ccdf(grid, p.taus[i], p.x_cs[i], p.x_min, a), style,
+                  label=f"a = {a:g}: τ = {p.taus[i]:.3f}, S_c = {p.x_cs[i]:.2g}")
+    ax.set_xlabel("S (ε)")
+    ax.set_ylabel("P(S' > S)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=8)
+    best = max(p.logliks)
+    bx.plot(p.stretches, p.taus, "C0o-")
+    bx.set_xscale("log")
+    bx.set_xticks([0.2, 0.3, 0.5, 1.0, 2.0], ["0.2", "0.3", "0.5", "1", "2"])
+    bx.minorticks_off()
+    bx.set_xlabel("cut-off shape a")
+    bx.set_ylabel("τ at fixed a", color="C0")
+    bx.axhspan(p.tau_low, p.tau_high, color="C0", alpha=0.12,
+               label=f"95 % interval of τ, a free [{p.tau_low:.2f}, {p.tau_high:.2f}]")
+    bx.legend(fontsize=8, loc="center right")
+    cx = bx.twinx()
+    cx.plot(p.stretches, [2 * (v - best) for v in p.logliks], "C3s--")
+    cx.axhline(-3.84, color="C3", lw=0.8, ls=":")
+    cx.set_ylabel("2Δlog L against the best a (dotted: −3.84)", color="C3")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"\nfigure: {path}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+")
+    ap.add_argument("--n", type=int, nargs="+", default=[1000], help="sizes N, pooled")
+    ap.add_argument("--scale", default="medium", choices=sorted(SCALES))
+    ap.add_argument("--thresholds", type=float, nargs="*", default=[2.0, 5.0, 20.0],
+                    help="further windows, S >= this many times the largest threshold")
+    ap.add_argument("--figure", type=Path, default=None)
+    a = ap.parse_args()
+    scale = SCALES[a.scale]
+    for run in a.runs:
+        ds = open_run(run)
+        parts = [detection(ds, n) for n in a.n]
+        s, r, thr = (np.concatenate(v) for v in zip(*parts, strict=True))
+        counted = np.concatenate([avalanche_set(ds, "jamming", n).sizes for n in a.n])
+        if not np.array_equal(np.sort(s), np.sort(counted)):
+            raise SystemExit(f"{run}: the recomputed avalanches are not the report's")
+        print(f"\n# {run}, N = {a.n}: {s.size} avalanches; thresholds of the plastic flag "
+              f"{thr.min():.3g} … {thr.max():.3g} (median {np.median(thr):.3g}) ε\n")
+        print("| S / threshold | avalanches | −r_n/S, median | −r_n/S, 5–95 % |")
+        print("|---|---|---|---|")
+        x = s / thr
+        for lo, hi in zip(BINS[:-1], BINS[1:], strict=True):
+            k = (x >= lo) & (x < hi)
+            if k.any():
+                q = np.quantile(-r[k] / s[k], [0.05, 0.5, 0.95])
+                print(f"| {lo:g}–{hi:g} | {int(k.sum())} | {q[1]:.3f} | {q[0]:.3f}–{q[2]:.3f} |")
+        cut = fit_tau_cutoff(s, replace(scale, n_boot=0))
+        if cut is not None:
+            print(f"\nthe report's cut-off row: τ = {cut.tau:.3f} (exponential cut-off, "
+                  f"S ≥ {cut.x_min:.3g}, {cut.n_tail} sizes)")
+        windows = [("the report's cut-off row (KS window)", None if cut is None else cut.x_min)]
+        windows += [(f"{k:g} × the largest threshold", k * float(thr.max()))
+                    for k in a.thresholds]
+        for name, x_min in windows:
+            if x_min is None or np.count_nonzero(s >= x_min) < 10:
+                print(f"\n{name}: too few sizes")
+                continue
+            p = cutoff_shape_profile(s, x_min)
+            print(f"\n{name}, S ≥ {x_min:.3g}: {shape_text(p)}\n")
+            print("| a | " + " | ".join(f"{v:g}" for v in p.stretches) + " |")
+            print("|---" * (len(p.stretches) + 1) + "|")
+            print("| τ | " + " | ".join(f"{v:.3f}" for v in p.taus) + " |")
+            best = max(p.logliks)
+            print("| 2Δlog L | " + " | ".join(f"{2 * (v - best):.1f}" for v in p.logliks) + " |")
+            if a.figure is not None and run == a.runs[0] and x_min == windows[0][1]:
+                figure(a.figure, s, p, f"{run.name}, N = {a.n}: the report's cut-off window")
+
+
+if __name__ == "__main__":
+    main()
