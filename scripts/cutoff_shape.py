@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import cutoff_shape_profile, log_upper_gamma, log_upper_gamma_array
+from jamlab.analysis import cutoff_power_law_cdf, cutoff_shape_profile
 from jamlab.analysis.avalanches import branch_residual, jammed_steps
 from jamlab.reproduce.ensembles import avalanche_set, finished
 from jamlab.reproduce.measurements import fit_tau_cutoff
@@ -39,9 +39,8 @@ from jamlab.reproduce.scales import SCALES
 from jamlab.reproduce.table import shape_text
 from jamlab.runs import open_run
 from jamlab.spheres.confirm import plastic_threshold
-from jamlab.spheres.pressure_shear import CONFIRM_BELOW
+from jamlab.spheres.pressure_shear import CONFIRM_BELOW, PLASTIC_FLOOR
 
-PLASTIC_FLOOR = 0.1  # shear_at_pressure's default plastic_floor
 BINS = (1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 30.0, 100.0, np.inf)
 
 
@@ -68,13 +67,6 @@ def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(sizes), np.concatenate(resid), np.concatenate(thr)
 
 
-def model_ccdf(x: np.ndarray, tau: float, x_c: float, x_min: float, a: float) -> np.ndarray:
-    """``P(S > x)`` of ``S^−τ e^(−(S/S_c)^a)`` on ``[x_min, ∞)``: the ratio of upper incomplete
-    gamma functions ``Γ((1−τ)/a, (x/S_c)^a) / Γ((1−τ)/a, (x_min/S_c)^a)``."""
-    k = (1.0 - tau) / a
-    return np.exp(log_upper_gamma_array(k, (x / x_c) ** a) - log_upper_gamma(k, (x_min / x_c) ** a))
-
-
 def figure(path: Path, s: np.ndarray, p, title: str) -> None:
     """The complementary CDF in the window with the exponential and best models; the profile."""
     import matplotlib
@@ -89,7 +81,8 @@ def figure(path: Path, s: np.ndarray, p, title: str) -> None:
     grid = np.geomspace(p.x_min, tail[-1], 300)
     for a, style in ((1.0, "C0-"), (p.best, "C3--")):
         i = p.stretches.index(a)
-        ax.loglog(grid, model_ccdf(grid, p.taus[i], p.x_cs[i], p.x_min, a), style,
+        ccdf_model = 1.0 - cutoff_power_law_cdf(grid, p.taus[i], p.x_cs[i], p.x_min, stretch=a)
+        ax.loglog(grid, ccdf_model, style,
                   label=f"a = {a:g}: τ = {p.taus[i]:.3f}, S_c = {p.x_cs[i]:.2g}")
     ax.set_xlabel("S (ε)")
     ax.set_ylabel("P(S' > S)")

@@ -181,6 +181,17 @@ def _stretched_cdf_by_quadrature(tau, x_c, x_min, a):
     return v, cdf / cdf[-1]
 
 
+@pytest.mark.parametrize("tau,a", [(1.35, 0.4), (0.8, 0.35), (1.6, 2.0)])
+def test_stretched_cdf_against_quadrature(tau, a):
+    x_min, x_c = 1e-9, 1e-6
+    grid, cdf = _stretched_cdf_by_quadrature(tau, x_c, x_min, a)
+    pts = x_min * np.array([1.0, 3.0, 30.0, 300.0, 1000.0, 3000.0])
+    ref = np.interp(pts, grid, cdf)
+    got = cutoff_power_law_cdf(pts, tau, x_c, x_min, stretch=a)
+    assert got == pytest.approx(ref, abs=1e-7)
+    assert cutoff_power_law_cdf(0.5 * x_min, tau, x_c, x_min, stretch=a) == 0.0
+
+
 @pytest.mark.parametrize("tau,a", [(1.35, 0.4), (1.6, 2.0)])
 def test_stretched_sampler_follows_the_density(tau, a):
     x_min, x_c = 1e-9, 1e-6

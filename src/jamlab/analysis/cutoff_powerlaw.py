@@ -110,13 +110,21 @@ def log_upper_gamma_array(a: float, z: ArrayLike) -> FloatArray:
     return out
 
 
-def cutoff_power_law_cdf(x: ArrayLike, tau: float, x_c: float, x_min: float) -> FloatArray:
-    """``P(X ≤ x) = 1 − Γ(1−τ, x/x_c) / Γ(1−τ, x_min/x_c)`` (0 below ``x_min``)."""
+def cutoff_power_law_cdf(x: ArrayLike, tau: float, x_c: float, x_min: float, *,
+                         stretch: float = 1.0) -> FloatArray:
+    """``P(X ≤ x) = 1 − Γ(1−τ, x/x_c) / Γ(1−τ, x_min/x_c)`` (0 below ``x_min``); with a stretched
+    cut-off ``e^(−(x/x_c)^a)`` (``stretch = a``) ``1 − Γ(k, (x/x_c)^a) / Γ(k, (x_min/x_c)^a)``,
+    ``k = (1−τ)/a``."""
     _check_model(tau, x_c, x_min)
     x = np.asarray(x, dtype=np.float64)
     above = np.maximum(x, x_min)
-    a = 1.0 - tau
-    tail = np.exp(log_upper_gamma_array(a, above / x_c) - log_upper_gamma(a, x_min / x_c))
+    if stretch == 1.0:
+        a = 1.0 - tau
+        tail = np.exp(log_upper_gamma_array(a, above / x_c) - log_upper_gamma(a, x_min / x_c))
+    else:
+        k = (1.0 - tau) / stretch
+        tail = np.exp(log_upper_gamma_array(k, (above / x_c) ** stretch)
+                      - log_upper_gamma(k, (x_min / x_c) ** stretch))
     return np.where(x >= x_min, 1.0 - tail, 0.0)
 
 

@@ -84,8 +84,12 @@ from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rat
 from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace, jump_columns
 
-__all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PRESSURE_COLUMNS",
+__all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PLASTIC_FLOOR", "PRESSURE_COLUMNS",
            "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
+
+PLASTIC_FLOOR: float = 0.1
+"""Default ``plastic_floor`` of :func:`shear_at_pressure`: the plastic flag's threshold is at least
+this many times ``δγ²`` (module docstring)."""
 
 CONFIRM_BELOW: float = 5.0
 """Default ``confirm_below`` of :func:`shear_at_pressure`: a candidate step that released for
@@ -260,7 +264,7 @@ def shear_at_pressure(
     ptol: float = 1e-6,
     fire_params: FireParameters | None = None,
     max_iter: int = 1_000_000,
-    plastic_floor: float = 0.1,
+    plastic_floor: float = PLASTIC_FLOOR,
     confirm_substeps: int = 16,
     confirm: str = "located",
     defer_confirmation: bool = True,
