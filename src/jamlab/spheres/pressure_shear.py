@@ -87,9 +87,7 @@ from jamlab.spheres.trace import Trace, jump_columns
 __all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PLASTIC_FLOOR", "PRESSURE_COLUMNS",
            "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
 
-PLASTIC_FLOOR: float = 0.1
-"""Default ``plastic_floor`` of :func:`shear_at_pressure`: the plastic flag's threshold is at least
-this many times ``δγ²`` (module docstring)."""
+PLASTIC_FLOOR: float = 0.1  # shear_at_pressure's default: the flag's threshold is >= this × δγ²
 
 CONFIRM_BELOW: float = 5.0
 """Default ``confirm_below`` of :func:`shear_at_pressure`: a candidate step that released for
