@@ -7,6 +7,7 @@ from jamlab.analysis import (
     avalanche_sizes,
     branch_residual,
     classify_steps,
+    coarsen_steps,
     exclusions,
     jammed_steps,
     jumps_from_trace,
@@ -149,3 +150,60 @@ def test_noise_floor_ignores_unjammed_steps(rng):
     assert clean.n_elastic == m - 201
     assert 0.7e-12 < clean.sigma < 1.3e-12
     assert noise_floor(de, ds, dg).sigma > 1e-9
+
+
+def test_coarsen_steps_k1_is_the_trace(rng):
+    strain, energy, stress, _ = _synthetic_trace(rng, 1e-12)
+    de, ds, dg = jumps_from_trace(strain, energy, stress)
+    c = coarsen_steps(de, ds, dg, 1, plastic=de < 0, jammed=np.ones(de.size + 1, bool))
+    assert np.array_equal(c.energy_jump, de) and np.array_equal(c.stress_jump, ds)
+    assert np.array_equal(c.strain_step, dg) and np.array_equal(c.plastic, de < 0)
+    assert c.jammed.all() and c.dropped == 0 and c.k == 1
+
+
+@pytest.mark.parametrize("k", [2, 3, 7, 64])
+def test_coarsen_steps_is_the_subsampled_trace(rng, k):
+    """Independent route: jumps_from_trace of the minima 0, k, 2k, … (absolute E and Σ)."""
+    strain, energy, stress, jumps = _synthetic_trace(rng, 0.0)
+    de, ds, dg = jumps_from_trace(strain, energy, stress)
+    c = coarsen_steps(de, ds, dg, k)
+    m = (de.size // k) * k
+    de_k, ds_k, dg_k = jumps_from_trace(strain[: m + 1 : k], energy[: m + 1 : k],
+                                        stress[: m + 1 : k])
+    assert c.dropped == de.size - m and c.energy_jump.shape == de_k.shape
+    np.testing.assert_allclose(c.energy_jump, de_k, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.stress_jump, ds_k, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.strain_step, dg_k, rtol=1e-12)
+    # the jump of size S at grid point n: measured −ΔE grows with the strain left in the block
+    # after it, by (Σ_old − Σ_new) per unit strain (the curvature ½ G (kδγ)² is 1e-6 of that)
+    for n, size in jumps.items():
+        if n > m:
+            continue
+        block = (n - 1) // k
+        g_end = strain[(block + 1) * k]
+        drop = stress[n - 1] + 100.0 * 1e-5 - stress[n]  # Σ_old at γ_n minus Σ_new
+        expect = size + drop * (g_end - strain[n]) - 0.5 * 100.0 * (k * 1e-5) ** 2
+        assert -c.energy_jump[block] == pytest.approx(expect, rel=1e-6)
+
+
+def test_coarsen_steps_flags_and_samples_axis(rng):
+    de = rng.normal(size=(3, 10))
+    ds = rng.normal(size=(3, 10))
+    plastic = np.zeros((3, 10), bool)
+    plastic[0, 4] = plastic[2, 9] = True
+    jammed = np.ones((3, 11), bool)
+    jammed[1, 3] = False  # minimum 3 ends block 0 (minima 0..3) and starts block 1 (3..6)
+    c = coarsen_steps(de, ds, 1e-5, 3, plastic=plastic, jammed=jammed)
+    assert c.energy_jump.shape == (3, 3) and c.dropped == 1
+    assert c.plastic.tolist() == [[False, True, False], [False] * 3, [False] * 3]  # step 9 dropped
+    assert c.jammed.tolist() == [[True] * 3, [False, False, True], [True] * 3]
+    # by hand, block 0 of sample 0: ΔE_0 + (ΔE_1 + δγ ΔΣ_0) + (ΔE_2 + δγ (ΔΣ_0 + ΔΣ_1))
+    hand = de[0, 0] + de[0, 1] + de[0, 2] + 1e-5 * (2 * ds[0, 0] + ds[0, 1])
+    assert c.energy_jump[0, 0] == pytest.approx(hand, rel=1e-14)
+    for bad in (0, 11, 2.0):
+        with pytest.raises(ValueError):
+            coarsen_steps(de, ds, 1e-5, bad)
+    with pytest.raises(ValueError):
+        coarsen_steps(de, ds[:, :5], 1e-5, 2)
+    with pytest.raises(ValueError):
+        coarsen_steps(de, ds, 1e-5, 2, jammed=jammed[:, :10])

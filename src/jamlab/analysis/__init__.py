@@ -5,11 +5,13 @@ Imports neither :mod:`jamlab.theory` nor :mod:`jamlab.spheres`. Formulas and rul
 """
 
 from jamlab.analysis.avalanches import (
+    CoarseSteps,
     Exclusions,
     NoiseFloor,
     avalanche_sizes,
     branch_residual,
     classify_steps,
+    coarsen_steps,
     exclusions,
     jammed_steps,
     jumps_from_trace,
@@ -79,6 +81,8 @@ __all__ = [
     "fit_cutoff_scaling",
     "JointScaling",
     "fit_joint_scaling",
+    "CoarseSteps",
+    "coarsen_steps",
     "Exclusions",
     "exclusions",
     "jammed_steps",

@@ -33,10 +33,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "CoarseSteps",
     "NoiseFloor",
     "avalanche_sizes",
     "branch_residual",
     "classify_steps",
+    "coarsen_steps",
     "Exclusions",
     "exclusions",
     "jammed_steps",
@@ -293,4 +295,84 @@ def exclusions(
         n_steps_excluded=int(np.count_nonzero(~jmask)),
         n_avalanches=int(np.count_nonzero(every)),
         n_avalanches_excluded=int(np.count_nonzero(every & ~jmask)),
+    )
+
+
+@dataclass(frozen=True)
+class CoarseSteps:
+    """The steps of a trace seen at ``k`` times its strain step (:func:`coarsen_steps`).
+
+    Per coarse step ``K`` (minima ``Kk → (K+1)k``): ``energy_jump``, ``stress_jump``,
+    ``strain_step`` as :func:`jumps_from_trace` of the sub-sampled minima; ``plastic``: any of its
+    ``k`` steps plastic; ``jammed``: every one of its ``k + 1`` minima jammed (``None`` without
+    flags). ``k``; ``dropped``: the trailing steps that did not fill a block."""
+
+    energy_jump: FloatArray
+    stress_jump: FloatArray
+    strain_step: FloatArray
+    plastic: BoolArray | None
+    jammed: BoolArray | None
+    k: int
+    dropped: int
+
+
+def coarsen_steps(
+    energy_jump: ArrayLike,
+    stress_jump: ArrayLike,
+    strain_step: ArrayLike,
+    k: int,
+    *,
+    plastic: ArrayLike | None = None,
+    jammed: ArrayLike | None = None,
+) -> CoarseSteps:
+    """What a run at strain step ``k δγ`` through the same minima would have recorded: the steps
+    of a trace (per-step arrays along the last axis, as the trace's ``energy_jump``,
+    ``stress_jump`` and ``diff(gamma)``) grouped ``k`` at a time. With ``Σ_j = Σ_(Kk) + Σ_(i<j)
+    ΔΣ_i`` the stress at minimum ``j`` of block ``K``,
+
+        ΔE_K = E_((K+1)k) − E_(Kk) − (Σ_j δγ_j) Σ_(Kk) = Σ_j [ΔE_j + δγ_j (Σ_j − Σ_(Kk))],
+
+    so no absolute energy or stress is needed, and ``k = 1`` returns the input unchanged.
+    It is a test of the strain step's convergence without a new run: an avalanche whose size
+    depends on ``δγ`` (the branch's curvature ``½ G L^d δγ²`` and the stress drop times the
+    strain between the jump and the step's end both enter ``ΔE``) shows as a distribution of
+    sizes that moves with ``k``. It is not a rerun: a run at ``k δγ`` may land in other minima,
+    and events of one block merge into one. ``jammed`` is one flag per minimum (``M + 1`` along
+    the last axis, as :func:`classify_steps` takes it). ``ValueError`` for mismatched shapes or
+    ``k`` not a positive integer no larger than the number of steps."""
+    ej = np.asarray(energy_jump, dtype=np.float64)
+    sj = np.asarray(stress_jump, dtype=np.float64)
+    dg = np.broadcast_to(np.asarray(strain_step, dtype=np.float64), ej.shape)
+    if sj.shape != ej.shape or ej.ndim == 0:
+        raise ValueError(f"energy_jump {ej.shape} and stress_jump {sj.shape} must share a "
+                         "shape with a step axis")
+    m = ej.shape[-1]
+    if not (isinstance(k, int | np.integer) and 1 <= k <= m):
+        raise ValueError(f"k must be an integer in [1, {m}] (the steps), got {k!r}")
+    k = int(k)
+    blocks = m // k
+    shape = (*ej.shape[:-1], blocks, k)
+    ejb = ej[..., : blocks * k].reshape(shape)
+    sjb = sj[..., : blocks * k].reshape(shape)
+    dgb = dg[..., : blocks * k].reshape(shape)
+    before = np.cumsum(sjb, axis=-1) - sjb  # Σ_j − Σ_(Kk): the stress jumps before step j
+    pl = None
+    if plastic is not None:
+        pl = np.asarray(plastic, dtype=bool)
+        if pl.shape != ej.shape:
+            raise ValueError(f"plastic {pl.shape} and energy_jump {ej.shape} differ")
+        pl = pl[..., : blocks * k].reshape(shape).any(axis=-1)
+    jm = None
+    if jammed is not None:
+        jm = _jammed_mask(jammed, ej.shape)
+        assert jm is not None
+        jm = jm[..., : blocks * k].reshape(shape).all(axis=-1)
+    return CoarseSteps(
+        energy_jump=(ejb + dgb * before).sum(axis=-1),
+        stress_jump=sjb.sum(axis=-1),
+        strain_step=dgb.sum(axis=-1),
+        plastic=pl,
+        jammed=jm,
+        k=k,
+        dropped=m - blocks * k,
     )
