@@ -62,13 +62,13 @@ def test_a_scale_with_pressures_needs_their_sizes():
 def test_pressure_tau_counts_from_a_small_run(tmp_path):
     scale: Scale = replace(
         SCALES["tiny"], pressures=(1e-3,), pressure_n=(16,), pressure_samples=2,
-        pressure_gamma_max=0.03, min_tail=3,
+        pressure_gamma_max=0.2, min_tail=3,
     )
     name = pressure_run_name(1e-3)
     study = studies(scale)[name]
     run_study(study, tmp_path / name, Execution(workers=0))
     est = pressure_tau_estimates(RunSet(tmp_path), scale)[1e-3]
-    sizes, steps, x_steps, p_start = [], 0, 0, []
+    sizes, steps, x_steps, p_start, paired = [], 0, 0, [], []
     for f in sorted(glob.glob(str(tmp_path / name / "samples" / "*" / "*" / "*.h5"))):
         with h5py.File(f, "r") as h5:
             t = {k: h5["trace"][k][()] for k in h5["trace"]}
@@ -76,12 +76,34 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         ok = jm[:-1] & jm[1:]
         mask = pl & (de < 0) & ok
         sizes.append(-de[mask])
+        # at 2 δγ, from the enthalpy and stress of every other minimum (the coarse check's
+        # independent route): ΔE of minima 0, 2, 4, … with a plastic step and all minima jammed
+        g, h, sig = t["gamma"][::2], t["energy"][::2], t["shear_stress"][::2]
+        de2 = np.diff(h) - np.diff(g) * sig[:-1]
+        pl2, ok2 = pl.reshape(-1, 2).any(1), ok.reshape(-1, 2).all(1)
+        paired.append(-de2[pl2 & ok2 & (de2 < 0)])
         p_start.append(t["pressure"][:-1][mask])
         steps += de.size
         x_steps += int((~ok).sum())
         assert np.all(np.abs(t["pressure"] - 1e-3) <= 1e-9)  # at the target at every minimum
     sizes = np.concatenate(sizes)
-    assert est.samples == 2 and est.steps == steps == 60
+    # the same avalanches at 2 δγ (steps paired), recounted here from every other minimum
+    from jamlab.reproduce.ensembles import avalanche_set, coarse_avalanches
+    from jamlab.reproduce.measurements import cutoff_coarse
+
+    ds = RunSet(tmp_path)[name]
+    one = coarse_avalanches(ds, "jamming", 16, 1)
+    assert np.array_equal(one.sizes, avalanche_set(ds, "jamming", 16).sizes)
+    two = np.concatenate(paired)
+    assert two.size >= 10
+    np.testing.assert_allclose(np.sort(coarse_avalanches(ds, "jamming", 16, 2).sizes),
+                               np.sort(two), rtol=1e-9, atol=1e-15)
+    x_min = 0.999 * float(two.min())  # all of them, whatever the rounding of either route
+    low = fit_cutoff_power_law(sizes, x_min)
+    assert cutoff_coarse("jamming", [(ds, 16)], low).tau == pytest.approx(
+        fit_cutoff_power_law(two, x_min).tau, rel=1e-6)
+    assert cutoff_coarse("jamming", [(ds, 16)], None) is None
+    assert est.samples == 2 and est.steps == steps == 400
     assert est.n_avalanches == sizes.size and est.n_steps_excluded == x_steps
     assert est.jammed_known
     if sizes.size:
@@ -104,6 +126,12 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         shape = cutoff_shape_profile(sizes, ref.x_min)
         assert est.cutoff_shape.taus == shape.taus
         assert est.cutoff_shape.logliks == shape.logliks
+        if np.count_nonzero(two >= ref.x_min) >= 10:
+            assert est.cutoff_coarse.tau == pytest.approx(
+                fit_cutoff_power_law(two, ref.x_min).tau, rel=1e-6)
+            assert "at 2 δγ" in cut_row.value_text
+        else:
+            assert est.cutoff_coarse is None and "δγ" not in cut_row.value_text
     else:
         assert est.cutoff is None and cut_row.value_text == "n/a"
         assert est.cutoff_shape is None

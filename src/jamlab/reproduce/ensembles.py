@@ -16,9 +16,11 @@ import numpy as np
 
 __all__ = [
     "AvalancheSet",
+    "CoarseAvalanches",
     "RunSet",
     "avalanche_set",
     "avalanche_sizes_of",
+    "coarse_avalanches",
     "finished",
     "intensive_stress",
 ]
@@ -91,6 +93,46 @@ def avalanche_sizes_of(ds: Any, label: str, n: int) -> tuple[np.ndarray, int, in
     """``(sizes, number of AQS steps, number of samples)`` of :func:`avalanche_set`."""
     a = avalanche_set(ds, label, n)
     return a.sizes, a.steps, a.samples
+
+
+@dataclass(frozen=True)
+class CoarseAvalanches:
+    """The avalanches of the finished samples at one ``(φ label, N)`` seen at ``k δγ``
+    (:func:`coarse_avalanches`). ``sizes``: ``S = −ΔE`` of the blocks of ``k`` steps with a
+    plastic step, ``ΔE < 0`` and every minimum jammed (the rule of :func:`avalanche_set`, which
+    ``k = 1`` reproduces); ``lost``: such blocks with ``ΔE ≥ 0`` (a jump smaller than the
+    branch's curvature energy over the block); ``curvature``: ``½ δγ ΔΣ`` of the elastic blocks, the
+    branch's curvature energy over one block; ``strain``: the strain of all blocks of all samples
+    (summed over the samples); ``samples``."""
+
+    k: int
+    sizes: np.ndarray
+    lost: int
+    curvature: np.ndarray
+    strain: float
+    samples: int
+
+
+def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
+    """:class:`CoarseAvalanches` of ``(label, n)``: the steps of each finished sample grouped
+    ``k`` at a time by :func:`jamlab.analysis.coarsen_steps` (what a run at ``k δγ`` through the
+    same minima would record; trailing steps that do not fill a block are left out)."""
+    from jamlab.analysis import coarsen_steps
+
+    done = finished(ds, label, n)
+    if not done.any():
+        return CoarseAvalanches(int(k), np.empty(0), 0, np.empty(0), 0.0, 0)
+    ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
+    sj = np.asarray(ds.stress_jump.sel(phi=label, N=n).values)[done, 1:]
+    dg = np.diff(np.asarray(ds.gamma.sel(phi=label, N=n).values)[done], axis=1)
+    pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
+    c = coarsen_steps(ej, sj, dg, k, plastic=pl, jammed=jammed_flags(ds, label, n))
+    ok = c.plastic if c.jammed is None else c.plastic & c.jammed
+    elastic = ~c.plastic if c.jammed is None else ~c.plastic & c.jammed
+    return CoarseAvalanches(
+        int(k), -c.energy_jump[ok & (c.energy_jump < 0)], int(np.count_nonzero(
+            ok & (c.energy_jump >= 0))), 0.5 * c.strain_step[elastic] * c.stress_jump[elastic],
+        float(c.strain_step.sum()), int(done.sum()))
 
 
 def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:

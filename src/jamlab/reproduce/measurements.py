@@ -56,6 +56,8 @@ __all__ = [
     "tau_estimates",
     "tau_sigma",
     "with_cutoff",
+    "COARSE_K",
+    "cutoff_coarse",
     "cutoff_shape",
 ]
 
@@ -138,6 +140,7 @@ class TauEstimate:
     cutoff_sigma: float = math.nan
     cutoff_made: bool = False  # whether the cut-off fit was asked for (with_cutoff)
     cutoff_shape: Any = None  # the profile over the cut-off's shape at the cut-off fit's x_min
+    cutoff_coarse: Any = None  # the cut-off fit at COARSE_K δγ (steps paired), at the same x_min
 
     @property
     def exclusion_text(self) -> str:
@@ -197,7 +200,30 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     pooled = np.concatenate(sizes) if sizes else np.empty(0)
     cut = fit_tau_cutoff(pooled, scale)
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
-                   cutoff_shape=cutoff_shape(pooled, cut))
+                   cutoff_shape=cutoff_shape(pooled, cut),
+                   cutoff_coarse=cutoff_coarse(est.label, sources, cut))
+
+
+#: The strain step of the report's convergence check, in units of the run's ``δγ``.
+COARSE_K = 2
+
+
+def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
+    """The fit with an exponential cut-off of the avalanches at ``COARSE_K δγ`` (the steps of each
+    sample paired, :func:`jamlab.reproduce.ensembles.coarse_avalanches`) at ``cut``'s ``x_min``,
+    no bootstrap; None without ``cut`` or with fewer than 10 sizes there. Its difference from
+    ``cut`` is what doubling the strain step does to τ in that window: a check that the run's
+    ``δγ`` is small enough, since halving it is expected to move τ by less (docs/reproduce.md)."""
+    from jamlab.analysis import fit_cutoff_power_law
+    from jamlab.reproduce.ensembles import coarse_avalanches
+
+    if cut is None:
+        return None
+    parts = [coarse_avalanches(ds, label, n, COARSE_K).sizes for ds, n in sources]
+    sizes = np.concatenate(parts) if parts else np.empty(0)
+    if np.count_nonzero(sizes >= cut.x_min) < 10:
+        return None
+    return fit_cutoff_power_law(sizes, cut.x_min)
 
 
 def cutoff_shape(sizes: np.ndarray, cut: Any) -> Any:

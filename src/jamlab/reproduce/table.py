@@ -184,10 +184,21 @@ def cutoff_row(quantity: str, reference_text: str, e: TauEstimate,
         reference_text=reference_text,
         value=c.tau if c is not None else float("nan"),
         error=e.cutoff_sigma,
-        value_text=cutoff_fit_text(c, e.cutoff_sigma),
+        value_text=cutoff_fit_text(c, e.cutoff_sigma) + coarse_text(c, e.cutoff_coarse),
         samples=f"the same {e.n_avalanches} avalanches",
         comparisons=comparisons,
     )
+
+
+def coarse_text(cut: Any, coarse: Any) -> str:
+    """The cut-off fit at twice the strain step (steps paired) beside the fit ``cut``, or ``""``
+    when either is missing."""
+    from jamlab.reproduce.measurements import COARSE_K
+
+    if cut is None or coarse is None:
+        return ""
+    return (f"; at {COARSE_K} δγ (the same minima, steps paired; same x_min): τ = "
+            f"{coarse.tau:.3f} (Δ = {coarse.tau - cut.tau:+.3f}), tail {coarse.n_tail}")
 
 
 def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
@@ -253,9 +264,12 @@ def cutoff_data(e: TauEstimate) -> dict[str, Any] | None:
         best_a=p.best, tau=p.tau_best, tau_stderr=p.tau_best_stderr, tau_low=p.tau_low,
         tau_high=p.tau_high, a_low=p.a_low, a_high=p.a_high, a_grid=list(p.stretches),
         lr_exponential=p.lr_exponential)
+    k = e.cutoff_coarse
+    coarse = None if k is None else dict(tau=k.tau, tau_stderr=k.tau_stderr, n_tail=k.n_tail)
     return None if c is None else dict(
         tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
-        x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail, shape=shape)
+        x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail, shape=shape,
+        coarse_2dgamma=coarse)
 
 
 def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
