@@ -29,7 +29,7 @@ import numpy as np
 
 from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 from jamlab.reproduce.scales import SCALES, studies
-from jamlab.reproduce.table import shape_text
+from jamlab.reproduce.table import coarse_text, shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
@@ -78,6 +78,8 @@ def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None)
                  f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
         print("tau with the cut-off's shape free (the report's third row): "
               + shape_text(est.cutoff_shape))
+        print("the cut-off fit at twice the strain step (the second row's check): "
+              + (coarse_text(cut, est.cutoff_coarse).lstrip("; ") or "n/a"))
 
 
 def main(argv: list[str] | None = None) -> int:
