@@ -1,136 +1,173 @@
-"""Is the strain step small enough? The avalanche sizes of finished runs seen at ``k δγ``.
+"""Is the strain step small enough? Avalanches at fixed pressure over one strain window, δγ varied.
 
-For the avalanches of finished run directories (φ label ``jamming`` at each ``--n``, jammed steps
-only, as the report counts them), the trace's steps are grouped ``k`` at a time for each ``k`` of
-``--k`` (:func:`jamlab.reproduce.ensembles.coarse_avalanches`, by
-:func:`jamlab.analysis.coarsen_steps`: what a run at ``k δγ`` through the same minima would have
-recorded), and the avalanches recounted with the report's rule (plastic, ``ΔE < 0``, every
-minimum of the block jammed). Per ``k``:
+For each ``δγ`` in ``--dgamma`` and sample seeds ``1 … --samples``: ``jam(N, 3, seed,
+p_target=p)`` and fixed-pressure AQS over the same strain window ``--strain`` (``strain/δγ``
+steps; :func:`finite_size_pressure.run_samples`, the default Newton path and plastic flag, one
+cache file per sample: a rerun continues). The packings are the same for every ``δγ``, so any
+difference is the step's.
 
-- avalanches per unit strain and per sample, and the plastic steps lost because ``ΔE ≥ 0``;
-- ``½ δγ ΔΣ`` of the elastic steps (median): the branch's curvature energy over one step, which
-  a jump must exceed to show ``ΔE < 0``;
-- quantiles of ``S`` (10, 25, 50 %): the lower part of the distribution, the one ``δγ`` can move;
-- τ of the exponential cut-off (:func:`jamlab.analysis.fit_cutoff_power_law` at a fixed
-  ``S_min``) at the report's window (its KS rule at ``k = 1``) and at ``--smin`` values.
+If ``δγ`` exceeds the strain between events (near jamming the linear-response strain shrinks
+with ``p``), one step holds several events and the flag counts them as one: fewer, larger
+avalanches. So, per ``δγ``: the number of avalanches per unit strain, ``⟨S⟩``, the dissipation
+``ΣS`` per unit strain (a sum over events: unchanged by merging, changed by missed events) and
+τ (power law with an exponential cut-off at a fixed floor), all **above one common floor**,
+10 × the largest plastic-flag threshold of all runs (the flag's threshold depends on ``δγ``
+through the noise of the trapezoid residual; below the floor a smaller ``δγ`` resolves more
+small events whether or not the larger one merges them). Errors: bootstrap over samples
+(500 resamples). The two-sample KS test compares each ``δγ`` with the smallest above the floor.
 
-Where the change from ``k = 1`` to ``k = 2`` grows with ``k`` (the sequence shows it), halving
-``δγ`` is expected to move a value by less than doubling it does, and the run's ``δγ`` is
-converged where that difference is within the statistical error. Where it is not, the sequence
-gives the order of the ``δγ → 0`` correction (it is not an upper bound on it: the steps add up).
-``k = 1`` must reproduce the report's avalanches exactly (the script stops otherwise).
-
-``--figure``: ``S P(S)`` per unit strain against ``S`` for every ``k``, one panel per run.
-
-    PYTHONPATH=src python scripts/dgamma_convergence.py RUNS/pressure-1e-03 RUNS/pressure-1e-04 \\
-        --n 500 1000 --figure docs/figures/dgamma_convergence.png
+    PYTHONPATH=src python scripts/dgamma_convergence.py --n 250 --pressure 1e-5 \\
+        --strain 2e-3 --dgamma 1e-5 3e-6 1e-6 --samples 30 --cache dg-cache --workers 2 \\
+        --figure docs/figures/dgamma_p1e-5.png
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-from dataclasses import replace
+import sys
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
-from jamlab.analysis import fit_cutoff_power_law
-from jamlab.reproduce.ensembles import avalanche_set, coarse_avalanches
-from jamlab.reproduce.measurements import fit_tau_cutoff
-from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_run
+from jamlab.analysis.cutoff_powerlaw import fit_cutoff_power_law
 
-
-def tau_at(s: np.ndarray, s_min: float) -> str:
-    if np.count_nonzero(s >= s_min) < 30:
-        return "—"
-    f = fit_cutoff_power_law(s, s_min)
-    return f"{f.tau:.3f} ± {f.tau_stderr:.3f} ({f.n_tail})"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from finite_size_pressure import (  # noqa: E402  (scripts run as scripts)
+    read_sample,
+    run_samples,
+    sample_file,
+)
 
 
-def figure(path: Path, panels: list, ks: list[int]) -> None:
-    import matplotlib
+def bootstrap(per_sample: list[np.ndarray], stat, n_boot: int = 500, seed: int = 1) -> float:
+    """Standard deviation of ``stat(list of samples)`` over resamples of the samples."""
+    rng = np.random.default_rng(seed)
+    k = len(per_sample)
+    vals = [stat([per_sample[i] for i in rng.integers(0, k, k)]) for _ in range(n_boot)]
+    vals = np.asarray(vals, dtype=np.float64)
+    return float(np.nanstd(vals[np.isfinite(vals)], ddof=1))
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    cols = min(4, len(panels))
-    rows = -(-len(panels) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.6 * rows), squeeze=False)
-    for ax in axes.flat[len(panels):]:
-        ax.set_visible(False)
-    for ax, (title, per_k) in zip(axes.flat, panels, strict=False):
-        lo = min(float(v.sizes.min()) for v in per_k.values())
-        hi = max(float(v.sizes.max()) for v in per_k.values())
-        edges = np.geomspace(lo, hi * 1.0001, 31)
-        mid = np.sqrt(edges[1:] * edges[:-1])
-        for k in ks:
-            v = per_k[k]
-            h, _ = np.histogram(v.sizes, edges)
-            dens = h / np.diff(edges) / v.strain * mid  # strain summed over the samples
-            ok = h > 0
-            ax.loglog(mid[ok], dens[ok], "o-", ms=3, lw=1,
-                      label=f"{k} δγ: {v.sizes.size} avalanches")
-        ax.set_xlabel("S (ε)")
-        ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=7)
-    for ax in axes[:, 0]:
-        ax.set_ylabel("S P(S) per unit strain and sample")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    print(f"\nfigure: {path}")
+def mean_size(samples: list[np.ndarray]) -> float:
+    s = np.concatenate(samples)
+    return float(s.mean()) if s.size else np.nan
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", default=[1000], help="sizes N, each on its own")
-    ap.add_argument("--k", type=int, nargs="+", default=[1, 2, 4, 8])
-    ap.add_argument("--smin", type=float, nargs="*", default=[1e-9, 3e-9, 1e-8, 3e-8, 1e-7])
-    ap.add_argument("--scale", default="medium", choices=sorted(SCALES))
+    ap.add_argument("--n", type=int, default=250)
+    ap.add_argument("--pressure", type=float, default=1e-5)
+    ap.add_argument("--strain", type=float, default=2e-3)
+    ap.add_argument("--dgamma", type=float, nargs="+", default=[1e-5, 3e-6, 1e-6])
+    ap.add_argument("--samples", type=int, default=30)
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--cache", type=Path, default=Path("dg-cache"))
     ap.add_argument("--figure", type=Path, default=None)
+    ap.add_argument("--analyse-only", action="store_true")
     a = ap.parse_args()
-    if a.k[0] != 1 or sorted(set(a.k)) != a.k:
-        raise SystemExit("--k must start at 1 and increase")
-    scale = replace(SCALES[a.scale], n_boot=0)
-    panels = []
-    for run in a.runs:
-        ds = open_run(run)
-        for n in a.n:
-            if n not in ds.N.values:
-                continue
-            per_k = {k: coarse_avalanches(ds, "jamming", n, k) for k in a.k}
-            report = avalanche_set(ds, "jamming", n).sizes
-            if not np.array_equal(per_k[1].sizes, report):
-                raise SystemExit(f"{run}, N = {n}: k = 1 does not give the report's avalanches")
-            dgamma = float(np.median(np.diff(ds.sel(phi="jamming", N=n).gamma.values[0])))
-            cut = fit_tau_cutoff(report, scale)
-            windows = ([cut.x_min] if cut is not None else []) + list(a.smin)
-            pressure = json.loads(ds.attrs["study"]).get("pressure")
-            largest = "" if pressure is None or not report.size else (
-                f"; the largest size {report.max():.3g} ε = {report.max() / pressure:.2f} p")
-            print(f"\n# {run}, N = {n}: {per_k[1].samples} samples, δγ = {dgamma:.3g}; "
-                  f"the report's cut-off window S ≥ "
-                  f"{'—' if cut is None else f'{cut.x_min:.3g}'}{largest}\n")
-            head = ["k δγ", "avalanches per unit strain and sample", "lost (ΔE ≥ 0)",
-                    "½ δγ ΔΣ elastic, median", "S at 10 / 25 / 50 %"]
-            head += [f"τ, S ≥ {w:.3g}" + (" (report)" if cut is not None and i == 0 else "")
-                     for i, w in enumerate(windows)]
-            print("| " + " | ".join(head) + " |")
-            print("|---" * len(head) + "|")
-            for k in a.k:
-                v = per_k[k]
-                s = v.sizes
-                q = np.quantile(s, [0.1, 0.25, 0.5])
-                row = [f"{k * dgamma:.2g}", f"{s.size / v.strain:.3g}", str(v.lost),
-                       f"{np.median(v.curvature):.2g}",
-                       " / ".join(f"{x:.2g}" for x in q)]
-                row += [tau_at(s, w) for w in windows]
-                print("| " + " | ".join(row) + " |")
-            panels.append((f"{run.name}, N = {n}", per_k))
-    if a.figure is not None and panels:
-        figure(a.figure, panels, a.k)
+    if a.samples < 2 or a.strain <= 0 or any(not dg > 0 for dg in a.dgamma):
+        ap.error("need --samples >= 2, --strain > 0 and every --dgamma > 0")
+    a.cache.mkdir(parents=True, exist_ok=True)
+    steps = {dg: int(round(a.strain / dg)) for dg in a.dgamma}
+    tasks = [(a.n, a.pressure, dg, steps[dg], seed, a.cache)
+             for dg in a.dgamma for seed in range(1, a.samples + 1)]
+    if not a.analyse_only:
+        run_samples(tasks, a.workers)
+    sizes: dict[float, list[np.ndarray]] = {}
+    thresholds: dict[float, list[float]] = {}
+    cpu: dict[float, float] = {}
+    for task in tasks:
+        z = read_sample(task)
+        if z is None:
+            continue
+        if z["threshold"] is None:
+            n, p, dg, st, seed, cache = task
+            sys.exit(f"error: {sample_file(cache, n, p, dg, st, seed)} has no flag threshold "
+                     "(an old cache file)")
+        dg = task[2]
+        sizes.setdefault(dg, []).append(z["sizes"])
+        thresholds.setdefault(dg, []).append(z["threshold"])
+        cpu[dg] = cpu.get(dg, 0.0) + z["cpu"]
+    if len(sizes) < 2:
+        sys.exit("error: fewer than two δγ have samples in the cache")
+    # the same seeds for every δγ: keep the seeds all δγ have
+    k = min(len(v) for v in sizes.values())
+    sizes = {dg: v[:k] for dg, v in sizes.items()}
+    floor = 10.0 * max(max(t[:k]) for t in thresholds.values())
+    smallest = min(sizes)
+    ref = np.concatenate([s[s >= floor] for s in sizes[smallest]])
+    print(f"\nN = {a.n}, p = {a.pressure:g}, strain window {a.strain:g} per sample, {k} samples "
+          f"(seeds 1–{k}), the same packings for every δγ; common floor S ≥ {floor:.3g} ε "
+          f"(10 × the largest flag threshold)\n")
+    print("| δγ | steps | median threshold (ε) | avalanches (all) | above the floor | "
+          "per unit strain | ⟨S⟩ above the floor | ΣS per unit strain | τ at the floor | "
+          f"KS vs δγ = {smallest:g} | CPU s per sample |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    strain = k * a.strain  # the total strain of the k samples
+
+    def count(x: list[np.ndarray]) -> float:
+        return sum(y.size for y in x) / strain
+
+    def dissipation(x: list[np.ndarray]) -> float:
+        return sum(float(y.sum()) for y in x) / strain
+
+    curves = {}
+    for dg in sorted(sizes, reverse=True):
+        v = sizes[dg]
+        above = [s[s >= floor] for s in v]
+        pooled = np.concatenate(above)
+        rate = count(above)
+        rate_err = bootstrap(above, count)
+        mean = mean_size(above)
+        mean_err = bootstrap(above, mean_size)
+        diss = dissipation(above)
+        diss_err = bootstrap(above, dissipation)
+        if pooled.size >= 30:
+            c = fit_cutoff_power_law(pooled, float(floor))
+            tau = f"{c.tau:.3f} ± {c.tau_stderr:.3f}"
+        else:
+            tau = f"{pooled.size} sizes: no fit"
+        ks = "—"
+        if dg != smallest:
+            r = stats.ks_2samp(pooled, ref)
+            ks = f"D = {r.statistic:.3f}, p = {r.pvalue:.2g}"
+        print(f"| {dg:g} | {steps[dg]} | {np.median(thresholds[dg][:k]):.3g} | "
+              f"{sum(s.size for s in v)} | {pooled.size} | {rate:.4g} ± {rate_err:.2g} | "
+              f"{mean:.3e} ± {mean_err:.1e} | {diss:.3e} ± {diss_err:.1e} | {tau} | {ks} | "
+              f"{cpu[dg] / k:.0f} |")
+        curves[dg] = np.sort(np.concatenate(v))
+    # where the δγ differ: avalanches per unit strain in decades of S, every counted size
+    lo = np.floor(np.log10(min(float(c[0]) for c in curves.values() if c.size)))
+    hi = np.ceil(np.log10(max(float(c[-1]) for c in curves.values() if c.size)))
+    edges = 10.0 ** np.arange(lo, hi + 1)
+    print("\navalanches per unit strain by decade of S (all counted sizes, each run's own flag):")
+    print("| δγ | " + " | ".join(f"[{a:.0e}, {b:.0e})" for a, b in zip(edges[:-1], edges[1:],
+                                                                    strict=True)) + " |")
+    print("|---|" + "---|" * (edges.size - 1))
+    for dg, c in curves.items():
+        h = np.histogram(c, edges)[0]
+        print(f"| {dg:g} | " + " | ".join(f"{x / strain:.0f}" for x in h) + " |")
+    if a.figure is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(5.5, 4))
+        for dg, s in curves.items():
+            # counts per unit strain above S: the rate, so merging shows as a lower curve
+            ax.loglog(s, (s.size - np.arange(s.size)) / strain, ".-", ms=3,
+                      label=f"δγ = {dg:g}")
+        ax.set_xlabel("avalanche size S = −ΔH (ε)")
+        ax.set_ylabel("avalanches of size ≥ S per unit strain")
+        ax.axvline(floor, color="0.5", ls="--", lw=1, label="common floor")
+        ax.set_title(f"N = {a.n}, p = {a.pressure:g}, {k} packings, strain {a.strain:g} each")
+        ax.legend()
+        fig.tight_layout()
+        a.figure.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(a.figure, dpi=130)
+        print(f"figure: {a.figure}")
 
 
 if __name__ == "__main__":
