@@ -212,8 +212,9 @@ def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
     """The fit with an exponential cut-off of the avalanches at ``COARSE_K δγ`` (the steps of each
     sample paired, :func:`jamlab.reproduce.ensembles.coarse_avalanches`) at ``cut``'s ``x_min``,
     no bootstrap; None without ``cut`` or with fewer than 10 sizes there. Its difference from
-    ``cut`` is what doubling the strain step does to τ in that window: a check that the run's
-    ``δγ`` is small enough, since halving it is expected to move τ by less (docs/reproduce.md)."""
+    ``cut`` is what doubling the strain step does to τ in that window: a check of the run's
+    ``δγ`` (where the change grows with the step, halving ``δγ`` moves τ by less; the
+    ``δγ → 0`` correction can exceed it: docs/reproduce.md)."""
     from jamlab.analysis import fit_cutoff_power_law
     from jamlab.reproduce.ensembles import coarse_avalanches
 
