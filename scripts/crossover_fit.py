@@ -100,10 +100,9 @@ def fit(tail: np.ndarray, s_min: float, tau0: float, tau_fixed: float | None = N
 def report(s: np.ndarray, s_min: float, tau0: float, name: str) -> None:
     tail = np.sort(s[s >= s_min])
     ll, tau, ls, lc = fit(tail, s_min, tau0)
-    for check in (log_norm(s_min, tau0, tau, ls, lc),):
-        ref = quad_log_norm(s_min, tau0, tau, ls, lc)
-        if abs(check - ref) > 1e-8:
-            raise SystemExit(f"{name}: Simpson's normaliser {check} and quad's {ref} differ")
+    simpson, ref = log_norm(s_min, tau0, tau, ls, lc), quad_log_norm(s_min, tau0, tau, ls, lc)
+    if abs(simpson - ref) > 1e-8:
+        raise SystemExit(f"{name}: Simpson's normaliser {simpson} and quad's {ref} differ")
     grid = np.round(np.arange(tau - 0.5, tau + 0.51, 0.05), 3)
     prof = [(t, fit(tail, s_min, tau0, float(t))[0]) for t in grid if -1.0 < t < 4.0]
     inside = [t for t, v in prof if 2.0 * (ll - v) <= CHI2_1_95]

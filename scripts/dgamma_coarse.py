@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import fit_cutoff_power_law
+from jamlab.analysis import fit_cutoff_power_law, log_histogram
 from jamlab.reproduce.ensembles import avalanche_set, coarse_avalanches
 from jamlab.reproduce.measurements import fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
@@ -64,14 +64,14 @@ def figure(path: Path, panels: list, ks: list[int]) -> None:
     for ax, (title, per_k) in zip(axes.flat, panels, strict=False):
         lo = min(float(v.sizes.min()) for v in per_k.values())
         hi = max(float(v.sizes.max()) for v in per_k.values())
-        edges = np.geomspace(lo, hi * 1.0001, 31)
-        mid = np.sqrt(edges[1:] * edges[:-1])
         for k in ks:
             v = per_k[k]
-            h, _ = np.histogram(v.sizes, edges)
-            dens = h / np.diff(edges) / v.strain * mid  # strain summed over the samples
-            ok = h > 0
-            ax.loglog(mid[ok], dens[ok], "o-", ms=3, lw=1,
+            # one range for every k; density per size, rescaled to per unit strain (summed
+            # over the samples)
+            h = log_histogram(v.sizes, 3, range=(lo, hi * 1.0001))
+            dens = h.density * v.sizes.size / v.strain * h.centres
+            ok = h.counts > 0
+            ax.loglog(h.centres[ok], dens[ok], "o-", ms=3, lw=1,
                       label=f"{k} δγ: {v.sizes.size} avalanches")
         ax.set_xlabel("S (ε)")
         ax.set_title(title, fontsize=9)

@@ -79,7 +79,7 @@ def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None)
         print("tau with the cut-off's shape free (the report's third row): "
               + shape_text(est.cutoff_shape))
         print("the cut-off fit at twice the strain step (the second row's check): "
-              + (coarse_text(cut, est.cutoff_coarse).lstrip("; ") or "n/a"))
+              + (coarse_text(cut, est.cutoff_coarse) or "n/a"))
 
 
 def main(argv: list[str] | None = None) -> int:

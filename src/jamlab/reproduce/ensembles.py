@@ -117,7 +117,7 @@ def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
     """:class:`CoarseAvalanches` of ``(label, n)``: the steps of each finished sample grouped
     ``k`` at a time by :func:`jamlab.analysis.coarsen_steps` (what a run at ``k δγ`` through the
     same minima would record; trailing steps that do not fill a block are left out)."""
-    from jamlab.analysis import coarsen_steps
+    from jamlab.analysis import classify_steps, coarsen_steps
 
     done = finished(ds, label, n)
     if not done.any():
@@ -127,12 +127,14 @@ def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
     dg = np.diff(np.asarray(ds.gamma.sel(phi=label, N=n).values)[done], axis=1)
     pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
     c = coarsen_steps(ej, sj, dg, k, plastic=pl, jammed=jammed_flags(ds, label, n))
-    ok = c.plastic if c.jammed is None else c.plastic & c.jammed
-    elastic = ~c.plastic if c.jammed is None else ~c.plastic & c.jammed
+    jammed = np.ones_like(c.plastic) if c.jammed is None else c.jammed
+    events = c.plastic & jammed
+    counted = classify_steps(c.energy_jump, events)  # the report's rule: also ΔE < 0
+    elastic = ~c.plastic & jammed
     return CoarseAvalanches(
-        int(k), -c.energy_jump[ok & (c.energy_jump < 0)], int(np.count_nonzero(
-            ok & (c.energy_jump >= 0))), 0.5 * c.strain_step[elastic] * c.stress_jump[elastic],
-        float(c.strain_step.sum()), int(done.sum()))
+        int(k), -c.energy_jump[counted], int(np.count_nonzero(events & (c.energy_jump >= 0))),
+        0.5 * c.strain_step[elastic] * c.stress_jump[elastic], float(c.strain_step.sum()),
+        int(done.sum()))
 
 
 def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:

@@ -184,7 +184,8 @@ def cutoff_row(quantity: str, reference_text: str, e: TauEstimate,
         reference_text=reference_text,
         value=c.tau if c is not None else float("nan"),
         error=e.cutoff_sigma,
-        value_text=cutoff_fit_text(c, e.cutoff_sigma) + coarse_text(c, e.cutoff_coarse),
+        value_text="; ".join(t for t in (cutoff_fit_text(c, e.cutoff_sigma),
+                                         coarse_text(c, e.cutoff_coarse)) if t),
         samples=f"the same {e.n_avalanches} avalanches",
         comparisons=comparisons,
     )
@@ -197,7 +198,7 @@ def coarse_text(cut: Any, coarse: Any) -> str:
 
     if cut is None or coarse is None:
         return ""
-    return (f"; at {COARSE_K} δγ (the same minima, steps paired; same x_min): τ = "
+    return (f"at {COARSE_K} δγ (the same minima, steps paired; same x_min): τ = "
             f"{coarse.tau:.3f} (Δ = {coarse.tau - cut.tau:+.3f}), tail {coarse.n_tail}")
 
 
