@@ -29,7 +29,7 @@ import numpy as np
 
 from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 from jamlab.reproduce.scales import SCALES, studies
-from jamlab.reproduce.table import coarse_text, shape_text
+from jamlab.reproduce.table import coarse_text, converged_text, shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
@@ -80,6 +80,8 @@ def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None)
               + shape_text(est.cutoff_shape))
         print("the cut-off fit at twice the strain step (the second row's check): "
               + (coarse_text(cut, est.cutoff_coarse) or "n/a"))
+        print("the cut-off fit from the lowest δγ-converged floor (the second row's end): "
+              + (converged_text(est.cutoff_converged) or "n/a"))
 
 
 def main(argv: list[str] | None = None) -> int:

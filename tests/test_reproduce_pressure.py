@@ -130,6 +130,16 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
             assert est.cutoff_coarse.tau == pytest.approx(
                 fit_cutoff_power_law(two, ref.x_min).tau, rel=1e-6)
             assert "at 2 δγ" in cut_row.value_text
+            # the δγ-converged floor, from the sizes recounted here at 1 and 2 δγ
+            from jamlab.reproduce.measurements import converged_window
+
+            w = converged_window(sizes, two, ref.x_min, min_tail=10, n_boot=scale.n_boot,
+                                 seed=scale.seed)
+            np.testing.assert_allclose(np.array(est.cutoff_converged.tried),
+                                       np.array(w.tried), rtol=1e-6)
+            if w.fit is not None:
+                assert est.cutoff_converged.fit.tau == pytest.approx(w.fit.tau, rel=1e-6)
+                assert "δγ-converged" in cut_row.value_text
         else:
             assert est.cutoff_coarse is None and "δγ" not in cut_row.value_text
     else:
@@ -202,3 +212,72 @@ def test_the_constant_volume_tau_has_a_cutoff_row_too():
     data = tau_data(est)["tau_jamming_cutoff"]["shape"]
     assert (data["tau_low"], data["tau_high"], data["best_a"]) == (
         shape.tau_low, shape.tau_high, shape.best)
+
+
+def _cutoff_sample(rng: np.random.Generator, n: int, tau: float, x_c: float) -> np.ndarray:
+    """``n`` draws of ``x^(−τ) e^(−x/x_c)`` on ``x ≥ 1``: Pareto draws thinned by the cut-off."""
+    out: list[np.ndarray] = []
+    while sum(a.size for a in out) < n:
+        x = rng.pareto(tau - 1.0, 4 * n) + 1.0
+        out.append(x[rng.random(x.size) < np.exp(-x / x_c)])
+    return np.concatenate(out)[:n]
+
+
+def test_converged_window_keeps_the_ks_window_when_the_step_changes_nothing():
+    from jamlab.reproduce.measurements import converged_window
+
+    s = _cutoff_sample(np.random.default_rng(3), 4000, 1.5, 1e3)
+    w = converged_window(s, s.copy(), 1.0, min_tail=50)
+    assert w.raised == 0 and len(w.tried) == 1
+    ref = fit_cutoff_power_law(s, 1.0)
+    assert w.fit.tau == ref.tau and w.coarse.tau == ref.tau and w.fit.x_min == 1.0
+
+
+def test_converged_window_rises_above_a_foot_the_step_removed():
+    from jamlab.reproduce.measurements import CONVERGED_STEP, converged_window
+
+    s = _cutoff_sample(np.random.default_rng(4), 20000, 1.5, 1e3)
+    foot = 10 ** 0.6  # the coarse step lost every size below it, kept every size above
+    two = s[s >= foot]
+    w = converged_window(s, two, 1.0, min_tail=50, n_boot=30, seed=1)
+    floor = CONVERGED_STEP ** 3  # the first quarter-decade floor above the foot
+    assert w.raised == 3 and w.fit.x_min == pytest.approx(floor, rel=1e-12)
+    # the accepted window, refitted here: the same sizes above it in both, so no difference
+    ref = fit_cutoff_power_law(s, w.fit.x_min)
+    assert w.fit.tau == pytest.approx(ref.tau, rel=1e-12)
+    assert w.coarse.tau == pytest.approx(ref.tau, rel=1e-12)
+    assert w.fit.ci_low < ref.tau < w.fit.ci_high
+    # every floor below it, refitted here, has the coarse fit more than one σ away
+    for x, t, t2, se in w.tried[:-1]:
+        one, other = fit_cutoff_power_law(s, x), fit_cutoff_power_law(two, x)
+        assert (t, t2, se) == pytest.approx((one.tau, other.tau, one.tau_stderr), rel=1e-12)
+        assert abs(other.tau - one.tau) > one.tau_stderr
+
+
+def test_converged_window_says_when_no_floor_is_converged():
+    from jamlab.reproduce.measurements import CONVERGED_STEP, converged_window
+
+    rng = np.random.default_rng(5)
+    s = _cutoff_sample(rng, 3000, 1.5, 1e3)
+    two = _cutoff_sample(rng, 3000, 2.5, 1e3)  # another law at every floor
+    w = converged_window(s, two, 1.0, min_tail=100)
+    assert w.fit is None and w.coarse is None and w.raised == -1
+    floors = CONVERGED_STEP ** np.arange(len(w.tried) + 1)
+    # tried while both keep 100 sizes, and no further
+    for x in floors[:-1]:
+        assert np.count_nonzero(s >= x) >= 100 and np.count_nonzero(two >= x) >= 100
+    last = floors[-1]
+    assert np.count_nonzero(s >= last) < 100 or np.count_nonzero(two >= last) < 100
+    from jamlab.reproduce.table import converged_text
+
+    assert converged_text(w).startswith("no floor with enough sizes")
+
+
+def test_converged_window_refuses_bad_arguments():
+    from jamlab.reproduce.measurements import converged_window
+
+    s = np.geomspace(1.0, 10.0, 100)
+    with pytest.raises(ValueError, match="min_tail"):
+        converged_window(s, s, 1.0, min_tail=5)
+    with pytest.raises(ValueError, match="x_min"):
+        converged_window(s, s, 0.0, min_tail=10)

@@ -56,6 +56,10 @@ __all__ = [
     "tau_estimates",
     "tau_sigma",
     "with_cutoff",
+    "CONVERGED_STEP",
+    "ConvergedWindow",
+    "coarse_sizes",
+    "converged_window",
     "COARSE_K",
     "cutoff_coarse",
     "cutoff_shape",
@@ -141,6 +145,7 @@ class TauEstimate:
     cutoff_made: bool = False  # whether the cut-off fit was asked for (with_cutoff)
     cutoff_shape: Any = None  # the profile over the cut-off's shape at the cut-off fit's x_min
     cutoff_coarse: Any = None  # the cut-off fit at COARSE_K δγ (steps paired), at the same x_min
+    cutoff_converged: Any = None  # ConvergedWindow: the cut-off fit from the δγ-converged floor
 
     @property
     def exclusion_text(self) -> str:
@@ -194,37 +199,107 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
 
 def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
     """``est`` (of the avalanches pooled over ``sources``) with the fit of the same avalanches
-    with an exponential cut-off (:func:`fit_tau_cutoff`) and the profile over the cut-off's shape
-    at that fit's ``x_min`` (:func:`cutoff_shape`)."""
+    with an exponential cut-off (:func:`fit_tau_cutoff`), the profile over the cut-off's shape
+    at that fit's ``x_min`` (:func:`cutoff_shape`), the same fit at ``COARSE_K δγ``
+    (:func:`cutoff_coarse`) and from the lowest floor where the two agree
+    (:func:`converged_window`)."""
     sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
     pooled = np.concatenate(sizes) if sizes else np.empty(0)
     cut = fit_tau_cutoff(pooled, scale)
+    two = None if cut is None else coarse_sizes(est.label, sources)
+    conv = None if cut is None else converged_window(
+        pooled, two, cut.x_min, min_tail=max(scale.min_tail, 10), n_boot=scale.n_boot,
+        seed=scale.seed)
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
                    cutoff_shape=cutoff_shape(pooled, cut),
-                   cutoff_coarse=cutoff_coarse(est.label, sources, cut))
+                   cutoff_coarse=None if cut is None else _coarse_fit(two, cut),
+                   cutoff_converged=conv)
 
 
 #: The strain step of the report's convergence check, in units of the run's ``δγ``.
 COARSE_K = 2
 
 
-def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
-    """The fit with an exponential cut-off of the avalanches at ``COARSE_K δγ`` (the steps of each
-    sample paired, :func:`jamlab.reproduce.ensembles.coarse_avalanches`) at ``cut``'s ``x_min``,
-    no bootstrap; None without ``cut`` or with fewer than 10 sizes there. Its difference from
-    ``cut`` is what doubling the strain step does to τ in that window: a check of the run's
-    ``δγ`` (where the change grows with the step, halving ``δγ`` moves τ by less; the
-    ``δγ → 0`` correction can exceed it: docs/reproduce.md)."""
-    from jamlab.analysis import fit_cutoff_power_law
+def coarse_sizes(label: str, sources: list[tuple[Any, int]]) -> np.ndarray:
+    """The avalanche sizes at ``COARSE_K δγ`` pooled over ``sources`` (the steps of each sample
+    paired, :func:`jamlab.reproduce.ensembles.coarse_avalanches`)."""
     from jamlab.reproduce.ensembles import coarse_avalanches
 
+    parts = [coarse_avalanches(ds, label, n, COARSE_K).sizes for ds, n in sources]
+    return np.concatenate(parts) if parts else np.empty(0)
+
+
+def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
+    """The fit with an exponential cut-off of the avalanches at ``COARSE_K δγ``
+    (:func:`coarse_sizes`) at ``cut``'s ``x_min``, no bootstrap; None without ``cut`` or with
+    fewer than 10 sizes there. Its difference from ``cut`` is what doubling the strain step
+    does to τ in that window: a check of the run's ``δγ`` (where the change grows with the
+    step, halving ``δγ`` moves τ by less; the ``δγ → 0`` correction can exceed it:
+    docs/reproduce.md)."""
     if cut is None:
         return None
-    parts = [coarse_avalanches(ds, label, n, COARSE_K).sizes for ds, n in sources]
-    sizes = np.concatenate(parts) if parts else np.empty(0)
-    if np.count_nonzero(sizes >= cut.x_min) < 10:
+    return _coarse_fit(coarse_sizes(label, sources), cut)
+
+
+def _coarse_fit(two: np.ndarray, cut: Any) -> Any:
+    from jamlab.analysis import fit_cutoff_power_law
+
+    if np.count_nonzero(two >= cut.x_min) < 10:
         return None
-    return fit_cutoff_power_law(sizes, cut.x_min)
+    return fit_cutoff_power_law(two, cut.x_min)
+
+
+CONVERGED_STEP = 10.0 ** 0.25
+"""The ratio between successive floors :func:`converged_window` tries (four per decade)."""
+
+
+@dataclass(frozen=True)
+class ConvergedWindow:
+    """The result of :func:`converged_window`. ``fit``: the fit with an exponential cut-off from
+    the lowest floor at which the strain step is converged (None: no floor with enough sizes
+    passed), with a bootstrap interval at that fixed floor; ``coarse``: the fit at
+    ``COARSE_K δγ`` from that floor. ``tried``: for every floor tried, in order,
+    ``(x_min, τ, τ at COARSE_K δγ, asymptotic σ of τ)``."""
+
+    fit: Any
+    coarse: Any
+    tried: tuple[tuple[float, float, float, float], ...]
+
+    @property
+    def raised(self) -> int:
+        """How many quarter-decade steps the floor went up from the KS window (−1 without a
+        converged floor)."""
+        return len(self.tried) - 1 if self.fit is not None else -1
+
+
+def converged_window(sizes: np.ndarray, coarse: np.ndarray, x_min: float, *,
+                     min_tail: int, n_boot: int = 0, seed: int = 0) -> ConvergedWindow:
+    """The fit with an exponential cut-off of ``sizes`` from the lowest floor ``x_min ×
+    CONVERGED_STEP^j`` (``j = 0, 1, …``) at which the fit of ``coarse`` (the same runs' sizes
+    at ``COARSE_K δγ``) at the same floor differs from it by no more than the asymptotic σ of
+    its τ: the lowest window whose τ the strain step moves by less than its statistical error.
+    Floors are tried while both ``sizes`` and ``coarse`` keep ``min_tail`` sizes at or above
+    them (``min_tail ≥ 10``). The returned fit has a percentile bootstrap interval at its
+    fixed floor (``n_boot`` resamples; the floor's choice is not in it)."""
+    from jamlab.analysis import fit_cutoff_power_law
+
+    if not (isinstance(min_tail, int) and min_tail >= 10):
+        raise ValueError(f"min_tail must be an integer >= 10, got {min_tail!r}")
+    if not (math.isfinite(x_min) and x_min > 0):
+        raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
+    tried = []
+    floor = float(x_min)
+    while (np.count_nonzero(sizes >= floor) >= min_tail
+           and np.count_nonzero(coarse >= floor) >= min_tail):
+        one = fit_cutoff_power_law(sizes, floor)
+        two = fit_cutoff_power_law(coarse, floor)
+        tried.append((floor, one.tau, two.tau, one.tau_stderr))
+        if abs(two.tau - one.tau) <= one.tau_stderr:
+            fit = fit_cutoff_power_law(sizes, floor, n_boot=n_boot, seed=seed) \
+                if n_boot else one
+            return ConvergedWindow(fit, two, tuple(tried))
+        floor *= CONVERGED_STEP
+    return ConvergedWindow(None, None, tuple(tried))
 
 
 def cutoff_shape(sizes: np.ndarray, cut: Any) -> Any:

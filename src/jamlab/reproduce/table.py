@@ -8,6 +8,7 @@ theory's from :mod:`jamlab.theory`; nothing is computed here.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -185,7 +186,8 @@ def cutoff_row(quantity: str, reference_text: str, e: TauEstimate,
         value=c.tau if c is not None else float("nan"),
         error=e.cutoff_sigma,
         value_text="; ".join(t for t in (cutoff_fit_text(c, e.cutoff_sigma),
-                                         coarse_text(c, e.cutoff_coarse)) if t),
+                                         coarse_text(c, e.cutoff_coarse),
+                                         converged_text(e.cutoff_converged)) if t),
         samples=f"the same {e.n_avalanches} avalanches",
         comparisons=comparisons,
     )
@@ -200,6 +202,29 @@ def coarse_text(cut: Any, coarse: Any) -> str:
         return ""
     return (f"at {COARSE_K} δγ (the same minima, steps paired; same x_min): τ = "
             f"{coarse.tau:.3f} (Δ = {coarse.tau - cut.tau:+.3f}), tail {coarse.n_tail}")
+
+
+def converged_text(w: Any) -> str:
+    """The cut-off fit from the lowest floor where the strain step is converged
+    (:func:`jamlab.reproduce.measurements.converged_window`), or ``""`` without the check."""
+    from jamlab.reproduce.measurements import COARSE_K
+
+    if w is None or not w.tried:
+        return ""
+    rule = f"|τ at {COARSE_K} δγ − τ| ≤ σ"
+    if w.fit is None:
+        return (f"no floor with enough sizes has {rule} "
+                f"({len(w.tried)} tried from x_min up, a quarter decade apart)")
+    f = w.fit
+    if w.raised == 0:
+        where = "the KS window itself"
+    else:
+        where = (f"from x_min = {f.x_min:.3g} ε ({w.raised} quarter decade"
+                 f"{'s' if w.raised > 1 else ''} above the KS window)")
+    band = (f", 95% CI at this floor [{f.ci_low:.3f}, {f.ci_high:.3f}]"
+            if math.isfinite(f.ci_low) and math.isfinite(f.ci_high) else "")
+    return (f"δγ-converged ({rule}): {where}, τ = {f.tau:.3f} ± {f.tau_stderr:.3f}{band}, "
+            f"at {COARSE_K} δγ {w.coarse.tau:.3f}, tail {f.n_tail}")
 
 
 def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
@@ -267,10 +292,17 @@ def cutoff_data(e: TauEstimate) -> dict[str, Any] | None:
         lr_exponential=p.lr_exponential)
     k = e.cutoff_coarse
     coarse = None if k is None else dict(tau=k.tau, tau_stderr=k.tau_stderr, n_tail=k.n_tail)
+    w = e.cutoff_converged
+    conv = None if w is None else dict(
+        tried=[dict(x_min=x, tau=t, tau_2dgamma=t2, tau_stderr=se) for x, t, t2, se in w.tried],
+        fit=None if w.fit is None else dict(
+            x_min=w.fit.x_min, tau=w.fit.tau, tau_stderr=w.fit.tau_stderr,
+            ci_low=w.fit.ci_low, ci_high=w.fit.ci_high, n_tail=w.fit.n_tail,
+            tau_2dgamma=w.coarse.tau))
     return None if c is None else dict(
         tau=c.tau, sigma=e.cutoff_sigma, ci_low=c.ci_low, ci_high=c.ci_high,
         x_min=c.x_min, s_c=None if c.at_bound else c.x_c, n_tail=c.n_tail, shape=shape,
-        coarse_2dgamma=coarse)
+        coarse_2dgamma=coarse, dgamma_converged=conv)
 
 
 def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
