@@ -15,7 +15,8 @@ seconds per sample put in place of the benchmark-based estimate for the studies 
 
 ``--dirs DIR ...`` reports the same (time per sample, τ fits with the medium scale's rules) for
 any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N;
-``--n N ...`` restricts the report to those sizes of each study (the scale pools its N).
+``--n N ...`` restricts the report to those sizes of each study (the scale pools its N);
+``--figure-dir DIR`` draws the report's τ(p) figure of the fixed-pressure studies reported.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,11 +35,11 @@ from jamlab.reproduce.table import coarse_text, converged_text, shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
-def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None) -> None:
+def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None) -> Any:
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
     fixed pressure and at jamming also the fit with an exponential cut-off) of one run
     directory; ``n_only``: only these sizes of the study (default all, pooled as the report
-    pools them)."""
+    pools them). Returns the τ estimate, with the cut-off fits where the report makes them."""
     n_values = list(study.n) if not n_only else [n for n in study.n if n in n_only]
     if not n_values:
         raise SystemExit(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
@@ -82,6 +84,7 @@ def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None)
               + (coarse_text(cut, est.cutoff_coarse) or "n/a"))
         print("the cut-off fit from the lowest δγ-converged floor (the second row's end): "
               + (converged_text(est.cutoff_converged) or "n/a"))
+    return est
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -93,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dirs", type=Path, nargs="+", default=None,
                     help="only report on these run directories (any study, e.g. of `jamlab "
                     "run`), with the medium scale's fit rules")
+    ap.add_argument("--figure-dir", type=Path, default=None,
+                    help="draw the report's τ(p) figure (tau_pressure.png) of the fixed-pressure "
+                    "studies reported into this directory")
     ap.add_argument("--n", type=int, nargs="+", default=None,
                     help="report only these N of each study (default: all its N, pooled)")
     args = ap.parse_args(argv)
@@ -110,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [s for s in args.studies if s not in all_studies]
     if unknown:
         ap.error(f"unknown studies {unknown}; the medium scale has {sorted(all_studies)}")
+    by_pressure: dict[float, Any] = {}
     for name in args.studies:
         study = all_studies[name]
         if not args.analyse_only:
@@ -118,7 +125,14 @@ def main(argv: list[str] | None = None) -> int:
                                 log=print)
             print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
                   f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
-        analyse(open_run(args.runs / name), study, scale, name, args.n)
+        est = analyse(open_run(args.runs / name), study, scale, name, args.n)
+        if study.pressure is not None:
+            by_pressure[study.pressure] = est
+    if args.figure_dir is not None:
+        from jamlab.reproduce.figures import tau_pressure
+
+        path = tau_pressure(by_pressure, args.figure_dir)
+        print(f"\nfigure: {path}" if path is not None else "\nno fixed-pressure study: no figure")
     return 0
 
 

@@ -142,6 +142,20 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
                 assert "δγ-converged" in cut_row.value_text
         else:
             assert est.cutoff_coarse is None and "δγ" not in cut_row.value_text
+        # the τ(p) figure's series are the rows' numbers, and the figure is drawn
+        from jamlab.reproduce.figures import tau_pressure, tau_pressure_series
+
+        ps, series = tau_pressure_series({1e-3: est})
+        ks, conv, shape_free = series.values()
+        assert ps == [1e-3]
+        assert ks == ([ref.tau], [ref.tau - est.cutoff_sigma], [ref.tau + est.cutoff_sigma])
+        assert shape_free == ([shape.tau_best], [shape.tau_low], [shape.tau_high])
+        f = est.cutoff_converged.fit
+        if f is not None:
+            assert conv[0] == [f.tau] and conv[2] == [f.tau + f.tau_stderr]
+        path = tau_pressure({1e-3: est}, tmp_path)
+        assert path is not None and path.stat().st_size > 0
+        assert tau_pressure({}, tmp_path) is None
     else:
         assert est.cutoff is None and cut_row.value_text == "n/a"
         assert est.cutoff_shape is None

@@ -122,7 +122,7 @@ FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
                "fig3_exact": "theory", "fig4": "trace",
                "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
                "theory_vs_cascade": "theory", "criticality": "criticality",
-               "finite_size": "finite_size"}
+               "finite_size": "finite_size", "tau_pressure": "pressure_tau"}
 """Which part makes which figure."""
 
 _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
@@ -137,6 +137,7 @@ _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir),
     "criticality": lambda c: figures.criticality(c.result("criticality")[0], c.figdir),
     "finite_size": lambda c: figures.finite_size(c.result("finite_size"), c.figdir),
+    "tau_pressure": lambda c: figures.tau_pressure(c.result("pressure_tau"), c.figdir),
 }
 
 
