@@ -156,6 +156,32 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         path = tau_pressure({1e-3: est}, tmp_path)
         assert path is not None and path.stat().st_size > 0
         assert tau_pressure({}, tmp_path) is None
+        # each N alone: one N has no per-N fits; with two sources, each fitted in the pooled
+        # fit's window (here the same run twice: the fit of these sizes at the pooled x_min of
+        # the doubled sizes), and the figure's second panel
+        from jamlab.reproduce.figures import tau_pressure_per_n
+        from jamlab.reproduce.measurements import with_cutoff
+
+        assert est.cutoff_per_n is None and tau_pressure_per_n({1e-3: est}) == {}
+        two_sources = with_cutoff(est, [(ds, 16), (ds, 16)], scale)
+        doubled = fit_cutoff_power_law(np.concatenate([sizes, sizes]), min_tail=10,
+                                       max_candidates=20)
+        assert two_sources.cutoff.x_min == doubled.x_min
+        if np.count_nonzero(sizes >= doubled.x_min) >= 10:
+            alone = fit_cutoff_power_law(sizes, doubled.x_min)
+            assert two_sources.cutoff_per_n[16].tau == alone.tau
+            assert two_sources.cutoff_per_n[16].x_min == doubled.x_min
+        else:
+            assert two_sources.cutoff_per_n[16] is None
+            alone = fit_cutoff_power_law(sizes, float(np.min(sizes)))
+        per_n = tau_pressure_per_n({1e-3: replace(est, cutoff_per_n={16: alone, 32: None}),
+                                    1e-4: replace(est, cutoff_per_n={32: alone})})
+        assert list(per_n) == [f"N = {n} alone, the pooled KS window (± asymptotic σ)"
+                               for n in (16, 32)]
+        t16, t32 = per_n.values()
+        assert t16[0][0] == alone.tau and np.isnan(t16[0][1])  # p = 1e-3 first, 1e-4 none
+        assert np.isnan(t32[0][0]) and t32[0][1] == alone.tau
+        assert t32[2][1] == alone.tau + alone.tau_stderr
     else:
         assert est.cutoff is None and cut_row.value_text == "n/a"
         assert est.cutoff_shape is None

@@ -294,35 +294,38 @@ def plot_no_jump_probability(
 
 def plot_tau_against_pressure(
     pressures: Sequence[float],
-    fits: Mapping[str, tuple[Sequence[float], Sequence[float], Sequence[float]]],
+    panels: Sequence[tuple[str, Mapping[str, tuple[Sequence[float], Sequence[float],
+                                                   Sequence[float]]]]],
     references: Mapping[str, tuple[float, float]],
     out: str | os.PathLike,
-    title: str = "",
 ) -> None:
-    """τ against the pressure of fixed-pressure AQS (log axis), one series per fit: ``fits[label]
-    = (τ, lower end, upper end)`` per pressure (NaN: no fit there), drawn as points with bars,
-    offset a little in ``p`` so that the bars do not hide each other; ``references[label] =
-    (value, σ)`` as horizontal lines (a band of ± σ where ``σ > 0``)."""
+    """τ against the pressure of fixed-pressure AQS (log axis), one panel per ``(title, fits)``
+    of ``panels`` (sharing the τ axis), one series per fit: ``fits[label] = (τ, lower end,
+    upper end)`` per pressure (NaN: no fit there), drawn as points with bars, offset a little
+    in ``p`` so that the bars do not hide each other; ``references[label] = (value, σ)`` as
+    horizontal lines in every panel (a band of ± σ where ``σ > 0``)."""
     p = np.asarray(pressures, dtype=np.float64)
-    fig, ax = plt.subplots(figsize=(7, 4.8))
-    for i, (label, (value, σ)) in enumerate(references.items()):
-        colour = f"C{7 + i % 3}" if i else "k"
-        ax.axhline(value, color=colour, ls="--", lw=1, label=label)
-        if σ > 0:
-            ax.axhspan(value - σ, value + σ, color=colour, alpha=0.12)
-    n = len(fits)
-    for i, (label, (tau, lo, hi)) in enumerate(fits.items()):
-        t, a, b = (np.asarray(v, dtype=np.float64) for v in (tau, lo, hi))
-        ok = np.isfinite(t)
-        x = p[ok] * 10 ** (0.06 * (i - (n - 1) / 2))
-        ax.errorbar(x, t[ok], yerr=np.vstack([t[ok] - a[ok], b[ok] - t[ok]]), fmt="os^D"[i % 4],
-                    color=f"C{i}", capsize=3, ms=5, lw=1.2, label=label)
-    ax.set_xscale("log")
-    ax.set_xlabel("pressure p (ε/σ³)")
-    ax.set_ylabel("avalanche exponent τ")
-    ax.legend(fontsize=7, loc="best")
-    if title:
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.8), sharey=True,
+                             squeeze=False)
+    for ax, (title, fits) in zip(axes[0], panels, strict=True):
+        for i, (label, (value, σ)) in enumerate(references.items()):
+            colour = f"C{7 + i % 3}" if i else "k"
+            ax.axhline(value, color=colour, ls="--", lw=1, label=label)
+            if σ > 0:
+                ax.axhspan(value - σ, value + σ, color=colour, alpha=0.12)
+        n = len(fits)
+        for i, (label, (tau, lo, hi)) in enumerate(fits.items()):
+            t, a, b = (np.asarray(v, dtype=np.float64) for v in (tau, lo, hi))
+            ok = np.isfinite(t)
+            x = p[ok] * 10 ** (0.06 * (i - (n - 1) / 2))
+            ax.errorbar(x, t[ok], yerr=np.vstack([t[ok] - a[ok], b[ok] - t[ok]]),
+                        fmt="os^Dv<>"[i % 7], color=f"C{i}", capsize=3, ms=5, lw=1.2,
+                        label=label)
+        ax.set_xscale("log")
+        ax.set_xlabel("pressure p (ε/σ³)")
         ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=7, loc="best")
+    axes[0][0].set_ylabel("avalanche exponent τ")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)

@@ -41,6 +41,7 @@ __all__ = [
     "criticality_captions",
     "tau_pressure",
     "tau_pressure_series",
+    "tau_pressure_per_n",
 ]
 
 TITLES = {
@@ -168,6 +169,25 @@ def tau_pressure_series(estimates: dict[float, TauEstimate],
                 "cut-off shape free (best shape; 95 % interval)": shape}
 
 
+def tau_pressure_per_n(estimates: dict[float, TauEstimate],
+                       ) -> dict[str, tuple[list[float], ...]]:
+    """Per N (every N with a fit at some pressure), ``(τ, τ − σ, τ + σ)`` per pressure
+    (decreasing; NaN without a fit) of the exponential cut-off fitted to that N alone in the
+    pooled row's window, σ asymptotic (:attr:`TauEstimate.cutoff_per_n`)."""
+    nan = math.nan
+    ps = sorted(estimates, reverse=True)
+    ns = sorted({n for e in estimates.values() for n, f in (e.cutoff_per_n or {}).items()
+                 if f is not None})
+    out = {}
+    for n in ns:
+        fits = [(estimates[p].cutoff_per_n or {}).get(n) for p in ps]
+        out[f"N = {n} alone, the pooled KS window (± asymptotic σ)"] = (
+            [nan if f is None else f.tau for f in fits],
+            [nan if f is None else f.tau - f.tau_stderr for f in fits],
+            [nan if f is None else f.tau + f.tau_stderr for f in fits])
+    return out
+
+
 def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Path | None:
     """τ(p) of the report's fixed-pressure rows against τ_J, the paper's constant-volume fit
     and τ_UNSAT (None without fixed-pressure studies)."""
@@ -182,9 +202,12 @@ def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Pa
                                                                       0.0),
             f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
             "τ_UNSAT = 1": (1.0, 0.0)}
+    panels = [("fixed-pressure AQS, all N pooled", fits)]
+    per_n = tau_pressure_per_n(estimates)
+    if per_n:
+        panels.append(("each N alone, exponential cut-off in the pooled window", per_n))
     path = figdir / "tau_pressure.png"
-    plot_tau_against_pressure(ps, fits, refs, path,
-                              title="fixed-pressure AQS, all N pooled")
+    plot_tau_against_pressure(ps, panels, refs, path)
     return path
 
 
@@ -328,8 +351,11 @@ def captions(
             "bootstrap σ, the choice of x_min included), the same fit from the lowest floor "
             "where doubling the strain step moves τ by less than its σ (± asymptotic σ at that "
             "floor), and τ at the best stretched cut-off e^(−(S/S_c)^a) with the 95 % profile "
-            "interval of τ with the shape free. Lines: the mean-field τ_J (the p → 0 limit), "
-            "the paper's constant-volume fit (band ± its error) and τ_UNSAT = 1."),
+            "interval of τ with the shape free; right (with more than one N): the exponential "
+            "cut-off fitted to each N alone in the pooled row's KS window (± asymptotic σ; one "
+            "window for all N, since the local τ rises with the window's floor). Lines: the "
+            "mean-field τ_J (the p → 0 limit), the paper's constant-volume fit (band ± its "
+            "error) and τ_UNSAT = 1."),
         "theory_vs_cascade": (
             "Probability of no jump R(0) against δγ for y(q) = 2.5 q, q_max = 0.9: the "
             f"paper's printed formula, its first-order form, the exact recursion with k = "

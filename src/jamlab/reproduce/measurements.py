@@ -146,6 +146,7 @@ class TauEstimate:
     cutoff_shape: Any = None  # the profile over the cut-off's shape at the cut-off fit's x_min
     cutoff_coarse: Any = None  # the cut-off fit at COARSE_K δγ (steps paired), at the same x_min
     cutoff_converged: Any = None  # ConvergedWindow: the cut-off fit from the δγ-converged floor
+    cutoff_per_n: dict[int, Any] | None = None  # each N alone in the cut-off fit's window
 
     @property
     def exclusion_text(self) -> str:
@@ -202,7 +203,9 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     with an exponential cut-off (:func:`fit_tau_cutoff`), the profile over the cut-off's shape
     at that fit's ``x_min`` (:func:`cutoff_shape`), the same fit at ``COARSE_K δγ``
     (:func:`cutoff_coarse`) and from the lowest floor where the two agree
-    (:func:`converged_window`)."""
+    (:func:`converged_window`); with more than one source, the cut-off fit of each N alone in
+    the pooled fit's window (``cutoff_per_n``: a fit per N, no bootstrap, None with fewer than
+    10 sizes there) — one window for all N, since the local τ rises with ``x_min``."""
     sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
     pooled = np.concatenate(sizes) if sizes else np.empty(0)
     cut = fit_tau_cutoff(pooled, scale)
@@ -210,10 +213,12 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     conv = None if cut is None else converged_window(
         pooled, two, cut.x_min, min_tail=max(scale.min_tail, 10), n_boot=scale.n_boot,
         seed=scale.seed)
+    per_n = None if cut is None or len(sources) < 2 else {
+        n: _fit_from(s, cut.x_min) for (_, n), s in zip(sources, sizes, strict=True)}
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
                    cutoff_shape=cutoff_shape(pooled, cut),
                    cutoff_coarse=None if cut is None else _coarse_fit(two, cut),
-                   cutoff_converged=conv)
+                   cutoff_converged=conv, cutoff_per_n=per_n)
 
 
 #: The strain step of the report's convergence check, in units of the run's ``δγ``.
@@ -242,11 +247,17 @@ def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
 
 
 def _coarse_fit(two: np.ndarray, cut: Any) -> Any:
+    return _fit_from(two, cut.x_min)
+
+
+def _fit_from(sizes: np.ndarray, x_min: float) -> Any:
+    """The cut-off fit of ``sizes`` at the fixed ``x_min``, no bootstrap (None with fewer than
+    10 sizes there)."""
     from jamlab.analysis import fit_cutoff_power_law
 
-    if np.count_nonzero(two >= cut.x_min) < 10:
+    if np.count_nonzero(sizes >= x_min) < 10:
         return None
-    return fit_cutoff_power_law(two, cut.x_min)
+    return fit_cutoff_power_law(sizes, x_min)
 
 
 CONVERGED_STEP = 10.0 ** 0.25
