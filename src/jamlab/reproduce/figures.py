@@ -138,35 +138,34 @@ def fig5(estimates: dict[str, TauEstimate], scale: Scale, figdir: Path) -> Path:
     return path
 
 
+def _columns(points: list[tuple[float, float, float] | None]) -> tuple[list[float], ...]:
+    """``(τ, lower, upper)`` per pressure as three columns, NaN where a point is None."""
+    rows = [(math.nan,) * 3 if q is None else q for q in points]
+    return tuple(list(column) for column in zip(*rows, strict=True)) if rows else ([], [], [])
+
+
 def tau_pressure_series(estimates: dict[float, TauEstimate],
                         ) -> tuple[list[float], dict[str, tuple[list[float], ...]]]:
     """The pressures (decreasing) and, per fit of the report's τ(p) rows, ``(τ, lower, upper)``
     per pressure (NaN where there is no fit): the exponential cut-off in its KS window (± its
     σ), the same from the lowest δγ-converged floor (± its asymptotic σ) and with the cut-off's
     shape free (τ at the best shape, the 95 % profile interval)."""
-    nan = math.nan
     ps = sorted(estimates, reverse=True)
-    ks, conv, shape = ([], [], []), ([], [], []), ([], [], [])
-
-    def put(series: tuple[list[float], ...], t: float, lo: float, hi: float) -> None:
-        for column, v in zip(series, (t, lo, hi), strict=True):
-            column.append(v)
-
-    for p in ps:
-        e = estimates[p]
-        c = e.cutoff
-        put(ks, *((c.tau, c.tau - e.cutoff_sigma, c.tau + e.cutoff_sigma) if c is not None
-                  else (nan, nan, nan)))
-        w = e.cutoff_converged
-        f = None if w is None else w.fit
-        put(conv, *((f.tau, f.tau - f.tau_stderr, f.tau + f.tau_stderr) if f is not None
-                    else (nan, nan, nan)))
-        s = e.cutoff_shape
-        put(shape, *((s.tau_best, s.tau_low, s.tau_high) if s is not None
-                     else (nan, nan, nan)))
-    return ps, {"exponential cut-off, KS window (± σ)": ks,
-                "exponential cut-off, δγ-converged floor (± σ)": conv,
-                "cut-off shape free (best shape; 95 % interval)": shape}
+    es = [estimates[p] for p in ps]
+    conv = [None if e.cutoff_converged is None else e.cutoff_converged.fit for e in es]
+    return ps, {
+        "exponential cut-off, KS window (± σ)": _columns([
+            None if e.cutoff is None else
+            (e.cutoff.tau, e.cutoff.tau - e.cutoff_sigma, e.cutoff.tau + e.cutoff_sigma)
+            for e in es]),
+        "exponential cut-off, δγ-converged floor (± σ)": _columns([
+            None if f is None else (f.tau, f.tau - f.tau_stderr, f.tau + f.tau_stderr)
+            for f in conv]),
+        "cut-off shape free (best shape; 95 % interval)": _columns([
+            None if e.cutoff_shape is None else
+            (e.cutoff_shape.tau_best, e.cutoff_shape.tau_low, e.cutoff_shape.tau_high)
+            for e in es]),
+    }
 
 
 def tau_pressure_per_n(estimates: dict[float, TauEstimate],
@@ -174,18 +173,13 @@ def tau_pressure_per_n(estimates: dict[float, TauEstimate],
     """Per N (every N with a fit at some pressure), ``(τ, τ − σ, τ + σ)`` per pressure
     (decreasing; NaN without a fit) of the exponential cut-off fitted to that N alone in the
     pooled row's window, σ asymptotic (:attr:`TauEstimate.cutoff_per_n`)."""
-    nan = math.nan
     ps = sorted(estimates, reverse=True)
-    ns = sorted({n for e in estimates.values() for n, f in (e.cutoff_per_n or {}).items()
-                 if f is not None})
-    out = {}
-    for n in ns:
-        fits = [(estimates[p].cutoff_per_n or {}).get(n) for p in ps]
-        out[f"N = {n} alone, the pooled KS window (± asymptotic σ)"] = (
-            [nan if f is None else f.tau for f in fits],
-            [nan if f is None else f.tau - f.tau_stderr for f in fits],
-            [nan if f is None else f.tau + f.tau_stderr for f in fits])
-    return out
+    per_p = [estimates[p].cutoff_per_n or {} for p in ps]
+    ns = sorted({n for fits in per_p for n, f in fits.items() if f is not None})
+    return {f"N = {n} alone, the pooled KS window (± asymptotic σ)": _columns([
+        None if (f := fits.get(n)) is None else (f.tau, f.tau - f.tau_stderr,
+                                                 f.tau + f.tau_stderr)
+        for fits in per_p]) for n in ns}
 
 
 def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Path | None:
@@ -198,8 +192,8 @@ def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Pa
         return None
     ps, fits = tau_pressure_series(estimates)
     paper, paper_err = PAPER_TAU["jamming"]
-    refs = {f"theory τ_J = {predicted_tau('jamming'):.5f} (p → 0)": (predicted_tau("jamming"),
-                                                                      0.0),
+    tau_j = predicted_tau("jamming")
+    refs = {f"theory τ_J = {tau_j:.5f} (p → 0)": (tau_j, 0.0),
             f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
             "τ_UNSAT = 1": (1.0, 0.0)}
     panels = [("fixed-pressure AQS, all N pooled", fits)]

@@ -217,7 +217,7 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
         n: _fit_from(s, cut.x_min) for (_, n), s in zip(sources, sizes, strict=True)}
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
                    cutoff_shape=cutoff_shape(pooled, cut),
-                   cutoff_coarse=None if cut is None else _coarse_fit(two, cut),
+                   cutoff_coarse=None if cut is None else _fit_from(two, cut.x_min),
                    cutoff_converged=conv, cutoff_per_n=per_n)
 
 
@@ -243,11 +243,7 @@ def cutoff_coarse(label: str, sources: list[tuple[Any, int]], cut: Any) -> Any:
     docs/reproduce.md)."""
     if cut is None:
         return None
-    return _coarse_fit(coarse_sizes(label, sources), cut)
-
-
-def _coarse_fit(two: np.ndarray, cut: Any) -> Any:
-    return _fit_from(two, cut.x_min)
+    return _fit_from(coarse_sizes(label, sources), cut.x_min)
 
 
 def _fit_from(sizes: np.ndarray, x_min: float) -> Any:
