@@ -16,6 +16,8 @@ seconds per sample put in place of the benchmark-based estimate for the studies 
 ``--dirs DIR ...`` reports the same (time per sample, τ fits with the medium scale's rules) for
 any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N;
 ``--n N ...`` restricts the report to those sizes of each study (the scale pools its N);
+``--pool`` pools the ``--dirs`` of one study (same pressure, δγ, γ_max, φ; e.g. ``jamlab run``
+ensembles at N = 250 and 500) into one estimate, as the scale pools its N;
 ``--figure-dir DIR`` draws the report's τ(p) figure of the fixed-pressure studies reported.
 """
 
@@ -35,34 +37,47 @@ from jamlab.reproduce.table import coarse_text, converged_text, shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
-def analyse(ds, study: Study, scale, name: str, n_only: list[int] | None = None) -> Any:
+def analyse(runs: list[tuple[Any, Study]], scale, name: str,
+            n_only: list[int] | None = None) -> Any:
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
-    fixed pressure and at jamming also the fit with an exponential cut-off) of one run
-    directory; ``n_only``: only these sizes of the study (default all, pooled as the report
-    pools them). Returns the τ estimate, with the cut-off fits where the report makes them."""
-    n_values = list(study.n) if not n_only else [n for n in study.n if n in n_only]
-    if not n_values:
+    fixed pressure and at jamming also the fit with an exponential cut-off) of run directories
+    ``runs`` (``(run dataset, study)`` pairs of one protocol, their sizes pooled as the report
+    pools a study's N); ``n_only``: only these sizes (default all). Returns the τ estimate,
+    with the cut-off fits where the report makes them."""
+    study = runs[0][1]
+    pairs, done_all, seconds, cpu = [], [], [], []
+    for ds, st in runs:
+        n_values = list(st.n) if not n_only else [n for n in st.n if n in n_only]
+        sel = {"N": n_values}
+        done = ds.status.sel(sel).values == "done"
+        done_all.append(done.ravel())
+        seconds.append(np.asarray(ds.seconds.sel(sel).values)[done])
+        if "cpu_seconds" in ds:
+            c = np.asarray(ds.cpu_seconds.sel(sel).values)[done]
+            cpu.append(c[np.isfinite(c)])
+        pairs += [(ds, n) for n in n_values]
+    n_list = [n for _, n in pairs]
+    if not n_list:
         raise SystemExit(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
-    sel = {"N": n_values}
-    done = ds.status.sel(sel).values == "done"
-    seconds = np.asarray(ds.seconds.sel(sel).values)[done]
-    print(f"\n# {name}: N = {n_values}, {int(done.sum())} of {done.size} samples finished, "
+    if len(set(n_list)) < len(n_list):
+        raise SystemExit(f"{name}: N = {n_list}: one size in two run directories, not "
+                         "pooled (their samples may share seeds)")
+    done = np.concatenate(done_all)
+    seconds = np.concatenate(seconds)
+    cpu = np.concatenate(cpu) if cpu else np.empty(0)
+    print(f"\n# {name}: N = {n_list}, {int(done.sum())} of {done.size} samples finished, "
           f"{study.dgamma:g} x {int(round(study.gamma_max / study.dgamma))} steps each"
           + ("" if study.pressure is None else f", fixed p = {study.pressure:g}"))
     if seconds.size:
         print(f"worker wall time per sample: {', '.join(f'{s:.0f}' for s in seconds)} s "
               f"(mean {seconds.mean():.0f} s)")
-        if "cpu_seconds" in ds:
-            cpu = np.asarray(ds.cpu_seconds.sel(sel).values)[done]
-            cpu = cpu[np.isfinite(cpu)]
-            if cpu.size:
-                print(f"CPU time per sample (preparation included): {cpu.mean():.0f} s mean, "
-                      f"{cpu.min():.0f}–{cpu.max():.0f} s ({cpu.size} samples)")
+        if cpu.size:
+            print(f"CPU time per sample (preparation included): {cpu.mean():.0f} s mean, "
+                  f"{cpu.min():.0f}–{cpu.max():.0f} s ({cpu.size} samples)")
         total = done.size * seconds.mean()
         print(f"projected for all {done.size} samples of this study: {total / 3600:.2f} h "
               "of one core")
     label = "jamming" if "jamming" in study.phi else repr(study.phi[0])
-    pairs = [(ds, n) for n in n_values]
     est = tau_estimate(label, pairs, scale)
     fit = est.fit
     if fit is None:
@@ -99,24 +114,54 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--figure-dir", type=Path, default=None,
                     help="draw the report's τ(p) figure (tau_pressure.png) of the fixed-pressure "
                     "studies reported into this directory")
+    ap.add_argument("--pool", action="store_true",
+                    help="with --dirs: pool the directories of one study (the same fixed "
+                    "pressure or constant volume, δγ, γ_max and φ) into one estimate, as the "
+                    "scale pools its N (one N per directory)")
     ap.add_argument("--n", type=int, nargs="+", default=None,
                     help="report only these N of each study (default: all its N, pooled)")
     args = ap.parse_args(argv)
     scale = SCALES["medium"]
+
+    def draw(by_pressure: dict[float, Any]) -> int:
+        if args.figure_dir is not None:
+            from jamlab.reproduce.figures import tau_pressure
+
+            path = tau_pressure(by_pressure, args.figure_dir)
+            print(f"\nfigure: {path}" if path is not None
+                  else "\nno fixed-pressure study: no figure")
+        return 0
+
+    by_pressure: dict[float, Any] = {}
+
+    def keep(study: Study, est: Any) -> None:
+        if study.pressure is not None:
+            by_pressure[study.pressure] = est
+
     if args.dirs:
+        groups: dict[tuple, list[tuple[Any, Study, Path]]] = {}
         for path in args.dirs:
             try:
                 ds = open_run(path)
             except (OSError, ValueError) as err:
                 ap.error(f"{path}: not a run directory ({err})")
-            analyse(ds, Study.from_dict(json.loads(ds.attrs["study"])), scale, str(path),
-                    args.n)
-        return 0
+            study = Study.from_dict(json.loads(ds.attrs["study"]))
+            key = ((study.pressure, study.dgamma, study.gamma_max, study.phi) if args.pool
+                   else (path,))
+            groups.setdefault(key, []).append((ds, study, path))
+        fixed = [m[0][1].pressure for m in groups.values() if m[0][1].pressure is not None]
+        if args.figure_dir is not None and len(set(fixed)) < len(fixed):
+            ap.error("two estimates at one pressure for one figure: pool their directories "
+                     "with --pool")
+        for members in groups.values():
+            name = " + ".join(str(path) for _, _, path in members)
+            est = analyse([(ds, st) for ds, st, _ in members], scale, name, args.n)
+            keep(members[0][1], est)
+        return draw(by_pressure)
     all_studies = studies(scale)
     unknown = [s for s in args.studies if s not in all_studies]
     if unknown:
         ap.error(f"unknown studies {unknown}; the medium scale has {sorted(all_studies)}")
-    by_pressure: dict[float, Any] = {}
     for name in args.studies:
         study = all_studies[name]
         if not args.analyse_only:
@@ -125,15 +170,8 @@ def main(argv: list[str] | None = None) -> int:
                                 log=print)
             print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
                   f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
-        est = analyse(open_run(args.runs / name), study, scale, name, args.n)
-        if study.pressure is not None:
-            by_pressure[study.pressure] = est
-    if args.figure_dir is not None:
-        from jamlab.reproduce.figures import tau_pressure
-
-        path = tau_pressure(by_pressure, args.figure_dir)
-        print(f"\nfigure: {path}" if path is not None else "\nno fixed-pressure study: no figure")
-    return 0
+        keep(study, analyse([(open_run(args.runs / name), study)], scale, name, args.n))
+    return draw(by_pressure)
 
 
 if __name__ == "__main__":

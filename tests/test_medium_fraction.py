@@ -1,0 +1,90 @@
+"""``scripts/medium_fraction.py --dirs ... --pool``: run directories of one study at different N
+pooled into one estimate (counts recounted here with h5py), refusals with exit code 2."""
+
+from __future__ import annotations
+
+import glob
+import importlib.util
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "medium_fraction.py"
+
+
+@pytest.fixture(scope="module")
+def mf():
+    spec = importlib.util.spec_from_file_location("medium_fraction", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory):
+    from jamlab.runs import Execution, Study, run_study
+
+    root = tmp_path_factory.mktemp("runs")
+    out = []
+    for n in (16, 24):
+        study = Study(phi=["jamming"], n=[n], samples=2, dgamma=1e-3, gamma_max=0.1, seed=3,
+                      pressure=1e-3)
+        run_study(study, root / f"n{n}", Execution(workers=0))
+        out.append(root / f"n{n}")
+    return out
+
+
+def _finished(path: Path) -> list[str]:
+    return sorted(glob.glob(str(path / "samples" / "*" / "*" / "*.h5")))
+
+
+def _recount(path: Path) -> np.ndarray:
+    """Avalanche sizes −ΔH of plastic steps between jammed minima, read with h5py."""
+    sizes = []
+    for f in _finished(path):
+        with h5py.File(f, "r") as h5:
+            de = h5["trace/energy_jump"][1:]
+            pl = h5["trace/plastic"][1:].astype(bool)
+            jm = h5["trace/jammed"][()]
+        sizes.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
+    return np.concatenate(sizes)
+
+
+def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
+    from jamlab.reproduce.scales import SCALES
+    from jamlab.runs import Study, open_run
+
+    runs = [(open_run(p), Study.from_dict(json.loads(open_run(p).attrs["study"])))
+            for p in two_runs]
+    est = mf.analyse(runs, SCALES["medium"], "pooled")
+    want = np.concatenate([_recount(p) for p in two_runs])
+    assert want.size > 0
+    done = sum(len(_finished(p)) for p in two_runs)  # (a preparation may fail: N = 24, seed 3)
+    assert est.n_avalanches == want.size and est.samples == done >= 2
+    assert f"N = [16, 24], {done} of 4 samples finished" in capsys.readouterr().out
+    # one N twice is refused (the directories may share seeds)
+    with pytest.raises(SystemExit, match="one size in two run directories"):
+        mf.analyse([runs[0], runs[0]], SCALES["medium"], "twice")
+
+
+def test_the_figure_needs_one_estimate_per_pressure(mf, two_runs, tmp_path):
+    with pytest.raises(SystemExit) as err:
+        mf.main(["--dirs", *map(str, two_runs), "--figure-dir", str(tmp_path)])
+    assert err.value.code == 2
+    assert mf.main(["--dirs", *map(str, two_runs), "--pool", "--figure-dir",
+                    str(tmp_path)]) == 0
+    with pytest.raises(SystemExit) as err:
+        mf.main(["--dirs", str(tmp_path / "missing")])
+    assert err.value.code == 2
+
+
+def test_the_script_runs_as_a_program():
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, str(SCRIPT), "--help"], capture_output=True, text=True,
+                         check=True).stdout
+    assert "--pool" in out and "--figure-dir" in out
