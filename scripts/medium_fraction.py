@@ -43,7 +43,8 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
     fixed pressure and at jamming also the fit with an exponential cut-off) of run directories
     ``runs`` (``(run dataset, study)`` pairs of one protocol, their sizes pooled as the report
     pools a study's N); ``n_only``: only these sizes (default all). Returns the τ estimate,
-    with the cut-off fits where the report makes them."""
+    with the cut-off fits where the report makes them; ValueError when no size is left or one
+    N comes from two directories."""
     study = runs[0][1]
     pairs, done_all, seconds, cpu = [], [], [], []
     for ds, st in runs:
@@ -58,9 +59,9 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
         pairs += [(ds, n) for n in n_values]
     n_list = [n for _, n in pairs]
     if not n_list:
-        raise SystemExit(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
+        raise ValueError(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
     if len(set(n_list)) < len(n_list):
-        raise SystemExit(f"{name}: N = {n_list}: one size in two run directories, not "
+        raise ValueError(f"{name}: N = {n_list}: one size in two run directories, not "
                          "pooled (their samples may share seeds)")
     done = np.concatenate(done_all)
     seconds = np.concatenate(seconds)
@@ -155,7 +156,10 @@ def main(argv: list[str] | None = None) -> int:
                      "with --pool")
         for members in groups.values():
             name = " + ".join(str(path) for _, _, path in members)
-            est = analyse([(ds, st) for ds, st, _ in members], scale, name, args.n)
+            try:
+                est = analyse([(ds, st) for ds, st, _ in members], scale, name, args.n)
+            except ValueError as err:
+                ap.error(str(err))
             keep(members[0][1], est)
         return draw(by_pressure)
     all_studies = studies(scale)
@@ -170,7 +174,11 @@ def main(argv: list[str] | None = None) -> int:
                                 log=print)
             print(f"{name}: {summary.done} computed, {summary.skipped} reused, "
                   f"{summary.failed} failed in {time.perf_counter() - t0:.0f} s")
-        keep(study, analyse([(open_run(args.runs / name), study)], scale, name, args.n))
+        try:
+            est = analyse([(open_run(args.runs / name), study)], scale, name, args.n)
+        except ValueError as err:
+            ap.error(str(err))
+        keep(study, est)
     return draw(by_pressure)
 
 

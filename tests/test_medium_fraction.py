@@ -4,7 +4,6 @@ pooled into one estimate (counts recounted here with h5py), refusals with exit c
 from __future__ import annotations
 
 import glob
-import importlib.util
 import json
 from pathlib import Path
 
@@ -12,15 +11,12 @@ import h5py
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "medium_fraction.py"
+from script_helpers import SCRIPTS, script_module
 
 
 @pytest.fixture(scope="module")
 def mf():
-    spec = importlib.util.spec_from_file_location("medium_fraction", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return script_module("medium_fraction")
 
 
 @pytest.fixture(scope="module")
@@ -57,8 +53,8 @@ def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
     from jamlab.reproduce.scales import SCALES
     from jamlab.runs import Study, open_run
 
-    runs = [(open_run(p), Study.from_dict(json.loads(open_run(p).attrs["study"])))
-            for p in two_runs]
+    runs = [(ds, Study.from_dict(json.loads(ds.attrs["study"])))
+            for ds in map(open_run, two_runs)]
     est = mf.analyse(runs, SCALES["medium"], "pooled")
     want = np.concatenate([_recount(p) for p in two_runs])
     assert want.size > 0
@@ -66,8 +62,11 @@ def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
     assert est.n_avalanches == want.size and est.samples == done >= 2
     assert f"N = [16, 24], {done} of 4 samples finished" in capsys.readouterr().out
     # one N twice is refused (the directories may share seeds)
-    with pytest.raises(SystemExit, match="one size in two run directories"):
+    with pytest.raises(ValueError, match="one size in two run directories"):
         mf.analyse([runs[0], runs[0]], SCALES["medium"], "twice")
+    with pytest.raises(SystemExit) as err:  # and from the command line, with exit code 2
+        mf.main(["--dirs", str(two_runs[0]), str(two_runs[0]), "--pool"])
+    assert err.value.code == 2
 
 
 def test_the_figure_needs_one_estimate_per_pressure(mf, two_runs, tmp_path):
@@ -85,6 +84,6 @@ def test_the_script_runs_as_a_program():
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, str(SCRIPT), "--help"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run([sys.executable, str(SCRIPTS / "medium_fraction.py"), "--help"],
+                         capture_output=True, text=True, check=True).stdout
     assert "--pool" in out and "--figure-dir" in out
