@@ -67,11 +67,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from jamlab.spheres.barostat import minimize_enthalpy
+from jamlab.spheres.aqs.record import observe
+from jamlab.spheres.aqs.saddle import MAX_DESCENTS, saddle_push
+from jamlab.spheres.barostat import EnthalpyResult, minimize_enthalpy
 from jamlab.spheres.confirm import (
     jump_in_chain,
     jump_located,
@@ -79,6 +81,7 @@ from jamlab.spheres.confirm import (
     trapezoid_residual,
 )
 from jamlab.spheres.fire import FireParameters
+from jamlab.spheres.neighbors import NeighborList
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
 from jamlab.spheres.rigidity import is_jammed
@@ -101,6 +104,10 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 (:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes, no second FIRE run of the
 event), the chain only where that piece, located by the probes alone, keeps less than the
 bound (plain FIRE: ``continued``)."""
+
+SADDLE_COUNT = "n_saddles_left"
+"""Trace attribute: how many times a recorded minimum (row 0 included) was found to be a saddle
+and pushed off it (:func:`leave_saddle`)."""
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
                                      "n_candidates_below_threshold", "n_candidates_located",
@@ -199,6 +206,45 @@ class PressureShearResult:
                               else self.confirmed),
             },
         )
+
+
+def leave_saddle(
+    res: EnthalpyResult, pressure: float, kw: dict, fire_used: bool
+) -> tuple[EnthalpyResult, int]:
+    """The fixed-pressure minimum ``res`` pushed off a saddle, if it is one: ``(result,
+    pushes)``.
+
+    FIRE can stop on a saddle of the energy at fixed box (``max|F| < ftol`` with a resolved
+    negative curvature, :mod:`jamlab.spheres.aqs.saddle`), and one is then also a saddle of the
+    enthalpy (the positions at fixed box are a subspace of its variables). Measured at
+    ``p = 1e-6``: the minima the jammed flag calls hypostatic under pressure were such saddles
+    (``docs/aqs.md``). Tested when FIRE took part (``fire_used``) or when the minimum fails the
+    jammed flag: the pinned backbone Hessian's inertia (:func:`~jamlab.spheres.aqs.saddle.
+    saddle_push`); on a saddle the particles are pushed along its unstable mode, on its downhill
+    side, and the enthalpy minimised again (:func:`minimize_enthalpy` with ``kw`` and FIRE as
+    the fixed-box minimiser), at most ``MAX_DESCENTS`` times. The result's ``iterations`` and
+    ``volume_steps`` include those of the minimisations before.
+    """
+    pushes = 0
+    while res.converged and pushes < MAX_DESCENTS:
+        pk = res.packing
+        if not fire_used and is_jammed(pk, res.ftol).jammed:
+            break
+        nl = NeighborList(pk)
+        _, backbone = observe(pk, nl)
+        push, _ = saddle_push(pk, nl, backbone, downhill=True)
+        if push is None:
+            break
+        pushes += 1
+        spent = (res.iterations, res.volume_steps)
+        # FIRE, not the Newton relaxer: Newton's step on an indefinite Hessian goes back to the
+        # stationary point it was pushed off (measured: 10 pushes, the same saddle each time)
+        res = minimize_enthalpy(pk.with_positions(pk.positions + push), pressure,
+                                **{**kw, "relax": None})
+        res = replace(res, iterations=res.iterations + spent[0],
+                      volume_steps=res.volume_steps + spent[1])
+        fire_used = True
+    return res, pushes
 
 
 def _row(res, ftol: float) -> dict:
@@ -353,10 +399,13 @@ def shear_at_pressure(
     if previous is None:
         gamma0 = packing.strain
         res = minimize_enthalpy(packing, pressure, **kw)
+        counts = dict.fromkeys((*CANDIDATE_COUNTS, SADDLE_COUNT), 0)
+        res, pushes = leave_saddle(res, pressure, kw, fire_used=relaxer is None
+                                   or res.iterations > 0)
+        counts[SADDLE_COUNT] += pushes
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
         cur = res.packing
-        counts = dict.fromkeys(CANDIDATE_COUNTS, 0)
         first = 1
         if observer is not None:
             observer(0, cur)
@@ -378,6 +427,10 @@ def shear_at_pressure(
             affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
             slope_guess=slope, parent=cur, **kw
         )
+        # FIRE can stop on a saddle (the Newton relaxer's fallbacks, plain FIRE): such a step,
+        # and any minimum hypostatic under pressure, is tested and pushed off (docs/aqs.md)
+        res, pushes = leave_saddle(res, pressure, kw, fire_used=res.iterations > 0)
+        counts[SADDLE_COUNT] += pushes
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
@@ -540,7 +593,7 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
         "converged": fp["converged"],
     }
     rows = {k: source[k].tolist() for k in names}
-    counts = {k: int(previous.attrs.get(k, 0)) for k in CANDIDATE_COUNTS}
+    counts = {k: int(previous.attrs.get(k, 0)) for k in (*CANDIDATE_COUNTS, SADDLE_COUNT)}
     return rows, np.asarray(fp["confirmed"], dtype=bool), counts
 
 

@@ -17,7 +17,7 @@ import scipy.sparse.linalg as spla
 from jamlab.spheres.aqs.linalg import Factor, backbone_matrix, factorise, ldlt
 from jamlab.spheres.aqs.record import observe
 from jamlab.spheres.fire import FireParameters, minimize
-from jamlab.spheres.potential import NeighborList, Packing
+from jamlab.spheres.potential import NeighborList, Packing, energy
 
 # a Hessian eigenvalue below −NEGATIVE_CURVATURE · λ_max is a resolved unstable mode (a flat or
 # floppy direction, |λ| at rounding level, is not: no displacement along it lowers the energy)
@@ -95,6 +95,37 @@ def unstable_mode(k: sps.csr_matrix, d: int) -> np.ndarray | None:
     return x.reshape(-1, d)
 
 
+def saddle_push(
+    packing: Packing, nl: NeighborList, backbone: np.ndarray, test: bool = True,
+    downhill: bool = False,
+) -> tuple[np.ndarray | None, Factor]:
+    """The push off a saddle: factorise the pinned backbone Hessian of ``packing`` (an exact
+    inertia test, :func:`~jamlab.spheres.aqs.linalg.factorise`); if it is not positive definite
+    and its lowest eigenvalue is a resolved negative one (:func:`unstable_mode`), the
+    displacement of every particle along that mode (backbone particles only; largest
+    displacement ``KICK`` mean diameters, the sign making the largest component positive, so the
+    result is deterministic), else ``None`` (a minimum, or a flat direction). Returns ``(push,
+    factor)``; with ``test=False`` only the factor (the push is ``None``). ``downhill``: the
+    sign instead the one of lower energy at the pushed point (a saddle next to a contact at
+    touching rises at once on one side, where the minimum reached lies no lower than the saddle;
+    measured at fixed pressure, ``docs/aqs.md``)."""
+    fac = factorise(packing, nl, backbone)
+    if fac.free.size == 0 or fac.positive_definite or not test:
+        return None, fac
+    v = unstable_mode(backbone_matrix(packing, nl, fac), packing.dim)
+    if v is None:
+        return None, fac  # positive semi-definite: a flat direction, not a saddle
+    norms = np.sqrt(np.einsum("ij,ij->i", v, v))
+    big = int(np.argmax(norms))
+    sign = 1.0 if v[big, int(np.argmax(np.abs(v[big])))] > 0 else -1.0
+    push = np.zeros_like(packing.positions)
+    push[fac.free] = (sign * KICK * float(np.mean(packing.diameters)) / norms[big]) * v
+    if downhill and (energy(packing.with_positions(packing.positions - push), nl)
+                     < energy(packing.with_positions(packing.positions + push), nl)):
+        push = -push
+    return push, fac
+
+
 def descend(
     packing: Packing,
     row: dict[str, float],
@@ -110,25 +141,15 @@ def descend(
     While the pinned backbone Hessian (:func:`~jamlab.spheres.aqs.linalg.factorise`, an exact
     inertia test) is not positive definite and its lowest eigenvalue is a resolved negative one
     (below ``−NEGATIVE_CURVATURE · λ_max``), the backbone particles are pushed along that mode
-    (largest displacement ``KICK`` mean diameters; the sign making the largest component
-    positive, so the result is deterministic) and FIRE minimises again (at most
-    ``MAX_DESCENTS`` times). Returns ``(minimum, row, backbone, factor of the minimum, FIRE
-    iterations, factorisations)``.
+    (:func:`saddle_push`) and FIRE minimises again (at most ``MAX_DESCENTS`` times). Returns
+    ``(minimum, row, backbone, factor of the minimum, FIRE iterations, factorisations)``.
     """
     iterations = factorisations = 0
     for attempt in range(MAX_DESCENTS + 1):
-        fac = factorise(packing, nl, backbone)
+        push, fac = saddle_push(packing, nl, backbone, test=attempt < MAX_DESCENTS)
         factorisations += 1
-        if fac.free.size == 0 or fac.positive_definite or attempt == MAX_DESCENTS:
+        if push is None:
             break
-        v = unstable_mode(backbone_matrix(packing, nl, fac), packing.dim)
-        if v is None:
-            break  # positive semi-definite: a flat direction, not a saddle
-        norms = np.sqrt(np.einsum("ij,ij->i", v, v))
-        big = int(np.argmax(norms))
-        sign = 1.0 if v[big, int(np.argmax(np.abs(v[big])))] > 0 else -1.0
-        push = np.zeros_like(packing.positions)
-        push[fac.free] = (sign * KICK * float(np.mean(packing.diameters)) / norms[big]) * v
         res = minimize(
             packing.with_positions(packing.positions + push),
             ftol,
