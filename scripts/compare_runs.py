@@ -1,0 +1,112 @@
+"""Two run directories of one study (same seeds), compared sample by sample and pooled.
+
+For a change of the code that should alter only some steps (e.g. the fixed-pressure saddle test,
+``pressure_shear.leave_saddle``), run the same ``jamlab run`` study with the code before and
+after into two directories and compare: per sample, whether the ``plastic`` flags, the
+``jammed`` flags and the energies are equal, and at how many steps they differ; pooled over the
+samples both hold, the unjammed minima and excluded steps, the number of avalanches (plastic
+steps between jammed minima, :func:`jamlab.analysis.avalanches.avalanche_sizes`), the plastic
+fraction, ``⟨S⟩``, and the two-sample KS test on the sizes (``scipy.stats.ks_2samp``), all sizes
+and those at or above ``--s-min``.
+
+    PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+from scipy.stats import ks_2samp
+
+from jamlab.analysis.avalanches import avalanche_sizes, exclusions
+
+
+def samples(run: Path) -> dict[str, Path]:
+    return {f"{p.parent.name}/{p.stem}": p for p in sorted(run.glob("samples/*/*/sample-*.h5"))}
+
+
+def read(path: Path) -> dict[str, np.ndarray]:
+    with h5py.File(path, "r") as h5:
+        return {k: h5["trace"][k][()] for k in ("energy", "energy_jump", "plastic", "jammed")}
+
+
+def sem(x: np.ndarray) -> float:
+    return float(x.std(ddof=1) / np.sqrt(len(x)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("a", type=Path)
+    ap.add_argument("b", type=Path)
+    ap.add_argument("--s-min", type=float, default=None,
+                    help="also compare the sizes at or above this (ε)")
+    args = ap.parse_args(argv)
+    for run in (args.a, args.b):
+        if not (run / "manifest.json").is_file():
+            ap.error(f"{run} is not a run directory (no manifest.json)")
+    study = [json.loads((r / "manifest.json").read_text())["study"] for r in (args.a, args.b)]
+    differ = sorted(k for k in set(study[0]) | set(study[1])
+                    if k != "samples" and study[0].get(k) != study[1].get(k))
+    if differ:
+        ap.error(f"the two runs are of different studies ({', '.join(differ)})")
+    sa, sb = samples(args.a), samples(args.b)
+    common = sorted(set(sa) & set(sb))
+    if not common:
+        ap.error("no sample is in both runs")
+    pooled: dict[str, dict] = {"a": {"S": [], "steps": 0, "plastic": 0, "unjammed": 0,
+                                     "excluded": 0},
+                               "b": {"S": [], "steps": 0, "plastic": 0, "unjammed": 0,
+                                     "excluded": 0}}
+    print(f"{len(common)} samples in both ({args.a}: {len(sa)}, {args.b}: {len(sb)})")
+    print("| sample | plastic differ at | jammed differ at | energies equal (rows) | "
+          "unjammed a / b |")
+    print("|---|---|---|---|---|")
+    for key in common:
+        ta, tb = read(sa[key]), read(sb[key])
+        n = min(len(ta["energy"]), len(tb["energy"]))
+        dp = np.flatnonzero(ta["plastic"][:n] != tb["plastic"][:n])
+        dj = np.flatnonzero(ta["jammed"][:n] != tb["jammed"][:n])
+        same = int(np.sum(ta["energy"][:n] == tb["energy"][:n]))
+        print(f"| {key} | {dp.tolist()[:8]}{' …' if len(dp) > 8 else ''} | "
+              f"{dj.tolist()[:8]}{' …' if len(dj) > 8 else ''} | {same} of {n} | "
+              f"{int(np.sum(~ta['jammed'].astype(bool)))} / "
+              f"{int(np.sum(~tb['jammed'].astype(bool)))} |")
+        for name, t in (("a", ta), ("b", tb)):
+            jammed = t["jammed"].astype(bool)
+            # row 0 of the trace is the start: steps 1..M, minima 0..M
+            jump, plastic = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+            s = avalanche_sizes(jump, plastic, jammed=jammed)
+            ex = exclusions(jump, jammed, plastic)
+            acc = pooled[name]
+            acc["S"].append(s)
+            acc["steps"] += ex.n_steps
+            acc["plastic"] += len(s)
+            acc["unjammed"] += int(np.sum(~jammed))
+            acc["excluded"] += ex.n_steps_excluded
+    sizes = {k: np.concatenate(v["S"]) for k, v in pooled.items()}
+    print()
+    print("| run | steps | unjammed minima | excluded steps | avalanches | plastic fraction | "
+          "⟨S⟩ (ε) |")
+    print("|---|---|---|---|---|---|---|")
+    for name, run in (("a", args.a), ("b", args.b)):
+        acc = pooled[name]
+        print(f"| {run} | {acc['steps']} | {acc['unjammed']} | {acc['excluded']} | "
+              f"{acc['plastic']} | {acc['plastic'] / acc['steps']:.4f} | "
+              f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} |")
+    ks = ks_2samp(sizes["a"], sizes["b"])
+    print(f"\ntwo-sample KS on all sizes: D = {ks.statistic:.4f}, p = {ks.pvalue:.3f}")
+    if args.s_min is not None:
+        a, b = sizes["a"][sizes["a"] >= args.s_min], sizes["b"][sizes["b"] >= args.s_min]
+        ks = ks_2samp(a, b)
+        print(f"S ≥ {args.s_min:g}: {len(a)} / {len(b)} avalanches, D = {ks.statistic:.4f}, "
+              f"p = {ks.pvalue:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
