@@ -64,16 +64,22 @@ def main(argv: list[str] | None = None) -> int:
                                      "excluded": 0}}
     print(f"{len(common)} samples in both ({args.a}: {len(sa)}, {args.b}: {len(sb)})")
     print("| sample | plastic differ at | jammed differ at | energies equal (rows) | "
-          "unjammed a / b |")
-    print("|---|---|---|---|---|")
+          "first row that differs | first unjammed row of a | unjammed a / b |")
+    print("|---|---|---|---|---|---|---|")
+    firsts = []
     for key in common:
         ta, tb = read(sa[key]), read(sb[key])
         n = min(len(ta["energy"]), len(tb["energy"]))
         dp = np.flatnonzero(ta["plastic"][:n] != tb["plastic"][:n])
         dj = np.flatnonzero(ta["jammed"][:n] != tb["jammed"][:n])
         same = int(np.sum(ta["energy"][:n] == tb["energy"][:n]))
+        first = np.flatnonzero(ta["energy"][:n] != tb["energy"][:n])
+        first = int(first[0]) if first.size else None
+        unj = np.flatnonzero(~ta["jammed"].astype(bool))
+        unj = int(unj[0]) if unj.size else None
+        firsts.append((first, unj))
         print(f"| {key} | {dp.tolist()[:8]}{' …' if len(dp) > 8 else ''} | "
-              f"{dj.tolist()[:8]}{' …' if len(dj) > 8 else ''} | {same} of {n} | "
+              f"{dj.tolist()[:8]}{' …' if len(dj) > 8 else ''} | {same} of {n} | {first} | {unj} | "
               f"{int(np.sum(~ta['jammed'].astype(bool)))} / "
               f"{int(np.sum(~tb['jammed'].astype(bool)))} |")
         for name, t in (("a", ta), ("b", tb)):
@@ -88,6 +94,10 @@ def main(argv: list[str] | None = None) -> int:
             acc["plastic"] += len(s)
             acc["unjammed"] += int(np.sum(~jammed))
             acc["excluded"] += ex.n_steps_excluded
+    diverged = [f for f in firsts if f[0] is not None]
+    at = sum(1 for f, u in diverged if u is not None and f == u)
+    print(f"\n{len(diverged)} samples differ; in {at} the first differing row is the first "
+          f"unjammed minimum of a")
     sizes = {k: np.concatenate(v["S"]) for k, v in pooled.items()}
     print()
     print("| run | steps | unjammed minima | excluded steps | avalanches | plastic fraction | "

@@ -18,10 +18,12 @@ reports:
 - the lowest eigenvalues of the backbone Hessian (dense), of the minimum and of the one before:
   a resolved negative one (below ``−NEGATIVE_CURVATURE λ_max``, the rule of
   ``jamlab.spheres.aqs.saddle``) makes the recorded minimum a saddle;
+- whether the run's own saddle test (``saddle.saddle_push`` on the pinned backbone Hessian,
+  rattlers held as fixed spring ends: what ``pressure_shear.leave_saddle`` decides) finds it;
 - the contacts lost and gained from the minimum before.
 
-On a run made after the fixed-pressure saddle test (``pressure_shear.leave_saddle``) there
-should be none left to describe.
+On a run made after the fixed-pressure saddle test (``pressure_shear.leave_saddle``) the
+minima left unjammed are those the run's test does not call saddles.
 
 Usage::
 
@@ -39,8 +41,10 @@ import numpy as np
 
 from jamlab.runs.load import prepared_packing
 from jamlab.runs.storage import RunDir
-from jamlab.spheres.aqs.saddle import NEGATIVE_CURVATURE
+from jamlab.spheres.aqs.record import observe
+from jamlab.spheres.aqs.saddle import NEGATIVE_CURVATURE, saddle_push
 from jamlab.spheres.contacts import contacts, remove_rattlers
+from jamlab.spheres.neighbors import NeighborList
 from jamlab.spheres.potential import hessian
 from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 from jamlab.spheres.rigidity import is_jammed
@@ -126,6 +130,11 @@ def describe(packing, before, ftol):
     s_min, f_norm, n_stress, pr_mode = compatibility_min_singular(packing, keep)
     now, then = contact_set(packing), contact_set(before)
     eig, eig_max = lowest_eigenvalues(packing, keep)
+    # the verdict of the run's own test (leave_saddle): the pinned backbone Hessian, rattlers
+    # held as fixed spring ends
+    nl = NeighborList(packing)
+    _, held = observe(packing, nl)
+    pinned_saddle = saddle_push(packing, nl, held)[0] is not None
     eig_before, _ = lowest_eigenvalues(before, remove_rattlers(before).mask)
     lost = sorted(then - now)
     nearest = (int(gi[0]), int(gj[0]))
@@ -141,6 +150,7 @@ def describe(packing, before, ftol):
         "n_stress": n_stress,
         "eig": eig,
         "eig_max": eig_max,
+        "pinned_saddle": pinned_saddle,
         "eig_before": eig_before,
         "pr_mode": pr_mode,
         "balance": s_min * f_norm / (np.sqrt(state.n_backbone) * ftol),
@@ -206,7 +216,8 @@ def main(argv=None) -> int:
                   f"{', '.join(f'{g:.2e}' for g in d['gaps'])} (mean overlap "
                   f"{d['mean_overlap']:.2e}); s_min {d['s_min']:.1e}, s_min|f|/(√N' ftol) "
                   f"{d['balance']:.2f}, its self-stress on {d['n_stress']} contacts (90 %), "
-                  f"floppy mode participation {d['pr_mode']:.3f}; lowest Hessian eigenvalues "
+                  f"floppy mode participation {d['pr_mode']:.3f}; saddle by the run's test "
+                  f"{d['pinned_saddle']}; lowest Hessian eigenvalues "
                   f"{', '.join(f'{e:.1e}' for e in d['eig'])} (step before: "
                   f"{', '.join(f'{e:.1e}' for e in d['eig_before'])}); from step {k - 1} "
                   f"(jammed {d['before_jammed']}): lost "
@@ -232,7 +243,8 @@ def main(argv=None) -> int:
           f"{sum(r['before_jammed'] for r in rows)}; saddles (lowest backbone Hessian eigenvalue "
           f"below −{NEGATIVE_CURVATURE:g} λ_max): {int(saddle.sum())} of {len(rows)} "
           f"(λ_min from {min(r['eig'][0] for r in rows):.2e} to "
-          f"{max(r['eig'][0] for r in rows):.2e})")
+          f"{max(r['eig'][0] for r in rows):.2e}); saddles by the run's own test "
+          f"(saddle.saddle_push, rattlers held): {sum(r['pinned_saddle'] for r in rows)}")
     return 0
 
 

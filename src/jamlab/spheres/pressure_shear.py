@@ -11,6 +11,10 @@ phi, box_length, z, z_nr, jammed, max_force, iterations (FIRE, summed over the i
 minimisations and the substeps of a plastic-flag confirmation), volume_steps, converged,
 enthalpy_jump, stress_jump, plastic``.
 
+A minimum FIRE took part in (and one the jammed flag rejects) is tested for a saddle and pushed
+off it (:func:`leave_saddle`; trace attribute ``n_saddles_left``): at p = 1e-6 the minima the
+flag rejected were saddles of the enthalpy (``docs/aqs.md``).
+
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
 envelope theorem (the minimiser's ``x`` and ``L`` are stationary), ``dH*/dγ = ∂E/∂γ`` at fixed

@@ -1,0 +1,71 @@
+"""``scripts/compare_runs.py`` on two hand-made run directories: its counts against ones made by
+hand here, and its refusals."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+from tests.script_helpers import script_module
+
+STUDY = {"phi": ["jamming"], "n": [8], "samples": 2, "dgamma": 1e-5, "gamma_max": 5e-5,
+         "pressure": 1e-6}
+
+
+def make_run(root, traces, study=STUDY):
+    root.mkdir()
+    (root / "manifest.json").write_text(json.dumps({"format": "jamlab-run", "study": study}))
+    folder = root / "samples" / "phi=jamming" / "N=8"
+    folder.mkdir(parents=True)
+    for i, t in enumerate(traces):
+        with h5py.File(folder / f"sample-{i:05d}.h5", "w") as h5:
+            for k, v in t.items():
+                h5[f"trace/{k}"] = v
+    return root
+
+
+def trace(jump, plastic, jammed):
+    jump = np.array([np.nan, *jump])
+    energy = np.nancumsum(np.concatenate([[1.0], jump[1:]]))
+    return {"energy": energy, "energy_jump": jump, "plastic": np.array([False, *plastic]),
+            "jammed": np.array(jammed)}
+
+
+@pytest.fixture
+def runs(tmp_path):
+    a0 = trace([-1e-9, 1e-12, -3e-9, -2e-9, 1e-12], [True, False, True, True, False],
+               [True, True, True, True, False, True])
+    a1 = trace([-5e-10, 1e-12, 1e-12, -4e-9, 1e-12], [True, False, False, True, False],
+               [True] * 6)
+    # b: sample 0 differs from step 4 on (the unjammed minimum of a left: a jammed one, the
+    # step flagged plastic), sample 1 is the same
+    b0 = trace([-1e-9, 1e-12, -3e-9, -2e-9, -6e-9], [True, False, True, True, True], [True] * 6)
+    return make_run(tmp_path / "a", [a0, a1]), make_run(tmp_path / "b", [b0, a1])
+
+
+def test_counts_against_hand_counts(runs, capsys):
+    mod = script_module("compare_runs")
+    assert mod.main([str(runs[0]), str(runs[1])]) == 0
+    out = capsys.readouterr().out
+    # a: minimum 4 of sample 0 unjammed -> steps 4 and 5 excluded; avalanches: sample 0 steps 1
+    # and 3 (step 4 ends unjammed), sample 1 steps 1 and 4 -> 4 of 10 steps
+    assert "| 10 | 1 | 2 | 4 | 0.4000 |" in out
+    # b: nothing unjammed; sample 0 steps 1, 3, 4, 5, sample 1 steps 1, 4 -> 6
+    assert "| 10 | 0 | 0 | 6 | 0.6000 |" in out
+    assert "| N=8/sample-00000 | [5] | [4] | 5 of 6 | 5 | 4 |" in out
+    assert "| N=8/sample-00001 | [] | [] | 6 of 6 | None | None |" in out
+    mean_a = np.mean([1e-9, 3e-9, 5e-10, 4e-9])
+    assert f"{mean_a:.3e}" in out
+
+
+def test_different_studies_are_refused(tmp_path, capsys):
+    mod = script_module("compare_runs")
+    t = trace([-1e-9], [True], [True, True])
+    a = make_run(tmp_path / "a", [t])
+    b = make_run(tmp_path / "b", [t], study={**STUDY, "pressure": 1e-5})
+    with pytest.raises(SystemExit) as err:
+        mod.main([str(a), str(b)])
+    assert err.value.code == 2
+    assert "different studies (pressure)" in capsys.readouterr().err
