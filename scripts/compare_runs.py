@@ -7,9 +7,11 @@ after into two directories and compare: per sample, whether the ``plastic`` flag
 samples both hold, the unjammed minima and excluded steps, the number of avalanches (plastic
 steps between jammed minima, :func:`jamlab.analysis.avalanches.avalanche_sizes`), the plastic
 fraction, ``⟨S⟩``, and the two-sample KS test on the sizes (``scipy.stats.ks_2samp``), all sizes
-and those at or above ``--s-min``.
+and those at or above ``--s-min``; with ``--fit-at`` τ with an exponential cut-off at fixed
+``S_min`` in each run.
 
     PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
+        [--fit-at 1.19e-11 1.11e-10]
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import h5py
 import numpy as np
 from scipy.stats import ks_2samp
 
+from jamlab.analysis import fit_cutoff_power_law
 from jamlab.analysis.avalanches import avalanche_sizes, exclusions
 
 
@@ -45,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("b", type=Path)
     ap.add_argument("--s-min", type=float, default=None,
                     help="also compare the sizes at or above this (ε)")
+    ap.add_argument("--fit-at", type=float, nargs="+", default=[],
+                    help="τ with an exponential cut-off fitted at these fixed S_min (ε) in each "
+                         "run (asymptotic σ; jamlab.analysis.fit_cutoff_power_law)")
     args = ap.parse_args(argv)
     for run in (args.a, args.b):
         if not (run / "manifest.json").is_file():
@@ -115,6 +121,17 @@ def main(argv: list[str] | None = None) -> int:
         ks = ks_2samp(a, b)
         print(f"S ≥ {args.s_min:g}: {len(a)} / {len(b)} avalanches, D = {ks.statistic:.4f}, "
               f"p = {ks.pvalue:.3f}")
+    for x_min in args.fit_at:
+        row = []
+        for name in ("a", "b"):
+            tail = sizes[name][sizes[name] >= x_min]
+            if tail.size < 10:
+                row.append(f"{name}: {tail.size} sizes, no fit")
+                continue
+            fit = fit_cutoff_power_law(sizes[name], x_min=x_min)
+            row.append(f"{name}: τ = {fit.tau:.3f} ± {fit.tau_stderr:.3f} ({tail.size} sizes, "
+                       f"S_c = {fit.x_c:.2e})")
+        print(f"exponential cut-off at S ≥ {x_min:g}: " + "; ".join(row))
     return 0
 
 

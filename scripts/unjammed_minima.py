@@ -41,8 +41,9 @@ import numpy as np
 
 from jamlab.runs.load import prepared_packing
 from jamlab.runs.storage import RunDir
+from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
 from jamlab.spheres.aqs.record import observe
-from jamlab.spheres.aqs.saddle import NEGATIVE_CURVATURE, saddle_push
+from jamlab.spheres.aqs.saddle import NEGATIVE_CURVATURE, unstable_mode
 from jamlab.spheres.contacts import contacts, remove_rattlers
 from jamlab.spheres.neighbors import NeighborList
 from jamlab.spheres.potential import hessian
@@ -134,7 +135,11 @@ def describe(packing, before, ftol):
     # held as fixed spring ends
     nl = NeighborList(packing)
     _, held = observe(packing, nl)
-    pinned_saddle = saddle_push(packing, nl, held)[0] is not None
+    fac = factorise(packing, nl, held)
+    # saddle_push's decision, from the primitives it uses (so that the script also runs on
+    # source trees from before saddle_push, to describe the runs made with them)
+    pinned_saddle = (fac.free.size > 0 and not fac.positive_definite
+                     and unstable_mode(backbone_matrix(packing, nl, fac), packing.dim) is not None)
     eig_before, _ = lowest_eigenvalues(before, remove_rattlers(before).mask)
     lost = sorted(then - now)
     nearest = (int(gi[0]), int(gj[0]))
