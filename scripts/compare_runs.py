@@ -1,7 +1,7 @@
 """Two run directories of one study (same seeds), compared sample by sample and pooled.
 
 For a change of the code that should alter only some steps (e.g. the fixed-pressure saddle test,
-``pressure_shear.leave_saddle``), run the same ``jamlab run`` study with the code before and
+``barostat.leave_saddle``), run the same ``jamlab run`` study with the code before and
 after into two directories and compare: per sample, whether the ``plastic`` flags, the
 ``jammed`` flags and the energies are equal, and at how many steps they differ; pooled over the
 samples both hold, the unjammed minima and excluded steps, the number of avalanches (plastic

@@ -19,10 +19,10 @@ reports:
   a resolved negative one (below ``−NEGATIVE_CURVATURE λ_max``, the rule of
   ``jamlab.spheres.aqs.saddle``) makes the recorded minimum a saddle;
 - whether the run's own saddle test (``saddle.saddle_push`` on the pinned backbone Hessian,
-  rattlers held as fixed spring ends: what ``pressure_shear.leave_saddle`` decides) finds it;
+  rattlers held as fixed spring ends: what ``barostat.leave_saddle`` decides) finds it;
 - the contacts lost and gained from the minimum before.
 
-On a run made after the fixed-pressure saddle test (``pressure_shear.leave_saddle``) the
+On a run made after the fixed-pressure saddle test (``barostat.leave_saddle``) the
 minima left unjammed are those the run's test does not call saddles.
 
 Usage::

@@ -1,6 +1,6 @@
 """Saddles at fixed pressure (issue 18): a point where FIRE stopped with ``max|F| < ftol`` at the
 target pressure but that is not a minimum is pushed off and minimised again
-(:func:`jamlab.spheres.pressure_shear.leave_saddle`).
+(:func:`jamlab.spheres.barostat.leave_saddle`).
 
 The fixture ``tests/data/saddle/fixed-pressure-n250-p1e-6.h5`` is such a point, recorded as a
 minimum (step 193 of sample 0 of ``jamlab run --phi jamming --n 250 --samples 20 --dgamma 1e-5
@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jamlab.spheres.barostat import enthalpy, minimize_enthalpy, pressure_tolerance
+from jamlab.spheres.barostat import enthalpy, leave_saddle, minimize_enthalpy, pressure_tolerance
 from jamlab.spheres.contacts import remove_rattlers
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.newton_relax import NewtonRelaxer
 from jamlab.spheres.potential import energy, hessian, max_force, pressure
-from jamlab.spheres.pressure_shear import SADDLE_COUNT, leave_saddle
+from jamlab.spheres.pressure_shear import SADDLE_COUNT
 from jamlab.spheres.rigidity import is_jammed
 
 P_TARGET = 1e-6

@@ -11,9 +11,8 @@ phi, box_length, z, z_nr, jammed, max_force, iterations (FIRE, summed over the i
 minimisations and the substeps of a plastic-flag confirmation), volume_steps, converged,
 enthalpy_jump, stress_jump, plastic``.
 
-A minimum FIRE took part in (and one the jammed flag rejects) is tested for a saddle and pushed
-off it (:func:`leave_saddle`; trace attribute ``n_saddles_left``): at p = 1e-6 most minima the
-flag rejected were saddles of the enthalpy (``docs/aqs.md``).
+A minimum FIRE took part in, or one the jammed flag rejects, is tested for a saddle and pushed
+off it (``barostat.leave_saddle``; trace attribute ``n_saddles_left``; ``docs/aqs.md``).
 
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
@@ -27,43 +26,41 @@ the constant-volume rule with ``E`` replaced by ``H`` (the ``p_t ΔV`` of dilata
 ``E`` alone does not obey it). ``enthalpy_jump`` is ``ΔH_n`` (NaN in row 0), ``stress_jump``
 ``ΔΣ_n``; the avalanche size at fixed pressure is ``S_n = −ΔH_n``.
 
-**Plastic flag.** The continuation test of constant-volume AQS is not available here. A step
-is a *candidate* when its trapezoid residual ``r_n = ΔH_n − ½ δγ ΔΣ_n`` exceeds
-``plastic_floor · δγ²`` in absolute value (either sign: near jamming an event with a large stress
-drop and a small ``S`` has ``r_n > 0``). A contact opening or closing inside the step (a kink)
-also breaks the rule, and near jamming by more than the affine estimate ``δγ²/16`` (non-affine
-displacements amplify the stiffness change): measured 0.15–0.22 ``δγ²`` at N = 64,
-p = 1e-3 (``docs/aqs.md``). So a candidate is redone from the previous minimum in
-``confirm_substeps`` (16) pieces (:func:`jamlab.spheres.confirm.jump_in_chain`): a jump keeps its
-residual in one piece (``≈ r_n``), a kink leaves ``≲ r_n/k`` per piece; the step is **plastic**
-when one piece keeps more than ``|r_n|/4`` (or the single step's end lies lower than the chain's
-end by more than that: it left the quasi-static branches), it lies between two jammed minima, and
-``|r_n| > max(10 σ, plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's
-jammed steps, :func:`~jamlab.analysis.avalanches.noise_floor`). With the Newton inner minimiser
-and ``confirm="continued"`` a candidate whose every inner problem Newton solved
-from the previous minimum's contact network — the branch continued through the step, no FIRE —
-is a kink and is not redone (a jump leaves the linear-response basin of the branch, where
-Newton fails and FIRE carries the event); measured against redoing every candidate
-(``confirm="chain"``) in ``docs/aqs.md``. ``confirm="located"`` (the default) redoes the same
-candidates, but decides each first on the one piece where the branch of the start ends
-(:func:`jamlab.spheres.confirm.jump_located`: Newton-only probes find the piece by bisection,
-and the step's own end minimum, continued back by Newton, closes it — the event is not carried
-by FIRE a second time; where the end's branch does not reach back that far, the chain's own
-pieces from there, then those before it: a final verdict), the whole chain only where the piece
-the probes located keeps less than the bound. It also counts as plastic
-the single step that lands in a lower minimum than quasi-static driving reaches (its end is not
-the continuation of its start: the constant-volume rule), which the chain calls a kink; measured
-in ``docs/aqs.md``. By default the redoing is deferred
-(``defer_confirmation``): a candidate is kept and, once the run's threshold is known, redone only
-if ``|r_n|`` passes it between two jammed minima — the others cannot be plastic whatever their
-verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two thirds of the candidates, since the noise of
-``r_n`` puts the threshold ~50× above the candidates' floor), and of those only the ones that
-did not release for certain more than ``confirm_below`` (5) times ``max(threshold, δγ²)``
-(:func:`~jamlab.spheres.confirm.released_at_least`; the others are jumps: ``docs/aqs.md``,
-measured). ``confirm_substeps=0`` skips the
-confirmation (cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
-``S = −ΔH_n > 0`` of the flagged steps follow from
-:func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
+**Plastic flag.** The continuation test of constant-volume AQS is not available here. A step is a
+*candidate* when its trapezoid residual ``r_n = ΔH_n − ½ δγ ΔΣ_n`` exceeds ``plastic_floor · δγ²``
+in absolute value (either sign: near jamming an event with a large stress drop and a small ``S``
+has ``r_n > 0``). A contact opening or closing inside the step (a kink) also breaks the rule, and
+near jamming by more than the affine estimate ``δγ²/16`` (non-affine displacements amplify the
+stiffness change): measured 0.15–0.22 ``δγ²`` at N = 64, p = 1e-3 (``docs/aqs.md``). So a candidate
+is redone from the previous minimum in ``confirm_substeps`` (16) pieces
+(:func:`jamlab.spheres.confirm.jump_in_chain`): a jump keeps its residual in one piece (``≈ r_n``),
+a kink leaves ``≲ r_n/k`` per piece; the step is **plastic** when one piece keeps more than
+``|r_n|/4`` (or the single step's end lies lower than the chain's end by more than that: it left
+the quasi-static branches), it lies between two jammed minima, and ``|r_n| > max(10 σ,
+plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's jammed steps,
+:func:`~jamlab.analysis.avalanches.noise_floor`). With the Newton inner minimiser and
+``confirm="continued"`` a candidate whose every inner problem Newton solved from the previous
+minimum's contact network — the branch continued through the step, no FIRE — is a kink and is not
+redone (a jump leaves the linear-response basin of the branch, where Newton fails and FIRE carries
+the event); measured against redoing every candidate (``confirm="chain"``) in ``docs/aqs.md``.
+``confirm="located"`` (the default) redoes the same candidates, but decides each first on the one
+piece where the branch of the start ends (:func:`jamlab.spheres.confirm.jump_located`: Newton-only
+probes find the piece by bisection, and the step's own end minimum, continued back by Newton,
+closes it — the event is not carried by FIRE a second time; where the end's branch does not reach
+back that far, the chain's own pieces from there, then those before it: a final verdict), the whole
+chain only where the piece the probes located keeps less than the bound. It also counts as plastic
+the single step that lands in a lower minimum than quasi-static driving reaches (its end is not the
+continuation of its start: the constant-volume rule), which the chain calls a kink; measured in
+``docs/aqs.md``. By default the redoing is deferred (``defer_confirmation``): a candidate is kept
+and, once the run's threshold is known, redone only if ``|r_n|`` passes it between two jammed
+minima — the others cannot be plastic whatever their verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two
+thirds of the candidates, since the noise of ``r_n`` puts the threshold ~50× above the candidates'
+floor), and of those only the ones that did not release for certain more than ``confirm_below`` (5)
+times ``max(threshold, δγ²)`` (:func:`~jamlab.spheres.confirm.released_at_least`; the others are
+jumps: ``docs/aqs.md``, measured). ``confirm_substeps=0`` skips the confirmation (cheaper, counts
+kinks). The recorded minimum is always the single step's; the sizes ``S = −ΔH_n > 0`` of the
+flagged steps follow from :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and
+``jammed``.
 """
 
 from __future__ import annotations
@@ -71,13 +68,11 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from jamlab.spheres.aqs.record import observe
-from jamlab.spheres.aqs.saddle import MAX_DESCENTS, saddle_push
-from jamlab.spheres.barostat import EnthalpyResult, minimize_enthalpy
+from jamlab.spheres.barostat import enthalpy_and_stress, leave_saddle, minimize_enthalpy
 from jamlab.spheres.confirm import (
     jump_in_chain,
     jump_located,
@@ -85,7 +80,6 @@ from jamlab.spheres.confirm import (
     trapezoid_residual,
 )
 from jamlab.spheres.fire import FireParameters
-from jamlab.spheres.neighbors import NeighborList
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
 from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
 from jamlab.spheres.rigidity import is_jammed
@@ -109,9 +103,7 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 event), the chain only where that piece, located by the probes alone, keeps less than the
 bound (plain FIRE: ``continued``)."""
 
-SADDLE_COUNT = "n_saddles_left"
-"""Trace attribute: how many times a recorded minimum (row 0 included) was found to be a saddle
-and pushed off it (:func:`leave_saddle`)."""
+SADDLE_COUNT = "n_saddles_left"  # trace attribute: pushes off saddles (barostat.leave_saddle)
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
                                      "n_candidates_below_threshold", "n_candidates_located",
@@ -212,46 +204,6 @@ class PressureShearResult:
         )
 
 
-def leave_saddle(
-    res: EnthalpyResult, pressure: float, kw: dict, fire_used: bool
-) -> tuple[EnthalpyResult, int]:
-    """The fixed-pressure minimum ``res`` pushed off a saddle, if it is one: ``(result,
-    pushes)``.
-
-    FIRE can stop on a saddle of the energy at fixed box (``max|F| < ftol`` with a resolved
-    negative curvature, :mod:`jamlab.spheres.aqs.saddle`), and one is then also a saddle of the
-    enthalpy (the positions at fixed box are a subspace of its variables). Measured at
-    ``p = 1e-6``: most minima the jammed flag calls hypostatic under pressure were such saddles
-    (N = 250: 28 → 3 unjammed with this test; the rest minima at a contact at touching,
-    ``docs/aqs.md``). Tested when FIRE took part (``fire_used``) or when the minimum fails the
-    jammed flag: the pinned backbone Hessian's inertia (:func:`~jamlab.spheres.aqs.saddle.
-    saddle_push`); on a saddle the particles are pushed along its unstable mode, on its downhill
-    side, and the enthalpy minimised again (:func:`minimize_enthalpy` with ``kw`` and FIRE as
-    the fixed-box minimiser), at most ``MAX_DESCENTS`` times. The result's ``iterations`` and
-    ``volume_steps`` include those of the minimisations before.
-    """
-    pushes = 0
-    while res.converged and pushes < MAX_DESCENTS:
-        pk = res.packing
-        if not fire_used and is_jammed(pk, res.ftol).jammed:
-            break
-        nl = NeighborList(pk)
-        _, backbone = observe(pk, nl)
-        push, _ = saddle_push(pk, nl, backbone, downhill=True)
-        if push is None:
-            break
-        pushes += 1
-        spent = (res.iterations, res.volume_steps)
-        # FIRE, not the Newton relaxer: Newton's step on an indefinite Hessian goes back to the
-        # stationary point it was pushed off (measured: 10 pushes, the same saddle each time)
-        res = minimize_enthalpy(pk.with_positions(pk.positions + push), pressure,
-                                **{**kw, "relax": None})
-        res = replace(res, iterations=res.iterations + spent[0],
-                      volume_steps=res.volume_steps + spent[1])
-        fire_used = True
-    return res, pushes
-
-
 def _row(res, ftol: float) -> dict:
     pk = res.packing
     ev = evaluate(pk)
@@ -291,15 +243,9 @@ def _advance(pressure: float, kw: dict, slope: float | None) -> Callable:
         if not lengths:
             lengths.append(cur.box.length)
         lengths.append(res.packing.box.length)
-        return (res.packing, *_enthalpy_and_stress(res.packing, pressure), res.iterations)
+        return (res.packing, *enthalpy_and_stress(res.packing, pressure), res.iterations)
 
     return advance
-
-
-def _enthalpy_and_stress(packing: Packing, pressure: float) -> tuple[float, float]:
-    """``(H = E + p V, Σ)`` of a minimum, as the rows record them (:func:`_row`)."""
-    ev = evaluate(packing)
-    return ev.energy + pressure * packing.box.volume, ev.shear_stress
 
 
 def shear_at_pressure(
@@ -336,34 +282,33 @@ def shear_at_pressure(
     recorded with ``converged=False`` and the run goes on from it. ``observer(n, packing)`` (if
     given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
 
-    Checkpoints and resume: every ``save_every`` steps (and not after the last)
-    ``on_save(n, result)`` receives the run so far (its plastic flags provisional: they are
-    judged on the whole run). ``previous``: the trace of such a result (with its group
-    ``fixed_pressure``), continued from ``packing`` — its last minimum, not minimised again; the
-    steps count from ``previous``'s row 0 and ``n_steps``/``gamma_max`` are those of the whole
-    run. A step depends only on the last minimum and the last two box sides, so the continued
-    run equals the uninterrupted one bit for bit (``tests/spheres/test_pressure_shear.py``).
+    Checkpoints and resume: every ``save_every`` steps (and not after the last) ``on_save(n,
+    result)`` receives the run so far (its plastic flags provisional: they are judged on the whole
+    run). ``previous``: the trace of such a result (with its group ``fixed_pressure``), continued
+    from ``packing`` — its last minimum, not minimised again; the steps count from ``previous``'s
+    row 0 and ``n_steps``/``gamma_max`` are those of the whole run. A step depends only on the last
+    minimum and the last two box sides, so the continued run equals the uninterrupted one bit for
+    bit (``tests/spheres/test_pressure_shear.py``).
 
-    ``on_candidate(n, minimum before, minimum after)`` (if given) sees every step whose
-    trapezoid residual exceeds half the candidates' floor, ``|r_n| > ½ plastic_floor · δγ²``: a
-    superset of the steps that can end up plastic, whose verdicts are known only when the run is
-    (e.g. to keep the minima of every step that may need an avalanche record).
+    ``on_candidate(n, minimum before, minimum after)`` (if given) sees every step whose trapezoid
+    residual exceeds half the candidates' floor, ``|r_n| > ½ plastic_floor · δγ²``: a superset of
+    the steps that can end up plastic, whose verdicts are known only when the run is (e.g. to keep
+    the minima of every step that may need an avalanche record).
 
-    ``defer_confirmation`` (default): a candidate step to be redone is kept (its start minimum
-    and the volume slope) and redone only if it can be plastic — after the run, when the plastic
-    threshold of the whole run is known, those with ``|r_n|`` above it and both minima jammed;
-    at a checkpoint, all kept so far (so a resumed run needs nothing that the trace does not
-    hold). The flags are those of the immediate rule (``False``: every candidate redone when it
-    happens, e.g. to study the verdicts themselves); only the steps' order of work differs.
+    ``defer_confirmation`` (default): a candidate step to be redone is kept (its start minimum and
+    the volume slope) and redone only if it can be plastic — after the run, when the plastic
+    threshold of the whole run is known, those with ``|r_n|`` above it and both minima jammed; at a
+    checkpoint, all kept so far (so a resumed run needs nothing that the trace does not hold). The
+    flags are those of the immediate rule (``False``: every candidate redone when it happens, e.g.
+    to study the verdicts themselves); only the steps' order of work differs.
 
-    ``confirm_below`` (default 5): a candidate that released for certain more than
-    ``confirm_below · max(threshold, δγ²)`` (:func:`~jamlab.spheres.confirm.released_at_least`:
-    ``−r_n − ½ δγ |G δγ − ΔΣ_n|``) is plastic without the confirmation — a kink releases
-    nothing and the stress drop of a small event is accounted for; no candidate the
-    confirmation rejected came near (``docs/aqs.md``, measured) — and with
-    ``defer_confirmation`` it is not redone.
-    ``math.inf`` confirms every candidate (the rule before). The stepping, and so every column
-    but ``plastic`` and ``iterations`` (which counts the confirmation's), does not depend on it.
+    ``confirm_below`` (default 5): a candidate that released for certain more than ``confirm_below ·
+    max(threshold, δγ²)`` (:func:`~jamlab.spheres.confirm.released_at_least`: ``−r_n − ½ δγ |G δγ −
+    ΔΣ_n|``) is plastic without the confirmation — a kink releases nothing and the stress drop of a
+    small event is accounted for; no candidate the confirmation rejected came near (``docs/aqs.md``,
+    measured) — and with ``defer_confirmation`` it is not redone. ``math.inf`` confirms every
+    candidate (the rule before). The stepping, and so every column but ``plastic`` and
+    ``iterations`` (which counts the confirmation's), does not depend on it.
     """
     if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
@@ -404,10 +349,8 @@ def shear_at_pressure(
     if previous is None:
         gamma0 = packing.strain
         res = minimize_enthalpy(packing, pressure, **kw)
-        counts = dict.fromkeys((*CANDIDATE_COUNTS, SADDLE_COUNT), 0)
-        res, pushes = leave_saddle(res, pressure, kw, fire_used=relaxer is None
-                                   or res.iterations > 0)
-        counts[SADDLE_COUNT] += pushes
+        res, pushes = leave_saddle(res, pressure, kw, relaxer is None or res.iterations > 0)
+        counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes}
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
         cur = res.packing
@@ -432,9 +375,7 @@ def shear_at_pressure(
             affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
             slope_guess=slope, parent=cur, **kw
         )
-        # FIRE can stop on a saddle (the Newton relaxer's fallbacks, plain FIRE): such a step,
-        # and any minimum hypostatic under pressure, is tested and pushed off (docs/aqs.md)
-        res, pushes = leave_saddle(res, pressure, kw, fire_used=res.iterations > 0)
+        res, pushes = leave_saddle(res, pressure, kw, res.iterations > 0)  # FIRE took part?
         counts[SADDLE_COUNT] += pushes
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
@@ -543,7 +484,7 @@ def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxe
         spent.append(res.iterations)
         if not res.converged:
             return None
-        return res.packing, *_enthalpy_and_stress(res.packing, pressure)
+        return res.packing, *enthalpy_and_stress(res.packing, pressure)
 
     return probe
 
