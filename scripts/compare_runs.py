@@ -64,10 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     common = sorted(set(sa) & set(sb))
     if not common:
         ap.error("no sample is in both runs")
-    pooled: dict[str, dict] = {"a": {"S": [], "steps": 0, "plastic": 0, "unjammed": 0,
-                                     "excluded": 0},
-                               "b": {"S": [], "steps": 0, "plastic": 0, "unjammed": 0,
-                                     "excluded": 0}}
+    pooled = {name: {"S": [], "steps": 0, "plastic": 0, "unjammed": 0, "excluded": 0}
+              for name in ("a", "b")}
     print(f"{len(common)} samples in both ({args.a}: {len(sa)}, {args.b}: {len(sb)})")
     print("| sample | plastic differ at | jammed differ at | energies equal (rows) | "
           "first row that differs | first unjammed row of a | unjammed a / b |")

@@ -85,7 +85,7 @@ def test_leave_saddle_reaches_a_jammed_minimum_of_lower_enthalpy(saddle):
     kw = dict(ftol=FTOL, ptol=1e-6, max_iter=1_000_000, params=None, relax=NewtonRelaxer())
     res = minimize_enthalpy(saddle, P_TARGET, **kw)
     assert np.array_equal(res.packing.positions, saddle.positions)  # converged already
-    out, pushes = leave_saddle(res, P_TARGET, kw, fire_used=True)
+    out, pushes = leave_saddle(res, P_TARGET, kw, test=True)
     assert pushes >= 1 and out.converged
     new = out.packing
     assert max_force(new) < FTOL

@@ -44,13 +44,13 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-from jamlab.spheres.aqs.record import observe
+from jamlab.spheres.aqs.network import find_backbone
 from jamlab.spheres.aqs.saddle import MAX_DESCENTS, saddle_push
 from jamlab.spheres.box import Box
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import Packing, evaluate, pressure
-from jamlab.spheres.rigidity import is_jammed, pressure_floor
+from jamlab.spheres.rigidity import pressure_floor
 
 __all__ = ["EnthalpyResult", "enthalpy", "enthalpy_and_stress", "leave_saddle",
            "minimize_enthalpy", "pressure_tolerance", "rescale_box"]
@@ -83,7 +83,7 @@ def enthalpy(energy: float, target_pressure: float, packing: Packing) -> float:
 def enthalpy_and_stress(packing: Packing, target_pressure: float) -> tuple[float, float]:
     """``(H = E + p_t V, Σ)`` of a minimum, as the fixed-pressure trace records them."""
     ev = evaluate(packing)
-    return ev.energy + target_pressure * packing.box.volume, ev.shear_stress
+    return enthalpy(ev.energy, target_pressure, packing), ev.shear_stress
 
 
 def pressure_tolerance(packing: Packing, target_pressure: float, ftol: float, ptol: float) -> float:
@@ -276,31 +276,29 @@ def minimize_enthalpy(
 
 
 def leave_saddle(
-    res: EnthalpyResult, pressure: float, kw: dict, fire_used: bool
+    res: EnthalpyResult, pressure: float, kw: dict, test: bool
 ) -> tuple[EnthalpyResult, int]:
-    """The fixed-pressure minimum ``res`` pushed off a saddle, if it is one: ``(result,
-    pushes)``.
+    """The fixed-pressure minimum ``res`` pushed off a saddle, if it is one and ``test``:
+    ``(result, pushes)``.
 
     FIRE can stop on a saddle of the energy at fixed box (``max|F| < ftol`` with a resolved
     negative curvature, :mod:`jamlab.spheres.aqs.saddle`), and one is then also a saddle of the
     enthalpy (the positions at fixed box are a subspace of its variables). Measured at
     ``p = 1e-6``: most minima the jammed flag calls hypostatic under pressure were such saddles
     (N = 250: 28 → 3 unjammed with this test; the rest minima at a contact at touching,
-    ``docs/aqs.md``). Tested when FIRE took part (``fire_used``) or when the minimum fails the
-    jammed flag: the pinned backbone Hessian's inertia (:func:`~jamlab.spheres.aqs.saddle.
-    saddle_push`); on a saddle the particles are pushed along its unstable mode, on its downhill
-    side, and the enthalpy minimised again (:func:`minimize_enthalpy` with ``kw`` and FIRE as
-    the fixed-box minimiser), at most ``MAX_DESCENTS`` times. The result's ``iterations`` and
+    ``docs/aqs.md``). The caller decides where to test (``shear_at_pressure``: the start, every
+    step FIRE took part in, every minimum the jammed flag rejects): the pinned backbone
+    Hessian's inertia (:func:`~jamlab.spheres.aqs.saddle.saddle_push`); on a saddle the
+    particles are pushed along its unstable mode, on its downhill side, and the enthalpy
+    minimised again (:func:`minimize_enthalpy` with ``kw`` and FIRE as the fixed-box
+    minimiser), at most ``MAX_DESCENTS`` times. The result's ``iterations`` and
     ``volume_steps`` include those of the minimisations before.
     """
     pushes = 0
-    while res.converged and pushes < MAX_DESCENTS:
+    while test and res.converged and pushes < MAX_DESCENTS:
         pk = res.packing
-        if not fire_used and is_jammed(pk, res.ftol).jammed:
-            break
         nl = NeighborList(pk)
-        _, backbone = observe(pk, nl)
-        push, _ = saddle_push(pk, nl, backbone, downhill=True)
+        push, _ = saddle_push(pk, nl, find_backbone(pk, nl), downhill=True)
         if push is None:
             break
         pushes += 1
@@ -311,5 +309,4 @@ def leave_saddle(
                                 **{**kw, "relax": None})
         res = replace(res, iterations=res.iterations + spent[0],
                       volume_steps=res.volume_steps + spent[1])
-        fire_used = True
     return res, pushes

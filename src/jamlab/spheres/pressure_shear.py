@@ -11,8 +11,8 @@ phi, box_length, z, z_nr, jammed, max_force, iterations (FIRE, summed over the i
 minimisations and the substeps of a plastic-flag confirmation), volume_steps, converged,
 enthalpy_jump, stress_jump, plastic``.
 
-A minimum FIRE took part in, or one the jammed flag rejects, is tested for a saddle and pushed
-off it (``barostat.leave_saddle``; trace attribute ``n_saddles_left``; ``docs/aqs.md``).
+The start, a minimum FIRE took part in, and one the jammed flag rejects are tested for a saddle,
+and pushed off it (``barostat.leave_saddle``; attribute ``n_saddles_left``; ``docs/aqs.md``).
 
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
@@ -348,8 +348,7 @@ def shear_at_pressure(
     pending: list = []  # candidates kept: (row, start minimum, slope, step, r, end minimum)
     if previous is None:
         gamma0 = packing.strain
-        res = minimize_enthalpy(packing, pressure, **kw)
-        res, pushes = leave_saddle(res, pressure, kw, relaxer is None or res.iterations > 0)
+        res, pushes = leave_saddle(minimize_enthalpy(packing, pressure, **kw), pressure, kw, True)
         counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes}
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
@@ -375,12 +374,13 @@ def shear_at_pressure(
             affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
             slope_guess=slope, parent=cur, **kw
         )
-        res, pushes = leave_saddle(res, pressure, kw, res.iterations > 0)  # FIRE took part?
+        row = _row(res, ftol)  # tested where FIRE took part, or the flag rejects the minimum:
+        res, pushes = leave_saddle(res, pressure, kw, res.iterations > 0 or not row["jammed"])
         counts[SADDLE_COUNT] += pushes
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
-        row = _row(res, ftol)
+        row = _row(res, ftol) if pushes else row
         step = target - rows["gamma"][-1]
         r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
                                row["enthalpy"], row["shear_stress"], step)
