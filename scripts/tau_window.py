@@ -10,8 +10,21 @@ likelihood τ with ``S_min`` at the quantiles ``--quantiles`` of the sizes (its 
 too, so a finite-size bend of the tail does not tilt τ), the rule's fit, and a figure: the
 complementary CDFs and both local τ against ``S_min``.
 
+``--band W``: also τ on a band of sizes ``[S, S·10^W]`` alone (a power law truncated at both
+ends, maximum likelihood; asymptotic error), the band moved up in steps of ``--band-step``
+decades while it holds at least ``--band-min`` sizes — the local slope of ``P(S)`` at ``S``,
+which no size outside the band moves (the fits on ``S ≥ S_min`` above average the slope over
+the whole tail, cut-off included). A third panel of the figure draws it against the band's
+geometric centre. ``--fixed-band LO HI`` (repeatable): τ on that band alone for every run. Every
+band fit gives its asymptotic error and a bootstrap over the samples (``--boot`` resamplings of
+whole samples with replacement, seed 0): avalanches of one trajectory need not be independent.
+
+``--n``: one size for every run, or one per run (runs of different N side by side).
+
     PYTHONPATH=src python scripts/tau_window.py RUNS/pressure-1e-04 RUNS/pressure-1e-03 \\
         --n 500 --figure docs/figures/tau_window_medium.png
+    PYTHONPATH=src python scripts/tau_window.py RUNS/n250-p1e-6 RUNS/n500-p1e-6 --n 250 500 \\
+        --band 1 --figure docs/figures/tau_window_p1e-6.png
 """
 
 from __future__ import annotations
@@ -30,21 +43,40 @@ from jamlab.runs import open_run
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, default=500)
+    ap.add_argument("--n", type=int, nargs="+", default=[500],
+                    help="N of the runs: one for all, or one per run")
     ap.add_argument("--scale", default="medium", choices=sorted(SCALES))
     ap.add_argument("--quantiles", type=float, nargs="+",
                     default=[0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
+    ap.add_argument("--band", type=float, default=None,
+                    help="width in decades of the bands of the local slope (default: none)")
+    ap.add_argument("--band-step", type=float, default=0.25)
+    ap.add_argument("--band-min", type=int, default=30)
+    ap.add_argument("--fixed-band", type=float, nargs=2, action="append", default=[],
+                    metavar=("LO", "HI"), help="τ on [LO, HI] alone (repeatable)")
+    ap.add_argument("--boot", type=int, default=200,
+                    help="bootstrap resamplings of the samples for the band fits")
     ap.add_argument("--figure", type=Path, default=None)
     a = ap.parse_args()
+    if len(a.n) not in (1, len(a.runs)):
+        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    if a.band is not None and not (a.band > 0 and a.band_step > 0 and a.band_min >= 2):
+        ap.error("--band and --band-step must be positive, --band-min at least 2")
+    if any(not 0 < lo < hi for lo, hi in a.fixed_band):
+        ap.error("--fixed-band needs 0 < LO < HI")
+    if a.boot < 0:
+        ap.error("--boot must be >= 0")
+    sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
     scale = SCALES[a.scale]
     curves = {}
-    for run in a.runs:
-        s = np.sort(avalanche_set(open_run(run), "jamming", a.n).sizes)
+    for run, n in zip(a.runs, sizes_n, strict=True):
+        aval = avalanche_set(open_run(run), "jamming", n)
+        s = np.sort(aval.sizes)
         if s.size < scale.min_tail:
             print(f"\n{run}: {s.size} avalanches, too few for a fit")
             continue
         rule = fit_tau(s, scale)
-        print(f"\n{run} (N = {a.n}): {s.size} avalanches, S from {s[0]:.2e} to {s[-1]:.2e}; "
+        print(f"\n{run} (N = {n}): {s.size} avalanches, S from {s[0]:.2e} to {s[-1]:.2e}; "
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
               f"(95 % [{rule.ci_low:.3f}, {rule.ci_high:.3f}]) on S ≥ {rule.x_min:.2e}, "
               f"{rule.n_tail} sizes\n")
@@ -64,16 +96,39 @@ def main() -> None:
             es.append(f.tau_stderr)
             tc.append(np.nan if c is None else c.tau)
             ec.append(np.nan if c is None else c.tau_stderr)
-        curves[run.name] = (s, np.array(xs), np.array(ts), np.array(es), rule, np.array(tc),
-                            np.array(ec))
+        bands = local_slope(s, a.band, a.band_step, a.band_min) if a.band else None
+        if bands is not None:
+            print(f"\nτ on bands [S, S·10^{a.band:g}] alone (truncated at both ends), moved up "
+                  f"by {a.band_step:g} decades; errors asymptotic / bootstrap over the "
+                  f"{len(aval.per_sample)} samples:\n")
+            print("| band (ε) | sizes | τ |")
+            print("|---|---|---|")
+            for lo, hi, k, t, e in zip(*bands, strict=True):
+                b = band_bootstrap(aval.per_sample, lo, hi, a.boot)
+                print(f"| {lo:.2e} – {hi:.2e} | {k} | {t:.3f} ± {e:.3f} / {b:.3f} |")
+        if a.fixed_band:
+            print("\n| fixed band (ε) | sizes | τ ± asymptotic / bootstrap over samples |")
+            print("|---|---|---|")
+            for lo, hi in a.fixed_band:
+                inside = s[(s >= lo) & (s <= hi)]
+                if inside.size < 2:
+                    print(f"| {lo:.2e} – {hi:.2e} | {inside.size} | — |")
+                    continue
+                f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
+                b = band_bootstrap(aval.per_sample, lo, hi, a.boot)
+                print(f"| {lo:.2e} – {hi:.2e} | {inside.size} | {f.tau:.3f} ± "
+                      f"{f.tau_stderr:.3f} / {b:.3f} |")
+        curves[f"{run.name} (N = {n})"] = (s, np.array(xs), np.array(ts), np.array(es), rule,
+                                          np.array(tc), np.array(ec), bands)
     if a.figure is not None and curves:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(1, 2, figsize=(13, 4.4))
-        for name, (s, xs, ts, es, rule, tc, ec) in curves.items():
+        panels = 3 if a.band else 2
+        fig, ax = plt.subplots(1, panels, figsize=(6.5 * panels, 4.4))
+        for name, (s, xs, ts, es, rule, tc, ec, bands) in curves.items():
             (line,) = ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
                                    label=f"{name} ({s.size})")
             ax[1].errorbar(xs, ts, yerr=es, fmt="o-", ms=3, color=line.get_color(),
@@ -81,9 +136,13 @@ def main() -> None:
             ax[1].errorbar(xs * 1.08, tc, yerr=ec, fmt="s--", ms=3, mfc="none",
                            color=line.get_color(), label=f"{name}: with exponential cut-off")
             ax[1].axvline(rule.x_min, color=line.get_color(), ls=":", lw=1)
+            if bands is not None:
+                lo, hi, _, t, e = bands
+                ax[2].errorbar(np.sqrt(lo * hi), t, yerr=e, fmt="o-", ms=3,
+                               color=line.get_color(), label=name)
         ax[0].set_xlabel("avalanche size S (ε)")
         ax[0].set_ylabel("P(size ≥ S)")
-        ax[0].set_title(f"N = {a.n}, jammed steps only")
+        ax[0].set_title(f"N = {', '.join(map(str, sorted(set(sizes_n))))}, jammed steps only")
         ax[0].legend(fontsize=8)
         ax[1].set_xscale("log")
         ax[1].axhline(1.41269, color="k", lw=0.8, label="τ_J = 1.41269 (mean field)")
@@ -92,11 +151,59 @@ def main() -> None:
         ax[1].set_ylabel("τ (MLE on S ≥ S_min)")
         ax[1].set_ylim(0.85, 1.9)
         ax[1].set_title("local τ on S ≥ S_min; dotted: S_min of the scale's rule", fontsize=9)
-        ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)
+        if a.band:
+            ax[1].legend(fontsize=6, loc="lower right")
+        else:
+            ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                         borderaxespad=0)
+        if a.band:
+            ax[2].set_xscale("log")
+            ax[2].axhline(1.41269, color="k", lw=0.8, label="τ_J = 1.41269")
+            ax[2].axhline(1.0, color="k", lw=0.8, ls="--", label="τ_UNSAT = 1")
+            ax[2].set_xlabel(f"centre of the band [S, S·10^{a.band:g}] (ε)")
+            ax[2].set_ylabel("local τ (band alone)")
+            ax[2].set_ylim(0.5, 2.6)
+            ax[2].set_title("local slope of P(S): no size outside the band enters", fontsize=9)
+            ax[2].legend(fontsize=7)
         fig.tight_layout()
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
         print(f"\nfigure: {a.figure}")
+
+
+def band_bootstrap(per_sample, lo: float, hi: float, boot: int) -> float:
+    """Standard deviation of τ on ``[lo, hi]`` over ``boot`` resamplings of whole samples
+    (NaN without resamplings, or where a resampling leaves fewer than two sizes)."""
+    if boot == 0 or not per_sample:
+        return float("nan")
+    rng = np.random.default_rng(0)
+    inside = [x[(x >= lo) & (x <= hi)] for x in per_sample]
+    taus = []
+    for _ in range(boot):
+        pick = np.concatenate([inside[i] for i in rng.integers(len(inside), size=len(inside))])
+        if pick.size < 2:
+            return float("nan")
+        taus.append(fit_power_law(pick, x_min=lo, x_max=hi, min_tail=2).tau)
+    return float(np.std(taus, ddof=1))
+
+
+def local_slope(s: np.ndarray, width: float, step: float, least: int):
+    """τ of a power law truncated to ``[S, S·10^width]`` fitted to the sizes in that band
+    alone, for bands starting at the smallest size and moved up by ``step`` decades while they
+    hold at least ``least`` sizes: arrays ``(low, high, count, τ, error)``."""
+    rows = []
+    lo = float(s[0])
+    while True:
+        hi = lo * 10.0 ** width
+        inside = s[(s >= lo) & (s <= hi)]
+        if inside.size < least:
+            break
+        f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
+        rows.append((lo, hi, inside.size, f.tau, f.tau_stderr))
+        lo *= 10.0 ** step
+    if not rows:
+        return None
+    return tuple(np.array(c) for c in zip(*rows, strict=True))
 
 
 if __name__ == "__main__":

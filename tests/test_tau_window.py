@@ -1,0 +1,74 @@
+"""``scripts/tau_window.py``'s band fits on sizes drawn from a known broken power law (exact
+inverse-CDF sampling): the local slope in each regime, the bootstrap over samples against the
+asymptotic error, and its refusals."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+from tests.script_helpers import script_module
+
+LOW, KNEE, HIGH = 1e-12, 1e-10, 1e-7  # density ∝ S^-1 on [LOW, KNEE], ∝ S^-1.5 on [KNEE, HIGH]
+TAU_BELOW, TAU_ABOVE = 1.0, 1.5
+
+
+def broken_power_law(rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` sizes of the continuous density ``∝ S^-1`` below ``KNEE``, ``∝ KNEE^0.5 S^-1.5``
+    above (continuous at the knee), on ``[LOW, HIGH]``: each piece's weight is its integral, and
+    within a piece the inverse of its CDF."""
+    w_below = np.log(KNEE / LOW)
+    w_above = 2.0 * (1.0 - np.sqrt(KNEE / HIGH))  # ∫ KNEE^0.5 S^-1.5 dS from KNEE to HIGH, / KNEE^0
+    below = rng.random(n) < w_below / (w_below + w_above)
+    u = rng.random(n)
+    s = np.empty(n)
+    s[below] = LOW * (KNEE / LOW) ** u[below]
+    # CDF on [KNEE, HIGH] ∝ 1 − sqrt(KNEE/S): S = KNEE / (1 − u (1 − sqrt(KNEE/HIGH)))²
+    s[~below] = KNEE / (1.0 - u[~below] * (1.0 - np.sqrt(KNEE / HIGH))) ** 2
+    return s
+
+
+def test_bands_find_the_slope_of_each_regime():
+    tw = script_module("tau_window")
+    s = np.sort(broken_power_law(np.random.default_rng(1), 40_000))
+    low, high, count, tau, err = tw.local_slope(s, 1.0, 1.0, 30)
+    assert low[0] == s[0] and np.allclose(high / low, 10.0)
+    for lo, hi, t, e in zip(low, high, tau, err, strict=True):
+        if hi <= KNEE:
+            assert abs(t - TAU_BELOW) < 4 * e, (lo, hi, t, e)
+        elif lo >= KNEE:
+            assert abs(t - TAU_ABOVE) < 4 * e, (lo, hi, t, e)
+    # both regimes are sampled by some band that lies wholly inside them
+    assert (high <= KNEE).sum() >= 1 and (low >= KNEE).sum() >= 1
+    # the band count is the number of sizes inside it
+    assert count[0] == ((s >= low[0]) & (s <= high[0])).sum()
+
+
+def test_bootstrap_over_independent_samples_matches_the_asymptotic_error():
+    tw = script_module("tau_window")
+    rng = np.random.default_rng(2)
+    per_sample = tuple(broken_power_law(rng, 300) for _ in range(40))
+    s = np.sort(np.concatenate(per_sample))
+    lo, hi = KNEE, 1e-8
+    inside = s[(s >= lo) & (s <= hi)]
+    fit = tw.fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
+    boot = tw.band_bootstrap(per_sample, lo, hi, 300)
+    assert abs(fit.tau - TAU_ABOVE) < 4 * fit.tau_stderr
+    # independent sizes: the spread over resampled samples is the asymptotic error (±25 %)
+    assert 0.75 < boot / fit.tau_stderr < 1.25
+    assert np.isnan(tw.band_bootstrap(per_sample, lo, hi, 0))
+
+
+@pytest.mark.parametrize("argv", [
+    ["a", "b", "--n", "250", "500", "1000"],
+    ["a", "--band", "0"],
+    ["a", "--fixed-band", "3e-9", "3e-11"],
+    ["a", "--boot", "-1"],
+])
+def test_bad_arguments_exit_2(monkeypatch, argv):
+    tw = script_module("tau_window")
+    monkeypatch.setattr(sys, "argv", ["tau_window.py", *argv])
+    with pytest.raises(SystemExit) as e:
+        tw.main()
+    assert e.value.code == 2
