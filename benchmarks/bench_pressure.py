@@ -63,7 +63,10 @@ def parse_sample_arguments(doc: str) -> argparse.Namespace:
     """``--n --pressure --seed --steps --dgamma --cache``: one run from :func:`start`'s packing,
     as the scripts that dissect a run take it (``scripts/pressure_time_anatomy.py``,
     ``scripts/newton_failure_anatomy.py``), parsed from the command line; ``doc`` is the
-    script's docstring, whose first paragraph is its description."""
+    script's docstring, whose first paragraph is its description. ``--sample FILE`` instead:
+    the prepared packing of a ``jamlab run`` sample file, sheared as its run did (the run's
+    pressure, δγ and N replace ``--pressure --dgamma --n``; the first ``--steps`` steps of the
+    run, same minima); :func:`sample_start` gives the packing either way."""
     ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--pressure", type=float, default=1e-4)
@@ -71,7 +74,35 @@ def parse_sample_arguments(doc: str) -> argparse.Namespace:
     ap.add_argument("--steps", type=int, default=150)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
-    return ap.parse_args()
+    ap.add_argument("--sample", type=Path, default=None,
+                    help="a fixed-pressure run's sample file: its packing, pressure and δγ")
+    a = ap.parse_args()
+    if a.sample is not None:
+        from jamlab.runs.storage import RunDir
+
+        try:
+            if not a.sample.is_file():
+                raise FileNotFoundError("no such file")
+            study = RunDir(a.sample.resolve().parents[3]).study()  # RUN/samples/phi=/N=/s.h5
+        except Exception as exc:  # not a run's sample file: one line, exit 2
+            ap.error(f"--sample {a.sample}: not a sample file of a run directory ({exc})")
+        if study.pressure is None:
+            ap.error(f"--sample {a.sample}: its run is not at fixed pressure")
+        a.pressure, a.dgamma = float(study.pressure), float(study.dgamma)
+        a.seed = a.sample.stem
+    return a
+
+
+def sample_start(a: argparse.Namespace):
+    """The packing :func:`parse_sample_arguments`'s options name: a run's prepared packing
+    (``--sample``; ``a.n`` set to its N) or :func:`start`'s."""
+    if a.sample is None:
+        return start(a.n, a.pressure, a.seed, a.cache)
+    from jamlab.runs.load import prepared_packing
+
+    pk = prepared_packing(a.sample)
+    a.n = pk.n
+    return pk
 
 
 VARIANTS: dict[str, dict] = {

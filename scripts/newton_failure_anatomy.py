@@ -8,7 +8,8 @@ failed ones why the last Newton run stopped, how many active sets they tried fir
 their time went.
 
 The packing is ``bench_pressure.py``'s (``jam(N, 3, seed, p_target=min(p, 1e-4))`` brought to
-``p``), read from its ``--cache`` or made there.
+``p``), read from its ``--cache`` or made there; or, with ``--sample FILE``, a fixed-pressure
+run's prepared packing sheared as the run did (its first ``--steps`` steps).
 
     PYTHONPATH=src python scripts/newton_failure_anatomy.py --n 1000 --pressure 1e-4 --seed 3 \\
         --steps 150 --cache CACHE
@@ -23,7 +24,7 @@ from pathlib import Path
 
 # bench_pressure first: it sets one thread for the BLAS, OpenMP and numba before numpy loads
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_pressure import parse_sample_arguments, start  # noqa: E402
+from bench_pressure import parse_sample_arguments, sample_start  # noqa: E402
 
 # isort: split
 import jamlab.spheres.newton_relax as newton_relax  # noqa: E402
@@ -77,7 +78,7 @@ def main() -> None:
     newton_relax._usable = noted_usable
     newton_relax.evaluate = noted_evaluate
 
-    packing = start(a.n, a.pressure, a.seed, a.cache)
+    packing = sample_start(a)
     t = time.process_time()
     res = shear_at_pressure(packing, a.dgamma, pressure=a.pressure, n_steps=a.steps)
     total = time.process_time() - t

@@ -8,7 +8,8 @@ Newton throughout) and those with FIRE, split into the steps and the confirmatio
 that needed FIRE without being flagged plastic (rearrangements below the flag's threshold).
 
 The packing is ``bench_pressure.py``'s (``jam(N, 3, seed, p_target=min(p, 1e-4))`` brought to
-``p`` by one FIRE step), read from its ``--cache`` or made there.
+``p`` by one FIRE step), read from its ``--cache`` or made there; or, with ``--sample FILE``, a
+fixed-pressure run's prepared packing sheared as the run did (its first ``--steps`` steps).
 
     PYTHONPATH=src python scripts/pressure_time_anatomy.py --n 1000 --pressure 1e-4 --seed 3 \\
         --steps 150 --cache CACHE
@@ -24,7 +25,7 @@ from pathlib import Path
 
 # bench_pressure first: it sets one thread for the BLAS, OpenMP and numba before numpy loads
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_pressure import parse_sample_arguments, start  # noqa: E402
+from bench_pressure import parse_sample_arguments, sample_start  # noqa: E402
 
 # isort: split
 import numpy as np  # noqa: E402
@@ -72,7 +73,7 @@ def main() -> None:
     newton_relax.minimize = timed_fire
     newton_relax.NewtonRelaxer.__call__ = counted_call
 
-    pk = start(a.n, a.pressure, a.seed, a.cache)
+    pk = sample_start(a)
     pressure_shear.shear_at_pressure(pk, a.dgamma, pressure=a.pressure, n_steps=1)  # compile
     records.clear()
     t = time.process_time()
