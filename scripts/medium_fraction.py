@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -91,8 +93,10 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
         cut = est.cutoff
         print("tau with an exponential cut-off (the report's second row): "
               + ("no fit" if cut is None else
-                 f"{cut.tau:.3f} ± {est.cutoff_sigma:.3f} (95 % [{cut.ci_low:.3f}, "
-                 f"{cut.ci_high:.3f}]) on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
+                 f"{cut.tau:.3f} ± {est.cutoff_sigma:.3f} "
+                 + (f"(95 % [{cut.ci_low:.3f}, {cut.ci_high:.3f}])"
+                    if math.isfinite(cut.ci_low) else "(asymptotic: no bootstrap)")
+                 + f" on S >= {cut.x_min:.2e}, {cut.n_tail} sizes, "
                  f"S_c = {cut.x_c:.2e}" + (" (at its bound)" if cut.at_bound else "")))
         print("tau with the cut-off's shape free (the report's third row): "
               + shape_text(est.cutoff_shape))
@@ -121,8 +125,15 @@ def main(argv: list[str] | None = None) -> int:
                     "scale pools its N (one N per directory)")
     ap.add_argument("--n", type=int, nargs="+", default=None,
                     help="report only these N of each study (default: all its N, pooled)")
+    ap.add_argument("--n-boot", type=int, default=None,
+                    help="bootstrap resamples of the fits (default: the scale's; 0: asymptotic "
+                    "errors only, minutes instead of tens of minutes per study)")
     args = ap.parse_args(argv)
     scale = SCALES["medium"]
+    if args.n_boot is not None:
+        if args.n_boot < 0:
+            ap.error(f"--n-boot must be >= 0, got {args.n_boot}")
+        scale = replace(scale, n_boot=args.n_boot)
 
     def draw(by_pressure: dict[float, Any]) -> int:
         if args.figure_dir is not None:
