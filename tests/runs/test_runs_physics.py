@@ -51,12 +51,20 @@ def test_study_pressure_field_and_a_fixed_pressure_sample(tmp_path):
     rd = RunDir(tmp_path / "r")
     key = study.keys()[0]
     assert rd.state(key) == "done", rd.read_failure(key)
-    stored = read_sample(rd.sample_path(key))["trace"]
+    sample = read_sample(rd.sample_path(key))
+    stored = sample["trace"]
     seed = sample_seed(study.seed, key)
     config = packing.jam(16, 3, seed, p_target=study.p_target).packing
     direct = aqs.shear(config, 1e-3, 3e-3, pressure=1e-3).trace
     for name in ("gamma", "energy", "pressure", "jammed", "phi", "plastic"):
         np.testing.assert_array_equal(stored[name], getattr(direct, name))
+    # the run's own counters travel with the sample (saddles pushed off, the relaxer's work...)
+    counters = {k: v for k, v in direct.attrs.items() if k.startswith("n_")}
+    assert {"n_saddles_left", "n_unjammed", "n_fire_fallbacks", "n_newton_calls"} <= set(counters)
+    assert counters["n_newton_calls"] > 0
+    for name, value in counters.items():
+        assert sample["attrs"][f"shear_{name}"] == value, name
+    assert sample["attrs"]["shear_plastic_threshold"] == direct.attrs["plastic_threshold"]
     assert np.all(np.abs(stored["pressure"] - 1e-3) <= 1e-9)
     from jamlab.runs import open_run
 

@@ -24,6 +24,7 @@ removed and the sample starts afresh.
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import time
 from collections.abc import Callable
@@ -119,6 +120,13 @@ def prepare_and_shear(
         attrs["shear_floppy"] = study.floppy
         for name in ("n_projected", "n_projection_failed"):
             attrs[f"shear_{name}"] = int(trace.attrs.get(name, 0))
+    if study.pressure is not None:  # the fixed-pressure run's own counters (saddles pushed off,
+        # unjammed minima, candidates, the relaxer's work) and its plastic threshold; constant
+        # volume samples keep their earlier attributes, bit for bit
+        for name, value in trace.attrs.items():
+            if name.startswith("n_") and isinstance(value, int | np.integer):
+                attrs.setdefault(f"shear_{name}", int(value))
+        attrs["shear_plastic_threshold"] = float(trace.attrs.get("plastic_threshold", math.nan))
     n_bad = int(attrs.get("shear_n_not_converged", 0))
     if n_bad:
         raise SampleFailed(f"AQS minimisation did not converge at {n_bad} step(s) (max |F_i|)")
