@@ -12,12 +12,13 @@ complementary CDFs and both local τ against ``S_min``.
 
 ``--band W``: also τ on a band of sizes ``[S, S·10^W]`` alone (a power law truncated at both
 ends, maximum likelihood; asymptotic error), the band moved up in steps of ``--band-step``
-decades while it holds at least ``--band-min`` sizes — the local slope of ``P(S)`` at ``S``,
-which no size outside the band moves (the fits on ``S ≥ S_min`` above average the slope over
-the whole tail, cut-off included). A third panel of the figure draws it against the band's
-geometric centre. ``--fixed-band LO HI`` (repeatable): τ on that band alone for every run. Every
-band fit gives its asymptotic error and a bootstrap over the samples (``--boot`` resamplings of
-whole samples with replacement, seed 0): avalanches of one trajectory need not be independent.
+decades from the smallest size to the largest, where it holds at least ``--band-min`` sizes:
+the local slope of ``P(S)`` at ``S``, which no size outside the band moves (the fits on
+``S ≥ S_min`` above average the slope over the whole tail, cut-off included). A third panel of
+the figure draws it against the band's geometric centre. ``--fixed-band LO HI`` (repeatable):
+τ on that band alone for every run. Every band fit gives its asymptotic error and a bootstrap
+over the samples (``--boot`` resamplings of whole samples with replacement, seed 0): avalanches
+of one trajectory need not be independent.
 
 ``--n``: one size for every run, or one per run (runs of different N side by side).
 
@@ -189,17 +190,17 @@ def band_bootstrap(per_sample, lo: float, hi: float, boot: int) -> float:
 
 def local_slope(s: np.ndarray, width: float, step: float, least: int):
     """τ of a power law truncated to ``[S, S·10^width]`` fitted to the sizes in that band
-    alone, for bands starting at the smallest size and moved up by ``step`` decades while they
-    hold at least ``least`` sizes: arrays ``(low, high, count, τ, error)``."""
+    alone, for bands starting at the smallest size and moved up by ``step`` decades up to the
+    largest; bands with fewer than ``least`` sizes (the sparse foot and tail) are left out:
+    arrays ``(low, high, count, τ, error)``, or None if no band has enough."""
     rows = []
     lo = float(s[0])
-    while True:
+    while lo <= s[-1]:
         hi = lo * 10.0 ** width
         inside = s[(s >= lo) & (s <= hi)]
-        if inside.size < least:
-            break
-        f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
-        rows.append((lo, hi, inside.size, f.tau, f.tau_stderr))
+        if inside.size >= least:
+            f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
+            rows.append((lo, hi, inside.size, f.tau, f.tau_stderr))
         lo *= 10.0 ** step
     if not rows:
         return None

@@ -45,6 +45,19 @@ def test_bands_find_the_slope_of_each_regime():
     assert count[0] == ((s >= low[0]) & (s <= high[0])).sum()
 
 
+def test_sparse_bands_are_left_out_not_the_end():
+    # a sparse foot (3 sizes in the first decade) must not stop the scan before the dense part
+    tw = script_module("tau_window")
+    rng = np.random.default_rng(3)
+    dense = KNEE * 10.0 ** rng.random(500)  # log-uniform on [KNEE, 10 KNEE]: τ = 1
+    s = np.sort(np.concatenate([[1e-13, 2e-13, 5e-13], dense]))
+    low, high, count, tau, err = tw.local_slope(s, 1.0, 1.0, 30)
+    assert low[0] > 5e-13 and count.min() >= 30
+    inside = (low >= KNEE * 0.999) & (high <= 10.001 * KNEE)
+    assert inside.any() and np.all(np.abs(tau[inside] - 1.0) < 4 * err[inside])
+    assert tw.local_slope(s[:3], 1.0, 1.0, 30) is None
+
+
 def test_bootstrap_over_independent_samples_matches_the_asymptotic_error():
     tw = script_module("tau_window")
     rng = np.random.default_rng(2)
