@@ -111,13 +111,12 @@ def main() -> None:
             print("\n| fixed band (ε) | sizes | τ ± asymptotic / bootstrap over samples |")
             print("|---|---|---|")
             for lo, hi in a.fixed_band:
-                inside = s[(s >= lo) & (s <= hi)]
-                if inside.size < 2:
-                    print(f"| {lo:.2e} – {hi:.2e} | {inside.size} | — |")
+                count, f = band_fit(s, lo, hi, 2)
+                if f is None:
+                    print(f"| {lo:.2e} – {hi:.2e} | {count} | — |")
                     continue
-                f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
                 b = band_bootstrap(aval.per_sample, lo, hi, a.boot)
-                print(f"| {lo:.2e} – {hi:.2e} | {inside.size} | {f.tau:.3f} ± "
+                print(f"| {lo:.2e} – {hi:.2e} | {count} | {f.tau:.3f} ± "
                       f"{f.tau_stderr:.3f} / {b:.3f} |")
         curves[f"{run.name} (N = {n})"] = (s, np.array(xs), np.array(ts), np.array(es), rule,
                                           np.array(tc), np.array(ec), bands)
@@ -152,12 +151,11 @@ def main() -> None:
         ax[1].set_ylabel("τ (MLE on S ≥ S_min)")
         ax[1].set_ylim(0.85, 1.9)
         ax[1].set_title("local τ on S ≥ S_min; dotted: S_min of the scale's rule", fontsize=9)
-        if a.band:
-            ax[1].legend(fontsize=6, loc="lower right")
-        else:
+        if not a.band:
             ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0),
                          borderaxespad=0)
-        if a.band:
+        else:
+            ax[1].legend(fontsize=6, loc="lower right")
             ax[2].set_xscale("log")
             ax[2].axhline(1.41269, color="k", lw=0.8, label="τ_J = 1.41269")
             ax[2].axhline(1.0, color="k", lw=0.8, ls="--", label="τ_UNSAT = 1")
@@ -170,6 +168,15 @@ def main() -> None:
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
         print(f"\nfigure: {a.figure}")
+
+
+def band_fit(s: np.ndarray, lo: float, hi: float, least: int):
+    """``(count, fit)``: the sizes of ``s`` in ``[lo, hi]`` and the power law truncated to that
+    band fitted to them alone (maximum likelihood), or ``None`` for fewer than ``least``."""
+    inside = s[(s >= lo) & (s <= hi)]
+    if inside.size < max(least, 2):
+        return inside.size, None
+    return inside.size, fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
 
 
 def band_bootstrap(per_sample, lo: float, hi: float, boot: int) -> float:
@@ -197,10 +204,9 @@ def local_slope(s: np.ndarray, width: float, step: float, least: int):
     lo = float(s[0])
     while lo <= s[-1]:
         hi = lo * 10.0 ** width
-        inside = s[(s >= lo) & (s <= hi)]
-        if inside.size >= least:
-            f = fit_power_law(inside, x_min=lo, x_max=hi, min_tail=2)
-            rows.append((lo, hi, inside.size, f.tau, f.tau_stderr))
+        count, f = band_fit(s, lo, hi, least)
+        if f is not None:
+            rows.append((lo, hi, count, f.tau, f.tau_stderr))
         lo *= 10.0 ** step
     if not rows:
         return None
