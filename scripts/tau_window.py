@@ -21,6 +21,10 @@ over the samples (``--boot`` resamplings of whole samples with replacement, seed
 of one trajectory need not be independent.
 
 ``--n``: one size for every run, or one per run (runs of different N side by side).
+``--rate``: the first panel draws the number of avalanches of size ≥ S per particle and per unit
+strain (the run's finished samples, their whole strain) instead of the normalised CCDF: where the
+rate of events is extensive and their sizes do not depend on N, the curves of several N fall
+on each other; a detection floor that moves with N shows as the curves' foot parting.
 
     PYTHONPATH=src python scripts/tau_window.py RUNS/pressure-1e-04 RUNS/pressure-1e-03 \\
         --n 500 --figure docs/figures/tau_window_medium.png
@@ -36,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis import fit_cutoff_power_law, fit_power_law
+from jamlab.reproduce.ensembles import finished
 from jamlab.reproduce.measurements import avalanche_set, fit_tau, tau_sigma
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_run
@@ -58,6 +63,8 @@ def main() -> None:
     ap.add_argument("--boot", type=int, default=200,
                     help="bootstrap resamplings of the samples for the band fits")
     ap.add_argument("--figure", type=Path, default=None)
+    ap.add_argument("--rate", action="store_true",
+                    help="first panel: avalanches ≥ S per particle per unit strain")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -71,8 +78,10 @@ def main() -> None:
     scale = SCALES[a.scale]
     curves = {}
     for run, n in zip(a.runs, sizes_n, strict=True):
-        aval = avalanche_set(open_run(run), "jamming", n)
+        ds = open_run(run)
+        aval = avalanche_set(ds, "jamming", n)
         s = np.sort(aval.sizes)
+        strain = total_strain(ds, n)
         if s.size < scale.min_tail:
             print(f"\n{run}: {s.size} avalanches, too few for a fit")
             continue
@@ -80,7 +89,8 @@ def main() -> None:
         print(f"\n{run} (N = {n}): {s.size} avalanches, S from {s[0]:.2e} to {s[-1]:.2e}; "
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
               f"(95 % [{rule.ci_low:.3f}, {rule.ci_high:.3f}]) on S ≥ {rule.x_min:.2e}, "
-              f"{rule.n_tail} sizes\n")
+              f"{rule.n_tail} sizes; {s.size / (n * strain) if strain > 0 else np.nan:.3g} "
+              f"avalanches per particle per unit strain\n")
         print("| S_min (quantile) | sizes in the tail | τ (MLE, truncated at the largest) "
               "| τ with an exponential cut-off | its S_c |")
         print("|---|---|---|---|---|")
@@ -119,7 +129,7 @@ def main() -> None:
                 print(f"| {lo:.2e} – {hi:.2e} | {count} | {f.tau:.3f} ± "
                       f"{f.tau_stderr:.3f} / {b:.3f} |")
         curves[f"{run.name} (N = {n})"] = (s, np.array(xs), np.array(ts), np.array(es), rule,
-                                          np.array(tc), np.array(ec), bands)
+                                          np.array(tc), np.array(ec), bands, n * strain)
     if a.figure is not None and curves:
         import matplotlib
 
@@ -128,8 +138,9 @@ def main() -> None:
 
         panels = 3 if a.band else 2
         fig, ax = plt.subplots(1, panels, figsize=(6.5 * panels, 4.4))
-        for name, (s, xs, ts, es, rule, tc, ec, bands) in curves.items():
-            (line,) = ax[0].loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
+        for name, (s, xs, ts, es, rule, tc, ec, bands, exposure) in curves.items():
+            above = s.size - np.arange(s.size)  # sizes >= s[i]
+            (line,) = ax[0].loglog(s, above / (exposure if a.rate else s.size), ".", ms=3,
                                    label=f"{name} ({s.size})")
             ax[1].errorbar(xs, ts, yerr=es, fmt="o-", ms=3, color=line.get_color(),
                            label=f"{name}: truncated power law")
@@ -141,7 +152,8 @@ def main() -> None:
                 ax[2].errorbar(np.sqrt(lo * hi), t, yerr=e, fmt="o-", ms=3,
                                color=line.get_color(), label=name)
         ax[0].set_xlabel("avalanche size S (ε)")
-        ax[0].set_ylabel("P(size ≥ S)")
+        ax[0].set_ylabel("avalanches ≥ S per particle per unit strain" if a.rate
+                         else "P(size ≥ S)")
         ax[0].set_title(f"N = {', '.join(map(str, sorted(set(sizes_n))))}, jammed steps only")
         ax[0].legend(fontsize=8)
         ax[1].set_xscale("log")
@@ -168,6 +180,15 @@ def main() -> None:
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
         print(f"\nfigure: {a.figure}")
+
+
+def total_strain(ds, n: int) -> float:
+    """The strain sheared over all finished samples at ``("jamming", n)`` of a run's dataset
+    (each sample's largest ``γ`` less its first; rows past a sample's end are NaN)."""
+    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[finished(ds, "jamming", n)]
+    if not gam.size:
+        return 0.0
+    return float(np.sum(np.nanmax(gam, axis=1) - gam[:, 0]))
 
 
 def band_fit(s: np.ndarray, lo: float, hi: float, least: int):

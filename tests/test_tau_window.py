@@ -85,3 +85,20 @@ def test_bad_arguments_exit_2(monkeypatch, argv):
     with pytest.raises(SystemExit) as e:
         tw.main()
     assert e.value.code == 2
+
+
+def test_total_strain_sums_the_finished_samples_only():
+    """Three samples of a made-up run: two finished (one ended early, its rows after the end
+    NaN), one failed; the strain is the finished ones' last γ less their first, by hand."""
+    import xarray as xr
+
+    tw = script_module("tau_window")
+    gamma = np.array([[0.0, 0.1, 0.2, 0.3],
+                      [0.05, 0.15, np.nan, np.nan],
+                      [0.0, 0.1, 0.2, 0.3]])[None, None]
+    status = np.array(["done", "done", "failed"])[None, None]
+    ds = xr.Dataset(
+        {"gamma": (("phi", "N", "sample", "step"), gamma),
+         "status": (("phi", "N", "sample"), status)},
+        coords={"phi": ["jamming"], "N": [64], "sample": [0, 1, 2], "step": [0, 1, 2, 3]})
+    assert tw.total_strain(ds, 64) == pytest.approx(0.3 + 0.1, rel=1e-15)
