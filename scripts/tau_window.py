@@ -21,6 +21,8 @@ over the samples (``--boot`` resamplings of whole samples with replacement, seed
 of one trajectory need not be independent.
 
 ``--n``: one size for every run, or one per run (runs of different N side by side).
+``--above S …``: the same rate at each ``S``, and a two-sample Kolmogorov–Smirnov test of
+the sizes ≥ ``S`` between every two runs (is the shape of the tail the same?).
 ``--rate``: the first panel draws the number of avalanches of size ≥ S per particle and per unit
 strain (the run's finished samples, their whole strain) instead of the normalised CCDF: where the
 rate of events is extensive and their sizes do not depend on N, the curves of several N fall
@@ -38,6 +40,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 from jamlab.analysis import fit_cutoff_power_law, fit_power_law
 from jamlab.reproduce.ensembles import finished
@@ -65,6 +68,9 @@ def main() -> None:
     ap.add_argument("--figure", type=Path, default=None)
     ap.add_argument("--rate", action="store_true",
                     help="first panel: avalanches ≥ S per particle per unit strain")
+    ap.add_argument("--above", type=float, nargs="+", default=[],
+                    help="print the rate of avalanches ≥ S per particle per unit strain at each "
+                         "S, and a two-sample KS of the sizes ≥ S between every two runs")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -130,6 +136,25 @@ def main() -> None:
                       f"{f.tau_stderr:.3f} / {b:.3f} |")
         curves[f"{run.name} (N = {n})"] = (s, np.array(xs), np.array(ts), np.array(es), rule,
                                           np.array(tc), np.array(ec), bands, n * strain)
+    if a.above and curves:
+        print("\n| run | " + " | ".join(f"≥ {x:.0e} per particle per unit strain" for x in a.above)
+              + " |")
+        print("|---|" + "---|" * len(a.above))
+        for name, c in curves.items():
+            s, exposure = c[0], c[-1]
+            print(f"| {name} | " + " | ".join(f"{np.count_nonzero(s >= x) / exposure:.3g}"
+                                                for x in a.above) + " |")
+        names = list(curves)
+        for i, first in enumerate(names):
+            for second in names[i + 1:]:
+                for x in a.above:
+                    u, v = curves[first][0], curves[second][0]
+                    u, v = u[u >= x], v[v >= x]
+                    if min(u.size, v.size) < 2:
+                        continue
+                    ks = stats.ks_2samp(u, v)
+                    print(f"KS, sizes ≥ {x:.0e}: {first} ({u.size}) against {second} ({v.size}): "
+                          f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}")
     if a.figure is not None and curves:
         import matplotlib
 
