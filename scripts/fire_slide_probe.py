@@ -55,7 +55,7 @@ def pushed_fire(self, packing, ftol, max_iter, params, t0):
         return loose
     spent = loose.iterations
     for k in range(MAX_DESCENTS + 1):
-        fin = self._attempt(loose.packing, ftol, max_iter, params, loose.packing, t0)
+        fin = self.newton_only(loose.packing, ftol, max_iter, params, parent=loose.packing)
         if fin is not None and fin.converged:
             self.counters["n_fire_finished_by_newton"] += 1
             PUSHES["accepted after a push"] += k > 0
