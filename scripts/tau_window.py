@@ -37,16 +37,20 @@ on each other; a detection floor that moves with N shows as the curves' foot par
 from __future__ import annotations
 
 import argparse
+import json
+import math
 from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
 from jamlab.analysis import fit_cutoff_power_law, fit_power_law
-from jamlab.reproduce.ensembles import finished
+from jamlab.reproduce.ensembles import finished, jammed_flags
 from jamlab.reproduce.measurements import avalanche_set, fit_tau, tau_sigma
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_run
+from jamlab.spheres.confirm import plastic_threshold
+from jamlab.spheres.pressure_shear import PLASTIC_FLOOR
 
 
 def main() -> None:
@@ -96,7 +100,8 @@ def main() -> None:
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
               f"(95 % [{rule.ci_low:.3f}, {rule.ci_high:.3f}]) on S ≥ {rule.x_min:.2e}, "
               f"{rule.n_tail} sizes; {s.size / (n * strain) if strain > 0 else np.nan:.3g} "
-              f"avalanches per particle per unit strain\n")
+              f"avalanches per particle per unit strain; the plastic flag's threshold "
+              f"{flag_threshold(ds, n):.3g} ε (median over the samples)\n")
         print("| S_min (quantile) | sizes in the tail | τ (MLE, truncated at the largest) "
               "| τ with an exponential cut-off | its S_c |")
         print("|---|---|---|---|---|")
@@ -214,6 +219,23 @@ def total_strain(ds, n: int) -> float:
     if not gam.size:
         return 0.0
     return float(np.sum(np.nanmax(gam, axis=1) - gam[:, 0]))
+
+
+def flag_threshold(ds, n: int) -> float:
+    """Median over the finished samples at ``("jamming", n)`` of a fixed-pressure run of the
+    plastic flag's threshold, recomputed from each trace as the run set it
+    (:func:`jamlab.spheres.confirm.plastic_threshold`: ``max(10 σ, 0.1 δγ²)``, σ the noise of
+    the residual on elastic steps); NaN for a constant-volume run or without jammed flags."""
+    study = json.loads(ds.attrs.get("study", "{}"))
+    jammed = jammed_flags(ds, "jamming", n)
+    if study.get("pressure") is None or jammed is None:
+        return float("nan")
+    done = finished(ds, "jamming", n)
+    cols = [np.asarray(ds[k].sel(phi="jamming", N=n).values)[done]
+            for k in ("energy_jump", "stress_jump", "gamma")]
+    found = [plastic_threshold(hj, sj, g, j, float(study["dgamma"]), PLASTIC_FLOOR, math.inf)[0]
+             for hj, sj, g, j in zip(*cols, jammed, strict=True)]
+    return float(np.nanmedian(found)) if found else float("nan")
 
 
 def band_fit(s: np.ndarray, lo: float, hi: float, least: int):

@@ -102,3 +102,21 @@ def test_total_strain_sums_the_finished_samples_only():
          "status": (("phi", "N", "sample"), status)},
         coords={"phi": ["jamming"], "N": [64], "sample": [0, 1, 2], "step": [0, 1, 2, 3]})
     assert tw.total_strain(ds, 64) == pytest.approx(0.3 + 0.1, rel=1e-15)
+
+
+def test_flag_threshold_is_the_one_the_runs_used(tmp_path):
+    """The threshold recomputed from the stored traces equals the one each fixed-pressure
+    sample recorded when it was sheared (``shear_plastic_threshold``); NaN at constant volume."""
+    from jamlab.runs import Execution, Study, open_run, run_study
+
+    tw = script_module("tau_window")
+    study = Study(phi=["jamming"], n=[16], samples=3, dgamma=1e-3, gamma_max=2e-2, seed=4,
+                  pressure=1e-3)
+    run_study(study, tmp_path / "p", Execution(workers=0))
+    ds = open_run(tmp_path / "p")
+    recorded = ds.shear_plastic_threshold.sel(phi="jamming", N=16).values
+    assert np.all(np.isfinite(recorded))
+    assert tw.flag_threshold(ds, 16) == pytest.approx(float(np.median(recorded)), rel=1e-12)
+    volume = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=4)
+    run_study(volume, tmp_path / "v", Execution(workers=0))
+    assert np.isnan(tw.flag_threshold(open_run(tmp_path / "v"), 16))
