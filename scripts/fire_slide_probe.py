@@ -81,7 +81,9 @@ def pushed_fire(self, packing, ftol, max_iter, params, t0):
     return replace(fin, iterations=spent + fin.iterations, time=time.perf_counter() - t0)
 
 
-def replay(a) -> None:
+def caught_fire_runs(a) -> list[tuple[float, int, object]]:
+    """``(ftol, iterations, start)`` of every FIRE run of the Newton relaxer in the first
+    ``a.steps`` steps of the run :func:`parse_sample_arguments`'s options name, in order."""
     inner = nr.minimize
     caught: list[tuple[float, int, object]] = []
 
@@ -91,9 +93,16 @@ def replay(a) -> None:
         return res
 
     nr.minimize = catch
-    pressure_shear.shear_at_pressure(sample_start(a), a.dgamma, pressure=a.pressure,
-                                     n_steps=a.steps)
-    nr.minimize = inner
+    try:
+        pressure_shear.shear_at_pressure(sample_start(a), a.dgamma, pressure=a.pressure,
+                                         n_steps=a.steps)
+    finally:
+        nr.minimize = inner
+    return caught
+
+
+def replay(a) -> None:
+    caught = caught_fire_runs(a)
     by_tol: dict[float, list[int]] = {}
     for tol, iters, _ in caught:
         by_tol.setdefault(tol, []).append(iters)

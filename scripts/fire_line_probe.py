@@ -1,0 +1,406 @@
+"""Fixed pressure at p = 1e-6: FIRE's straight saddle escapes followed by a line search (probe).
+
+``scripts/fire_slide_probe.py`` found that most of FIRE's iterations at p = 1e-6 are spent on
+straight lines: the configuration leaves a near-saddle along a weakly unstable mode, the
+displacement growing geometrically over ~10k iterations at max|F| ≈ 1e-10 – 5e-9. This probe
+asks whether following such a line by a line search pays: every FIRE run of the Newton relaxer
+(:mod:`jamlab.spheres.newton_relax`) in the first ``--steps`` steps of a run is caught (its start
+and tolerance), and each is redone five ways:
+
+* ``plain``: FIRE (:func:`jamlab.spheres.fire.minimize`) from the start to its tolerance (what
+  the relaxer did);
+* ``kernel``: the probe's own compiled FIRE 2.0 (:func:`fire_lines`, plain loops) without line
+  searches — a check of the copy: the same iterations as ``plain``;
+* ``kernel+lines``: the same loop, and every ``--every`` iterations, where the last two
+  windows' displacements are aligned (cosine ≥ ``--cos``) and growing, a line search along the
+  last one: the force along the line, ``g(s) = F(x + s u)·u``, bracketed by doubling ``s``
+  (from the window's length; any particle's move capped at ``--cap`` and inside the neighbour
+  list's budget) until ``g ≤ 0`` and bisected to ``|g| < g(0)/10`` or 30 halvings; the
+  configuration jumps to the last ``s`` with ``g > 0``, FIRE's velocity kept but for its part
+  along ``u``, ``Δt`` and ``α`` kept;
+* ``chunks``: :func:`minimize` in runs of ``--chunk`` iterations, each restarted from rest
+  (FIRE's velocity and Δt are not carried across calls) — what restarts alone cost;
+* ``line``: those chunks with the same line search between them.
+
+``--variants a,b,…`` runs a subset (``plain``, the reference, always first).
+
+Printed per variant: FIRE iterations, force evaluations of the line searches (each costs about
+one FIRE iteration), the number of jumps (for ``kernel+lines`` with their mean length in units
+of the window's displacement), whether every run converged, and how many runs end in a
+different minimum from ``plain``: energy differs by more than 1e-9 relative / a particle
+(rattlers included) ends more than 1e-6 away, and the largest energy difference from ``plain``
+(to compare with the avalanche sizes, ≥ 1e-10 ε counted at p = 1e-6).
+
+    PYTHONPATH=src python scripts/fire_line_probe.py \\
+        --sample RUNS/n250-p1e-6-fix40/samples/phi=jamming/N=250/sample-00000.h5 --steps 100
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_pressure import parse_sample_arguments  # noqa: E402
+from fire_slide_probe import caught_fire_runs  # noqa: E402
+
+# isort: split
+import numpy as np  # noqa: E402
+from numba import njit  # noqa: E402
+
+from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize  # noqa: E402
+from jamlab.spheres.kernels.geometry import build_neighbor_list, wrap_positions  # noqa: E402
+from jamlab.spheres.kernels.pairs import energy_forces_any  # noqa: E402
+from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
+from jamlab.spheres.potential import forces  # noqa: E402
+
+OPTS = {"chunk": 1000, "every": 1000, "cos": 0.99, "cap": 1e-2,
+        "variants": "plain,kernel,kernel+lines,chunks,line"}
+
+
+def pop_option(name: str, kind=float):
+    if f"--{name}" in sys.argv:
+        i = sys.argv.index(f"--{name}")
+        OPTS[name] = kind(sys.argv[i + 1])
+        del sys.argv[i:i + 2]
+
+
+def line_search(pk, u: np.ndarray, s0: float, counts: dict):
+    """The point along ``u`` from ``pk`` where the force along ``u`` vanishes (see the module
+    docstring); ``None`` when the force along ``u`` is not positive at the start."""
+    def g(s: float) -> float:
+        counts["evaluations"] += 1
+        return float(np.sum(forces(pk.with_positions(pk.positions + s * u)) * u))
+
+    g0 = g(0.0)
+    if not g0 > 0:
+        return None
+    s_cap = OPTS["cap"] / float(np.max(np.linalg.norm(u, axis=1)))
+    lo, hi, s = 0.0, None, min(s0, s_cap)
+    while s <= s_cap:
+        if g(s) > 0:
+            lo, s = s, 2 * s
+        else:
+            hi = s
+            break
+    if hi is None:
+        return pk.with_positions(pk.positions + lo * u) if lo > 0 else None
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        gm = g(mid)
+        if abs(gm) < 0.1 * g0:
+            lo = mid
+            break
+        lo, hi = (mid, hi) if gm > 0 else (lo, mid)
+    return pk.with_positions(pk.positions + lo * u) if lo > 0 else None
+
+
+def chunked(start, ftol: float, jump: bool, counts: dict):
+    pk, last_d, spent = start, None, 0
+    while spent < 1_000_000:
+        res = minimize(pk, ftol=ftol, max_iter=int(OPTS["chunk"]), skin=RELAX_SKIN)
+        spent += res.iterations
+        if res.converged:
+            return res, spent
+        d = pk.box.minimum_image(res.packing.positions - pk.positions)
+        pk = res.packing
+        if jump and last_d is not None:
+            nd, nl = np.linalg.norm(d), np.linalg.norm(last_d)
+            if nd > nl > 0 and float(np.sum(d * last_d)) / (nd * nl) >= OPTS["cos"]:
+                moved = line_search(pk, d / nd, nd, counts)
+                if moved is not None:
+                    counts["jumps"] += 1
+                    pk, d = moved, None
+        last_d = d
+    return res, spent
+
+
+@njit(cache=False)
+def max_force2(f):
+    """``max_i |F_i|²``."""
+    m = 0.0
+    for i in range(f.shape[0]):
+        s = 0.0
+        for a in range(f.shape[1]):
+            s += f[i, a] * f[i, a]
+        m = max(m, s)
+    return m
+
+
+@njit(cache=False)
+def force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam, pair_alpha,
+                branch_free_pairs):
+    """``F(x + s u)·u`` with ``u = last/dn`` (``trial``, ``g``: work arrays)."""
+    n, d = pos.shape
+    for i in range(n):
+        for a in range(d):
+            trial[i, a] = pos[i, a] + s * last[i, a] / dn
+    energy_forces_any(trial, start, nbr, shift, diam, pair_alpha, g, branch_free_pairs)
+    gs = 0.0
+    for i in range(n):
+        for a in range(d):
+            gs += g[i, a] * last[i, a]
+    return gs / dn
+
+
+@njit(cache=False)
+def fire_lines(pos, L, gamma, skin, sigma_max, budget, start, nbr, shift, img_y, ref, diam,
+               pair_alpha, ftol, max_iter, dt0, dt_max, dt_min, n_delay, f_inc, f_dec, alpha0,
+               f_alpha, n_negative_max, dmax, fire2, branch_free_pairs, every, cos_min, cap,
+               lines):
+    """FIRE 2.0 as :func:`jamlab.spheres.kernels.fire.fire` (plain loops, not its fused kick),
+    and, with ``lines``, every ``every`` iterations the line search of the module docstring
+    along the last window's displacement, FIRE's velocity kept except its part along the line
+    (``Δt`` and ``α`` kept). Returns ``(iterations, max_force, converged, energy, evaluations,
+    jumps, reach)``, ``reach`` the sum over jumps of the jump's length in units of the window's
+    displacement."""
+    n, d = pos.shape
+    f = np.empty((n, d), np.float64)
+    g = np.empty((n, d), np.float64)
+    v = np.zeros((n, d), np.float64)
+    trial = np.empty((n, d), np.float64)
+    mark = pos.copy()
+    last = np.zeros((n, d), np.float64)
+    have_last = False
+    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
+    dt = dt0
+    alpha = alpha0
+    n_pos = 0
+    n_neg = 0
+    it = 0
+    evals = 0
+    jumps = 0
+    reach = 0.0
+    rc = sigma_max + skin
+    half_budget2 = 0.25 * budget * budget
+    fmax2 = max_force2(f)
+    while fmax2 >= ftol * ftol and it < max_iter:
+        it += 1
+        p = 0.0
+        for i in range(n):
+            for a in range(d):
+                p += f[i, a] * v[i, a]
+        if p > 0.0:
+            n_pos += 1
+            n_neg = 0
+            if n_pos > n_delay:
+                dt = min(dt * f_inc, dt_max)
+                alpha *= f_alpha
+        else:
+            n_pos = 0
+            n_neg += 1
+            if n_neg > n_negative_max:
+                break
+            if not (fire2 and it < n_delay):
+                if dt * f_dec >= dt_min:
+                    dt *= f_dec
+                alpha = alpha0
+            if fire2:
+                for i in range(n):
+                    for a in range(d):
+                        pos[i, a] -= 0.5 * dt * v[i, a]
+            v[:, :] = 0.0
+        vv = 0.0
+        ff = 0.0
+        vmax2 = 0.0
+        fmax2 = 0.0
+        for i in range(n):
+            t = 0.0
+            s = 0.0
+            for a in range(d):
+                v[i, a] += dt * f[i, a]
+                t += v[i, a] * v[i, a]
+                s += f[i, a] * f[i, a]
+            vv += t
+            ff += s
+            vmax2 = max(vmax2, t)
+            fmax2 = max(fmax2, s)
+        c1 = 1.0 - alpha
+        c2 = alpha * np.sqrt(vv / ff) if ff > 0.0 else 0.0
+        step = dt
+        bound = c1 * np.sqrt(vmax2) + c2 * np.sqrt(fmax2)
+        if dmax > 0.0 and dt * bound > dmax:
+            step = dmax / bound
+        need = False
+        for i in range(n):
+            u2 = 0.0
+            for a in range(d):
+                y = c1 * v[i, a] + c2 * f[i, a]
+                v[i, a] = y
+                pos[i, a] += step * y
+                u = pos[i, a] - ref[i, a]
+                u2 += u * u
+            if u2 >= half_budget2:
+                need = True
+        if need:
+            wrap_positions(pos, L, gamma)
+            start, nbr, shift, img_y = build_neighbor_list(pos, L, gamma, rc)
+            for i in range(n):
+                for a in range(d):
+                    ref[i, a] = pos[i, a]
+                    mark[i, a] = pos[i, a]
+            have_last = False
+            half_budget2 = 0.25 * skin * skin
+        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
+        if lines and it % every == 0:
+            dn = 0.0
+            ln = 0.0
+            dl = 0.0
+            for i in range(n):
+                for a in range(d):
+                    x = pos[i, a] - mark[i, a]
+                    dn += x * x
+                    ln += last[i, a] * last[i, a]
+                    dl += x * last[i, a]
+                    last[i, a] = x
+                    mark[i, a] = pos[i, a]
+            dn = np.sqrt(dn)
+            ln = np.sqrt(ln)
+            if have_last and dn > ln > 0.0 and dl / (dn * ln) >= cos_min:
+                # u = last / |last|; the force along u at s = 0
+                umax = 0.0
+                g0 = 0.0
+                for i in range(n):
+                    t = 0.0
+                    for a in range(d):
+                        t += last[i, a] * last[i, a]
+                        g0 += f[i, a] * last[i, a]
+                    umax = max(umax, np.sqrt(t))
+                umax /= dn
+                g0 /= dn
+                # the list stays valid while every particle is within half the budget of ref
+                room = 1e300
+                for i in range(n):
+                    u2 = 0.0
+                    for a in range(d):
+                        u = pos[i, a] - ref[i, a]
+                        u2 += u * u
+                    room = min(room, np.sqrt(half_budget2) - np.sqrt(u2))
+                s_cap = min(cap, room) / umax
+                if g0 > 0.0 and s_cap > 0.0:
+                    lo = 0.0
+                    hi = -1.0
+                    s = min(dn, s_cap)
+                    while True:
+                        gs = force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam,
+                                         pair_alpha, branch_free_pairs)
+                        evals += 1
+                        if gs > 0.0:
+                            lo = s
+                            if s >= s_cap:
+                                break
+                            s = min(2.0 * s, s_cap)
+                        else:
+                            hi = s
+                            break
+                    if hi > 0.0:
+                        for _ in range(30):
+                            mid = 0.5 * (lo + hi)
+                            gs = force_along(pos, mid, last, dn, trial, g, start, nbr, shift,
+                                             diam, pair_alpha, branch_free_pairs)
+                            evals += 1
+                            if gs > 0.0:
+                                lo = mid
+                            else:
+                                hi = mid
+                            if abs(gs) < 0.1 * g0:
+                                lo = mid
+                                break
+                    if lo > 0.0:
+                        jumps += 1
+                        reach += lo / dn
+                        vu = 0.0
+                        for i in range(n):
+                            for a in range(d):
+                                vu += v[i, a] * last[i, a]
+                        vu /= dn
+                        for i in range(n):
+                            for a in range(d):
+                                pos[i, a] += lo * last[i, a] / dn
+                                v[i, a] -= vu * last[i, a] / dn
+                                mark[i, a] = pos[i, a]
+                        have_last = False
+                        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f,
+                                              branch_free_pairs)
+                    else:
+                        have_last = True
+                else:
+                    have_last = True
+            else:
+                have_last = True
+        fmax2 = max_force2(f)
+    return it, np.sqrt(fmax2), fmax2 < ftol * ftol, e, evals, jumps, reach
+
+
+def run_lines(start_pk, ftol: float, lines: bool):
+    """:func:`fire_lines` from ``start_pk`` (a fresh neighbour list, as :func:`minimize`)."""
+    pos = np.array(start_pk.positions, dtype=np.float64, order="C")
+    wrap_positions(pos, start_pk.box.length, start_pk.box.strain)
+    nl = NeighborList(start_pk.with_positions(pos), skin=RELAX_SKIN)
+    pos = nl.sorted(pos)
+    args = kernel_arguments(pos, start_pk.box, nl, ftol, 1_000_000, FireParameters())
+    out = fire_lines(*args, int(OPTS["every"]), OPTS["cos"], OPTS["cap"], lines)
+    return out, nl.unsorted(pos)
+
+
+def main() -> None:
+    for name in ("chunk", "every", "cos", "cap"):
+        pop_option(name)
+    pop_option("variants", str)
+    variants = ["plain"] + [v for v in OPTS["variants"].split(",") if v != "plain"]
+    unknown = set(variants) - {"plain", "kernel", "kernel+lines", "chunks", "line"}
+    if unknown:
+        print(f"error: --variants: unknown {sorted(unknown)}", file=sys.stderr)
+        raise SystemExit(2)
+    a = parse_sample_arguments(__doc__)
+    caught = caught_fire_runs(a)
+    print(f"{len(caught)} FIRE runs caught in {a.steps} steps, "
+          f"{sum(c[1] for c in caught)} iterations; options {OPTS}")
+    print("| variant | FIRE iterations | line evaluations | jumps (mean length / window's) | "
+          "all converged | other energy / a particle moved | max |ΔE| | CPU s |")
+    print("|---|---|---|---|---|---|---|---|")
+    ref = {}
+    for name in variants:
+        counts = {"evaluations": 0, "jumps": 0, "reach": 0.0}
+        its, ok, other, moved, de = 0, True, 0, 0, 0.0
+        t = time.process_time()
+        for k, (tol, _, start) in enumerate(caught):
+            if name == "plain":
+                res = minimize(start, ftol=tol, skin=RELAX_SKIN)
+                n_it = res.iterations
+                ref[k] = res
+            elif name.startswith("kernel"):
+                (n_it, fmax, conv, e, ev, jp, rch), pos = run_lines(start, tol, name != "kernel")
+                counts["evaluations"] += ev
+                counts["jumps"] += jp
+                counts["reach"] += rch
+                ok &= bool(conv)
+                r0 = ref[k]
+                dx = start.box.minimum_image(pos - r0.packing.positions)
+                other += abs(e - r0.energy) > 1e-9 * abs(r0.energy)
+                de = max(de, abs(e - r0.energy))
+                moved += float(np.max(np.abs(dx))) > 1e-6
+                its += n_it
+                continue
+            else:
+                res, n_it = chunked(start, tol, name == "line", counts)
+                r0 = ref[k]
+                dx = start.box.minimum_image(res.packing.positions - r0.packing.positions)
+                other += abs(res.energy - r0.energy) > 1e-9 * abs(r0.energy)
+                de = max(de, abs(res.energy - r0.energy))
+                moved += float(np.max(np.abs(dx))) > 1e-6
+            its += n_it
+            ok &= bool(res.converged)
+        cpu = time.process_time() - t
+        jumps = (f"{counts['jumps']} ({counts['reach'] / counts['jumps']:.2f})"
+                 if name == "kernel+lines" and counts["jumps"] else f"{counts['jumps']}")
+        print(f"| {name} | {its} | {counts['evaluations']} | {jumps} | "
+              f"{'yes' if ok else 'no'} | {other} / {moved} of {len(caught)} | {de:.1e} | "
+              f"{cpu:.1f} |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
