@@ -85,6 +85,8 @@ def main(argv: list[str]) -> int:
         jamlab_main(["run", *run_args, "--workers", "0"])
     except SystemExit as exc:
         return int(exc.code or 0)
+    finally:
+        aqs.shear = shear
     return 0
 
 if __name__ == "__main__":
