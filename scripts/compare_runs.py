@@ -28,6 +28,8 @@ from scipy.stats import ks_2samp
 from jamlab.analysis import fit_cutoff_power_law
 from jamlab.analysis.avalanches import avalanche_sizes, exclusions
 
+NOT_PHYSICS = ("samples", "checkpoint_every")
+
 
 def samples(run: Path) -> dict[str, Path]:
     return {f"{p.parent.name}/{p.stem}": p for p in sorted(run.glob("samples/*/*/sample-*.h5"))}
@@ -56,8 +58,10 @@ def main(argv: list[str] | None = None) -> int:
         if not (run / "manifest.json").is_file():
             ap.error(f"{run} is not a run directory (no manifest.json)")
     study = [json.loads((r / "manifest.json").read_text())["study"] for r in (args.a, args.b)]
+    # the sample count and the checkpoint interval do not change a sample (a resumed sample
+    # equals the uninterrupted one bit for bit)
     differ = sorted(k for k in set(study[0]) | set(study[1])
-                    if k != "samples" and study[0].get(k) != study[1].get(k))
+                    if k not in NOT_PHYSICS and study[0].get(k) != study[1].get(k))
     if differ:
         ap.error(f"the two runs are of different studies ({', '.join(differ)})")
     sa, sb = samples(args.a), samples(args.b)

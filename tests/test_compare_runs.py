@@ -69,3 +69,14 @@ def test_different_studies_are_refused(tmp_path, capsys):
         mod.main([str(a), str(b)])
     assert err.value.code == 2
     assert "different studies (pressure)" in capsys.readouterr().err
+
+
+def test_checkpoint_interval_is_not_a_different_study(tmp_path, capsys):
+    # a resumed sample equals the uninterrupted one, so checkpointing every K steps or not at
+    # all is the same study
+    mod = script_module("compare_runs")
+    t = trace([-1e-9], [True], [True, True])
+    a = make_run(tmp_path / "a", [t])
+    b = make_run(tmp_path / "b", [t], study={**STUDY, "checkpoint_every": 100})
+    assert mod.main([str(a), str(b)]) == 0
+    assert "| N=8/sample-00000 | [] | [] | 2 of 2 | None | None |" in capsys.readouterr().out
