@@ -8,7 +8,8 @@ samples both hold, the unjammed minima and excluded steps, the number of avalanc
 steps between jammed minima, :func:`jamlab.analysis.avalanches.avalanche_sizes`), the plastic
 fraction, ``⟨S⟩``, and the two-sample KS test on the sizes (``scipy.stats.ks_2samp``), all sizes
 and those at or above ``--s-min``; with ``--fit-at`` τ with an exponential cut-off at fixed
-``S_min`` in each run.
+``S_min`` in each run; and the cost of the common samples in each run (FIRE iterations summed
+over the trace, machine-independent; the recorded CPU seconds).
 
     PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
         [--fit-at 1.19e-11 1.11e-10]
@@ -36,8 +37,22 @@ def samples(run: Path) -> dict[str, Path]:
 
 
 def read(path: Path) -> dict[str, np.ndarray]:
+    """The trace columns compared, and the sample's cost where recorded: ``iterations`` (FIRE's,
+    summed over the trace) and ``cpu`` (the sample's ``cpu_seconds``), NaN where absent."""
     with h5py.File(path, "r") as h5:
-        return {k: h5["trace"][k][()] for k in ("energy", "energy_jump", "plastic", "jammed")}
+        out = {k: h5["trace"][k][()] for k in ("energy", "energy_jump", "plastic", "jammed")}
+        its = h5["trace"].get("iterations")
+        out["iterations"] = float(np.sum(its[()])) if its is not None else np.nan
+        out["cpu"] = float(h5.attrs.get("cpu_seconds", np.nan))
+    return out
+
+
+def cost(values: list[float], fmt: str) -> str:
+    """Mean over the samples and range, ``–`` where a sample does not record it."""
+    v = np.asarray(values, dtype=float)
+    if v.size == 0 or np.isnan(v).any():
+        return "–"
+    return f"{v.mean():{fmt}} ({v.min():{fmt}}–{v.max():{fmt}})"
 
 
 def sem(x: np.ndarray) -> float:
@@ -68,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     common = sorted(set(sa) & set(sb))
     if not common:
         ap.error("no sample is in both runs")
-    pooled = {name: {"S": [], "steps": 0, "plastic": 0, "unjammed": 0, "excluded": 0}
+    pooled = {name: {"S": [], "steps": 0, "plastic": 0, "unjammed": 0, "excluded": 0,
+                     "iterations": [], "cpu": []}
               for name in ("a", "b")}
     print(f"{len(common)} samples in both ({args.a}: {len(sa)}, {args.b}: {len(sb)})")
     print("| sample | plastic differ at | jammed differ at | energies equal (rows) | "
@@ -102,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
             acc["plastic"] += len(s)
             acc["unjammed"] += int(np.sum(~jammed))
             acc["excluded"] += ex.n_steps_excluded
+            acc["iterations"].append(t["iterations"])
+            acc["cpu"].append(t["cpu"])
     diverged = [f for f in firsts if f[0] is not None]
     at = sum(1 for f, u in diverged if u is not None and f == u)
     print(f"\n{len(diverged)} samples differ; in {at} the first differing row is the first "
@@ -109,13 +127,14 @@ def main(argv: list[str] | None = None) -> int:
     sizes = {k: np.concatenate(v["S"]) for k, v in pooled.items()}
     print()
     print("| run | steps | unjammed minima | excluded steps | avalanches | plastic fraction | "
-          "⟨S⟩ (ε) |")
-    print("|---|---|---|---|---|---|---|")
+          "⟨S⟩ (ε) | FIRE iterations per sample | CPU s per sample |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, run in (("a", args.a), ("b", args.b)):
         acc = pooled[name]
         print(f"| {run} | {acc['steps']} | {acc['unjammed']} | {acc['excluded']} | "
               f"{acc['plastic']} | {acc['plastic'] / acc['steps']:.4f} | "
-              f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} |")
+              f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} | "
+              f"{cost(acc['iterations'], '.0f')} | {cost(acc['cpu'], '.1f')} |")
     ks = ks_2samp(sizes["a"], sizes["b"])
     print(f"\ntwo-sample KS on all sizes: D = {ks.statistic:.4f}, p = {ks.pvalue:.3f}")
     if args.s_min is not None:

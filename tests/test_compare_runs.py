@@ -14,7 +14,7 @@ STUDY = {"phi": ["jamming"], "n": [8], "samples": 2, "dgamma": 1e-5, "gamma_max"
          "pressure": 1e-6}
 
 
-def make_run(root, traces, study=STUDY):
+def make_run(root, traces, study=STUDY, cpu=None):
     root.mkdir()
     (root / "manifest.json").write_text(json.dumps({"format": "jamlab-run", "study": study}))
     folder = root / "samples" / "phi=jamming" / "N=8"
@@ -23,6 +23,8 @@ def make_run(root, traces, study=STUDY):
         with h5py.File(folder / f"sample-{i:05d}.h5", "w") as h5:
             for k, v in t.items():
                 h5[f"trace/{k}"] = v
+            if cpu is not None:
+                h5.attrs["cpu_seconds"] = cpu[i]
     return root
 
 
@@ -54,6 +56,8 @@ def test_counts_against_hand_counts(runs, capsys):
     assert "| 10 | 1 | 2 | 4 | 0.4000 |" in out
     # b: nothing unjammed; sample 0 steps 1, 3, 4, 5, sample 1 steps 1, 4 -> 6
     assert "| 10 | 0 | 0 | 6 | 0.6000 |" in out
+    # no iterations in these traces, no cpu_seconds: the cost is not made up
+    assert out.count("| – | – |") == 2
     assert "| N=8/sample-00000 | [5] | [4] | 5 of 6 | 5 | 4 |" in out
     assert "| N=8/sample-00001 | [] | [] | 6 of 6 | None | None |" in out
     mean_a = np.mean([1e-9, 3e-9, 5e-10, 4e-9])
@@ -80,3 +84,15 @@ def test_checkpoint_interval_is_not_a_different_study(tmp_path, capsys):
     b = make_run(tmp_path / "b", [t], study={**STUDY, "checkpoint_every": 100})
     assert mod.main([str(a), str(b)]) == 0
     assert "| N=8/sample-00000 | [] | [] | 2 of 2 | None | None |" in capsys.readouterr().out
+
+
+def test_cost_per_sample(tmp_path, capsys):
+    mod = script_module("compare_runs")
+    t0 = {**trace([-1e-9], [True], [True, True]), "iterations": np.array([0, 300])}
+    t1 = {**trace([-1e-9], [True], [True, True]), "iterations": np.array([0, 100])}
+    a = make_run(tmp_path / "a", [t0, t1], cpu=[2.0, 4.0])
+    b = make_run(tmp_path / "b", [t0, t1])
+    assert mod.main([str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert "| 200 (100–300) | 3.0 (2.0–4.0) |" in out  # a: mean (range) of the two samples
+    assert "| 200 (100–300) | – |" in out  # b records no CPU time
