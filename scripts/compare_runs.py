@@ -8,8 +8,9 @@ samples both hold, the unjammed minima and excluded steps, the number of avalanc
 steps between jammed minima, :func:`jamlab.analysis.avalanches.avalanche_sizes`), the plastic
 fraction, ``⟨S⟩``, and the two-sample KS test on the sizes (``scipy.stats.ks_2samp``), all sizes
 and those at or above ``--s-min``; with ``--fit-at`` τ with an exponential cut-off at fixed
-``S_min`` in each run; and the cost of the common samples in each run (FIRE iterations summed
-over the trace, machine-independent; the recorded CPU seconds).
+``S_min`` in each run; the avalanches the two runs share (at the same step of a sample, and of
+the same size: do the two follow the same minima?); and the cost of the common samples in each
+run (FIRE iterations summed over the trace, machine-independent; the recorded CPU seconds).
 
     PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
         [--fit-at 1.19e-11 1.11e-10]
@@ -27,7 +28,7 @@ import numpy as np
 from scipy.stats import ks_2samp
 
 from jamlab.analysis import fit_cutoff_power_law
-from jamlab.analysis.avalanches import avalanche_sizes, exclusions
+from jamlab.analysis.avalanches import avalanche_sizes, classify_steps, exclusions
 
 NOT_PHYSICS = ("samples", "checkpoint_every")
 
@@ -45,6 +46,31 @@ def read(path: Path) -> dict[str, np.ndarray]:
         out["iterations"] = float(np.sum(its[()])) if its is not None else np.nan
         out["cpu"] = float(h5.attrs.get("cpu_seconds", np.nan))
     return out
+
+
+SAME_SIZE = 1e-3  # relative size difference below which an avalanche is the same in both runs
+
+
+def pair_events(ta: dict, tb: dict, paired: dict) -> None:
+    """Add to ``paired`` the avalanches (plastic steps between jammed minima,
+    :func:`jamlab.analysis.avalanches.classify_steps`) of one sample in two runs: at the same
+    step in both (and of them, those of the same size to ``SAME_SIZE`` relative), in one only.
+    Two runs whose minimisers follow the same minima share their events; then an agreement of
+    their statistics says that, and not that the statistics are robust to a different path."""
+    masks, sizes = [], []
+    for t in (ta, tb):
+        jump = t["energy_jump"][1:]
+        masks.append(classify_steps(jump, t["plastic"][1:].astype(bool),
+                                    jammed=t["jammed"].astype(bool)))
+        sizes.append(-jump)
+    n = min(len(masks[0]), len(masks[1]))
+    ma, mb = masks[0][:n], masks[1][:n]
+    both = ma & mb
+    sa, sb = sizes[0][:n][both], sizes[1][:n][both]
+    paired["both"] += int(both.sum())
+    paired["same size"] += int(np.sum(np.abs(sa - sb) <= SAME_SIZE * np.abs(sa)))
+    paired["a only"] += int(np.sum(ma & ~mb))
+    paired["b only"] += int(np.sum(mb & ~ma))
 
 
 def cost(values: list[float], fmt: str) -> str:
@@ -91,8 +117,10 @@ def main(argv: list[str] | None = None) -> int:
           "first row that differs | first unjammed row of a | unjammed a / b |")
     print("|---|---|---|---|---|---|---|")
     firsts = []
+    paired = {"both": 0, "same size": 0, "a only": 0, "b only": 0}
     for key in common:
         ta, tb = read(sa[key]), read(sb[key])
+        pair_events(ta, tb, paired)
         n = min(len(ta["energy"]), len(tb["energy"]))
         dp = np.flatnonzero(ta["plastic"][:n] != tb["plastic"][:n])
         dj = np.flatnonzero(ta["jammed"][:n] != tb["jammed"][:n])
@@ -135,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{acc['plastic']} | {acc['plastic'] / acc['steps']:.4f} | "
               f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} | "
               f"{cost(acc['iterations'], '.0f')} | {cost(acc['cpu'], '.1f')} |")
+    print(f"\nthe same events? avalanches at the same step of the same sample in both runs: "
+          f"{paired['both']}, of which {paired['same size']} of the same size to {SAME_SIZE:g} "
+          f"relative; in a only: {paired['a only']}, in b only: {paired['b only']}")
     ks = ks_2samp(sizes["a"], sizes["b"])
     print(f"\ntwo-sample KS on all sizes: D = {ks.statistic:.4f}, p = {ks.pvalue:.3f}")
     if args.s_min is not None:

@@ -56,6 +56,10 @@ def test_counts_against_hand_counts(runs, capsys):
     assert "| 10 | 1 | 2 | 4 | 0.4000 |" in out
     # b: nothing unjammed; sample 0 steps 1, 3, 4, 5, sample 1 steps 1, 4 -> 6
     assert "| 10 | 0 | 0 | 6 | 0.6000 |" in out
+    # shared events: sample 0 steps 1 and 3 (a's step 4 ends unjammed; b's 4 and 5 are b's
+    # only), sample 1 steps 1 and 4 -> 4 in both, all of the same size; a only 0, b only 2
+    assert ("in both runs: 4, of which 4 of the same size to 0.001 relative; in a only: 0, "
+            "in b only: 2") in out
     # no iterations in these traces, no cpu_seconds: the cost is not made up
     assert out.count("| – | – |") == 2
     assert "| N=8/sample-00000 | [5] | [4] | 5 of 6 | 5 | 4 |" in out
@@ -96,3 +100,13 @@ def test_cost_per_sample(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "| 200 (100–300) | 3.0 (2.0–4.0) |" in out  # a: mean (range) of the two samples
     assert "| 200 (100–300) | – |" in out  # b records no CPU time
+
+
+def test_same_step_other_size_is_counted_apart(tmp_path, capsys):
+    mod = script_module("compare_runs")
+    a = make_run(tmp_path / "a", [trace([-1e-9, -2e-9], [True, True], [True] * 3)])
+    b = make_run(tmp_path / "b", [trace([-1.0005e-9, -3e-9], [True, True], [True] * 3)])
+    assert mod.main([str(a), str(b)]) == 0
+    # step 1: 5e-4 relative (the same); step 2: 50 % (another minimum)
+    assert ("in both runs: 2, of which 1 of the same size to 0.001 relative; in a only: 0, "
+            "in b only: 0") in capsys.readouterr().out
