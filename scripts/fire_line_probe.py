@@ -63,9 +63,14 @@ OPTS = {"chunk": 1000, "every": 1000, "cos": 0.99, "cap": 1e-2, "de": 1e-11,
 
 
 def pop_option(name: str, kind=float):
+    """``--name value`` taken out of ``sys.argv`` into ``OPTS`` (a bad value: one line, exit 2)."""
     if f"--{name}" in sys.argv:
         i = sys.argv.index(f"--{name}")
-        OPTS[name] = kind(sys.argv[i + 1])
+        try:
+            OPTS[name] = kind(sys.argv[i + 1])
+        except (IndexError, ValueError):
+            print(f"error: --{name} needs a {kind.__name__} value", file=sys.stderr)
+            raise SystemExit(2) from None
         del sys.argv[i:i + 2]
 
 
@@ -351,6 +356,9 @@ def main() -> None:
     for name in ("chunk", "every", "cos", "cap", "de"):
         pop_option(name)
     pop_option("variants", str)
+    if not (OPTS["every"] >= 1 and OPTS["chunk"] >= 1 and OPTS["cap"] > 0 and OPTS["de"] > 0):
+        print("error: --every and --chunk must be >= 1, --cap and --de > 0", file=sys.stderr)
+        raise SystemExit(2)
     variants = ["plain"] + [v for v in OPTS["variants"].split(",") if v != "plain"]
     unknown = set(variants) - {"plain", "kernel", "kernel+lines", "chunks", "line"}
     if unknown:
