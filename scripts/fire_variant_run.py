@@ -9,8 +9,8 @@ every FIRE minimisation of the shear uses ``FireParameters(**overrides)`` (``--f
 name=value``, repeatable; e.g. ``variant=fire`` for the original FIRE of Bitzek et al. 2006,
 ``dt_max=0.1``). The preparation (``jam``) is unchanged. The run is in-process
 (``--workers 0``, so the change reaches the shear); the overrides are written to
-``OUT/fire_params.json`` at the first shear, and a run directory with other overrides is refused
-(exit 2). Resumes
+``OUT/fire_params.json`` at the first shear; a run directory with other overrides, or a run
+without them (a plain ``jamlab run``), is refused (exit 2). Resumes
 as ``jamlab run`` does.
 
     PYTHONPATH=src python scripts/fire_variant_run.py --fire variant=fire -- \\
@@ -60,8 +60,8 @@ def main(argv: list[str]) -> int:
     except (TypeError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    if "--out" not in run_args or "--workers" in run_args:
-        print("error: the jamlab run options need --out, and not --workers (forced to 0)",
+    if "--out" not in run_args[:-1] or "--workers" in run_args:
+        print("error: the jamlab run options need --out DIR, and not --workers (forced to 0)",
               file=sys.stderr)
         return 2
     out = Path(run_args[run_args.index("--out") + 1])
@@ -69,6 +69,11 @@ def main(argv: list[str]) -> int:
     if record.is_file() and json.loads(record.read_text()) != overrides:
         print(f"error: {out} was run with FIRE overrides {record.read_text().strip()}, "
               f"not {overrides}", file=sys.stderr)
+        return 2
+    if (out / "manifest.json").is_file() and not record.is_file():
+        # a plain jamlab run (or one stopped before its first shear): its samples are not ours
+        print(f"error: {out} is a run without FIRE overrides; give another --out",
+              file=sys.stderr)
         return 2
     import jamlab.spheres.aqs as aqs  # the module the aqs task calls (jamlab.runs.physics)
     from jamlab.cli import main as jamlab_main
@@ -88,6 +93,7 @@ def main(argv: list[str]) -> int:
     finally:
         aqs.shear = shear
     return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main(sys.argv[1:]))

@@ -36,6 +36,10 @@ def test_overrides_reach_the_shear(tmp_path):
     assert a["iterations"].sum() > 3 * b["iterations"].sum()
     np.testing.assert_allclose(a["energy"], b["energy"], rtol=1e-9)
     assert probe.main(["--fire", "variant=fire", "--", *STUDY, "--out", str(slow)]) == 2
+    # nor is a plain run's directory continued with overrides (its samples are not theirs)
+    plain = tmp_path / "plain"
+    assert probe.main(["--fire", "dt_max=0.02", "--", *STUDY, "--out", str(plain)]) == 2
+    assert not (plain / "fire_params.json").exists()
 
 
 @pytest.mark.parametrize("bad", [["--fire", "foo=1"], ["--fire", "dt_max=-1"],
