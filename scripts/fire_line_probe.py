@@ -153,6 +153,44 @@ def force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam, pair_alpha,
 
 
 @njit(cache=False)
+def search_line(pos, last, dn, g0, s_cap, trial, g, start, nbr, shift, diam, pair_alpha,
+                branch_free_pairs):
+    """``(s, evaluations)``: the line search of the module docstring along ``u = last/dn`` from
+    ``pos`` (``g0 = F·u`` there, ``> 0``), ``s ≤ s_cap``; ``s = 0`` where not even the first
+    trial has ``g > 0``."""
+    lo = 0.0
+    hi = -1.0
+    k = 0
+    s = min(dn, s_cap)
+    while True:
+        gs = force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam, pair_alpha,
+                         branch_free_pairs)
+        k += 1
+        if gs > 0.0:
+            lo = s
+            if s >= s_cap:
+                break
+            s = min(2.0 * s, s_cap)
+        else:
+            hi = s
+            break
+    if hi > 0.0:
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            gs = force_along(pos, mid, last, dn, trial, g, start, nbr, shift, diam, pair_alpha,
+                             branch_free_pairs)
+            k += 1
+            if gs > 0.0:
+                lo = mid
+            else:
+                hi = mid
+            if abs(gs) < 0.1 * g0:
+                lo = mid
+                break
+    return lo, k
+
+
+@njit(cache=False)
 def fire_lines(pos, L, gamma, skin, sigma_max, budget, start, nbr, shift, img_y, ref, diam,
                pair_alpha, ftol, max_iter, dt0, dt_max, dt_min, n_delay, f_inc, f_dec, alpha0,
                f_alpha, n_negative_max, dmax, fire2, branch_free_pairs, every, cos_min, cap,
@@ -265,7 +303,9 @@ def fire_lines(pos, L, gamma, skin, sigma_max, budget, start, nbr, shift, img_y,
                     mark[i, a] = pos[i, a]
             dn = np.sqrt(dn)
             ln = np.sqrt(ln)
-            if have_last and dn > ln > 0.0 and dl / (dn * ln) >= cos_min:
+            straight = have_last and dn > ln > 0.0 and dl / (dn * ln) >= cos_min
+            have_last = True
+            if straight:
                 # u = last / |last|; the force along u at s = 0
                 umax = 0.0
                 g0 = 0.0
@@ -286,57 +326,27 @@ def fire_lines(pos, L, gamma, skin, sigma_max, budget, start, nbr, shift, img_y,
                         u2 += u * u
                     room = min(room, np.sqrt(half_budget2) - np.sqrt(u2))
                 s_cap = min(cap, room) / umax
+                lo = 0.0
                 if g0 > 0.0 and s_cap > 0.0:
-                    lo = 0.0
-                    hi = -1.0
-                    s = min(dn, s_cap)
-                    while True:
-                        gs = force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam,
-                                         pair_alpha, branch_free_pairs)
-                        evals += 1
-                        if gs > 0.0:
-                            lo = s
-                            if s >= s_cap:
-                                break
-                            s = min(2.0 * s, s_cap)
-                        else:
-                            hi = s
-                            break
-                    if hi > 0.0:
-                        for _ in range(30):
-                            mid = 0.5 * (lo + hi)
-                            gs = force_along(pos, mid, last, dn, trial, g, start, nbr, shift,
-                                             diam, pair_alpha, branch_free_pairs)
-                            evals += 1
-                            if gs > 0.0:
-                                lo = mid
-                            else:
-                                hi = mid
-                            if abs(gs) < 0.1 * g0:
-                                lo = mid
-                                break
-                    if lo > 0.0:
-                        jumps += 1
-                        reach += lo / dn
-                        vu = 0.0
-                        for i in range(n):
-                            for a in range(d):
-                                vu += v[i, a] * last[i, a]
-                        vu /= dn
-                        for i in range(n):
-                            for a in range(d):
-                                pos[i, a] += lo * last[i, a] / dn
-                                v[i, a] -= vu * last[i, a] / dn
-                                mark[i, a] = pos[i, a]
-                        have_last = False
-                        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f,
-                                              branch_free_pairs)
-                    else:
-                        have_last = True
-                else:
-                    have_last = True
-            else:
-                have_last = True
+                    lo, k = search_line(pos, last, dn, g0, s_cap, trial, g, start, nbr, shift,
+                                        diam, pair_alpha, branch_free_pairs)
+                    evals += k
+                if lo > 0.0:
+                    jumps += 1
+                    reach += lo / dn
+                    vu = 0.0
+                    for i in range(n):
+                        for a in range(d):
+                            vu += v[i, a] * last[i, a]
+                    vu /= dn
+                    for i in range(n):
+                        for a in range(d):
+                            pos[i, a] += lo * last[i, a] / dn
+                            v[i, a] -= vu * last[i, a] / dn
+                            mark[i, a] = pos[i, a]
+                    have_last = False
+                    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f,
+                                          branch_free_pairs)
         fmax2 = max_force2(f)
     return it, np.sqrt(fmax2), fmax2 < ftol * ftol, e, evals, jumps, reach
 

@@ -33,10 +33,12 @@ def test_copy_retraces_fire(start):
 
 def test_lines_still_converge(start):
     probe = script_module("fire_line_probe")
+    saved = dict(probe.OPTS)
     probe.OPTS.update(every=20, cos=0.5)  # jump often
     try:
         (its, fmax, conv, e, evals, jumps, _), _ = probe.run_lines(start, 1e-12, True)
     finally:
-        probe.OPTS.update(every=1000, cos=0.99)
+        probe.OPTS.clear()
+        probe.OPTS.update(saved)
     assert conv and fmax < 1e-12
     assert jumps > 0 and evals >= jumps
