@@ -28,7 +28,7 @@ import numpy as np
 from scipy.stats import ks_2samp
 
 from jamlab.analysis import fit_cutoff_power_law
-from jamlab.analysis.avalanches import avalanche_sizes, classify_steps, exclusions
+from jamlab.analysis.avalanches import classify_steps, exclusions
 
 NOT_PHYSICS = ("samples", "checkpoint_every")
 
@@ -51,22 +51,17 @@ def read(path: Path) -> dict[str, np.ndarray]:
 SAME_SIZE = 1e-3  # relative size difference below which an avalanche is the same in both runs
 
 
-def pair_events(ta: dict, tb: dict, paired: dict) -> None:
-    """Add to ``paired`` the avalanches (plastic steps between jammed minima,
-    :func:`jamlab.analysis.avalanches.classify_steps`) of one sample in two runs: at the same
-    step in both (and of them, those of the same size to ``SAME_SIZE`` relative), in one only.
-    Two runs whose minimisers follow the same minima share their events; then an agreement of
-    their statistics says that, and not that the statistics are robust to a different path."""
-    masks, sizes = [], []
-    for t in (ta, tb):
-        jump = t["energy_jump"][1:]
-        masks.append(classify_steps(jump, t["plastic"][1:].astype(bool),
-                                    jammed=t["jammed"].astype(bool)))
-        sizes.append(-jump)
+def pair_events(masks: list[np.ndarray], jumps: list[np.ndarray], paired: dict) -> None:
+    """Add to ``paired`` the avalanches of one sample in two runs — ``masks``: each run's steps
+    that are avalanches (:func:`jamlab.analysis.avalanches.classify_steps`), ``jumps``: its
+    ``ΔE`` per step — at the same step in both (and of them, those of the same size to
+    ``SAME_SIZE`` relative), in one only. Two runs whose minimisers follow the same minima share
+    their events; then an agreement of their statistics says that, and not that the statistics
+    are robust to a different path."""
     n = min(len(masks[0]), len(masks[1]))
     ma, mb = masks[0][:n], masks[1][:n]
     both = ma & mb
-    sa, sb = sizes[0][:n][both], sizes[1][:n][both]
+    sa, sb = -jumps[0][:n][both], -jumps[1][:n][both]
     paired["both"] += int(both.sum())
     paired["same size"] += int(np.sum(np.abs(sa - sb) <= SAME_SIZE * np.abs(sa)))
     paired["a only"] += int(np.sum(ma & ~mb))
@@ -120,7 +115,6 @@ def main(argv: list[str] | None = None) -> int:
     paired = {"both": 0, "same size": 0, "a only": 0, "b only": 0}
     for key in common:
         ta, tb = read(sa[key]), read(sb[key])
-        pair_events(ta, tb, paired)
         n = min(len(ta["energy"]), len(tb["energy"]))
         dp = np.flatnonzero(ta["plastic"][:n] != tb["plastic"][:n])
         dj = np.flatnonzero(ta["jammed"][:n] != tb["jammed"][:n])
@@ -134,11 +128,15 @@ def main(argv: list[str] | None = None) -> int:
               f"{dj.tolist()[:8]}{' …' if len(dj) > 8 else ''} | {same} of {n} | {first} | {unj} | "
               f"{int(np.sum(~ta['jammed'].astype(bool)))} / "
               f"{int(np.sum(~tb['jammed'].astype(bool)))} |")
+        masks, jumps = [], []
         for name, t in (("a", ta), ("b", tb)):
             jammed = t["jammed"].astype(bool)
             # row 0 of the trace is the start: steps 1..M, minima 0..M
             jump, plastic = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
-            s = avalanche_sizes(jump, plastic, jammed=jammed)
+            mask = classify_steps(jump, plastic, jammed=jammed)
+            s = -jump[mask]  # the avalanche sizes (jamlab.analysis.avalanches.avalanche_sizes)
+            masks.append(mask)
+            jumps.append(jump)
             ex = exclusions(jump, jammed, plastic)
             acc = pooled[name]
             acc["S"].append(s)
@@ -148,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
             acc["excluded"] += ex.n_steps_excluded
             acc["iterations"].append(t["iterations"])
             acc["cpu"].append(t["cpu"])
+        pair_events(masks, jumps, paired)
     diverged = [f for f in firsts if f[0] is not None]
     at = sum(1 for f, u in diverged if u is not None and f == u)
     print(f"\n{len(diverged)} samples differ; in {at} the first differing row is the first "
