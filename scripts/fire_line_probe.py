@@ -9,8 +9,9 @@ and tolerance), and each is redone five ways:
 
 * ``plain``: FIRE (:func:`jamlab.spheres.fire.minimize`) from the start to its tolerance (what
   the relaxer did);
-* ``kernel``: the probe's own compiled FIRE 2.0 (:func:`fire_lines`, plain loops) without line
-  searches — a check of the copy: the same iterations as ``plain``;
+* ``kernel``: the probe's compiled FIRE 2.0 (:func:`fire_lines`: the package's kernel, copied
+  from its source with the line search edited in by ``scripts/kernel_copy.py``) without line
+  searches — a check of the edits: the same iterations and minima as ``plain``;
 * ``kernel+lines``: the same loop, and every ``--every`` iterations, where the last two
   windows' displacements are aligned (cosine ≥ ``--cos``) and growing, a line search along the
   last one: the force along the line, ``g(s) = F(x + s u)·u``, bracketed by doubling ``s``
@@ -47,13 +48,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_pressure import parse_sample_arguments  # noqa: E402
 from fire_slide_probe import caught_fire_runs  # noqa: E402
+from kernel_copy import edited_fire  # noqa: E402
 
 # isort: split
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
 from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize  # noqa: E402
-from jamlab.spheres.kernels.geometry import build_neighbor_list, wrap_positions  # noqa: E402
+from jamlab.spheres.kernels.geometry import wrap_positions  # noqa: E402
 from jamlab.spheres.kernels.pairs import energy_forces_any  # noqa: E402
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
 from jamlab.spheres.potential import forces  # noqa: E402
@@ -125,18 +127,6 @@ def chunked(start, ftol: float, jump: bool, counts: dict):
 
 
 @njit(cache=False)
-def max_force2(f):
-    """``max_i |F_i|²``."""
-    m = 0.0
-    for i in range(f.shape[0]):
-        s = 0.0
-        for a in range(f.shape[1]):
-            s += f[i, a] * f[i, a]
-        m = max(m, s)
-    return m
-
-
-@njit(cache=False)
 def force_along(pos, s, last, dn, trial, g, start, nbr, shift, diam, pair_alpha,
                 branch_free_pairs):
     """``F(x + s u)·u`` with ``u = last/dn`` (``trial``, ``g``: work arrays)."""
@@ -191,164 +181,122 @@ def search_line(pos, last, dn, g0, s_cap, trial, g, start, nbr, shift, diam, pai
 
 
 @njit(cache=False)
-def fire_lines(pos, L, gamma, skin, sigma_max, budget, start, nbr, shift, img_y, ref, diam,
-               pair_alpha, ftol, max_iter, dt0, dt_max, dt_min, n_delay, f_inc, f_dec, alpha0,
-               f_alpha, n_negative_max, dmax, fire2, branch_free_pairs, every, cos_min, cap,
-               lines):
-    """FIRE 2.0 as :func:`jamlab.spheres.kernels.fire.fire` (plain loops, not its fused kick),
-    and, with ``lines``, every ``every`` iterations the line search of the module docstring
-    along the last window's displacement, FIRE's velocity kept except its part along the line
-    (``Δt`` and ``α`` kept). Returns ``(iterations, max_force, converged, energy, evaluations,
-    jumps, reach)``, ``reach`` the sum over jumps of the jump's length in units of the window's
-    displacement."""
+def line_step(pos, v, f, mark, last, have_last, ref, half_budget2, cos_min, cap, trial, g,
+              start, nbr, shift, diam, pair_alpha, branch_free_pairs):
+    """At the end of a window: the window's displacement (``pos − mark``) into ``last`` and,
+    where it is aligned with the last one (cosine ≥ ``cos_min``) and longer, the line search
+    along it, ``pos`` moved to its end and ``v`` less its part along the line. Returns
+    ``(have_last, reach, evaluations)``, ``reach`` the jump's length in units of the window's
+    displacement (0: no jump; the caller then has the forces at ``pos`` already)."""
     n, d = pos.shape
-    f = np.empty((n, d), np.float64)
-    g = np.empty((n, d), np.float64)
-    v = np.zeros((n, d), np.float64)
-    trial = np.empty((n, d), np.float64)
-    mark = pos.copy()
-    last = np.zeros((n, d), np.float64)
-    have_last = False
-    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
-    dt = dt0
-    alpha = alpha0
-    n_pos = 0
-    n_neg = 0
-    it = 0
-    evals = 0
-    jumps = 0
-    reach = 0.0
-    rc = sigma_max + skin
-    half_budget2 = 0.25 * budget * budget
-    fmax2 = max_force2(f)
-    while fmax2 >= ftol * ftol and it < max_iter:
-        it += 1
-        p = 0.0
-        for i in range(n):
-            for a in range(d):
-                p += f[i, a] * v[i, a]
-        if p > 0.0:
-            n_pos += 1
-            n_neg = 0
-            if n_pos > n_delay:
-                dt = min(dt * f_inc, dt_max)
-                alpha *= f_alpha
-        else:
-            n_pos = 0
-            n_neg += 1
-            if n_neg > n_negative_max:
-                break
-            if not (fire2 and it < n_delay):
-                if dt * f_dec >= dt_min:
-                    dt *= f_dec
-                alpha = alpha0
-            if fire2:
-                for i in range(n):
-                    for a in range(d):
-                        pos[i, a] -= 0.5 * dt * v[i, a]
-            v[:, :] = 0.0
-        vv = 0.0
-        ff = 0.0
-        vmax2 = 0.0
-        fmax2 = 0.0
-        for i in range(n):
-            t = 0.0
-            s = 0.0
-            for a in range(d):
-                v[i, a] += dt * f[i, a]
-                t += v[i, a] * v[i, a]
-                s += f[i, a] * f[i, a]
-            vv += t
-            ff += s
-            vmax2 = max(vmax2, t)
-            fmax2 = max(fmax2, s)
-        c1 = 1.0 - alpha
-        c2 = alpha * np.sqrt(vv / ff) if ff > 0.0 else 0.0
-        step = dt
-        bound = c1 * np.sqrt(vmax2) + c2 * np.sqrt(fmax2)
-        if dmax > 0.0 and dt * bound > dmax:
-            step = dmax / bound
-        need = False
-        for i in range(n):
-            u2 = 0.0
-            for a in range(d):
-                y = c1 * v[i, a] + c2 * f[i, a]
-                v[i, a] = y
-                pos[i, a] += step * y
-                u = pos[i, a] - ref[i, a]
-                u2 += u * u
-            if u2 >= half_budget2:
-                need = True
-        if need:
-            wrap_positions(pos, L, gamma)
-            start, nbr, shift, img_y = build_neighbor_list(pos, L, gamma, rc)
-            for i in range(n):
-                for a in range(d):
-                    ref[i, a] = pos[i, a]
-                    mark[i, a] = pos[i, a]
-            have_last = False
-            half_budget2 = 0.25 * skin * skin
-        e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f, branch_free_pairs)
-        if lines and it % every == 0:
-            dn = 0.0
-            ln = 0.0
-            dl = 0.0
-            for i in range(n):
-                for a in range(d):
-                    x = pos[i, a] - mark[i, a]
-                    dn += x * x
-                    ln += last[i, a] * last[i, a]
-                    dl += x * last[i, a]
-                    last[i, a] = x
-                    mark[i, a] = pos[i, a]
-            dn = np.sqrt(dn)
-            ln = np.sqrt(ln)
-            straight = have_last and dn > ln > 0.0 and dl / (dn * ln) >= cos_min
-            have_last = True
-            if straight:
-                # u = last / |last|; the force along u at s = 0
-                umax = 0.0
-                g0 = 0.0
-                for i in range(n):
-                    t = 0.0
-                    for a in range(d):
-                        t += last[i, a] * last[i, a]
-                        g0 += f[i, a] * last[i, a]
-                    umax = max(umax, np.sqrt(t))
-                umax /= dn
-                g0 /= dn
-                # the list stays valid while every particle is within half the budget of ref
-                room = 1e300
-                for i in range(n):
-                    u2 = 0.0
-                    for a in range(d):
-                        u = pos[i, a] - ref[i, a]
-                        u2 += u * u
-                    room = min(room, np.sqrt(half_budget2) - np.sqrt(u2))
-                s_cap = min(cap, room) / umax
-                lo = 0.0
-                if g0 > 0.0 and s_cap > 0.0:
-                    lo, k = search_line(pos, last, dn, g0, s_cap, trial, g, start, nbr, shift,
-                                        diam, pair_alpha, branch_free_pairs)
-                    evals += k
-                if lo > 0.0:
-                    jumps += 1
-                    reach += lo / dn
-                    vu = 0.0
-                    for i in range(n):
-                        for a in range(d):
-                            vu += v[i, a] * last[i, a]
-                    vu /= dn
-                    for i in range(n):
-                        for a in range(d):
-                            pos[i, a] += lo * last[i, a] / dn
-                            v[i, a] -= vu * last[i, a] / dn
-                            mark[i, a] = pos[i, a]
-                    have_last = False
-                    e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f,
-                                          branch_free_pairs)
-        fmax2 = max_force2(f)
-    return it, np.sqrt(fmax2), fmax2 < ftol * ftol, e, evals, jumps, reach
+    dn = 0.0
+    ln = 0.0
+    dl = 0.0
+    for i in range(n):
+        for a in range(d):
+            x = pos[i, a] - mark[i, a]
+            dn += x * x
+            ln += last[i, a] * last[i, a]
+            dl += x * last[i, a]
+            last[i, a] = x
+            mark[i, a] = pos[i, a]
+    dn = np.sqrt(dn)
+    ln = np.sqrt(ln)
+    if not (have_last and dn > ln > 0.0 and dl / (dn * ln) >= cos_min):
+        return True, 0.0, 0
+    # u = last / |last|; the force along u at s = 0
+    umax = 0.0
+    g0 = 0.0
+    for i in range(n):
+        t = 0.0
+        for a in range(d):
+            t += last[i, a] * last[i, a]
+            g0 += f[i, a] * last[i, a]
+        umax = max(umax, np.sqrt(t))
+    umax /= dn
+    g0 /= dn
+    # the list stays valid while every particle is within half the budget of ref
+    room = 1e300
+    for i in range(n):
+        u2 = 0.0
+        for a in range(d):
+            u = pos[i, a] - ref[i, a]
+            u2 += u * u
+        room = min(room, np.sqrt(half_budget2) - np.sqrt(u2))
+    s_cap = min(cap, room) / umax
+    if not (g0 > 0.0 and s_cap > 0.0):
+        return True, 0.0, 0
+    lo, k = search_line(pos, last, dn, g0, s_cap, trial, g, start, nbr, shift, diam,
+                        pair_alpha, branch_free_pairs)
+    if lo <= 0.0:
+        return True, 0.0, k
+    vu = 0.0
+    for i in range(n):
+        for a in range(d):
+            vu += v[i, a] * last[i, a]
+    vu /= dn
+    for i in range(n):
+        for a in range(d):
+            pos[i, a] += lo * last[i, a] / dn
+            v[i, a] -= vu * last[i, a] / dn
+            mark[i, a] = pos[i, a]
+    return False, lo / dn, k
+
+
+@njit(cache=False)
+def copy_into(dst, src):
+    """``dst[:, :] = src`` as plain loops (see the kernel's note on slice assignment)."""
+    for i in range(src.shape[0]):
+        for a in range(src.shape[1]):
+            dst[i, a] = src[i, a]
+
+
+# The kernel's FIRE loop (``jamlab/spheres/kernels/fire.py``) with the line search added
+# (``scripts/kernel_copy.py``): four more arguments, the window's state, the window reset at a
+# neighbour-list rebuild, the line step after the force evaluation of every ``every``-th
+# iteration (forces recomputed after a jump, so the next kick uses them), the counts returned.
+EDITS = [
+    ("    branch_free_pairs,\n):\n",
+     "    branch_free_pairs,\n    every,\n    cos_min,\n    cap,\n    lines,\n):\n"),
+    ("    w = np.zeros((n, d), np.float64)\n",
+     "    w = np.zeros((n, d), np.float64)\n    g = np.empty((n, d), np.float64)\n"
+     "    trial = np.empty((n, d), np.float64)\n    mark = pos.copy()\n"
+     "    last = np.zeros((n, d), np.float64)\n    have_last = False\n    evals = 0\n"
+     "    jumps = 0\n    reach = 0.0\n"),
+    ("            half_budget2 = 0.25 * skin * skin\n",
+     "            half_budget2 = 0.25 * skin * skin\n            copy_into(mark, pos)\n"
+     "            have_last = False\n"),
+    ("        # the next kick, made now",
+     "        if lines and it % every == 0:\n"
+     "            have_last, r, k = line_step(pos, v, f, mark, last, have_last, ref,\n"
+     "                                        half_budget2, cos_min, cap, trial, g, start,\n"
+     "                                        nbr, shift, diam, pair_alpha,\n"
+     "                                        branch_free_pairs)\n"
+     "            evals += k\n"
+     "            if r > 0.0:\n"
+     "                jumps += 1\n"
+     "                reach += r\n"
+     "                e = energy_forces_any(pos, start, nbr, shift, diam, pair_alpha, f,\n"
+     "                                      branch_free_pairs)\n"
+     "        # the next kick, made now"),
+    ("    return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref\n",
+     "    return it, fmax, fmax < ftol, e, evals, jumps, reach\n"),
+]
+_FIRE_LINES = []
+
+
+def fire_lines(*args):
+    """FIRE 2.0 as :func:`jamlab.spheres.kernels.fire.fire` (the kernel itself, copied with
+    :data:`EDITS`), and, with ``lines``, every ``every`` iterations the line search of the
+    module docstring along the last window's displacement, FIRE's velocity kept except its part
+    along the line (``Δt`` and ``α`` kept). Arguments: the kernel's, then ``every, cos_min,
+    cap, lines``. Returns ``(iterations, max_force, converged, energy, evaluations, jumps,
+    reach)``, ``reach`` the sum over jumps of the jump's length in units of the window's
+    displacement."""
+    if not _FIRE_LINES:
+        _FIRE_LINES.append(edited_fire("fire_lines", EDITS,
+                                       {"line_step": line_step, "copy_into": copy_into}))
+    return _FIRE_LINES[0](*args)
 
 
 def run_lines(start_pk, ftol: float, lines: bool):

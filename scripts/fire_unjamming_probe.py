@@ -2,11 +2,12 @@
 
 The issue's example (issue 18): ``jam(N, 3, seed, p_target=1e-7)`` sheared affinely by ``δγ``
 at constant volume, then FIRE to ``max|F| < 1e-12``. The compiled FIRE loop is run from a copy
-made at run time from its source (``jamlab/spheres/kernels/fire.py``) with counters added: the
-restarts (``P ≤ 0``), the iterations with ``Δt < Δt_max / 2`` (a time step that has collapsed),
-and ``max|F|`` at iterations ``2^k``. Each ``--params`` is a set of :class:`FireParameters`
-fields (``"alpha0=0.1,f_alpha=0.999"``) run on the same start after the defaults. The copy
-fails loudly if the kernel's text changed where the counters go.
+made at run time from its source (``jamlab/spheres/kernels/fire.py``, by
+``scripts/kernel_copy.py``) with counters added: the restarts (``P ≤ 0``), the iterations with
+``Δt < Δt_max / 2`` (a time step that has collapsed), and ``max|F|`` at iterations ``2^k``.
+Each ``--params`` is a set of :class:`FireParameters` fields (``"alpha0=0.1,f_alpha=0.999"``)
+run on the same start after the defaults. The copy fails loudly if the kernel's text changed
+where the counters go.
 
     PYTHONPATH=src python scripts/fire_unjamming_probe.py --n 1000 --seed 21 \\
         --params f_alpha=0.999 alpha0=0.1 alpha0=0.1,f_alpha=0.999
@@ -15,21 +16,21 @@ fails loudly if the kernel's text changed where the counters go.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from kernel_copy import edited_fire  # noqa: E402
 
-import jamlab.spheres.kernels as K
-from jamlab.spheres.fire import FireParameters, kernel_arguments
-from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
-from jamlab.spheres.packing import jam
-from jamlab.spheres.potential import affine_shear
+# isort: split
+import numpy as np  # noqa: E402
 
-KERNEL = Path(K.__file__).resolve().parent / "fire.py"
+import jamlab.spheres.kernels as K  # noqa: E402
+from jamlab.spheres.fire import FireParameters, kernel_arguments  # noqa: E402
+from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
+from jamlab.spheres.packing import jam  # noqa: E402
+from jamlab.spheres.potential import affine_shear  # noqa: E402
 
 EDITS = [
     ("    while fmax2 >= ftol2 and it < max_iter:\n        it += 1\n",
@@ -47,19 +48,7 @@ EDITS = [
 
 def instrumented_fire():
     """The compiled FIRE loop with the counters (module docstring)."""
-    text = KERNEL.read_text()
-    text = text.replace("@njit(cache=True)", "@njit(cache=False)")  # every kernel of the copy
-    for old, new in EDITS:
-        if text.count(old) != 1:
-            raise SystemExit(f"fire_unjamming_probe: the kernel changed; cannot place {old!r}")
-        text = text.replace(old, new)
-    path = Path(tempfile.mkdtemp()) / "fire_counted.py"
-    path.write_text(text)
-    spec = importlib.util.spec_from_file_location("fire_counted", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["fire_counted"] = module
-    spec.loader.exec_module(module)
-    return module.fire
+    return edited_fire("fire_counted", EDITS)
 
 
 def run(fire, packing, params: FireParameters, ftol: float, max_iter: int):

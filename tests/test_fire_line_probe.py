@@ -1,6 +1,9 @@
-"""The line-search probe's own FIRE loop (``scripts/fire_line_probe.py``) against the package's
-FIRE: without line searches it must retrace :func:`jamlab.spheres.fire.minimize` (the probe's
-baseline is only meaningful if its copy is FIRE), and with them still reach ``ftol``."""
+"""The probes' copies of the compiled FIRE loop (``scripts/kernel_copy.py``: the kernel's source
+with lines edited in) against the package's FIRE: the line-search probe's
+(``scripts/fire_line_probe.py``) without line searches, and the unjamming probe's counters
+(``scripts/fire_unjamming_probe.py``), must retrace :func:`jamlab.spheres.fire.minimize` to the
+last bit (a probe's baseline is only meaningful if its copy is FIRE); with line searches it must
+still reach ``ftol``; an edit that no longer matches the kernel's text must fail loudly."""
 
 from __future__ import annotations
 
@@ -8,9 +11,10 @@ import numpy as np
 import pytest
 from tests.script_helpers import script_module
 
-from jamlab.spheres.fire import minimize
+from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN
 from jamlab.spheres.packing import jam
+from jamlab.spheres.potential import forces
 
 
 @pytest.fixture(scope="module")
@@ -26,9 +30,26 @@ def test_copy_retraces_fire(start):
     (its, fmax, conv, e, evals, jumps, _), pos = probe.run_lines(start, 1e-12, False)
     assert ref.converged and conv
     assert its == ref.iterations and evals == 0 and jumps == 0
-    assert e == pytest.approx(ref.energy, rel=1e-12, abs=1e-20)
-    dx = start.box.minimum_image(pos - ref.packing.positions)
-    assert float(np.max(np.abs(dx))) < 1e-9
+    assert e == ref.energy
+    assert np.array_equal(pos, ref.packing.positions)
+
+
+def test_counted_copy_retraces_fire(start):
+    probe = script_module("fire_unjamming_probe")
+    ref = minimize(start, ftol=1e-12, skin=RELAX_SKIN)
+    its, fmax, conv, e, n_restart, n_small, trace = probe.run(
+        probe.instrumented_fire(), start, FireParameters(), 1e-12, 1_000_000)
+    assert conv and its == ref.iterations and e == ref.energy
+    # max|F| at iteration 1 is the start's: the counters see the loop's own state
+    assert trace[0] == pytest.approx(float(np.max(np.linalg.norm(forces(start), axis=1))),
+                                     rel=1e-12)
+    assert 0 < n_restart < its and 0 <= n_small <= its
+
+
+def test_stale_edit_fails_loudly():
+    copy = script_module("kernel_copy")
+    with pytest.raises(SystemExit, match="cannot place"):
+        copy.edited_fire("fire_stale", [("    this line is not in the kernel\n", "")])
 
 
 def test_lines_still_converge(start):
