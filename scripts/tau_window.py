@@ -27,6 +27,14 @@ the sizes ≥ ``S`` between every two runs (is the shape of the tail the same?).
 strain (the run's finished samples, their whole strain) instead of the normalised CCDF: where the
 rate of events is extensive and their sizes do not depend on N, the curves of several N fall
 on each other; a detection floor that moves with N shows as the curves' foot parting.
+``--joint S …`` (runs of different N): does the cut-off grow with N? For each floor ``S``, one
+maximum-likelihood fit of a shared τ and a cut-off ``S*(N) = S*_ref (N/N_ref)^β`` to every
+run's sizes ≥ S (:func:`jamlab.analysis.finite_size.fit_joint_scaling`; bootstrap over whole
+samples at each N, ``--boot`` resamples, and the leave-one-sample-out jackknife), beside the
+same model with ``β = 0`` (one cut-off for all N: :func:`fit_cutoff_power_law` on the pooled
+sizes, the same floor); ``2Δlog L`` between the two is χ² with one degree of freedom if the
+avalanches were independent (3.84 at 95 %), the bootstrap interval of β what respects their
+correlation within a sample.
 
     PYTHONPATH=src python scripts/tau_window.py RUNS/pressure-1e-04 RUNS/pressure-1e-03 \\
         --n 500 --figure docs/figures/tau_window_medium.png
@@ -44,7 +52,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from jamlab.analysis import fit_cutoff_power_law, fit_power_law
+from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_law
 from jamlab.reproduce.ensembles import finished, jammed_flags
 from jamlab.reproduce.measurements import avalanche_set, fit_tau, tau_sigma
 from jamlab.reproduce.scales import SCALES
@@ -75,6 +83,8 @@ def main() -> None:
     ap.add_argument("--above", type=float, nargs="+", default=[],
                     help="print the rate of avalanches ≥ S per particle per unit strain at each "
                          "S, and a two-sample KS of the sizes ≥ S between every two runs")
+    ap.add_argument("--joint", type=float, nargs="+", default=[],
+                    help="floors S of the joint fit of τ and S*(N) ~ N^β (runs of different N)")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -85,6 +95,10 @@ def main() -> None:
     if a.boot < 0:
         ap.error("--boot must be >= 0")
     sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
+    if a.joint and (len(set(sizes_n)) != len(sizes_n) or len(sizes_n) < 2 or a.boot < 2
+                    or not all(x > 0 for x in a.joint)):
+        ap.error("--joint needs two or more runs of different N, --boot >= 2 and floors > 0")
+    per_sample_by_n = {}
     scale = SCALES[a.scale]
     curves = {}
     for run, n in zip(a.runs, sizes_n, strict=True):
@@ -95,6 +109,7 @@ def main() -> None:
         if s.size < scale.min_tail:
             print(f"\n{run}: {s.size} avalanches, too few for a fit")
             continue
+        per_sample_by_n[n] = aval.per_sample
         rule = fit_tau(s, scale)
         print(f"\n{run} (N = {n}): {s.size} avalanches, S from {s[0]:.2e} to {s[-1]:.2e}; "
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
@@ -160,6 +175,8 @@ def main() -> None:
                     ks = stats.ks_2samp(u, v)
                     print(f"KS, sizes ≥ {x:.0e}: {first} ({u.size}) against {second} ({v.size}): "
                           f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}")
+    if a.joint and len(per_sample_by_n) >= 2:
+        joint_table(per_sample_by_n, a.joint, a.boot)
     if a.figure is not None and curves:
         import matplotlib
 
@@ -210,6 +227,41 @@ def main() -> None:
         a.figure.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(a.figure, dpi=130)
         print(f"\nfigure: {a.figure}")
+
+
+def joint_fits(per_sample_by_n: dict, floor: float, boot: int):
+    """``(joint, pooled, 2Δlog L)`` at one floor (module docstring, ``--joint``): the joint fit
+    with β free, the pooled fit (β = 0) and twice the difference of their maximised
+    log-likelihoods, both of the sizes S in ε."""
+    j = fit_joint_scaling(per_sample_by_n, floor, n_boot=boot, jackknife=True)
+    pooled = np.concatenate([np.asarray(x, dtype=np.float64).ravel()
+                             for n in sorted(per_sample_by_n) for x in per_sample_by_n[n]])
+    c = fit_cutoff_power_law(pooled[pooled >= floor], floor)
+    return j, c, 2.0 * (j.loglik - c.loglik)
+
+
+def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> None:
+    """The ``--joint`` table (module docstring)."""
+    ns = sorted(per_sample_by_n)
+    print(f"\nJoint fit, one τ and S*(N) = S*_ref (N/N_ref)^β, N = {ns}; errors: bootstrap "
+          f"over whole samples ({boot}) / leave-one-sample-out jackknife; β = 0: one cut-off "
+          "for all N on the pooled sizes (same floor):\n")
+    print("| floor (ε) | sizes per N | τ | β (95 %) | S*(N) (ε) | τ, S_c at β = 0 | "
+          "2Δlog L (β free − β = 0) |")
+    print("|---|---|---|---|---|---|---|")
+    for floor in floors:
+        try:
+            j, c, lr = joint_fits(per_sample_by_n, floor, boot)
+        except ValueError as err:
+            print(f"| {floor:.2e} | — | {err} | | | | |")
+            continue
+        cut0 = "none resolved" if c.at_bound else f"{c.x_c:.2e}"
+        stars = " / ".join(f"{x:.1e}" for x in j.cutoff(j.n))
+        print(f"| {floor:.2e} | {' / '.join(map(str, j.tail))} | {j.tau:.3f} ± {j.tau_err:.3f} "
+              f"/ {j.tau_err_jack:.3f} | {j.beta:.2f} ± {j.beta_err:.2f} / "
+              f"{j.beta_err_jack:.2f} ([{j.beta_ci95[0]:.2f}, {j.beta_ci95[1]:.2f}]; "
+              f"{j.boot_at_bound:.0%} of resamples at a bound) | {stars} | "
+              f"{c.tau:.3f} ± {c.tau_stderr:.3f}, {cut0} | {lr:.2f} |")
 
 
 def total_strain(ds, n: int) -> float:
