@@ -78,6 +78,11 @@ def test_bootstrap_over_independent_samples_matches_the_asymptotic_error():
     ["a", "--band", "0"],
     ["a", "--fixed-band", "3e-9", "3e-11"],
     ["a", "--boot", "-1"],
+    ["a", "--joint", "1e-10"],  # one run: no N to compare
+    ["a", "b", "--n", "500", "500", "--joint", "1e-10"],  # the same N twice
+    ["a", "b", "--n", "250", "500", "--joint", "0"],
+    ["a", "b", "--n", "250", "500", "--joint-stretch", "0.5"],  # without --joint
+    ["a", "b", "--n", "250", "500", "--joint", "1e-10", "--joint-stretch", "-1"],
 ])
 def test_bad_arguments_exit_2(monkeypatch, argv):
     tw = script_module("tau_window")
