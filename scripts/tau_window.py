@@ -36,7 +36,9 @@ sizes, the same floor); ``2Δlog L`` between the two is χ² with one degree of 
 avalanches were independent (3.84 at 95 %), the bootstrap interval of β what respects their
 correlation within a sample. ``--joint-stretch a …``: the joint fit at the first floor with the
 cut-off ``e^(−(S/S*)^a)`` for each ``a``: τ, β and the maximised log-likelihood (its profile over
-``a``: is the exponential shape the one the data prefer?).
+``a``: is the exponential shape the one the data prefer?). ``--joint-figure F``: the sizes ≥ the
+first floor of each N (P(size ≥ S), normalised at the floor) with the joint model of each N
+(solid) and the one cut-off of β = 0 (dashed).
 
     PYTHONPATH=src python scripts/tau_window.py RUNS/pressure-1e-04 RUNS/pressure-1e-03 \\
         --n 500 --figure docs/figures/tau_window_medium.png
@@ -55,6 +57,7 @@ import numpy as np
 from scipy import stats
 
 from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_law
+from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
 from jamlab.reproduce.ensembles import finished, jammed_flags
 from jamlab.reproduce.measurements import avalanche_set, fit_tau, tau_sigma
 from jamlab.reproduce.scales import SCALES
@@ -89,6 +92,8 @@ def main() -> None:
                     help="floors S of the joint fit of τ and S*(N) ~ N^β (runs of different N)")
     ap.add_argument("--joint-stretch", type=float, nargs="+", default=[],
                     help="cut-off exponents a of the joint fit's profile at the first floor")
+    ap.add_argument("--joint-figure", type=Path, default=None,
+                    help="figure of the joint fit at the first floor (with --joint)")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -104,6 +109,8 @@ def main() -> None:
         ap.error("--joint needs two or more runs of different N, --boot >= 2 and floors > 0")
     if a.joint_stretch and not (a.joint and all(x > 0 for x in a.joint_stretch)):
         ap.error("--joint-stretch needs --joint and exponents > 0")
+    if a.joint_figure is not None and not a.joint:
+        ap.error("--joint-figure needs --joint")
     per_sample_by_n = {}
     scale = SCALES[a.scale]
     curves = {}
@@ -185,6 +192,8 @@ def main() -> None:
         joint_table(per_sample_by_n, a.joint, a.boot)
         if a.joint_stretch:
             stretch_table(per_sample_by_n, a.joint[0], a.joint_stretch, a.boot)
+        if a.joint_figure is not None:
+            joint_figure(per_sample_by_n, a.joint[0], a.boot, a.joint_figure)
     if a.figure is not None and curves:
         import matplotlib
 
@@ -270,6 +279,43 @@ def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> None:
               f"{j.beta_err_jack:.2f} ([{j.beta_ci95[0]:.2f}, {j.beta_ci95[1]:.2f}]; "
               f"{j.boot_at_bound:.0%} of resamples at a bound) | {stars} | "
               f"{c.tau:.3f} ± {c.tau_stderr:.3f}, {cut0} | {lr:.2f} |")
+
+
+def joint_figure(per_sample_by_n: dict, floor: float, boot: int, path: Path) -> None:
+    """The ``--joint-figure`` (module docstring)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    j, c, lr = joint_fits(per_sample_by_n, floor, boot)
+    fig, ax = plt.subplots(figsize=(6.5, 4.6))
+    grid = None
+    for n in sorted(per_sample_by_n):
+        s = np.sort(np.concatenate([np.asarray(x, dtype=np.float64).ravel()
+                                    for x in per_sample_by_n[n]]))
+        s = s[s >= floor]
+        if s.size == 0:
+            continue
+        (line,) = ax.loglog(s, 1.0 - np.arange(s.size) / s.size, ".", ms=3,
+                            label=f"N = {n} ({s.size} sizes)")
+        grid = np.geomspace(floor, 3.0 * s[-1], 200) if grid is None else grid
+        star = float(j.cutoff(n))
+        ax.loglog(grid, 1.0 - cutoff_power_law_cdf(grid, j.tau, star, floor), "-",
+                  color=line.get_color(), lw=1, label=f"joint fit, S*(N) = {star:.1e}")
+    if grid is not None:
+        ax.loglog(grid, 1.0 - cutoff_power_law_cdf(grid, c.tau, c.x_c, floor), "k--", lw=1,
+                  label=f"β = 0: one cut-off {c.x_c:.1e}, τ = {c.tau:.3f}")
+    ax.set_ylim(0.5 / max(j.tail), 1.5)
+    ax.set_xlabel("avalanche size S (ε)")
+    ax.set_ylabel(f"P(size ≥ S | size ≥ {floor:.0e})")
+    ax.set_title(f"joint fit: τ = {j.tau:.3f} ± {j.tau_err:.3f}, β = {j.beta:.2f} ± "
+                 f"{j.beta_err:.2f}; 2Δlog L against β = 0: {lr:.1f}", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    print(f"\nfigure: {path}")
 
 
 def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: int) -> None:
