@@ -172,3 +172,41 @@ def test_joint_fit_tells_a_growing_cutoff_from_a_fixed_one():
     fixed = cutoff_samples(np.random.default_rng(7), (250, 500, 1000), 0.0, per_sample=150)
     j, _, lr = tw.joint_fits(fixed, 1e-10, 100)
     assert -1e-6 < lr < 10.8 and j.beta_ci95[0] < 0.0 < j.beta_ci95[1]
+
+
+def test_permuted_deals_whole_samples_and_keeps_each_n_count():
+    tw = script_module("tau_window")
+    data = {250: [np.full(3, 1.0), np.full(2, 2.0)], 500: [np.full(4, 3.0)],
+            1000: [np.full(1, 4.0), np.full(5, 5.0), np.full(6, 6.0)]}
+    out = tw.permuted(data, np.random.default_rng(0))
+    assert {n: len(v) for n, v in out.items()} == {250: 2, 500: 1, 1000: 3}
+    dealt = sorted(tuple(x.tolist()) for v in out.values() for x in v)
+    assert dealt == sorted(tuple(x.tolist()) for v in data.values() for x in v)
+
+
+def test_permutation_null_is_chi2_for_independent_sizes_and_wider_for_unlike_samples():
+    """No N-dependence. Independent sizes, every sample alike: the permuted ratios follow χ²₁
+    (median 0.45, 95 % point 3.84; with 60 permutations accepted in (0.1, 1) and (1.5, 8): over
+    fifteen other seeds 0.18–0.61 and 2.0–6.3). Samples whose cut-offs differ (log-normal,
+    σ = 2 in log S_c): the permuted median is above 1 and the 95 % point above 3.84 (nine seeds:
+    1.2–6.2 and 5.0–19), so reading the ratio as χ²₁ would see an N-dependence that is not
+    there."""
+    tw = script_module("tau_window")
+    from jamlab.analysis.cutoff_powerlaw import sample_cutoff_power_law
+
+    rng = np.random.default_rng(11)
+    alike = cutoff_samples(rng, (250, 500, 1000), 0.0, per_sample=40, samples=8)
+    median, q95 = np.quantile(tw.permutation_test(alike, 1e-10, 60)[2], [0.5, 0.95])
+    assert 0.1 < median < 1.0 and 1.5 < q95 < 8.0
+    unlike = {n: [sample_cutoff_power_law(40, 1.5, 1e-8 * np.exp(2.0 * rng.standard_normal()),
+                                          1e-10, rng) for _ in range(8)]
+              for n in (250, 500, 1000)}
+    median, q95 = np.quantile(tw.permutation_test(unlike, 1e-10, 60)[2], [0.5, 0.95])
+    assert median > 1.0 and q95 > 3.84
+
+
+def test_permutation_test_finds_a_cutoff_that_grows():
+    tw = script_module("tau_window")
+    grows = cutoff_samples(np.random.default_rng(6), (250, 500, 1000), 1.0, per_sample=150)
+    lr, p_value, null = tw.permutation_test(grows, 1e-10, 40)
+    assert p_value == 1 / 41 and lr > null.max()
