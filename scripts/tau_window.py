@@ -27,6 +27,9 @@ the sizes ≥ ``S`` between every two runs (is the shape of the tail the same?).
 strain (the run's finished samples, their whole strain) instead of the normalised CCDF: where the
 rate of events is extensive and their sizes do not depend on N, the curves of several N fall
 on each other; a detection floor that moves with N shows as the curves' foot parting.
+``--above-permutations K``: each of those KS tests again with its p-value from dealing whole
+samples between the two runs (K times): the avalanches of one trajectory need not be
+independent, and ``ks_2samp``'s p-value assumes they are.
 ``--joint S …`` (runs of different N): does the cut-off grow with N? For each floor ``S``, one
 maximum-likelihood fit of a shared τ and a cut-off ``S*(N) = S*_ref (N/N_ref)^β`` to every
 run's sizes ≥ S (:func:`jamlab.analysis.finite_size.fit_joint_scaling`; bootstrap over whole
@@ -91,6 +94,9 @@ def main() -> None:
     ap.add_argument("--above", type=float, nargs="+", default=[],
                     help="print the rate of avalanches ≥ S per particle per unit strain at each "
                          "S, and a two-sample KS of the sizes ≥ S between every two runs")
+    ap.add_argument("--above-permutations", type=int, default=0,
+                    help="with --above: the KS p-value also by dealing whole samples between "
+                         "the two runs, this many times")
     ap.add_argument("--joint", type=float, nargs="+", default=[],
                     help="floors S of the joint fit of τ and S*(N) ~ N^β (runs of different N)")
     ap.add_argument("--joint-stretch", type=float, nargs="+", default=[],
@@ -116,9 +122,12 @@ def main() -> None:
         ap.error("--joint-stretch needs --joint and exponents > 0")
     if a.joint_figure is not None and not a.joint:
         ap.error("--joint-figure needs --joint")
+    if a.above_permutations and not (a.above and a.above_permutations >= 1):
+        ap.error("--above-permutations needs --above and a count >= 1")
     if a.joint_permutations and not (a.joint and a.joint_permutations >= 1):
         ap.error("--joint-permutations needs --joint and a count >= 1")
     per_sample_by_n = {}
+    samples_by_name = {}
     scale = SCALES[a.scale]
     curves = {}
     for run, n in zip(a.runs, sizes_n, strict=True):
@@ -174,6 +183,7 @@ def main() -> None:
                 b = band_bootstrap(aval.per_sample, lo, hi, a.boot)
                 print(f"| {lo:.2e} – {hi:.2e} | {count} | {f.tau:.3f} ± "
                       f"{f.tau_stderr:.3f} / {b:.3f} |")
+        samples_by_name[f"{run.name} (N = {n})"] = aval.per_sample
         curves[f"{run.name} (N = {n})"] = (s, np.array(xs), np.array(ts), np.array(es), rule,
                                           np.array(tc), np.array(ec), bands, n * strain)
     if a.above and curves:
@@ -193,8 +203,14 @@ def main() -> None:
                     if min(u.size, v.size) < 2:
                         continue
                     ks = stats.ks_2samp(u, v)
+                    perm = ""
+                    if a.above_permutations:
+                        pair = {0: samples_by_name[first], 1: samples_by_name[second]}
+                        _, p_perm = ks_permutation(pair, x, a.above_permutations)
+                        perm = (f"; dealing whole samples between the two "
+                                f"({a.above_permutations}): p = {p_perm:.3g}")
                     print(f"KS, sizes ≥ {x:.0e}: {first} ({u.size}) against {second} ({v.size}): "
-                          f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}")
+                          f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}{perm}")
     if a.joint and len(per_sample_by_n) >= 2:
         joint_table(per_sample_by_n, a.joint, a.boot)
         if a.joint_stretch:
@@ -308,6 +324,23 @@ def permuted(per_sample_by_n: dict, rng: np.random.Generator) -> dict:
         out[n] = [pool[m] for m in order[i:i + k]]
         i += k
     return out
+
+
+def ks_permutation(pair: dict, floor: float, count: int, seed: int = 0):
+    """``(D, p)``: the two-sample KS distance of the sizes ≥ ``floor`` of ``pair[0]`` and
+    ``pair[1]`` (each a list of samples' sizes) and its p-value by dealing whole samples between
+    the two (:func:`permuted`, ``count`` times): the KS test for avalanches correlated within a
+    sample."""
+    def distance(two: dict) -> float:
+        u, v = (np.concatenate([np.asarray(x, dtype=np.float64).ravel() for x in two[k]])
+                for k in (0, 1))
+        u, v = u[u >= floor], v[v >= floor]
+        return stats.ks_2samp(u, v).statistic if min(u.size, v.size) else 0.0
+
+    rng = np.random.default_rng(seed)
+    d = distance(pair)
+    null = np.array([distance(permuted(pair, rng)) for _ in range(count)])
+    return d, (1 + int(np.count_nonzero(null >= d))) / (count + 1)
 
 
 def permutation_test(per_sample_by_n: dict, floor: float, count: int, seed: int = 0):
