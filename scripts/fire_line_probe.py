@@ -58,7 +58,6 @@ from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize  # no
 from jamlab.spheres.kernels.geometry import wrap_positions  # noqa: E402
 from jamlab.spheres.kernels.pairs import energy_forces_any  # noqa: E402
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
-from jamlab.spheres.potential import forces  # noqa: E402
 
 OPTS = {"chunk": 1000, "every": 1000, "cos": 0.99, "cap": 1e-2, "de": 1e-11,
         "variants": "plain,kernel,kernel+lines,chunks,line"}
@@ -77,32 +76,26 @@ def pop_option(name: str, kind=float):
 
 
 def line_search(pk, u: np.ndarray, s0: float, counts: dict):
-    """The point along ``u`` from ``pk`` where the force along ``u`` vanishes (see the module
-    docstring); ``None`` when the force along ``u`` is not positive at the start."""
-    def g(s: float) -> float:
-        counts["evaluations"] += 1
-        return float(np.sum(forces(pk.with_positions(pk.positions + s * u)) * u))
-
-    g0 = g(0.0)
-    if not g0 > 0:
+    """The point along the unit direction ``u`` from ``pk`` where the force along ``u`` vanishes
+    (the compiled :func:`search_line` of ``kernel+lines``, first trial ``s0``, on a fresh
+    neighbour list: any particle's move capped at ``--cap`` and at half the list's skin); ``None``
+    when the force along ``u`` is not positive at the start or no trial has it positive."""
+    pos = np.array(pk.positions, dtype=np.float64, order="C")
+    wrap_positions(pos, pk.box.length, pk.box.strain)
+    nl = NeighborList(pk.with_positions(pos), skin=RELAX_SKIN)
+    args = kernel_arguments(nl.sorted(pos), pk.box, nl, 0.0, 0, FireParameters())
+    pos, skin, (start, nbr, shift), diam, pair_alpha = (args[0], args[3], args[6:9], args[11],
+                                                        args[12])
+    last = np.ascontiguousarray(nl.sorted(u * s0))
+    trial, g = np.empty_like(pos), np.empty_like(pos)
+    g0 = force_along(pos, 0.0, last, s0, trial, g, start, nbr, shift, diam, pair_alpha, args[-1])
+    counts["evaluations"] += 1
+    s_cap = min(OPTS["cap"], 0.5 * skin) / float(np.max(np.linalg.norm(u, axis=1)))
+    if not (g0 > 0.0 and s_cap > 0.0):
         return None
-    s_cap = OPTS["cap"] / float(np.max(np.linalg.norm(u, axis=1)))
-    lo, hi, s = 0.0, None, min(s0, s_cap)
-    while s <= s_cap:
-        if g(s) > 0:
-            lo, s = s, 2 * s
-        else:
-            hi = s
-            break
-    if hi is None:
-        return pk.with_positions(pk.positions + lo * u) if lo > 0 else None
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        gm = g(mid)
-        if abs(gm) < 0.1 * g0:
-            lo = mid
-            break
-        lo, hi = (mid, hi) if gm > 0 else (lo, mid)
+    lo, k = search_line(pos, last, s0, g0, s_cap, trial, g, start, nbr, shift, diam,
+                        pair_alpha, args[-1])
+    counts["evaluations"] += k
     return pk.with_positions(pk.positions + lo * u) if lo > 0 else None
 
 

@@ -63,3 +63,22 @@ def test_lines_still_converge(start):
         probe.OPTS.update(saved)
     assert conv and fmax < 1e-12
     assert jumps > 0 and evals >= jumps
+
+
+def test_line_search_returns_to_the_minimum_along_its_line():
+    """From a minimum moved back by δ along a unit direction ``u``, the force along ``u`` points
+    to the minimum and vanishes there (harmonic at this δ): the line search of the ``line``
+    variant (the compiled one on a fresh list) lands within its tolerance, ``|g| < g(0)/10``,
+    i.e. within about 10 % of δ; and a direction with the force against it is refused."""
+    probe = script_module("fire_line_probe")
+    pk0 = minimize(jam(64, 3, seed=5, p_target=1e-4).packing, ftol=1e-13, skin=RELAX_SKIN).packing
+    u = np.random.default_rng(2).standard_normal(pk0.positions.shape)
+    u /= np.linalg.norm(u)
+    delta = 1e-4
+    start = pk0.with_positions(pk0.positions - delta * u)
+    counts = {"evaluations": 0}
+    moved = probe.line_search(start, u, 0.3 * delta, counts)
+    assert moved is not None and counts["evaluations"] >= 3
+    s = float(np.sum((moved.positions - start.positions) * u))
+    assert abs(s - delta) < 0.12 * delta
+    assert probe.line_search(start, -u, 0.3 * delta, counts) is None
