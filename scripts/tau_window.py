@@ -212,7 +212,7 @@ def main() -> None:
                     print(f"KS, sizes ≥ {x:.0e}: {first} ({u.size}) against {second} ({v.size}): "
                           f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}{perm}")
     if a.joint and len(per_sample_by_n) >= 2:
-        joint_table(per_sample_by_n, a.joint, a.boot)
+        fits = joint_table(per_sample_by_n, a.joint, a.boot)
         if a.joint_stretch:
             stretch_table(per_sample_by_n, a.joint[0], a.joint_stretch, a.boot)
         if a.joint_permutations:
@@ -223,8 +223,8 @@ def main() -> None:
                   f"permutations of whole samples among the N): 2Δlog L = {lr:.2f}, p = "
                   f"{p_value:.3f}; permuted 2Δlog L median / 90 / 95 / 99 %: "
                   + " / ".join(f"{x:.2f}" for x in q) + " (χ²₁: 0.45 / 2.71 / 3.84 / 6.63)")
-        if a.joint_figure is not None:
-            joint_figure(per_sample_by_n, a.joint[0], a.boot, a.joint_figure)
+        if a.joint_figure is not None and a.joint[0] in fits:
+            joint_figure(per_sample_by_n, a.joint[0], fits[a.joint[0]], a.joint_figure)
     if a.figure is not None and curves:
         import matplotlib
 
@@ -288,8 +288,9 @@ def joint_fits(per_sample_by_n: dict, floor: float, boot: int, jackknife: bool =
     return j, c, 2.0 * (j.loglik - c.loglik)
 
 
-def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> None:
-    """The ``--joint`` table (module docstring)."""
+def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> dict:
+    """The ``--joint`` table (module docstring); returns ``{floor: joint_fits(…)}`` of the floors
+    that could be fitted."""
     ns = sorted(per_sample_by_n)
     print(f"\nJoint fit, one τ and S*(N) = S*_ref (N/N_ref)^β, N = {ns}; errors: bootstrap "
           f"over whole samples ({boot}) / leave-one-sample-out jackknife; β = 0: one cut-off "
@@ -297,9 +298,10 @@ def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> None:
     print("| floor (ε) | sizes per N | τ | β (95 %) | S*(N) (ε) | τ, S_c at β = 0 | "
           "2Δlog L (β free − β = 0) |")
     print("|---|---|---|---|---|---|---|")
+    fits = {}
     for floor in floors:
         try:
-            j, c, lr = joint_fits(per_sample_by_n, floor, boot)
+            j, c, lr = fits[floor] = joint_fits(per_sample_by_n, floor, boot)
         except ValueError as err:
             print(f"| {floor:.2e} | — | {err} | | | | |")
             continue
@@ -310,6 +312,7 @@ def joint_table(per_sample_by_n: dict, floors: list, boot: int) -> None:
               f"{j.beta_err_jack:.2f} ([{j.beta_ci95[0]:.2f}, {j.beta_ci95[1]:.2f}]; "
               f"{j.boot_at_bound:.0%} of resamples at a bound) | {stars} | "
               f"{c.tau:.3f} ± {c.tau_stderr:.3f}, {cut0} | {lr:.2f} |")
+    return fits
 
 
 def permuted(per_sample_by_n: dict, rng: np.random.Generator) -> dict:
@@ -357,14 +360,14 @@ def permutation_test(per_sample_by_n: dict, floor: float, count: int, seed: int 
     return lr, (1 + int(np.count_nonzero(null >= lr))) / (count + 1), null
 
 
-def joint_figure(per_sample_by_n: dict, floor: float, boot: int, path: Path) -> None:
-    """The ``--joint-figure`` (module docstring)."""
+def joint_figure(per_sample_by_n: dict, floor: float, fits: tuple, path: Path) -> None:
+    """The ``--joint-figure`` (module docstring); ``fits``: :func:`joint_fits` at ``floor``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    j, c, lr = joint_fits(per_sample_by_n, floor, boot)
+    j, c, lr = fits
     fig, ax = plt.subplots(figsize=(6.5, 4.6))
     grid = None
     for n in sorted(per_sample_by_n):

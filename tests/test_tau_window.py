@@ -238,3 +238,10 @@ def test_ks_permutation_holds_its_level_where_ks_2samp_does_not():
     differ = {0: [sample_cutoff_power_law(30, 1.5, 1e-9, 1e-10, rng) for _ in range(10)],
               1: [sample_cutoff_power_law(30, 1.5, 1e-7, 1e-10, rng) for _ in range(10)]}
     assert tw.ks_permutation(differ, 1e-10, 99)[1] <= 0.05
+
+
+def test_joint_figure_is_drawn(tmp_path):
+    tw = script_module("tau_window")
+    data = cutoff_samples(np.random.default_rng(8), (250, 500), 1.0, per_sample=30, samples=4)
+    tw.joint_figure(data, 1e-10, tw.joint_fits(data, 1e-10, 4), tmp_path / "f" / "joint.png")
+    assert (tmp_path / "f" / "joint.png").stat().st_size > 10_000
