@@ -40,6 +40,7 @@ one minimum reached along a very soft mode; ``--de`` cannot.
 
 from __future__ import annotations
 
+import functools
 import sys
 import time
 from pathlib import Path
@@ -55,6 +56,7 @@ import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
 from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize  # noqa: E402
+from jamlab.spheres.kernel_choice import threshold_for  # noqa: E402
 from jamlab.spheres.kernels.geometry import wrap_positions  # noqa: E402
 from jamlab.spheres.kernels.pairs import energy_forces_any  # noqa: E402
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
@@ -83,18 +85,17 @@ def line_search(pk, u: np.ndarray, s0: float, counts: dict):
     pos = np.array(pk.positions, dtype=np.float64, order="C")
     wrap_positions(pos, pk.box.length, pk.box.strain)
     nl = NeighborList(pk.with_positions(pos), skin=RELAX_SKIN)
-    args = kernel_arguments(nl.sorted(pos), pk.box, nl, 0.0, 0, FireParameters())
-    pos, skin, (start, nbr, shift), diam, pair_alpha = (args[0], args[3], args[6:9], args[11],
-                                                        args[12])
+    pos = np.ascontiguousarray(nl.sorted(pos))
+    lists = (nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha,
+             threshold_for(nl.nbr.size, pos.shape[1], nl.alpha))  # as kernel_arguments passes
     last = np.ascontiguousarray(nl.sorted(u * s0))
     trial, g = np.empty_like(pos), np.empty_like(pos)
-    g0 = force_along(pos, 0.0, last, s0, trial, g, start, nbr, shift, diam, pair_alpha, args[-1])
+    g0 = force_along(pos, 0.0, last, s0, trial, g, *lists)
     counts["evaluations"] += 1
-    s_cap = min(OPTS["cap"], 0.5 * skin) / float(np.max(np.linalg.norm(u, axis=1)))
+    s_cap = min(OPTS["cap"], 0.5 * nl.skin) / float(np.max(np.linalg.norm(u, axis=1)))
     if not (g0 > 0.0 and s_cap > 0.0):
         return None
-    lo, k = search_line(pos, last, s0, g0, s_cap, trial, g, start, nbr, shift, diam,
-                        pair_alpha, args[-1])
+    lo, k = search_line(pos, last, s0, g0, s_cap, trial, g, *lists)
     counts["evaluations"] += k
     return pk.with_positions(pk.positions + lo * u) if lo > 0 else None
 
@@ -275,21 +276,18 @@ EDITS = [
     ("    return it, fmax, fmax < ftol, e, n_rebuild, start, nbr, shift, img_y, ref\n",
      "    return it, fmax, fmax < ftol, e, evals, jumps, reach\n"),
 ]
-_FIRE_LINES = []
 
 
-def fire_lines(*args):
+@functools.cache
+def fire_lines():
     """FIRE 2.0 as :func:`jamlab.spheres.kernels.fire.fire` (the kernel itself, copied with
-    :data:`EDITS`), and, with ``lines``, every ``every`` iterations the line search of the
-    module docstring along the last window's displacement, FIRE's velocity kept except its part
-    along the line (``Δt`` and ``α`` kept). Arguments: the kernel's, then ``every, cos_min,
-    cap, lines``. Returns ``(iterations, max_force, converged, energy, evaluations, jumps,
-    reach)``, ``reach`` the sum over jumps of the jump's length in units of the window's
-    displacement."""
-    if not _FIRE_LINES:
-        _FIRE_LINES.append(edited_fire("fire_lines", EDITS,
-                                       {"line_step": line_step, "copy_into": copy_into}))
-    return _FIRE_LINES[0](*args)
+    :data:`EDITS`, compiled once per process), and, with ``lines``, every ``every`` iterations
+    the line search of the module docstring along the last window's displacement, FIRE's
+    velocity kept except its part along the line (``Δt`` and ``α`` kept). Arguments: the
+    kernel's, then ``every, cos_min, cap, lines``. Returns ``(iterations, max_force, converged,
+    energy, evaluations, jumps, reach)``, ``reach`` the sum over jumps of the jump's length in
+    units of the window's displacement."""
+    return edited_fire("fire_lines", EDITS, {"line_step": line_step, "copy_into": copy_into})
 
 
 def run_lines(start_pk, ftol: float, lines: bool):
@@ -299,7 +297,7 @@ def run_lines(start_pk, ftol: float, lines: bool):
     nl = NeighborList(start_pk.with_positions(pos), skin=RELAX_SKIN)
     pos = nl.sorted(pos)
     args = kernel_arguments(pos, start_pk.box, nl, ftol, 1_000_000, FireParameters())
-    out = fire_lines(*args, int(OPTS["every"]), OPTS["cos"], OPTS["cap"], lines)
+    out = fire_lines()(*args, int(OPTS["every"]), OPTS["cos"], OPTS["cap"], lines)
     return out, nl.unsorted(pos)
 
 
