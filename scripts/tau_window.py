@@ -213,8 +213,9 @@ def main() -> None:
                           f"D = {ks.statistic:.3f}, p = {ks.pvalue:.3g}{perm}")
     if a.joint and len(per_sample_by_n) >= 2:
         fits = joint_table(per_sample_by_n, a.joint, a.boot)
-        if a.joint_stretch:
-            stretch_table(per_sample_by_n, a.joint[0], a.joint_stretch, a.boot)
+        if a.joint_stretch and a.joint[0] in fits:
+            stretch_table(per_sample_by_n, a.joint[0], a.joint_stretch, a.boot,
+                          fits[a.joint[0]][0])
         if a.joint_permutations:
             lr, p_value, null = permutation_test(per_sample_by_n, a.joint[0],
                                                  a.joint_permutations)
@@ -277,14 +278,18 @@ def main() -> None:
         print(f"\nfigure: {a.figure}")
 
 
+def pooled(samples) -> np.ndarray:
+    """The sizes of a list of samples, in one float64 array."""
+    return np.concatenate([np.asarray(x, dtype=np.float64).ravel() for x in samples])
+
+
 def joint_fits(per_sample_by_n: dict, floor: float, boot: int, jackknife: bool = True):
     """``(joint, pooled, 2Δlog L)`` at one floor (module docstring, ``--joint``): the joint fit
     with β free, the pooled fit (β = 0) and twice the difference of their maximised
     log-likelihoods, both of the sizes S in ε."""
     j = fit_joint_scaling(per_sample_by_n, floor, n_boot=boot, jackknife=jackknife)
-    pooled = np.concatenate([np.asarray(x, dtype=np.float64).ravel()
-                             for n in sorted(per_sample_by_n) for x in per_sample_by_n[n]])
-    c = fit_cutoff_power_law(pooled[pooled >= floor], floor)
+    sizes = pooled([x for n in sorted(per_sample_by_n) for x in per_sample_by_n[n]])
+    c = fit_cutoff_power_law(sizes[sizes >= floor], floor)
     return j, c, 2.0 * (j.loglik - c.loglik)
 
 
@@ -335,8 +340,7 @@ def ks_permutation(pair: dict, floor: float, count: int, seed: int = 0):
     the two (:func:`permuted`, ``count`` times): the KS test for avalanches correlated within a
     sample."""
     def distance(two: dict) -> float:
-        u, v = (np.concatenate([np.asarray(x, dtype=np.float64).ravel() for x in two[k]])
-                for k in (0, 1))
+        u, v = pooled(two[0]), pooled(two[1])
         u, v = u[u >= floor], v[v >= floor]
         return stats.ks_2samp(u, v).statistic if min(u.size, v.size) else 0.0
 
@@ -371,8 +375,7 @@ def joint_figure(per_sample_by_n: dict, floor: float, fits: tuple, path: Path) -
     fig, ax = plt.subplots(figsize=(6.5, 4.6))
     grid = None
     for n in sorted(per_sample_by_n):
-        s = np.sort(np.concatenate([np.asarray(x, dtype=np.float64).ravel()
-                                    for x in per_sample_by_n[n]]))
+        s = np.sort(pooled(per_sample_by_n[n]))
         s = s[s >= floor]
         if s.size == 0:
             continue
@@ -397,13 +400,16 @@ def joint_figure(per_sample_by_n: dict, floor: float, fits: tuple, path: Path) -
     print(f"\nfigure: {path}")
 
 
-def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: int) -> None:
-    """The ``--joint-stretch`` table (module docstring)."""
+def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: int,
+                  exponential) -> None:
+    """The ``--joint-stretch`` table (module docstring); ``exponential``: the joint fit at
+    ``floor`` with ``a = 1`` already made (the same resamples: its jackknife comes after them)."""
     print(f"\nJoint fit on S ≥ {floor:.2e} with the cut-off e^(−(S/S*)^a) (bootstrap over "
           f"samples, {boot}):\n")
     print("| a | τ | β (95 %) | log L − log L(a = 1) |")
     print("|---|---|---|---|")
-    fits = {x: fit_joint_scaling(per_sample_by_n, floor, n_boot=boot, stretch=x)
+    fits = {x: exponential if x == 1.0
+            else fit_joint_scaling(per_sample_by_n, floor, n_boot=boot, stretch=x)
             for x in sorted(set(stretches) | {1.0})}
     for x, j in fits.items():
         print(f"| {x:g} | {j.tau:.3f} ± {j.tau_err:.3f} | {j.beta:.2f} ± {j.beta_err:.2f} "
