@@ -72,7 +72,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from jamlab.spheres.barostat import enthalpy_and_stress, leave_saddle, minimize_enthalpy
+from jamlab.spheres.barostat import (
+    enthalpy_and_stress,
+    leave_saddle,
+    minimize_enthalpy,
+    minimize_step,
+)
 from jamlab.spheres.confirm import (
     jump_in_chain,
     jump_located,
@@ -104,6 +109,7 @@ event), the chain only where that piece, located by the probes alone, keeps less
 bound (plain FIRE: ``continued``)."""
 
 SADDLE_COUNT = "n_saddles_left"  # trace attribute: pushes off saddles (barostat.leave_saddle)
+RETRY_COUNT = "n_steps_retried"  # trace attribute: steps taken afresh (barostat.minimize_step)
 
 CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
                                      "n_candidates_below_threshold", "n_candidates_located",
@@ -130,23 +136,9 @@ def minimizer_attribute(minimizer: str) -> str:
     return f"enthalpy-nested-{minimizer}"
 
 PRESSURE_COLUMNS: tuple[str, ...] = (
-    "gamma",
-    "energy",
-    "enthalpy",
-    "shear_stress",
-    "pressure",
-    "phi",
-    "box_length",
-    "z",
-    "z_nr",
-    "jammed",
-    "max_force",
-    "iterations",
-    "volume_steps",
-    "converged",
-    "enthalpy_jump",
-    "stress_jump",
-    "plastic",
+    "gamma", "energy", "enthalpy", "shear_stress", "pressure", "phi", "box_length", "z", "z_nr",
+    "jammed", "max_force", "iterations", "volume_steps", "converged", "enthalpy_jump",
+    "stress_jump", "plastic",
 )
 
 
@@ -279,7 +271,9 @@ def shear_at_pressure(
     The input is first brought to the target pressure (:func:`minimize_enthalpy`). With
     ``extrapolate_volume`` the box side of each step starts from the linear extrapolation of the
     last two minima (dilatancy is smooth on elastic stretches). A step that does not converge is
-    recorded with ``converged=False`` and the run goes on from it. ``observer(n, packing)`` (if
+    taken once more afresh (:func:`~jamlab.spheres.barostat.minimize_step`; attribute
+    ``n_steps_retried``), then, if it still fails, recorded with ``converged=False`` and the run
+    goes on from it. ``observer(n, packing)`` (if
     given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
 
     Checkpoints and resume: every ``save_every`` steps (and not after the last) ``on_save(n,
@@ -349,7 +343,7 @@ def shear_at_pressure(
     if previous is None:
         gamma0 = packing.strain
         res, pushes = leave_saddle(minimize_enthalpy(packing, pressure, **kw), pressure, kw, True)
-        counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes}
+        counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes, RETRY_COUNT: 0}
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
         cur = res.packing
@@ -370,10 +364,9 @@ def shear_at_pressure(
         if extrapolate_volume and n >= 2:
             guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
         departed_before = _departures(relaxer)
-        res = minimize_enthalpy(
-            affine_shear(cur, target - cur.strain), pressure, length_guess=guess,
-            slope_guess=slope, parent=cur, **kw
-        )
+        res, retried = minimize_step(affine_shear(cur, target - cur.strain), cur, pressure, kw,
+                                     guess, slope)
+        counts[RETRY_COUNT] += retried
         row = _row(res, ftol)  # tested where FIRE took part, or the flag rejects the minimum:
         res, pushes = leave_saddle(res, pressure, kw, res.iterations > 0 or not row["jammed"])
         counts[SADDLE_COUNT] += pushes
@@ -539,7 +532,8 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
         "converged": fp["converged"],
     }
     rows = {k: source[k].tolist() for k in names}
-    counts = {k: int(previous.attrs.get(k, 0)) for k in (*CANDIDATE_COUNTS, SADDLE_COUNT)}
+    kept = (*CANDIDATE_COUNTS, SADDLE_COUNT, RETRY_COUNT)
+    counts = {k: int(previous.attrs.get(k, 0)) for k in kept}
     return rows, np.asarray(fp["confirmed"], dtype=bool), counts
 
 
