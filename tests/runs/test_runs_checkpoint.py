@@ -165,3 +165,28 @@ def test_a_written_samples_leftover_checkpoint_is_removed(tmp_path):
     (leftover / PREPARED).write_bytes(b"x")
     summary = run_study(study, rd.path, Execution(workers=0))
     assert summary.skipped == 1 and not leftover.exists()
+
+
+def test_a_saved_failure_is_not_resumed_but_sheared_again_from_the_prepared_packing(
+    case, tmp_path
+):
+    """A sample whose saved trace holds a step that did not converge (here: one row's max|F|
+    set to 1 in the file after a whole checkpointed run) was recorded as failed; retried, it is
+    sheared again from ``prepared.h5`` — the same bits as the uninterrupted sample — instead of
+    being read back (which at fixed pressure raised the same failure again)."""
+    import h5py
+
+    from jamlab.runs.physics import failed_steps
+    from jamlab.spheres.trace import read_trace
+
+    study, key, seed, whole = case
+    folder = tmp_path / "ck"
+    prepare_and_shear(study, key, seed, folder)
+    assert failed_steps(read_trace(folder / TRACE), study.force_tol) == 0
+    with h5py.File(folder / TRACE, "r+") as h5:
+        h5["max_force"][7] = 1.0
+    assert failed_steps(read_trace(folder / TRACE), study.force_tol) == 1
+    again = prepare_and_shear(study, key, seed, folder)
+    assert again.resumed_from == 0  # from the prepared packing, not the saved trace
+    same(again, whole)
+    assert failed_steps(read_trace(folder / TRACE), study.force_tol) == 0  # saved anew

@@ -18,7 +18,10 @@ the driver names (``RunDir.checkpoint_dir``) and removes once the sample file is
 A later invocation resumes from the last save (``shear(previous=...)``): the result is the one
 an uninterrupted sample of the same study computes, bit for bit (each save is a restart point of
 the solver state in both). A checkpoint that cannot be read, or that is not this sample's, is
-removed and the sample starts afresh.
+removed and the sample starts afresh. A saved trace with a step that did not converge (a sample
+that ran to its end and was recorded as failed, then retried: ``jamlab run`` retries failed
+samples by default) is not resumed: the shear is redone from ``prepared.h5`` — with code that
+has changed since, the failure is computed again, not read back.
 """
 
 from __future__ import annotations
@@ -78,6 +81,12 @@ def prepare_and_shear(
             config, times = _save_prepared(folder, config, attrs, seed, (wall0, cpu0))
     else:
         config, attrs, previous, start, times = saved
+        if previous is not None and failed_steps(previous, study.force_tol):
+            # a saved trace with a step that did not converge holds the sample's failure (it was
+            # recorded as failed): resumed, it would only fail again. The shear is redone from the
+            # prepared packing (docs/runs.md: a retried failure); the saves in between are not
+            # resume points (the run's counters at them are not kept)
+            previous = start = None
         resumed_from = 0 if previous is None else previous.n_steps
         # the times of the last record not beyond the save resumed from
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
@@ -139,6 +148,13 @@ def prepare_and_shear(
         traces, attrs, arrays, resumed_from=resumed_from, earlier_seconds=earlier[0],
         earlier_cpu_seconds=earlier[1],
     )
+
+
+def failed_steps(trace, ftol: float) -> int:
+    """The steps of a (saved) trace that did not converge: its ``n_not_converged`` attribute, or
+    the rows with ``max|F_i| ≥ ftol``, whichever counts more."""
+    bad = int(np.count_nonzero(np.asarray(trace.max_force) >= ftol))
+    return max(int(trace.attrs.get("n_not_converged", 0)), bad)
 
 
 def _prepare(study: Study, key: SampleKey, seed: int) -> tuple[Any, dict[str, Any]]:
