@@ -55,6 +55,8 @@ __all__ = [
     "stress_strain",
     "tau_estimates",
     "tau_sigma",
+    "outside_interval",
+    "OUTSIDE_NOTE",
     "with_cutoff",
     "CONVERGED_STEP",
     "ConvergedWindow",
@@ -114,12 +116,25 @@ def sigma_from_ci95(low: float, high: float) -> float:
 
 def tau_sigma(fit: Any) -> float:
     """Our 1σ of a τ fit: half the 95 % bootstrap interval over 1.96 (the asymptotic standard
-    error without a bootstrap interval; NaN without a fit)."""
+    error without a bootstrap interval; NaN without a fit). Where the estimate lies outside its
+    own bootstrap interval (:func:`outside_interval`) this σ describes the resamples, not the
+    estimate: the printed fits say so (:data:`OUTSIDE_NOTE`; docs/analysis.md)."""
     if fit is None:
         return math.nan
     if math.isfinite(fit.ci_low) and math.isfinite(fit.ci_high):
         return sigma_from_ci95(fit.ci_low, fit.ci_high)
     return fit.tau_stderr
+
+
+def outside_interval(fit: Any) -> bool:
+    """Whether a τ fit's estimate lies outside its bootstrap interval (False without one)."""
+    return (fit is not None and math.isfinite(fit.ci_low) and math.isfinite(fit.ci_high)
+            and not fit.ci_low <= fit.tau <= fit.ci_high)
+
+
+OUTSIDE_NOTE = ("the estimate lies outside its bootstrap interval: resampled, the KS rule "
+                "chooses other windows, and σ is the resamples' spread")
+"""Said beside a τ fit whose estimate lies outside its bootstrap interval."""
 
 
 @dataclass(frozen=True)
