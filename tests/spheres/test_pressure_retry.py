@@ -132,3 +132,53 @@ def test_shear_counts_the_retried_step_and_records_its_afresh_minimum(parent, mo
     np.testing.assert_array_equal(seen[3].positions, want.packing.positions)
     assert seen[3].box.length == want.packing.box.length
     assert run["iterations"][3] >= want.iterations + 7
+
+
+def test_a_run_resumed_across_a_retried_step_equals_the_uninterrupted_one(parent, monkeypatch,
+                                                                          tmp_path):
+    """Checkpoints every 2 steps; each run's relaxer fails its first call at step 4's strain
+    (once per relaxer: the retry's reset does not re-arm it). Interrupted at step 3 and resumed
+    from the save at step 2, the run retries step 4 as the uninterrupted one did: every column
+    and the counters bit for bit."""
+    import jamlab.spheres.pressure_shear as S
+    from jamlab.spheres.aqs import resume_configuration, shear
+    from jamlab.spheres.trace import FIXED_PRESSURE_COLUMNS, read_trace
+
+    target = parent.strain + 4 * DG
+
+    class FailsAtStep4(NewtonRelaxer):
+        def __post_init__(self) -> None:
+            super().__post_init__()
+            self.spent = False
+
+        def __call__(self, packing, ftol=1e-12, max_iter=1_000_000, params=None, parent=None):
+            if not self.spent and abs(packing.strain - target) < 1e-3 * DG:
+                self.spent = True
+                return MinimizeResult(packing, math.nan, 1.0, 7, False, 0.0, ftol)
+            return super().__call__(packing, ftol, max_iter, params, parent)
+
+    class Interrupt(Exception):
+        pass
+
+    def stop(n, total):
+        if n == 3:
+            raise Interrupt
+
+    monkeypatch.setattr(S, "NewtonRelaxer", FailsAtStep4)
+    kw = dict(n_steps=6, pressure=P, save_every=2)
+    whole = shear(parent, DG, out=tmp_path / "a.h5", **kw)
+    assert whole.trace.attrs[RETRY_COUNT] == 1 and whole.trace.attrs["n_not_converged"] == 0
+    with pytest.raises(Interrupt):
+        shear(parent, DG, out=tmp_path / "b.h5", progress=stop, **kw)
+    partial = read_trace(tmp_path / "b.h5")
+    assert partial.n_steps == 2 and partial.attrs[RETRY_COUNT] == 0
+    resumed = shear(resume_configuration(tmp_path / "b.h5", partial), DG, previous=partial,
+                    out=tmp_path / "b.h5", **kw)
+    a, b = whole.trace, resumed.trace
+    assert b.attrs[RETRY_COUNT] == 1
+    for name in ("gamma", "energy", "shear_stress", "pressure", "max_force", "iterations",
+                 "energy_jump", "plastic", "jammed", "phi"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for name in FIXED_PRESSURE_COLUMNS:
+        np.testing.assert_array_equal(a.fixed_pressure[name], b.fixed_pressure[name])
+    np.testing.assert_array_equal(whole.packing.positions, resumed.packing.positions)
