@@ -66,10 +66,9 @@ from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_l
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
 from jamlab.reproduce.ensembles import finished, jammed_flags
 from jamlab.reproduce.measurements import (
-    OUTSIDE_NOTE,
     avalanche_set,
     fit_tau,
-    outside_interval,
+    interval_note,
     tau_sigma,
 )
 from jamlab.reproduce.scales import SCALES
@@ -149,7 +148,7 @@ def main() -> None:
         print(f"\n{run} (N = {n}): {s.size} avalanches, S from {s[0]:.2e} to {s[-1]:.2e}; "
               f"the scale's rule: τ = {rule.tau:.3f} ± {tau_sigma(rule):.3f} "
               f"(95 % [{rule.ci_low:.3f}, {rule.ci_high:.3f}]"
-              f"{'; ' + OUTSIDE_NOTE if outside_interval(rule) else ''}) on S ≥ {rule.x_min:.2e}, "
+              f"{interval_note(rule)}) on S ≥ {rule.x_min:.2e}, "
               f"{rule.n_tail} sizes; {s.size / (n * strain) if strain > 0 else np.nan:.3g} "
               f"avalanches per particle per unit strain; the plastic flag's threshold "
               f"{flag_threshold(ds, n):.3g} ε (median over the samples)\n")

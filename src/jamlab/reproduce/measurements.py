@@ -57,6 +57,7 @@ __all__ = [
     "tau_sigma",
     "outside_interval",
     "OUTSIDE_NOTE",
+    "interval_note",
     "with_cutoff",
     "CONVERGED_STEP",
     "ConvergedWindow",
@@ -135,6 +136,12 @@ def outside_interval(fit: Any) -> bool:
 OUTSIDE_NOTE = ("the estimate lies outside its bootstrap interval: resampled, the KS rule "
                 "chooses other windows, and σ is the resamples' spread")
 """Said beside a τ fit whose estimate lies outside its bootstrap interval."""
+
+
+def interval_note(fit: Any) -> str:
+    """``"; "`` and :data:`OUTSIDE_NOTE` after a printed fit's interval where
+    :func:`outside_interval`, else nothing."""
+    return f"; {OUTSIDE_NOTE}" if outside_interval(fit) else ""
 
 
 @dataclass(frozen=True)

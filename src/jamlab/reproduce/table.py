@@ -29,11 +29,10 @@ from jamlab.report import Comparison, Row, format_value
 from jamlab.reproduce.coordination import CoordinationResult
 from jamlab.reproduce.measurements import (
     MODULI_LABELS,
-    OUTSIDE_NOTE,
     ModuliResult,
     PhiJEstimate,
     TauEstimate,
-    outside_interval,
+    interval_note,
     predicted_tau,
     sigma_from_ci95,
 )
@@ -101,9 +100,8 @@ def fit_text(fit: Any, sigma: float) -> str:
     """A τ fit as printed in the table: ``τ ± σ (95% CI, x_min, tail)``, or ``n/a``."""
     if fit is None:
         return "n/a"
-    note = f"; {OUTSIDE_NOTE}" if outside_interval(fit) else ""
-    return (f"{fit.tau:.3f} ± {sigma:.3f} (95% CI [{fit.ci_low:.3f}, "
-            f"{fit.ci_high:.3f}], x_min = {fit.x_min:.3g} ε, tail {fit.n_tail}{note})")
+    return (f"{fit.tau:.3f} ± {sigma:.3f} (95% CI [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
+            f"x_min = {fit.x_min:.3g} ε, tail {fit.n_tail}{interval_note(fit)})")
 
 
 def tau_rows(estimates: dict[str, TauEstimate]) -> list[Row]:
@@ -270,9 +268,8 @@ def cutoff_fit_text(fit: Any, sigma: float) -> str:
     if fit is None:
         return "n/a"
     s_c = "none resolved" if fit.at_bound else f"{fit.x_c:.3g} ε"
-    note = f"; {OUTSIDE_NOTE}" if outside_interval(fit) else ""
     return (f"{fit.tau:.3f} ± {sigma:.3f} (95% CI [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
-            f"x_min = {fit.x_min:.3g} ε, S_c = {s_c}, tail {fit.n_tail}{note})")
+            f"x_min = {fit.x_min:.3g} ε, S_c = {s_c}, tail {fit.n_tail}{interval_note(fit)})")
 
 
 def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
