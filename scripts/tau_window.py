@@ -42,7 +42,16 @@ cut-off ``e^(−(S/S*)^a)`` for each ``a``: τ, β and the maximised log-likelih
 ``a``: is the exponential shape the one the data prefer?). ``--joint-permutations K``: the
 likelihood ratio's p-value at the first floor by a permutation test — whole samples dealt at
 random to the sizes N, K times — which, unlike the χ²₁ reading, holds with avalanches correlated
-within a sample and samples that differ. ``--joint-figure F``: the sizes ≥ the
+within a sample and samples that differ.
+``--moments S …`` (runs of different N): the same question without a model of the cut-off. At
+each floor ``S``, the cut-off of each N is read as the moment ratio ``S_c = ⟨S²⟩/⟨S⟩`` of its
+sizes ≥ S (for ``τ < 2`` and a cut-off far above the floor it is proportional to the cut-off
+whatever its shape, as long as the shape does not change with N), and ``β`` is the slope of
+``log S_c`` against ``log N`` (:func:`jamlab.analysis.finite_size.fit_cutoff_scaling`: weighted
+least squares, errors from ``--boot`` resamples of whole samples). ``--moments-permutations K``:
+the one-sided p-value of that slope (permuted ``β`` ≥ observed) with whole samples dealt at
+random to the sizes N.
+``--joint-figure F``: the sizes ≥ the
 first floor of each N (P(size ≥ S), normalised at the floor) with the joint model of each N
 (solid) and the one cut-off of β = 0 (dashed).
 
@@ -62,7 +71,12 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_law
+from jamlab.analysis import (
+    fit_cutoff_power_law,
+    fit_cutoff_scaling,
+    fit_joint_scaling,
+    fit_power_law,
+)
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
 from jamlab.reproduce.ensembles import finished, jammed_flags
 from jamlab.reproduce.measurements import (
@@ -108,6 +122,11 @@ def main() -> None:
                     help="cut-off exponents a of the joint fit's profile at the first floor")
     ap.add_argument("--joint-permutations", type=int, default=0,
                     help="permutations of whole samples among the N for the ratio's p-value")
+    ap.add_argument("--moments", type=float, nargs="+", default=[],
+                    help="floors S of β from the moment ratio ⟨S²⟩/⟨S⟩ per N (runs of "
+                         "different N)")
+    ap.add_argument("--moments-permutations", type=int, default=0,
+                    help="permutations of whole samples among the N for that β's p-value")
     ap.add_argument("--joint-figure", type=Path, default=None,
                     help="figure of the joint fit at the first floor (with --joint)")
     a = ap.parse_args()
@@ -123,6 +142,11 @@ def main() -> None:
     if a.joint and (len(set(sizes_n)) != len(sizes_n) or len(sizes_n) < 2 or a.boot < 2
                     or not all(x > 0 for x in a.joint)):
         ap.error("--joint needs two or more runs of different N, --boot >= 2 and floors > 0")
+    if a.moments and (len(set(sizes_n)) != len(sizes_n) or len(sizes_n) < 2 or a.boot < 2
+                      or not all(x > 0 for x in a.moments)):
+        ap.error("--moments needs two or more runs of different N, --boot >= 2 and floors > 0")
+    if a.moments_permutations and not (a.moments and a.moments_permutations >= 1):
+        ap.error("--moments-permutations needs --moments and a count >= 1")
     if a.joint_stretch and not (a.joint and all(x > 0 for x in a.joint_stretch)):
         ap.error("--joint-stretch needs --joint and exponents > 0")
     if a.joint_figure is not None and not a.joint:
@@ -232,6 +256,8 @@ def main() -> None:
                   + " / ".join(f"{x:.2f}" for x in q) + " (χ²₁: 0.45 / 2.71 / 3.84 / 6.63)")
         if a.joint_figure is not None and a.joint[0] in fits:
             joint_figure(per_sample_by_n, a.joint[0], fits[a.joint[0]], a.joint_figure)
+    if a.moments and len(per_sample_by_n) >= 2:
+        moments_table(per_sample_by_n, a.moments, a.boot, a.moments_permutations)
     if a.figure is not None and curves:
         import matplotlib
 
@@ -368,6 +394,56 @@ def permutation_test(per_sample_by_n: dict, floor: float, count: int, seed: int 
     null = np.array([joint_fits(permuted(per_sample_by_n, rng), floor, 2, jackknife=False)[2]
                      for _ in range(count)])
     return lr, (1 + int(np.count_nonzero(null >= lr))) / (count + 1), null
+
+
+def above_floor(per_sample_by_n: dict, floor: float) -> dict:
+    """Each sample's sizes ≥ ``floor`` (the samples with none kept, empty)."""
+    return {n: [x[x >= floor] for x in (np.asarray(y, dtype=np.float64).ravel() for y in v)]
+            for n, v in per_sample_by_n.items()}
+
+
+def moment_beta(per_sample_by_n: dict, floor: float, boot: int, seed: int = 0):
+    """:func:`fit_cutoff_scaling` of the sizes ≥ ``floor``: ``S_c = ⟨S²⟩/⟨S⟩`` per N and the
+    slope β of ``log S_c`` against ``log N`` (``--moments``)."""
+    return fit_cutoff_scaling(above_floor(per_sample_by_n, floor), n_boot=boot, seed=seed)
+
+
+def moments_table(per_sample_by_n: dict, floors: list, boot: int, permutations: int) -> None:
+    """The ``--moments`` table (module docstring), with the permutation p-value of β
+    (:func:`moment_permutation`) when ``permutations`` > 0."""
+    ns = sorted(per_sample_by_n)
+    print(f"\nβ from the moment ratio S_c = ⟨S²⟩/⟨S⟩ of the sizes ≥ floor, N = {ns} (no model "
+          f"of the cut-off; errors: bootstrap over whole samples, {boot})"
+          + (f"; p: {permutations} permutations of whole samples among the N" if permutations
+             else "") + ":\n")
+    print("| floor (ε) | sizes per N | S_c per N (ε) | β (95 %) | χ²/dof |"
+          + (" p (permuted β ≥ β) |" if permutations else ""))
+    print("|---|---|---|---|---|" + ("---|" if permutations else ""))
+    for floor in floors:
+        try:
+            m = moment_beta(per_sample_by_n, floor, boot)
+        except ValueError as err:
+            print(f"| {floor:.2e} | — | {err} | | |" + (" |" if permutations else ""))
+            continue
+        cuts = " / ".join(f"{c:.2e} ± {e:.1e}" for c, e in zip(m.cutoff, m.cutoff_err,
+                                                                 strict=True))
+        row = (f"| {floor:.2e} | {' / '.join(map(str, m.avalanches))} | {cuts} | "
+               f"{m.beta:.2f} ± {m.beta_err:.2f} ([{m.beta_ci95[0]:.2f}, "
+               f"{m.beta_ci95[1]:.2f}]) | {m.chi2_dof:.2f} |")
+        if permutations:
+            row += f" {moment_permutation(per_sample_by_n, floor, permutations)[1]:.3f} |"
+        print(row)
+
+
+def moment_permutation(per_sample_by_n: dict, floor: float, count: int, seed: int = 0):
+    """``(β observed, its one-sided permutation p-value, the permuted β)``: :func:`moment_beta`
+    recomputed with whole samples dealt at random to the sizes N (:func:`permuted`, ``count``
+    times, ``numpy.random.default_rng(seed)``); p = ``(1 + #{permuted β ≥ β}) / (count + 1)``."""
+    rng = np.random.default_rng(seed)
+    beta = moment_beta(per_sample_by_n, floor, 2).beta
+    null = np.array([moment_beta(permuted(per_sample_by_n, rng), floor, 2).beta
+                     for _ in range(count)])
+    return beta, (1 + int(np.count_nonzero(null >= beta))) / (count + 1), null
 
 
 def joint_figure(per_sample_by_n: dict, floor: float, fits: tuple, path: Path) -> None:
