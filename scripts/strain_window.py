@@ -1,0 +1,118 @@
+"""Where along the strain window the avalanches of finished runs happen, and in which state.
+
+The avalanches of a run are pooled over its whole strain window (``γ`` from 0 to
+``gamma_max``). That is one ensemble only if the state does not drift along the window. For each
+run directory (φ label ``jamming`` at ``--n``, finished samples), the window is cut into
+``--parts`` equal parts of steps, and for each part:
+
+- the stress ratio ``μ = σ_xy/p`` (``σ_xy = Σ/L^d`` with the sample's recorded box side,
+  :func:`jamlab.reproduce.ensembles.intensive_stress` — at fixed pressure the box changes by
+  ≲ 1e-4 relative over a run, far below the errors here; ``p`` the recorded pressure of each
+  minimum), averaged over the part's minima and then over the samples, ± its standard error over
+  the samples;
+- the change of ``φ`` over the part, averaged over the samples (at fixed pressure the box
+  relaxes: dilatancy shows as ``Δφ < 0``);
+- the avalanches counted by the report's rule (:func:`jamlab.analysis.classify_steps`: plastic,
+  ``ΔE < 0``, both minima jammed) with ``S`` at or above each floor of ``--above``, summed over
+  the samples, with the χ² of their spread over the parts against a constant rate (its p-value
+  assumes independent avalanches; a guide, not a test).
+
+    PYTHONPATH=src python scripts/strain_window.py RUNS/n250-p1e-6-fix40 RUNS/n500-p1e-6-fix \\
+        RUNS/n1000-p1e-6 --n 250 500 1000 --above 1e-10 1e-8
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from jamlab.analysis import classify_steps
+from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.runs import open_run
+
+
+def window_parts(ds, n: int, parts: int, floors: list[float]) -> dict:
+    """The per-part statistics of the module docstring for the finished samples at
+    ``("jamming", n)``: ``mu`` and ``mu_err`` (per part), ``dphi`` (per part), ``counts``
+    (``{floor: per part}``), ``samples``, ``steps`` (per sample) and ``edges`` (the first step of
+    each part, and the number of steps)."""
+    done = finished(ds, "jamming", n)
+    if not done.any():
+        raise ValueError(f"no finished sample at N = {n}")
+    sigma = intensive_stress(ds, "jamming", n)
+    pressure = np.asarray(ds.pressure.sel(phi="jamming", N=n).values)[done]
+    phi = np.asarray(ds.phi_step.sel(phi="jamming", N=n).values)[done]
+    ej = np.asarray(ds.energy_jump.sel(phi="jamming", N=n).values)[done, 1:]
+    plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done, 1:] > 0.5
+    counted = classify_steps(ej, plastic, jammed=jammed_flags(ds, "jamming", n))
+    steps = ej.shape[1]
+    if not 1 <= parts <= steps:
+        raise ValueError(f"parts must be in [1, {steps}], got {parts}")
+    edges = np.linspace(0, steps, parts + 1).round().astype(int)
+    mu = sigma / pressure
+    per_sample = np.array([[mu[i, a:b + 1].mean() for a, b in zip(edges[:-1], edges[1:],
+                                                                   strict=True)]
+                           for i in range(mu.shape[0])])
+    m = per_sample.shape[0]
+    mu_err = (per_sample.std(axis=0, ddof=1) / np.sqrt(m) if m > 1
+              else np.full(parts, np.nan))
+    dphi = np.array([(phi[:, b] - phi[:, a]).mean() for a, b in zip(edges[:-1], edges[1:],
+                                                                    strict=True)])
+    counts = {}
+    for floor in floors:
+        hit = counted & (-ej >= floor)
+        counts[floor] = np.array([int(hit[:, a:b].sum()) for a, b in zip(edges[:-1], edges[1:],
+                                                                          strict=True)])
+    return {"mu": per_sample.mean(axis=0), "mu_err": mu_err, "dphi": dphi, "counts": counts,
+            "samples": m, "steps": steps, "edges": edges}
+
+
+def uniform_chi2(counts: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
+    """χ² of ``counts`` against a rate proportional to each part's number of steps, and its
+    p-value (``len(counts) − 1`` degrees of freedom); NaN without counts."""
+    total = counts.sum()
+    if total == 0 or counts.size < 2:
+        return float("nan"), float("nan")
+    expected = total * np.diff(edges) / edges[-1]
+    chi2 = float(np.sum((counts - expected) ** 2 / expected))
+    return chi2, float(stats.chi2.sf(chi2, counts.size - 1))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+")
+    ap.add_argument("--n", type=int, nargs="+", default=[500],
+                    help="N of the runs: one for all, or one per run")
+    ap.add_argument("--parts", type=int, default=10)
+    ap.add_argument("--above", type=float, nargs="+", default=[1e-10],
+                    help="floors of S (ε) for the avalanche counts")
+    a = ap.parse_args()
+    if len(a.n) not in (1, len(a.runs)):
+        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    if a.parts < 1:
+        ap.error("--parts must be >= 1")
+    if not all(x > 0 for x in a.above):
+        ap.error("--above floors must be > 0")
+    for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
+        w = window_parts(open_run(run), n, a.parts, a.above)
+        print(f"\n{run} (N = {n}): {w['samples']} finished samples, {w['steps']} steps each; "
+              f"{a.parts} parts\n")
+        print("| part (steps) | μ = σ_xy/p | Δφ | " + " | ".join(
+            f"avalanches ≥ {x:.0e}" for x in a.above) + " |")
+        print("|---|---|---|" + "---|" * len(a.above))
+        for k in range(a.parts):
+            lo, hi = w["edges"][k], w["edges"][k + 1]
+            print(f"| {lo + 1}–{hi} | {w['mu'][k]:.3f} ± {w['mu_err'][k]:.3f} | "
+                  f"{w['dphi'][k]:+.2e} | "
+                  + " | ".join(str(w["counts"][x][k]) for x in a.above) + " |")
+        for x in a.above:
+            chi2, p = uniform_chi2(w["counts"][x], w["edges"])
+            print(f"avalanches ≥ {x:.0e}: χ² against a constant rate {chi2:.1f} "
+                  f"({a.parts - 1} dof), p = {p:.3g} (independent avalanches assumed)")
+
+
+if __name__ == "__main__":
+    main()

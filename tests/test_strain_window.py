@@ -1,0 +1,81 @@
+"""``scripts/strain_window.py``: the per-part statistics of a small fixed-pressure run, recomputed
+from the sample files themselves (h5py, the SPEC's definitions), and its refusals."""
+
+from __future__ import annotations
+
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from tests.script_helpers import script_module
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    from jamlab.runs import Execution, Study, run_study
+
+    out = tmp_path_factory.mktemp("sw") / "p"
+    study = Study(phi=["jamming"], n=[16], samples=3, dgamma=1e-3, gamma_max=3e-2, seed=4,
+                  pressure=1e-3)
+    run_study(study, out, Execution(workers=0))
+    return out
+
+
+def direct(run, parts, floor):
+    """μ, Δφ and the counts per part from the sample files: σ_xy = Σ/L³ (L the sample's recorded
+    box side), S = −ΔE of plastic steps with ΔE < 0 between two jammed minima."""
+    mus, dphis, counts = [], [], np.zeros(parts, dtype=int)
+    for f in sorted(run.glob("samples/*/*/sample-*.h5")):
+        with h5py.File(f) as h:
+            t = {k: h[f"trace/{k}"][:] for k in ("shear_stress", "pressure", "phi",
+                                                  "energy_jump", "plastic", "jammed")}
+            length = float(h.attrs["box_length"])
+        steps = t["energy_jump"].size - 1
+        edges = np.linspace(0, steps, parts + 1).round().astype(int)
+        mu = t["shear_stress"] / length ** 3 / t["pressure"]
+        mus.append([mu[a:b + 1].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
+        dphis.append([t["phi"][b] - t["phi"][a] for a, b in zip(edges[:-1], edges[1:],
+                                                                 strict=True)])
+        s = -t["energy_jump"][1:]
+        hit = t["plastic"][1:] & t["jammed"][:-1] & t["jammed"][1:] & (s > 0) & (s >= floor)
+        counts += [int(hit[a:b].sum()) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    return np.mean(mus, axis=0), np.mean(dphis, axis=0), counts
+
+
+def test_parts_equal_the_sample_files(small_run):
+    from jamlab.runs import open_run
+
+    sw = script_module("strain_window")
+    w = sw.window_parts(open_run(small_run), 16, 3, [0.0, 1e-6])
+    assert w["samples"] == 3 and w["steps"] == 30
+    for floor in (0.0, 1e-6):
+        mu, dphi, counts = direct(small_run, 3, floor)
+        assert w["counts"][floor].tolist() == counts.tolist()
+    assert w["counts"][0.0].sum() > 0  # the run has avalanches to count
+    np.testing.assert_allclose(w["mu"], mu, rtol=1e-12)
+    np.testing.assert_allclose(w["dphi"], dphi, rtol=1e-12, atol=1e-18)
+    assert np.all(np.isfinite(w["mu_err"]))
+
+
+def test_uniform_chi2():
+    sw = script_module("strain_window")
+    chi2, p = sw.uniform_chi2(np.array([10, 10, 10]), np.array([0, 10, 20, 30]))
+    assert chi2 == 0.0 and p == pytest.approx(1.0)
+    # unequal parts: expected 20 · (10, 20) / 30
+    chi2, _ = sw.uniform_chi2(np.array([10, 10]), np.array([0, 10, 30]))
+    assert chi2 == pytest.approx((10 - 20 / 3) ** 2 / (20 / 3) + (10 - 40 / 3) ** 2 / (40 / 3))
+    assert np.isnan(sw.uniform_chi2(np.array([0, 0]), np.array([0, 1, 2]))[0])
+
+
+@pytest.mark.parametrize("argv", [
+    ["a", "b", "--n", "250", "500", "1000"],
+    ["a", "--parts", "0"],
+    ["a", "--above", "0"],
+])
+def test_bad_arguments_exit_2(monkeypatch, argv):
+    sw = script_module("strain_window")
+    monkeypatch.setattr(sys, "argv", ["strain_window.py", *argv])
+    with pytest.raises(SystemExit) as e:
+        sw.main()
+    assert e.value.code == 2
