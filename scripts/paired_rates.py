@@ -1,0 +1,107 @@
+"""Two runs of the same packings at different strain steps, compared packing by packing.
+
+Two run directories of one study that differ only in ``dgamma`` (the sample seeds, and so the
+prepared packings, depend on the sample's index only: ``jamlab.runs.seeds``) shear the same
+packings over the same strain window. For each packing in both (finished samples at the
+``jamming`` label and ``--n``) and each floor of ``--above``, the avalanches counted by the
+report's rule (:func:`jamlab.analysis.classify_steps`: plastic, ``ΔE < 0``, both minima jammed)
+with ``S`` at or above the floor, per unit strain, and their summed size per unit strain (the
+dissipation above the floor: merging two events in one step leaves it unchanged, missing one
+lowers it). Printed per floor: both runs' means over the packings, the mean paired difference
+(b − a) ± its standard error over the packings, and the Wilcoxon signed-rank p-value of the
+paired differences (``scipy.stats.wilcoxon``; packings differ much more from one another than
+a packing's two runs, which is what the pairing removes).
+
+    PYTHONPATH=src python scripts/paired_rates.py RUNS/n250-p1e-6-fix40 \\
+        RUNS/n250-p1e-6-dg5e-6 --n 250 --above 1e-11 1e-10 1e-9 1e-8
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from jamlab.analysis import classify_steps
+from jamlab.reproduce.ensembles import finished, jammed_flags
+from jamlab.runs import open_run
+
+MAY_DIFFER = ("dgamma", "samples", "checkpoint_every")
+
+
+def per_packing(ds, n: int, floors: list[float]) -> dict:
+    """``{sample index: (counts, sums)}`` of the finished samples at ``("jamming", n)``: per
+    floor, the number of counted avalanches with ``S ≥ floor`` and the sum of their sizes, each
+    divided by the sample's strain window (the ``gamma`` of its last row)."""
+    done = finished(ds, "jamming", n)
+    index = np.asarray(ds.sample.values)[done]
+    ej = np.asarray(ds.energy_jump.sel(phi="jamming", N=n).values)[done, 1:]
+    plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done, 1:] > 0.5
+    gamma = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[done]
+    counted = classify_steps(ej, plastic, jammed=jammed_flags(ds, "jamming", n))
+    out = {}
+    for row, i in enumerate(index):
+        strain = float(gamma[row, -1] - gamma[row, 0])
+        s = -ej[row][counted[row]]
+        out[int(i)] = (np.array([np.count_nonzero(s >= f) / strain for f in floors]),
+                       np.array([s[s >= f].sum() / strain for f in floors]))
+    return out
+
+
+def paired(a: dict, b: dict, k: int, which: int) -> tuple[np.ndarray, np.ndarray]:
+    """The values of floor ``k`` (``which`` 0: counts, 1: sums) of the packings in both."""
+    common = sorted(set(a) & set(b))
+    return (np.array([a[i][which][k] for i in common]),
+            np.array([b[i][which][k] for i in common]))
+
+
+def wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
+    """Two-sided Wilcoxon signed-rank p-value of ``y − x``; 1 when every difference is 0."""
+    d = y - x
+    if not np.any(d != 0):
+        return 1.0
+    return float(stats.wilcoxon(d).pvalue)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("a", type=Path)
+    ap.add_argument("b", type=Path)
+    ap.add_argument("--n", type=int, required=True)
+    ap.add_argument("--above", type=float, nargs="+", default=[1e-10])
+    args = ap.parse_args()
+    if not all(x > 0 for x in args.above):
+        ap.error("--above floors must be > 0")
+    for run in (args.a, args.b):
+        if not (run / "manifest.json").is_file():
+            ap.error(f"{run} is not a run directory (no manifest.json)")
+    study = [json.loads((r / "manifest.json").read_text())["study"] for r in (args.a, args.b)]
+    differ = sorted(k for k in set(study[0]) | set(study[1])
+                    if k not in MAY_DIFFER and study[0].get(k) != study[1].get(k))
+    if differ:
+        ap.error(f"the two runs differ in more than the strain step ({', '.join(differ)})")
+    a = per_packing(open_run(args.a), args.n, args.above)
+    b = per_packing(open_run(args.b), args.n, args.above)
+    common = sorted(set(a) & set(b))
+    if len(common) < 2:
+        ap.error(f"{len(common)} packing(s) in both runs: need 2 or more")
+    print(f"{len(common)} packings in both; a = {args.a} (δγ = {study[0]['dgamma']:g}), "
+          f"b = {args.b} (δγ = {study[1]['dgamma']:g}); per unit strain, mean over the "
+          "packings; b − a paired, ± its standard error; Wilcoxon signed-rank p\n")
+    print("| S ≥ (ε) | avalanches a | b | b − a | p | ΣS a (ε) | b | b − a | p |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for k, floor in enumerate(args.above):
+        cells = []
+        for which, fmt in ((0, ".1f"), (1, ".3g")):
+            x, y = paired(a, b, k, which)
+            d = y - x
+            cells.append(f"{x.mean():{fmt}} | {y.mean():{fmt}} | {d.mean():+{fmt}} ± "
+                         f"{d.std(ddof=1) / np.sqrt(d.size):{fmt}} | {wilcoxon_p(x, y):.3g}")
+        print(f"| {floor:.0e} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
