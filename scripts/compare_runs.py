@@ -33,6 +33,18 @@ from jamlab.analysis.avalanches import classify_steps, exclusions
 NOT_PHYSICS = ("samples", "checkpoint_every")
 
 
+def study_differences(ap: argparse.ArgumentParser, runs: tuple[Path, Path],
+                      may_differ: tuple[str, ...]) -> tuple[list[dict], list[str]]:
+    """The ``study`` of each run's manifest, and the keys (sorted) outside ``may_differ`` in which
+    the two differ; ``ap.error`` (exit 2) for a directory without a manifest."""
+    for run in runs:
+        if not (run / "manifest.json").is_file():
+            ap.error(f"{run} is not a run directory (no manifest.json)")
+    study = [json.loads((r / "manifest.json").read_text())["study"] for r in runs]
+    return study, sorted(k for k in set(study[0]) | set(study[1])
+                         if k not in may_differ and study[0].get(k) != study[1].get(k))
+
+
 def samples(run: Path) -> dict[str, Path]:
     return {f"{p.parent.name}/{p.stem}": p for p in sorted(run.glob("samples/*/*/sample-*.h5"))}
 
@@ -90,14 +102,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="τ with an exponential cut-off fitted at these fixed S_min (ε) in each "
                          "run (asymptotic σ; jamlab.analysis.fit_cutoff_power_law)")
     args = ap.parse_args(argv)
-    for run in (args.a, args.b):
-        if not (run / "manifest.json").is_file():
-            ap.error(f"{run} is not a run directory (no manifest.json)")
-    study = [json.loads((r / "manifest.json").read_text())["study"] for r in (args.a, args.b)]
     # the sample count and the checkpoint interval do not change a sample (a resumed sample
     # equals the uninterrupted one bit for bit)
-    differ = sorted(k for k in set(study[0]) | set(study[1])
-                    if k not in NOT_PHYSICS and study[0].get(k) != study[1].get(k))
+    _, differ = study_differences(ap, (args.a, args.b), NOT_PHYSICS)
     if differ:
         ap.error(f"the two runs are of different studies ({', '.join(differ)})")
     sa, sb = samples(args.a), samples(args.b)

@@ -1,16 +1,16 @@
 """Two runs of the same packings at different strain steps, compared packing by packing.
 
 Two run directories of one study that differ only in ``dgamma`` (the sample seeds, and so the
-prepared packings, depend on the sample's index only: ``jamlab.runs.seeds``) shear the same
-packings over the same strain window. For each packing in both (finished samples at the
-``jamming`` label and ``--n``) and each floor of ``--above``, the avalanches counted by the
-report's rule (:func:`jamlab.analysis.classify_steps`: plastic, ``ΔE < 0``, both minima jammed)
-with ``S`` at or above the floor, per unit strain, and their summed size per unit strain (the
-dissipation above the floor: merging two events in one step leaves it unchanged, missing one
-lowers it). Printed per floor: both runs' means over the packings, the mean paired difference
-(b − a) ± its standard error over the packings, and the Wilcoxon signed-rank p-value of the
-paired differences (``scipy.stats.wilcoxon``; packings differ much more from one another than
-a packing's two runs, which is what the pairing removes).
+prepared packings, depend on the sample's index only: ``jamlab.runs.seeds``) shear the same packings
+over the same strain window. For each packing in both (finished samples at the ``jamming`` label and
+``--n``) and each floor of ``--above``, the avalanches counted by the report's rule
+(:func:`jamlab.reproduce.ensembles.avalanche_set`: plastic, ``ΔE < 0``, both minima jammed) with
+``S`` at or above the floor, per unit strain, and their summed size per unit strain (the dissipation
+above the floor: merging two events in one step leaves it unchanged, missing one lowers it). Printed
+per floor: both runs' means over the packings, the mean paired difference (b − a) ± its standard
+error over the packings, and the Wilcoxon signed-rank p-value of the paired differences
+(``scipy.stats.wilcoxon``; packings differ much more from one another than a packing's two runs,
+which is what the pairing removes).
 
     PYTHONPATH=src python scripts/paired_rates.py RUNS/n250-p1e-6-fix40 \\
         RUNS/n250-p1e-6-dg5e-6 --n 250 --above 1e-11 1e-10 1e-9 1e-8
@@ -19,15 +19,17 @@ a packing's two runs, which is what the pairing removes).
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
-from jamlab.analysis import classify_steps
-from jamlab.reproduce.ensembles import finished, jammed_flags
+from jamlab.reproduce.ensembles import avalanche_set, finished
 from jamlab.runs import open_run
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from compare_runs import study_differences  # noqa: E402  (scripts run as scripts)
 
 MAY_DIFFER = ("dgamma", "samples", "checkpoint_every")
 
@@ -38,14 +40,11 @@ def per_packing(ds, n: int, floors: list[float]) -> dict:
     divided by the sample's strain window (the ``gamma`` of its last row)."""
     done = finished(ds, "jamming", n)
     index = np.asarray(ds.sample.values)[done]
-    ej = np.asarray(ds.energy_jump.sel(phi="jamming", N=n).values)[done, 1:]
-    plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done, 1:] > 0.5
     gamma = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[done]
-    counted = classify_steps(ej, plastic, jammed=jammed_flags(ds, "jamming", n))
+    sizes = avalanche_set(ds, "jamming", n).per_sample
     out = {}
-    for row, i in enumerate(index):
+    for row, (i, s) in enumerate(zip(index, sizes, strict=True)):
         strain = float(gamma[row, -1] - gamma[row, 0])
-        s = -ej[row][counted[row]]
         out[int(i)] = (np.array([np.count_nonzero(s >= f) / strain for f in floors]),
                        np.array([s[s >= f].sum() / strain for f in floors]))
     return out
@@ -75,12 +74,7 @@ def main() -> None:
     args = ap.parse_args()
     if not all(x > 0 for x in args.above):
         ap.error("--above floors must be > 0")
-    for run in (args.a, args.b):
-        if not (run / "manifest.json").is_file():
-            ap.error(f"{run} is not a run directory (no manifest.json)")
-    study = [json.loads((r / "manifest.json").read_text())["study"] for r in (args.a, args.b)]
-    differ = sorted(k for k in set(study[0]) | set(study[1])
-                    if k not in MAY_DIFFER and study[0].get(k) != study[1].get(k))
+    study, differ = study_differences(ap, (args.a, args.b), MAY_DIFFER)
     if differ:
         ap.error(f"the two runs differ in more than the strain step ({', '.join(differ)})")
     a = per_packing(open_run(args.a), args.n, args.above)

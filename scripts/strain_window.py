@@ -12,9 +12,9 @@ run directory (φ label ``jamming`` at ``--n``, finished samples), the window is
   the samples;
 - the change of ``φ`` over the part, averaged over the samples (at fixed pressure the box
   relaxes: dilatancy shows as ``Δφ < 0``);
-- the avalanches counted by the report's rule (:func:`jamlab.analysis.classify_steps`: plastic,
-  ``ΔE < 0``, both minima jammed) with ``S`` at or above each floor of ``--above``, summed over
-  the samples, with the χ² of their spread over the parts against a constant rate (its p-value
+- the avalanches counted by the report's rule (:func:`jamlab.reproduce.ensembles.counted_steps`:
+  plastic, ``ΔE < 0``, both minima jammed) with ``S`` at or above each floor of ``--above``, summed
+  over the samples, with the χ² of their spread over the parts against a constant rate (its p-value
   assumes independent avalanches; a guide, not a test).
 
     PYTHONPATH=src python scripts/strain_window.py RUNS/n250-p1e-6-fix40 RUNS/n500-p1e-6-fix \\
@@ -29,8 +29,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from jamlab.analysis import classify_steps
-from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
 from jamlab.runs import open_run
 
 
@@ -45,9 +44,7 @@ def window_parts(ds, n: int, parts: int, floors: list[float]) -> dict:
     sigma = intensive_stress(ds, "jamming", n)
     pressure = np.asarray(ds.pressure.sel(phi="jamming", N=n).values)[done]
     phi = np.asarray(ds.phi_step.sel(phi="jamming", N=n).values)[done]
-    ej = np.asarray(ds.energy_jump.sel(phi="jamming", N=n).values)[done, 1:]
-    plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done, 1:] > 0.5
-    counted = classify_steps(ej, plastic, jammed=jammed_flags(ds, "jamming", n))
+    ej, counted = counted_steps(ds, "jamming", n)
     steps = ej.shape[1]
     if not 1 <= parts <= steps:
         raise ValueError(f"parts must be in [1, {steps}], got {parts}")

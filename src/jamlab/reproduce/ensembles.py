@@ -21,6 +21,7 @@ __all__ = [
     "avalanche_set",
     "avalanche_sizes_of",
     "coarse_avalanches",
+    "counted_steps",
     "finished",
     "intensive_stress",
 ]
@@ -55,25 +56,36 @@ class AvalancheSet:
     per_sample: tuple[np.ndarray, ...] = ()
 
 
-def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
-    """:class:`AvalancheSet` of the finished samples at ``(φ label, N)``: plastic steps with
-    ``ΔE < 0`` between two jammed minima (:func:`jamlab.analysis.avalanche_sizes` with
-    ``jammed=``), ``S = −ΔE`` (row 0 has no step)."""
-    from jamlab.analysis import avalanche_sizes, classify_steps, exclusions
+def counted_steps(ds: Any, label: str, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(ΔE, counted)`` of the finished samples at ``(φ label, N)``, each ``(samples, steps)``
+    (row 0 of the trace has no step): ``counted`` marks the steps that are avalanches by the
+    report's rule, plastic steps with ``ΔE < 0`` between two jammed minima
+    (:func:`jamlab.analysis.classify_steps` with ``jammed=``)."""
+    from jamlab.analysis import classify_steps
 
     done = finished(ds, label, n)
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
     pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
-    pr = np.asarray(ds.pressure.sel(phi=label, N=n).values)[done]
-    jammed = jammed_flags(ds, label, n)
+    return ej, classify_steps(ej, pl, jammed=jammed_flags(ds, label, n))
+
+
+def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
+    """:class:`AvalancheSet` of the finished samples at ``(φ label, N)``: plastic steps with
+    ``ΔE < 0`` between two jammed minima (:func:`counted_steps`), ``S = −ΔE``."""
+    from jamlab.analysis import exclusions
+
+    done = finished(ds, label, n)
+    ej, counted = counted_steps(ds, label, n)
     if not ej.size:
         return AvalancheSet(np.empty(0), np.empty(0), 0, int(done.sum()), True, 0, 0, np.empty(0))
-    sizes = avalanche_sizes(ej, pl, jammed=jammed)
-    counted = classify_steps(ej, pl, jammed=jammed)
+    sizes = -ej[counted]
+    pr = np.asarray(ds.pressure.sel(phi=label, N=n).values)[done]
     pressures = pr[:, :-1][counted]
+    jammed = jammed_flags(ds, label, n)
     if jammed is None:
         n_st, n_av = 0, 0
     else:
+        pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
         ex = exclusions(ej, jammed, pl)
         n_st, n_av = ex.n_steps_excluded, ex.n_avalanches_excluded
     return AvalancheSet(
