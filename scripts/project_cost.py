@@ -46,6 +46,14 @@ With ``--per-step`` (JSONs of ``benchmarks/bench_pressure.py --json``, e.g. 100 
 and 4000): at each N they hold (and no run does), the default path's time per step is their
 measured CPU time per step (deferred confirmations included; the mean over their packings)
 instead of the fit's; the preparation is still the fit's.
+
+Without a benchmark JSON (``--runs`` alone, of one protocol, p, δγ and number of steps, at two N
+or more), the sample time at every N without a run is the power law through the runs' mean
+sample times, as with ``--fit-runs``; ``--sizes`` and ``--samples`` then name the set to price,
+e.g. 20 more samples at N = 2000 of the ensembles at p = 1e-6:
+
+    python scripts/project_cost.py --runs RUNS/n250-p1e-6 RUNS/n500-p1e-6 RUNS/n1000-p1e-6 \\
+        --sizes 2000 --samples 20
 """
 
 from __future__ import annotations
@@ -120,6 +128,19 @@ def measured_samples(runs: list[Path], data: dict, steps: int) -> dict[str, dict
                 print(f"{path}: N = {int(n)}, {secs.size} finished samples, {secs.mean():.0f} "
                       f"{what} s each on average ({secs.min():.0f}–{secs.max():.0f})")
     return out
+
+
+def json_file(path: Path) -> dict:
+    """A benchmark JSON (``benchmarks/bench_jamming.py --json``; bad input: one line, exit 2)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        fail(f"{path}: not a benchmarks/bench_jamming.py --json file ({err})")
+    missing = [k for k in ("results", "pressure", "dgamma") if not isinstance(data, dict)
+               or k not in data]
+    if missing:
+        fail(f"{path}: not a benchmarks/bench_jamming.py --json file (no {', '.join(missing)})")
+    return data
 
 
 def json_list(path: Path, key: str, producer: str) -> list[dict]:
@@ -235,6 +256,52 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
     return out
 
 
+def run_conditions(runs: list[Path]) -> dict:
+    """The p (None at constant volume) and δγ of the first of ``runs``, as a benchmark's
+    ``{"pressure", "dgamma", "results": []}`` for the checks of :func:`measured_samples`; every
+    run must share its protocol (bad input: one line, exit code 2)."""
+    from jamlab.runs import open_run
+
+    studies = []
+    for path in runs:
+        try:
+            studies.append(json.loads(open_run(path).attrs["study"]))
+        except (OSError, ValueError) as err:
+            fail(f"{path}: not a run directory ({err})")
+    fixed = {st.get("pressure") is None for st in studies}
+    if len(fixed) > 1:
+        fail("the runs mix constant volume and fixed pressure: project one protocol at a time")
+    return {"pressure": studies[0].get("pressure"), "dgamma": studies[0]["dgamma"],
+            "results": []}
+
+
+def project_measured(measured: dict[str, dict[int, float]], sizes: list[int],
+                     samples: int) -> list[dict]:
+    """Without a benchmark: per protocol, the rows of :func:`project` from the whole samples
+    ``measured`` alone (``{protocol: {N: mean seconds per sample}}``, two N or more): at a
+    measured N its mean, elsewhere ``t = a N^b`` through them."""
+    out = []
+    for proto, known in measured.items():
+        if len(known) < 2:
+            fail(f"{proto.replace('_', ' ')}: whole samples at N = {sorted(known)} only; "
+                 "without a benchmark the projection needs runs at two N or more")
+        ns = sorted(known)
+        a, b = power_law(ns, [known[n] for n in ns])
+
+        def sample_s(n: float, a=a, b=b, known=known) -> float:
+            return known[n] if n in known else a * n**b
+
+        out.append({
+            "protocol": proto, "code": "jamlab", "exponent": b,
+            "sample_s_1000": sample_s(1000),
+            "cpu_h": sum(samples * sample_s(n) for n in sizes) / 3600.0,
+            "extrapolated": max(sizes) > max(ns) or min(sizes) < min(ns),
+            "measured_n": sorted(n for n in known if n in sizes),
+            "measured_step_n": [], "fitted_to_runs": True,
+        })
+    return out
+
+
 def average(files: list[dict]) -> dict:
     """One benchmark whose times are the means over ``files`` (same N, p, δγ; packings of
     different seeds): per N the preparation times, per N, protocol and code the ms per step."""
@@ -256,12 +323,12 @@ def average(files: list[dict]) -> dict:
     return out
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("bench_json", type=Path, nargs="+",
+    ap.add_argument("bench_json", type=Path, nargs="*",
                     help="one or more benchmark JSONs with the same N: a protocol is taken from "
                     "the last file that has it (e.g. an older full run and a newer "
-                    "--fixed-pressure-only run)")
+                    "--fixed-pressure-only run); none: project from --runs alone")
     ap.add_argument("--average", action="store_true",
                     help="the files are the same benchmark on packings of different seeds: "
                     "average their times per N (otherwise later files override earlier ones)")
@@ -282,50 +349,66 @@ def main() -> None:
                     help="where --runs hold two N or more for a protocol, extrapolate the "
                     "default path from a power law fitted to their samples, not the benchmark's "
                     "(module docstring)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if args.fit_runs and not (args.runs or args.cv_samples):
         fail("--fit-runs needs --runs or --cv-samples")
-    files = [json.loads(f.read_text()) for f in args.bench_json]
-    data = files[0]
-    for other in files[1:]:
-        if [r["N"] for r in other["results"]] != [r["N"] for r in data["results"]]:
-            fail("the benchmark files measure different N")
-        if other["pressure"] != data["pressure"] or other["dgamma"] != data["dgamma"]:
-            fail("the benchmark files use different p or dgamma")
-    if args.average:
-        data = average(files)
-    else:
-        for other in files[1:]:
-            for mine, theirs in zip(data["results"], other["results"], strict=True):
-                mine.update(
-                    {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
-                )
-    measured = measured_samples(args.runs, data, args.steps) if args.runs else {}
+    if args.samples < 1 or min(args.sizes) < 1 or args.steps < 1:
+        fail("--samples, --sizes and --steps must be positive")
     stopped: set[int] = set()
-    if args.cv_samples:
-        whole, stopped = measured_cv_samples(args.cv_samples, data, args.steps)
-        cv = measured.setdefault("constant_volume", {})
-        both = sorted(set(whole) & set(cv))
-        if both:
-            fail(f"--runs and --cv-samples both hold N = {both}")
-        cv.update(whole)
-    stepped = measured_steps(args.per_step, data) if args.per_step else None
-    rows = project(data, args.sizes, args.samples, args.steps, measured, stepped, args.fit_runs)
-    ns = [r["N"] for r in data["results"]]
-    print(
-        f"measured N = {ns}; projected N = {args.sizes} × {args.samples} samples × "
-        f"{args.steps} steps (p = {data['pressure']:g} at fixed pressure)"
-    )
+    if not args.bench_json:
+        if not args.runs:
+            fail("give a benchmark JSON, or --runs to project from whole samples alone")
+        if args.cv_samples or args.per_step or args.average:
+            fail("--cv-samples, --per-step and --average need a benchmark JSON")
+        data = run_conditions(args.runs)
+        rows = project_measured(measured_samples(args.runs, data, args.steps), args.sizes,
+                                args.samples)
+        measured_from = "whole samples of the runs"
+    else:
+        files = [json_file(f) for f in args.bench_json]
+        data = files[0]
+        for other in files[1:]:
+            if [r["N"] for r in other["results"]] != [r["N"] for r in data["results"]]:
+                fail("the benchmark files measure different N")
+            if other["pressure"] != data["pressure"] or other["dgamma"] != data["dgamma"]:
+                fail("the benchmark files use different p or dgamma")
+        if args.average:
+            data = average(files)
+        else:
+            for other in files[1:]:
+                for mine, theirs in zip(data["results"], other["results"], strict=True):
+                    mine.update(
+                        {k: v for k, v in theirs.items() if k != "jam_s" or "jam_s" not in mine}
+                    )
+        measured = measured_samples(args.runs, data, args.steps) if args.runs else {}
+        if args.cv_samples:
+            whole, stopped = measured_cv_samples(args.cv_samples, data, args.steps)
+            cv = measured.setdefault("constant_volume", {})
+            both = sorted(set(whole) & set(cv))
+            if both:
+                fail(f"--runs and --cv-samples both hold N = {both}")
+            cv.update(whole)
+        stepped = measured_steps(args.per_step, data) if args.per_step else None
+        rows = project(data, args.sizes, args.samples, args.steps, measured, stepped,
+                       args.fit_runs)
+        measured_from = f"benchmark at N = {[r['N'] for r in data['results']]}"
+    where = ("constant volume" if data["pressure"] is None
+             else f"p = {data['pressure']:g} at fixed pressure")
+    print(f"measured: {measured_from}; projected N = {args.sizes} × {args.samples} samples × "
+          f"{args.steps} steps ({where})")
+    paper_set = (sorted(args.sizes), args.samples) == ([500, 1000, 2000, 4000], 300)
+    set_name = "paper's set" if paper_set else "this set"
     print()
     print(
         "| protocol | code | t_step ∝ N^b | 1000-step sample at N=1000 | ≤ 2 min? "
-        "| paper's set (CPU-h) | ≤ 500? | ≤ 100? |"
+        f"| {set_name} (CPU-h) | ≤ 500? | ≤ 100? |"
     )
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         ok_s = "yes" if r["sample_s_1000"] <= TARGET_SAMPLE_S else "no"
-        ok_h = "yes" if r["cpu_h"] <= TARGET_SET_CPU_H else "no"
-        ok_m = "yes" if r["cpu_h"] <= MOONSHOT_CPU_H else "no"
+        # (the set targets are the paper's set's: "—" for any other set)
+        ok_h = "—" if not paper_set else "yes" if r["cpu_h"] <= TARGET_SET_CPU_H else "no"
+        ok_m = "—" if not paper_set else "yes" if r["cpu_h"] <= MOONSHOT_CPU_H else "no"
         ext = " (extrapolated)" if r["extrapolated"] else ""
         if r["measured_n"]:
             ext += f" (whole samples measured at N = {', '.join(map(str, r['measured_n']))})"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -179,3 +180,73 @@ def test_cv_samples_means_and_their_stopped_ones(pc, tmp_path, capsys):
         pc.measured_cv_samples([path], {"dgamma": 1e-4}, steps=100)
     with pytest.raises(SystemExit):  # another number of steps than the projection's
         pc.measured_cv_samples([path], {"dgamma": 1e-5}, steps=1000)
+
+
+def test_projection_from_whole_samples_alone_by_hand(pc):
+    # no benchmark: samples measured at N = 500 and 1000 (40 s, 160 s: t = 40 (N/500)²), so
+    # N = 2000 costs 640 s; a measured N keeps its own mean
+    rows = pc.project_measured({"fixed_pressure": {500: 40.0, 1000: 160.0}}, [1000, 2000], 10)
+    assert len(rows) == 1
+    r = rows[0]
+    assert r["exponent"] == pytest.approx(2.0, rel=1e-12)
+    assert r["cpu_h"] == pytest.approx(10 * (160 + 640) / 3600, rel=1e-12)
+    assert r["sample_s_1000"] == 160.0 and r["measured_n"] == [1000]
+    assert r["extrapolated"] and r["fitted_to_runs"]
+    # one N is not a law: refused with exit code 2
+    with pytest.raises(SystemExit) as err:
+        pc.project_measured({"fixed_pressure": {1000: 160.0}}, [2000], 10)
+    assert err.value.code == 2
+
+
+def test_main_projects_from_runs_alone(pc, tmp_path, capsys):
+    from jamlab.runs import Execution, RunDir, Study, read_sample, run_study
+
+    study = Study(phi=["jamming"], n=[16, 24], samples=2, dgamma=1e-3, gamma_max=3e-3, seed=5,
+                  pressure=1e-3)
+    run_study(study, tmp_path / "r", Execution(workers=0))
+    rd = RunDir(tmp_path / "r")
+    per_n: dict[int, list[float]] = {}
+    for k in study.keys():
+        if rd.state(k) == "done":
+            per_n.setdefault(k.n, []).append(
+                float(read_sample(rd.sample_path(k))["attrs"]["cpu_seconds"]))
+    assert sorted(per_n) == [16, 24]
+    t16, t24 = (sum(v) / len(v) for v in (per_n[16], per_n[24]))
+    # by hand: t = t16 (N/16)^b with b = ln(t24/t16) / ln 1.5; 3 samples at N = 32
+    b = math.log(t24 / t16) / math.log(1.5)
+    t32 = t16 * 2**b
+    pc.main(["--runs", str(tmp_path / "r"), "--sizes", "32", "--samples", "3", "--steps", "3"])
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| fixed pressure"))
+    cells = [c.strip() for c in row.split("|")]
+    assert cells[3] == f"b = {b:.2f}"
+    assert cells[6].startswith(f"{3 * t32 / 3600:,.0f}")
+    assert cells[7] == "—" and "this set" in out and "p = 0.001" in out
+    # refusals, exit code 2: nothing to project, runs of one N only, another number of steps,
+    # inputs that need a benchmark, a file that is not a benchmark
+    one = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=5,
+                pressure=1e-3)
+    run_study(one, tmp_path / "one", Execution(workers=0))
+    bad = tmp_path / "bad.json"
+    bad.write_text("{}")
+    for argv in ([], ["--runs", str(tmp_path / "one"), "--steps", "3"],
+                 ["--runs", str(tmp_path / "r")],
+                 ["--runs", str(tmp_path / "r"), "--steps", "3", "--average"],
+                 ["--runs", str(tmp_path / "missing")], [str(bad)],
+                 ["--runs", str(tmp_path / "r"), "--steps", "3", "--samples", "0"]):
+        with pytest.raises(SystemExit) as err:
+            pc.main(argv)
+        assert err.value.code == 2, argv
+
+
+def test_runs_alone_must_share_one_protocol(pc, tmp_path):
+    from jamlab.runs import Execution, Study, run_study
+
+    for name, pressure in (("p", 1e-3), ("v", None)):
+        run_study(Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=5,
+                        pressure=pressure), tmp_path / name, Execution(workers=0))
+    assert pc.run_conditions([tmp_path / "p"])["pressure"] == pytest.approx(1e-3)
+    assert pc.run_conditions([tmp_path / "v"])["pressure"] is None
+    with pytest.raises(SystemExit) as err:
+        pc.run_conditions([tmp_path / "p", tmp_path / "v"])
+    assert err.value.code == 2
