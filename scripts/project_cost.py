@@ -239,40 +239,45 @@ def project(data: dict, sizes: list[int], samples: int, steps: int,
                     return whole[0] * n ** whole[1]
                 return pa * n**pb + steps * stepped.get(n, a * n**b)
 
-            cpu_h = sum(samples * sample_s(n) for n in sizes) / 3600.0
-            out.append(
-                {
-                    "protocol": proto,
-                    "code": code,
-                    "exponent": b,
-                    "sample_s_1000": sample_s(1000),
-                    "cpu_h": cpu_h,
-                    "extrapolated": max(sizes) > max(code_ns) or min(sizes) < min(code_ns),
-                    "measured_n": sorted(n for n in known if n in sizes),
-                    "measured_step_n": sorted(n for n in stepped if n in sizes and n not in known),
-                    "fitted_to_runs": whole is not None,
-                }
-            )
+            out.append(projection_row(proto, code, b, sample_s, sizes, samples, code_ns, known,
+                                      stepped, whole is not None))
     return out
+
+
+def projection_row(proto: str, code: str, exponent: float, sample_s, sizes: list[int],
+                   samples: int, fitted_ns: list[int], known: dict[int, float],
+                   stepped: dict[int, float], fitted_to_runs: bool) -> dict:
+    """One row of the projection: ``sample_s(N)`` the seconds of one sample at N, priced over
+    ``sizes`` × ``samples``; ``fitted_ns`` the N the law was fitted at (beyond them:
+    extrapolated); ``known`` / ``stepped`` the N with measured samples / steps."""
+    return {
+        "protocol": proto,
+        "code": code,
+        "exponent": exponent,
+        "sample_s_1000": sample_s(1000),
+        "cpu_h": sum(samples * sample_s(n) for n in sizes) / 3600.0,
+        "extrapolated": max(sizes) > max(fitted_ns) or min(sizes) < min(fitted_ns),
+        "measured_n": sorted(n for n in known if n in sizes),
+        "measured_step_n": sorted(n for n in stepped if n in sizes and n not in known),
+        "fitted_to_runs": fitted_to_runs,
+    }
 
 
 def run_conditions(runs: list[Path]) -> dict:
     """The p (None at constant volume) and δγ of the first of ``runs``, as a benchmark's
     ``{"pressure", "dgamma", "results": []}`` for the checks of :func:`measured_samples`; every
     run must share its protocol (bad input: one line, exit code 2)."""
-    from jamlab.runs import open_run
+    from jamlab.runs import RunDir, RunError
 
     studies = []
     for path in runs:
         try:
-            studies.append(json.loads(open_run(path).attrs["study"]))
-        except (OSError, ValueError) as err:
+            studies.append(RunDir(path).study())  # (the manifest only: no sample is read)
+        except RunError as err:
             fail(f"{path}: not a run directory ({err})")
-    fixed = {st.get("pressure") is None for st in studies}
-    if len(fixed) > 1:
+    if len({st.pressure is None for st in studies}) > 1:
         fail("the runs mix constant volume and fixed pressure: project one protocol at a time")
-    return {"pressure": studies[0].get("pressure"), "dgamma": studies[0]["dgamma"],
-            "results": []}
+    return {"pressure": studies[0].pressure, "dgamma": studies[0].dgamma, "results": []}
 
 
 def project_measured(measured: dict[str, dict[int, float]], sizes: list[int],
@@ -291,14 +296,8 @@ def project_measured(measured: dict[str, dict[int, float]], sizes: list[int],
         def sample_s(n: float, a=a, b=b, known=known) -> float:
             return known[n] if n in known else a * n**b
 
-        out.append({
-            "protocol": proto, "code": "jamlab", "exponent": b,
-            "sample_s_1000": sample_s(1000),
-            "cpu_h": sum(samples * sample_s(n) for n in sizes) / 3600.0,
-            "extrapolated": max(sizes) > max(ns) or min(sizes) < min(ns),
-            "measured_n": sorted(n for n in known if n in sizes),
-            "measured_step_n": [], "fitted_to_runs": True,
-        })
+        out.append(projection_row(proto, "jamlab", b, sample_s, sizes, samples, ns, known, {},
+                                  True))
     return out
 
 

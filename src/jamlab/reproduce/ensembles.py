@@ -63,29 +63,34 @@ def counted_steps(ds: Any, label: str, n: int) -> tuple[np.ndarray, np.ndarray]:
     (:func:`jamlab.analysis.classify_steps` with ``jammed=``)."""
     from jamlab.analysis import classify_steps
 
-    done = finished(ds, label, n)
+    ej, pl, jammed = _step_arrays(ds, label, n, finished(ds, label, n))
+    return ej, classify_steps(ej, pl, jammed=jammed)
+
+
+def _step_arrays(ds: Any, label: str, n: int, done: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``ΔE``, the plastic flags (each ``(samples, steps)``) and :func:`jammed_flags` of the
+    samples ``done``."""
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
     pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
-    return ej, classify_steps(ej, pl, jammed=jammed_flags(ds, label, n))
+    return ej, pl, jammed_flags(ds, label, n)
 
 
 def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
     """:class:`AvalancheSet` of the finished samples at ``(φ label, N)``: plastic steps with
     ``ΔE < 0`` between two jammed minima (:func:`counted_steps`), ``S = −ΔE``."""
-    from jamlab.analysis import exclusions
+    from jamlab.analysis import classify_steps, exclusions
 
     done = finished(ds, label, n)
-    ej, counted = counted_steps(ds, label, n)
+    ej, pl, jammed = _step_arrays(ds, label, n, done)
+    counted = classify_steps(ej, pl, jammed=jammed)
     if not ej.size:
         return AvalancheSet(np.empty(0), np.empty(0), 0, int(done.sum()), True, 0, 0, np.empty(0))
     sizes = -ej[counted]
     pr = np.asarray(ds.pressure.sel(phi=label, N=n).values)[done]
     pressures = pr[:, :-1][counted]
-    jammed = jammed_flags(ds, label, n)
     if jammed is None:
         n_st, n_av = 0, 0
     else:
-        pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
         ex = exclusions(ej, jammed, pl)
         n_st, n_av = ex.n_steps_excluded, ex.n_avalanches_excluded
     return AvalancheSet(
