@@ -26,7 +26,9 @@ __all__ = [
     "MAX_STRAIN",
     "STRAIN_RESOLUTION",
     "FLOPPY",
+    "VOLUME_GUESSES",
     "floppy",
+    "volume_guess",
     "integer",
     "number",
     "positive",
@@ -54,11 +56,25 @@ FLOPPY = ("fire", "project")
 """How a constant-volume step from an unjammed minimum is taken (``docs/aqs.md``): ``"fire"``
 (the usual strategies; the default) or ``"project"`` (the nearest overlap-free configuration)."""
 
+VOLUME_GUESSES = ("elastic", "always", "never")
+"""Where a fixed-pressure AQS step starts its box side
+(:func:`jamlab.spheres.barostat.box_side_guess`): ``"elastic"`` (the default) — the linear
+extrapolation of the last two minima when the last step was not a candidate jump, else the
+current side; ``"always"`` — the extrapolation after every step (the rule of the runs and traces
+made before the choice existed); ``"never"`` — the current side."""
+
 
 def floppy(value: Any, name: str = "floppy") -> str:
     """One of :data:`FLOPPY`, or ``ValueError`` naming the choices."""
     if value not in FLOPPY:
         raise _reject(name, " or ".join(repr(c) for c in FLOPPY), value)
+    return value
+
+
+def volume_guess(value: Any, name: str = "volume_guess") -> str:
+    """One of :data:`VOLUME_GUESSES`, or ``ValueError`` naming the choices."""
+    if value not in VOLUME_GUESSES:
+        raise _reject(name, " or ".join(repr(c) for c in VOLUME_GUESSES), value)
     return value
 
 

@@ -103,6 +103,12 @@ def test_shear_resume_matches_one_run(start, tmp_path):
             ("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "1e-3", "--save-every", "0"),
             "--save-every",
         ),
+        (("--dgamma", "1e-5", "--gamma-max", "1e-4", "--volume-guess", "never"), "--pressure"),
+        (
+            ("--dgamma", "1e-5", "--gamma-max", "1e-4", "--pressure", "1e-3", "--volume-guess",
+             "often"),
+            "--volume-guess must be",
+        ),
     ],
 )
 def test_bad_arguments_are_one_line_errors(start, tmp_path, args, needle):
@@ -149,6 +155,7 @@ def test_shear_at_fixed_pressure(start, tmp_path):
     assert np.all(np.abs(tr.pressure - 1e-2) <= 1e-8)
     assert tr.phi[0] < packing.phi  # phi = 0.8 carries p >> 1e-2: the box expands
     assert tr.jammed.all()
+    assert tr.attrs["volume_guess"] == "elastic"  # the default rule, recorded
 
 
 def test_floppy_option_is_recorded_and_checked(start, tmp_path):

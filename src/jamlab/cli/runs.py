@@ -155,6 +155,13 @@ def register(app: typer.Typer) -> None:
             help="Constant volume: a step from an unjammed minimum by 'fire' (default) or "
             "'project' (the overlap-free configuration nearest to the affine start; docs/aqs.md).",
         ),
+        volume_guess: str | None = typer.Option(
+            None,
+            "--volume-guess",
+            help="Fixed pressure: where each step starts its box side — 'elastic' (default: "
+            "extrapolated across elastic steps only), 'always' (the rule of runs made before "
+            "the option; resumes them) or 'never' (docs/aqs.md).",
+        ),
         checkpoint_every: str | None = typer.Option(
             None,
             "--checkpoint-every",
@@ -214,6 +221,7 @@ def register(app: typer.Typer) -> None:
                 ("alpha", alpha),
                 ("pressure", pressure),
                 ("floppy", floppy),
+                ("volume_guess", volume_guess),
                 ("checkpoint_every", checkpoint_every),
                 ("task", task),
             ],

@@ -58,12 +58,13 @@ def check_resume(
 
 def check_resume_pressure(
     previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float,
-    minimizer: str = "linear", confirm: str = "located",
+    minimizer: str = "linear", confirm: str = "located", volume_guess: str = "elastic",
 ) -> None:
     """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
     ``ftol``, target pressure, ``ptol`` and minimiser (``linear``: the Newton inner minimiser,
     recorded as ``enthalpy-nested-newton``; ``fire``: ``enthalpy-nested-fire``), the same
-    ``confirm`` rule of the plastic flag (a trace without the attribute used ``chain``), and an
+    ``confirm`` rule of the plastic flag (a trace without the attribute used ``chain``) and
+    ``volume_guess`` (without the attribute: ``always``), and an
     input with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
     already at the target pressure)."""
     from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, minimizer_attribute
@@ -75,8 +76,9 @@ def check_resume_pressure(
                              ("pressure", "pressure_target", pressure), ("ptol", "ptol", ptol),
                              ("minimizer", "minimizer",
                               minimizer_attribute(FROM_AQS_OPTION[minimizer])),
-                             ("confirm", "confirm", confirm)):
-        recorded = attrs.get(key, "chain" if key == "confirm" else None)
+                             ("confirm", "confirm", confirm),
+                             ("volume-guess", "volume_guess", volume_guess)):
+        recorded = attrs.get(key, {"confirm": "chain", "volume_guess": "always"}.get(key))
         if recorded != given:
             raise ValueError(f"--{name} {given} differs from the run being resumed ({recorded})")
     recorded = (attrs.get("N"), attrs.get("dim"), attrs.get("seed"), float(previous.gamma[0]),
@@ -208,6 +210,15 @@ def register(app: typer.Typer) -> None:
                 "docs/aqs.md).",
             ),
         ] = None,
+        volume_guess: Annotated[
+            str | None,
+            typer.Option(
+                "--volume-guess",
+                help="At fixed pressure: where each step starts its box side — 'elastic' "
+                "(default: extrapolated across elastic steps only), 'always' (the rule of "
+                "traces made before the option) or 'never' (docs/aqs.md).",
+            ),
+        ] = None,
         force: Force = False,
     ) -> None:
         from jamlab import validation
@@ -242,6 +253,11 @@ def register(app: typer.Typer) -> None:
             raise ValueError("--confirm-below applies to fixed-pressure runs: give --pressure too")
         if confirm_below is not None and not confirm_below >= 1.0:
             raise ValueError(f"--confirm-below must be >= 1 (or inf), got {confirm_below!r}")
+        if volume_guess is not None and pressure is None:
+            raise ValueError("--volume-guess applies to fixed-pressure runs: give --pressure too")
+        if pressure is not None:
+            volume_guess = validation.volume_guess(
+                "elastic" if volume_guess is None else volume_guess, "--volume-guess")
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
@@ -285,7 +301,7 @@ def register(app: typer.Typer) -> None:
             else:
                 check_resume_pressure(previous, packing, dgamma=dgamma, ftol=ftol,
                                       pressure=pressure, ptol=ptol, minimizer=minimizer,
-                                      confirm=confirm)
+                                      confirm=confirm, volume_guess=volume_guess)
             save_every = resume_save_every(previous, save_every)
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, float(previous.gamma[0]), names=("--dgamma", "--gamma-max")
@@ -312,6 +328,7 @@ def register(app: typer.Typer) -> None:
             ptol=ptol,
             confirm=confirm,
             confirm_below=confirm_below,
+            volume_guess=volume_guess,
             params=None if pressure is not None else AQSParameters(floppy=floppy),
         )
         tr = result.trace

@@ -92,7 +92,8 @@ def prepare_and_shear(
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
         earlier = tuple(times[str(max(steps))] if steps else times["prepared"])
     params = None if study.pressure is not None else aqs.AQSParameters(floppy=study.floppy)
-    options = {"ftol": study.force_tol, "pressure": study.pressure, "params": params}
+    options = {"ftol": study.force_tol, "pressure": study.pressure, "params": params,
+               "volume_guess": study.volume_guess}
     if folder is None:
         result = aqs.shear(config, study.dgamma, study.gamma_max, progress=progress, **options)
     else:

@@ -267,10 +267,14 @@ class RunDir:
         return manifest
 
     def study(self) -> Study:
-        """The study recorded in the manifest."""
+        """The study recorded in the manifest. A fixed-pressure study recorded without
+        ``volume_guess`` was run by the rule of its time, ``"always"``."""
         manifest = self.read_manifest()
         try:
-            return Study.from_dict(manifest["study"])
+            recorded = dict(manifest["study"])
+            if recorded.get("pressure") is not None:
+                recorded.setdefault("volume_guess", "always")
+            return Study.from_dict(recorded)
         except (KeyError, TypeError, ValueError) as exc:
             raise RunError(f"invalid study in {self.manifest_path}: {exc}") from None
 

@@ -119,6 +119,11 @@ class Study:
       overlap-free configuration nearest to the affine start;
       :class:`jamlab.spheres.aqs.AQSParameters`, ``docs/aqs.md``). Stored only when not
       ``"fire"``, so earlier run directories keep their study.
+    - ``volume_guess``: fixed pressure only, where each step starts its box side
+      (:data:`jamlab.validation.VOLUME_GUESSES`; default ``"elastic"``: extrapolated across
+      elastic steps only). Stored with every fixed-pressure study; a run directory whose
+      manifest has a pressure and no ``volume_guess`` was made by the rule of its time,
+      ``"always"`` (:meth:`jamlab.runs.RunDir.study`), so it is not resumed by another.
     - ``checkpoint_every``: ``0`` (default): a sample is computed in one go; ``k >= 1``: its
       shear is saved every ``k`` steps (with the prepared packing) in the run directory's
       ``checkpoints/``, and a sample interrupted mid-way (a killed worker, the end of a SLURM
@@ -144,6 +149,7 @@ class Study:
     pressure: float | None = None
     floppy: str = "fire"
     checkpoint_every: int = 0
+    volume_guess: str | None = None
 
     def __post_init__(self) -> None:
         phis = [parse_phi(p) for p in _as_list(self.phi)]
@@ -179,6 +185,11 @@ class Study:
         validation.floppy(self.floppy)
         if self.floppy != "fire" and self.pressure is not None:
             raise ValueError("floppy applies to constant-volume runs only, not with pressure")
+        if self.pressure is None and self.volume_guess is not None:
+            raise ValueError("volume_guess applies to fixed-pressure runs only: give pressure too")
+        if self.pressure is not None:
+            guess = "elastic" if self.volume_guess is None else self.volume_guess
+            object.__setattr__(self, "volume_guess", validation.volume_guess(guess))
         object.__setattr__(
             self, "checkpoint_every", _int("checkpoint_every", self.checkpoint_every, minimum=0)
         )
@@ -227,6 +238,8 @@ class Study:
             del d["floppy"]
         if d["checkpoint_every"] == 0:  # the default: the study of earlier run directories
             del d["checkpoint_every"]
+        if d["volume_guess"] is None:  # constant volume
+            del d["volume_guess"]
         return d
 
     @classmethod

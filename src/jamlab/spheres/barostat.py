@@ -44,16 +44,19 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from jamlab import validation
 from jamlab.spheres.aqs.network import find_backbone
 from jamlab.spheres.aqs.saddle import MAX_DESCENTS, saddle_push
 from jamlab.spheres.box import Box
+from jamlab.spheres.confirm import trapezoid_residual
 from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import Packing, evaluate, pressure
 from jamlab.spheres.rigidity import pressure_floor
 
-__all__ = ["EnthalpyResult", "enthalpy", "enthalpy_and_stress", "leave_saddle",
-           "minimize_enthalpy", "minimize_step", "pressure_tolerance", "rescale_box"]
+__all__ = ["EnthalpyResult", "box_side_guess", "enthalpy",
+           "enthalpy_and_stress", "leave_saddle", "minimize_enthalpy", "minimize_step",
+           "pressure_tolerance", "rescale_box"]
 
 DEFAULT_SLOPE = -1.0
 """``dp/d ln L`` assumed when no contact carries the affine response (an unjammed start): the
@@ -305,6 +308,27 @@ def minimize_step(
     return replace(again, iterations=again.iterations + res.iterations,
                    volume_steps=again.volume_steps + res.volume_steps,
                    time=again.time + res.time), 1
+
+
+def box_side_guess(rule: str, gamma, enthalpy, stress, length, floor: float) -> float | None:
+    """The box side the next fixed-pressure AQS step starts its minimisation from under ``rule``
+    (:data:`jamlab.validation.VOLUME_GUESSES`), or ``None`` for the current one, from the last
+    two minima's strain, enthalpy, shear stress and box side (pairs ``(n − 1, n)``):
+    ``2 L_n − L_{n−1}``, under
+    ``elastic`` only if the last step was not a candidate jump — its trapezoid residual
+    (:func:`~jamlab.spheres.confirm.trapezoid_residual`) ``|r| ≤ floor · δγ²``.
+
+    Why: the start is the minimum rescaled to that side, a real perturbation. On an elastic
+    stretch it is the branch's own dilatancy to ``O(δγ²)``; after a jump it repeats the jump's
+    volume change — a compaction or dilation unrelated to ``δγ`` — and can push the minimum out
+    of its basin: at p = 1e-6 a spurious avalanche at the next step (``docs/aqs.md``, "The
+    box-side guess after a jump")."""
+    validation.volume_guess(rule)
+    step = gamma[1] - gamma[0]
+    r = trapezoid_residual(enthalpy[0], stress[0], enthalpy[1], stress[1], step)
+    if rule == "never" or (rule == "elastic" and abs(r) > floor * step**2):
+        return None
+    return 2.0 * length[1] - length[0]
 
 
 def leave_saddle(

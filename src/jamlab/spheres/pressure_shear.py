@@ -72,7 +72,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres.barostat import (
+    box_side_guess,
     enthalpy_and_stress,
     leave_saddle,
     minimize_enthalpy,
@@ -256,7 +258,7 @@ def shear_at_pressure(
     confirm: str = "located",
     defer_confirmation: bool = True,
     confirm_below: float = CONFIRM_BELOW,
-    extrapolate_volume: bool = True,
+    volume_guess: str = "elastic",
     minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
     observer: Callable[[int, Packing], None] | None = None,
@@ -268,13 +270,12 @@ def shear_at_pressure(
     """AQS shear at fixed pressure ``pressure`` in steps ``δγ`` up to ``γ_max`` (the strain
     increment from the input's strain) or for ``n_steps`` steps (module docstring).
 
-    The input is first brought to the target pressure (:func:`minimize_enthalpy`). With
-    ``extrapolate_volume`` the box side of each step starts from the linear extrapolation of the
-    last two minima (dilatancy is smooth on elastic stretches). A step that does not converge is
-    taken once more afresh (:func:`~jamlab.spheres.barostat.minimize_step`; attribute
-    ``n_steps_retried``), then, if it still fails, recorded with ``converged=False`` and the run
-    goes on from it. ``observer(n, packing)`` (if
-    given) sees every recorded minimum, row 0 included (e.g. to follow the contact network).
+    The input is first brought to the target pressure (:func:`minimize_enthalpy`).
+    ``volume_guess``: the box side a step starts from (``barostat.box_side_guess``; ``elastic``:
+    extrapolated across elastic steps only). A step that does not converge is taken once more
+    afresh (:func:`~jamlab.spheres.barostat.minimize_step`; attribute ``n_steps_retried``), then,
+    if it still fails, recorded with ``converged=False`` and the run goes on from it.
+    ``observer(n, packing)`` (if given) sees every recorded minimum, row 0 included.
 
     Checkpoints and resume: every ``save_every`` steps (and not after the last) ``on_save(n,
     result)`` receives the run so far (its plastic flags provisional: they are judged on the whole
@@ -323,9 +324,13 @@ def shear_at_pressure(
     if not (isinstance(confirm_below, int | float) and confirm_below >= 1.0):
         raise ValueError(f"confirm_below must be >= 1 (math.inf: confirm every candidate), "
                          f"got confirm_below={confirm_below!r}")
-    if previous is not None and previous.attrs.get("confirm", "chain") != confirm:
-        raise ValueError(f"confirm={confirm!r} differs from the run being resumed "
-                         f"({previous.attrs.get('confirm', 'chain')!r})")
+    validation.volume_guess(volume_guess)
+    # a trace without the attribute was made by the rule of its time
+    for name, value, before in (("confirm", confirm, "chain"),
+                                ("volume_guess", volume_guess, "always")):
+        if previous is not None and previous.attrs.get(name, before) != value:
+            raise ValueError(f"{name}={value!r} differs from the run being resumed "
+                             f"({previous.attrs.get(name, before)!r})")
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {', '.join(MINIMIZERS)}, got {minimizer!r}")
     relaxer = NewtonRelaxer() if minimizer == "newton" else None
@@ -360,9 +365,8 @@ def shear_at_pressure(
         cur = packing
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
-        guess = None
-        if extrapolate_volume and n >= 2:
-            guess = 2.0 * rows["box_length"][-1] - rows["box_length"][-2]
+        guess = None if n < 2 else box_side_guess(volume_guess, *(rows[k][-2:] for k in (
+            "gamma", "enthalpy", "shear_stress", "box_length")), plastic_floor)
         departed_before = _departures(relaxer)
         res, retried = minimize_step(affine_shear(cur, target - cur.strain), cur, pressure, kw,
                                      guess, slope)
@@ -408,7 +412,7 @@ def shear_at_pressure(
                 on_save(n, _result(rows, confirmed[: n + 1], continued[: n + 1], cur,
                                    counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
                                    plastic_floor, confirm_substeps, confirm, packing, minimizer,
-                                   relaxer, defer_confirmation, confirm_below))
+                                   relaxer, defer_confirmation, confirm_below, volume_guess))
     if pending:
         # the run's threshold is known now: redo only the kept candidates that can be plastic,
         # and of those only the ones that did not surely release more than confirm_below ·
@@ -420,7 +424,7 @@ def shear_at_pressure(
                  pressure, kw, confirm_substeps, confirm, counts)
     return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
                    pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
-                   minimizer, relaxer, defer_confirmation, confirm_below)
+                   minimizer, relaxer, defer_confirmation, confirm_below, volume_guess)
 
 
 def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
@@ -539,7 +543,7 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
 
 def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
             ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
-            defer_confirmation, confirm_below) -> PressureShearResult:
+            defer_confirmation, confirm_below, volume_guess) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():
@@ -574,6 +578,7 @@ def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, 
         "n_plastic": int(plastic.sum()),
         "confirm_substeps": int(confirm_substeps),
         "confirm": confirm,
+        "volume_guess": volume_guess,
         "confirm_deferred": int(bool(defer_confirmation)),
         "confirm_below": float(confirm_below),
         **{k: int(v) for k, v in counts.items()},

@@ -100,6 +100,7 @@ def shear(
     ptol: float = 1e-6,
     confirm: str = "located",
     confirm_below: float | None = None,
+    volume_guess: str | None = None,
 ) -> ShearResult:
     """AQS shear of ``packing`` in steps ``δγ`` up to ``γ_max`` (or for ``n_steps`` steps).
 
@@ -131,7 +132,9 @@ def shear(
     pieces (:data:`jamlab.spheres.pressure_shear.CONFIRMS`), and ``confirm_below`` how many times
     ``max(threshold, δγ²)`` a candidate must surely have released to be a jump without being
     redone (``None``: the default :data:`~jamlab.spheres.pressure_shear.CONFIRM_BELOW`;
-    ``math.inf``: every candidate redone). Every trace has the ``jammed`` column.
+    ``math.inf``: every candidate redone). ``volume_guess``: where a fixed-pressure step starts
+    its box side (:data:`jamlab.validation.VOLUME_GUESSES`; ``None``: ``"elastic"``). Every trace
+    has the ``jammed`` column.
 
     Parameters
     ----------
@@ -144,7 +147,7 @@ def shear(
     minimizer, ftol, classify, params, fire_params
         The step method and its tolerances (see above and :class:`AQSParameters`).
     save_every, out, previous, source, progress, after_step, keep_avalanches, \
-avalanche_threshold, pressure, ptol, confirm, confirm_below
+avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         Checkpoints, resume, bookkeeping and options (see above).
 
     Returns
@@ -183,6 +186,8 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below
             # one threshold labels the whole table: its earlier rows used the recorded one
             raise ValueError(f"avalanche_threshold={asked!r} differs from the run being resumed "
                              f"({kept!r}); resume it with the same --avalanche-threshold")
+    if pressure is None and volume_guess is not None:
+        raise ValueError("volume_guess applies to fixed-pressure shear only: give pressure too")
     if pressure is not None:
         if minimizer not in MINIMIZERS:
             raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
@@ -211,6 +216,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below
             confirm_below,
             keep_avalanches,
             avalanche_threshold,
+            "elastic" if volume_guess is None else volume_guess,
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
@@ -404,6 +410,7 @@ def _shear_at_pressure(
     confirm_below,
     keep_avalanches,
     avalanche_threshold,
+    volume_guess,
 ) -> ShearResult:
     """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
     ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
@@ -459,6 +466,7 @@ def _shear_at_pressure(
         minimizer=FROM_AQS_OPTION[minimizer],
         confirm=confirm,
         confirm_below=CONFIRM_BELOW if confirm_below is None else confirm_below,
+        volume_guess=volume_guess,
         progress=progress,
         previous=previous,
         save_every=save_every,
