@@ -1,0 +1,110 @@
+"""The step after an avalanche, taken again from the avalanche's minimum at the current box side.
+
+At p = 1e-6 an avalanche was followed by another at the very next step 2–12× more often than
+independent avalanches would be, and not at the steps after (``scripts/tail_events.py``), also
+with δγ halved. Runs made with ``volume_guess="always"`` started every step's box side at the
+linear extrapolation of the last two minima, so the step after a jump started from the jump's
+volume change repeated. This probe tells which of those follow-on events that start made.
+
+For each sample file given (a finished sample of a fixed-pressure ``jamming`` run), the sample is
+replayed from its prepared packing with the run's own options (``shear_at_pressure`` as
+``jamlab run`` calls it through ``aqs.shear``, with the run's ``volume_guess``), keeping every
+minimum; the replay's ``ΔH`` and plastic flags are compared with the stored trace. Then, for
+every counted avalanche (plastic, ``S = −ΔH ≥ --above``, both minima jammed: the report's rule)
+ending at minimum ``k``, the step ``k → k + 1`` is taken afresh from that minimum at its own box
+side (one ``shear_at_pressure`` step: what ``volume_guess="elastic"`` does after a jump). It
+releases when ``−r > --event``, ``r = ΔH − ½ δγ ΔΣ`` its trapezoid residual. The table crosses
+that with the run's own step ``k + 1`` (a counted avalanche or not).
+
+    PYTHONPATH=src python scripts/follow_on_probe.py \\
+        RUNS/n250-p1e-6-fix40/samples/phi=jamming/N=250/sample-0000{0,1,2}.h5 --above 1e-9
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from jamlab.analysis import classify_steps
+from jamlab.runs import RunDir, prepared_packing
+from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
+
+
+def options(study) -> dict:
+    """The fixed-pressure options ``jamlab run`` gives ``aqs.shear`` for ``study``."""
+    return dict(pressure=study.pressure, ftol=study.force_tol,
+                minimizer=FROM_AQS_OPTION["linear"], confirm="located",
+                confirm_below=CONFIRM_BELOW, volume_guess=study.volume_guess)
+
+
+def replay(sample: Path):
+    """``(study, stored trace columns, replayed trace, minima)`` of one sample file: the shear
+    redone from its prepared packing, every minimum kept (``minima[n]`` ends step ``n``)."""
+    study = RunDir(sample.parents[3]).study()
+    if study.pressure is None:
+        raise ValueError(f"{sample}: not a fixed-pressure run")
+    with h5py.File(sample, "r") as h5:
+        stored = {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
+    minima = {}
+    res = shear_at_pressure(prepared_packing(sample), study.dgamma,
+                            n_steps=stored["energy_jump"].size - 1,
+                            observer=lambda n, p: minima.__setitem__(n, p), **options(study))
+    return study, stored, res.trace(), minima
+
+
+def fresh_release(start, study) -> float:
+    """``−r`` of one fixed-pressure step ``δγ`` taken from the minimum ``start`` at its own box
+    side (a one-step run has no history to extrapolate)."""
+    t = shear_at_pressure(start, study.dgamma, n_steps=1, **options(study)).trace()
+    return -(float(t.energy_jump[1]) - 0.5 * study.dgamma * float(t.stress_jump[1]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("samples", type=Path, nargs="+")
+    ap.add_argument("--above", type=float, default=1e-10, help="avalanches probed: S ≥ (ε)")
+    ap.add_argument("--event", type=float, default=1e-11,
+                    help="the fresh step releases: −r > (ε)")
+    a = ap.parse_args()
+    if a.above <= 0 or a.event <= 0:
+        ap.error("--above and --event must be > 0")
+    for s in a.samples:
+        if not s.is_file():
+            ap.error(f"no sample file {s}")
+    table = np.zeros((2, 2), dtype=int)  # [run's next step counted][fresh step releases]
+    rows = []
+    for sample in a.samples:
+        t0 = time.process_time()
+        study, stored, trace, minima = replay(sample)
+        dh = np.asarray(trace.energy_jump)
+        same = np.array_equal(dh[1:], stored["energy_jump"][1:]) and np.array_equal(
+            np.asarray(trace.plastic), stored["plastic"])
+        counted = classify_steps(dh[1:], np.asarray(trace.plastic)[1:],
+                                 jammed=np.asarray(trace.jammed))
+        size = -dh[1:]
+        ends = [k + 1 for k in np.flatnonzero(counted & (size >= a.above)) if k + 1 < size.size]
+        print(f"{sample.name}: replay {time.process_time() - t0:.0f} CPU s "
+              f"(volume_guess {study.volume_guess}), trace "
+              f"{'equal to the stored one bit for bit' if same else 'DIFFERS from the stored one'};"
+              f" {len(ends)} avalanches ≥ {a.above:.0e}", flush=True)
+        for k in ends:
+            fresh = fresh_release(minima[k], study)
+            nxt = float(size[k]) if counted[k] else 0.0
+            table[int(counted[k]), int(fresh > a.event)] += 1
+            rows.append((sample.name, k, float(size[k - 1]), nxt, fresh))
+    print(f"\nthe step after {table.sum()} avalanches ≥ {a.above:.0e} ε:\n")
+    print("| the run's next step | fresh step releases | fresh step elastic |\n|---|---|---|")
+    for i, label in ((1, "an avalanche"), (0, "no avalanche")):
+        print(f"| {label} | {table[i, 1]} | {table[i, 0]} |")
+    print("\nsample, step k of the avalanche, its S, the run's next S (0: none), the fresh −r")
+    for r in rows:
+        if r[3] > 0 or r[4] > a.event:
+            print(f"  {r[0]} {r[1]:5d} {r[2]:.2e} {r[3]:.2e} {r[4]:.2e}")
+
+
+if __name__ == "__main__":
+    main()

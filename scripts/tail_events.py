@@ -1,0 +1,175 @@
+"""Which packings carry the largest avalanches of a run, and in which state they happen.
+
+A tail of a few events (e.g. the avalanches ≥ 1e-7 ε at p = 1e-6) is only as good as its
+independence: if they come from one or two packings, the tail measures those packings. For each
+run directory (φ label ``jamming`` at ``--n``, finished samples) and each floor of ``--above``:
+
+- the avalanches counted by the report's rule (:func:`jamlab.reproduce.ensembles.counted_steps`:
+  plastic, ``ΔE < 0``, both minima jammed) with ``S`` at or above the floor, **per sample**;
+- their dispersion over the samples. Every finished sample covers the same strain window, so
+  with independent avalanches at one rate the counts given their total ``K`` are multinomial
+  with equal cells. The statistic is ``Σ c_i²`` (equivalently the sample variance at fixed
+  ``K``); its p-value is the fraction of ``--trials`` multinomial deals with at least the
+  observed value (``(1 + hits)/(1 + trials)``, seeded), the exact small-count version of the
+  index-of-dispersion χ² test (also printed, ``(m − 1) s²/c̄`` on ``m − 1`` dof);
+- the share of the events in the ``--top`` samples that have most;
+- the events in the first and the second half of the strain window, with the two-sided binomial
+  p-value of that split against equal halves.
+
+For the highest floor each event is listed: sample, step, strain γ, ``S``, the shear-stress
+ratio ``μ = σ_xy/p`` and the pressure of the minimum it starts from (the events' share
+``−pΔV/S`` is ``scripts/enthalpy_parts.py``'s). A Mann–Whitney test compares ``μ``
+and the step of these events with those of every other counted avalanche of the run: are the
+large ones where the stress is high, or late in the window?
+
+    PYTHONPATH=src python scripts/tail_events.py RUNS/n250-p1e-6-fix40 RUNS/n500-p1e-6-fix40 \\
+        RUNS/n1000-p1e-6 --n 250 500 1000 --above 3e-8 1e-7
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
+from jamlab.runs import open_run
+
+
+def per_sample_counts(sizes: np.ndarray, counted: np.ndarray, floor: float) -> np.ndarray:
+    """Counted avalanches with ``S = −ΔE ≥ floor`` in each row (sample) of ``(samples, steps)``
+    arrays ``sizes`` (``S``) and ``counted``."""
+    return np.asarray((counted & (sizes >= floor)).sum(axis=1), dtype=int)
+
+
+def dispersion(counts: np.ndarray, trials: int, seed: int = 0) -> dict:
+    """Dispersion of ``counts`` (one per sample, equal exposure) against equal rates: ``total``,
+    ``mean``, ``variance`` (ddof 1), ``index`` (variance/mean), ``chi2`` and its ``p_chi2``
+    (``m − 1`` dof, upper tail), ``p_exact`` (multinomial deals of the total, seeded; NaN for
+    ``trials = 0``). NaN statistics without events or with fewer than two samples."""
+    c = np.asarray(counts, dtype=int)
+    m, total = c.size, int(c.sum())
+    out = {"total": total, "samples": m, "mean": total / m if m else float("nan")}
+    if m < 2 or total == 0:
+        out.update(variance=float("nan"), index=float("nan"), chi2=float("nan"),
+                   p_chi2=float("nan"), p_exact=float("nan"))
+        return out
+    var = float(c.var(ddof=1))
+    chi2 = (m - 1) * var / out["mean"]
+    out.update(variance=var, index=var / out["mean"], chi2=chi2,
+               p_chi2=float(stats.chi2.sf(chi2, m - 1)))
+    if trials <= 0:
+        out["p_exact"] = float("nan")
+        return out
+    rng = np.random.default_rng(seed)
+    deals = rng.multinomial(total, np.full(m, 1.0 / m), size=trials)
+    observed = int(np.sum(c.astype(np.int64) ** 2))
+    hits = int(np.count_nonzero(np.sum(deals.astype(np.int64) ** 2, axis=1) >= observed))
+    out["p_exact"] = (1 + hits) / (1 + trials)
+    return out
+
+
+def top_share(counts: np.ndarray, top: int) -> float:
+    """Share of all events in the ``top`` samples with most (NaN without events)."""
+    c = np.sort(np.asarray(counts))[::-1]
+    return float(c[:top].sum() / c.sum()) if c.sum() else float("nan")
+
+
+def halves(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[int, int, float]:
+    """Counted avalanches with ``S ≥ floor`` in the first and the second half of the steps
+    (columns of ``(samples, steps)`` arrays; an odd middle step goes to the second half), and the
+    two-sided binomial p-value of that split against ½ (NaN without events)."""
+    hit = counted & (sizes >= floor)
+    half = hit.shape[1] // 2
+    first, second = int(hit[:, :half].sum()), int(hit[:, half:].sum())
+    if first + second == 0:
+        return first, second, float("nan")
+    return first, second, float(stats.binomtest(first, first + second, 0.5).pvalue)
+
+
+def run_tail(ds, n: int, floors: list[float]) -> dict:
+    """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
+    (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``events`` (the
+    counted avalanches at or above the highest floor:
+    tuples ``(sample id, step, γ, S, μ, p)`` with μ and p of the minimum each starts from, by
+    decreasing S), and ``mu``, ``step`` of those events and ``mu_rest``, ``step_rest`` of every
+    other counted avalanche."""
+    done = finished(ds, "jamming", n)
+    if not done.any():
+        raise ValueError(f"no finished sample at N = {n}")
+    ids = np.asarray(ds.sample.values)[done]
+    ej, counted = counted_steps(ds, "jamming", n)
+    sizes = -ej
+    gamma = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[done]
+    pressure = np.asarray(ds.pressure.sel(phi="jamming", N=n).values)[done]
+    mu = intensive_stress(ds, "jamming", n) / pressure
+    counts = {f: per_sample_counts(sizes, counted, f) for f in floors}
+    split = {f: halves(sizes, counted, f) for f in floors}
+    big = counted & (sizes >= max(floors))
+    rest = counted & ~big
+    i, k = np.nonzero(big)  # step k -> k + 1 of the trace (row 0 has no step)
+    events = sorted(((int(ids[a]), int(b) + 1, float(gamma[a, b + 1]), float(sizes[a, b]),
+                      float(mu[a, b]), float(pressure[a, b])) for a, b in zip(i, k, strict=True)),
+                    key=lambda e: -e[3])
+    ir, kr = np.nonzero(rest)
+    return {"samples": ids, "counts": counts, "halves": split, "events": events,
+            "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
+
+
+def mann_whitney(a: np.ndarray, b: np.ndarray) -> float:
+    """Two-sided Mann–Whitney p-value of ``a`` against ``b`` (NaN if either is empty)."""
+    if len(a) == 0 or len(b) == 0:
+        return float("nan")
+    return float(stats.mannwhitneyu(a, b, alternative="two-sided").pvalue)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+")
+    ap.add_argument("--n", type=int, nargs="+", default=[500],
+                    help="N of the runs: one for all, or one per run")
+    ap.add_argument("--above", type=float, nargs="+", default=[1e-7],
+                    help="floors of S (ε); the events of the highest are listed")
+    ap.add_argument("--trials", type=int, default=99999,
+                    help="multinomial deals for the exact dispersion p-value")
+    ap.add_argument("--top", type=int, default=2, help="samples in the top share")
+    ap.add_argument("--seed", type=int, default=0)
+    a = ap.parse_args()
+    if len(a.n) not in (1, len(a.runs)):
+        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    if not all(x > 0 for x in a.above):
+        ap.error("--above floors must be > 0")
+    if a.trials < 0 or a.top < 1:
+        ap.error("--trials must be >= 0 and --top >= 1")
+    for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
+        t = run_tail(open_run(run), n, a.above)
+        m = len(t["samples"])
+        print(f"\n{run} (N = {n}): {m} finished samples\n")
+        print(f"| S ≥ (ε) | events | per sample | variance | dispersion index | χ² p | exact p "
+              f"| share of top {a.top} | 1st / 2nd half of γ (p) |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for x in sorted(a.above):
+            d = dispersion(t["counts"][x], a.trials, a.seed)
+            print(f"| {x:.0e} | {d['total']} | {d['mean']:.2f} | {d['variance']:.2f} | "
+                  f"{d['index']:.2f} | {d['p_chi2']:.3g} | {d['p_exact']:.3g} | "
+                  f"{top_share(t['counts'][x], a.top):.2f} | {t['halves'][x][0]} / "
+                  f"{t['halves'][x][1]} ({t['halves'][x][2]:.2g}) |")
+        top = max(a.above)
+        print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
+              + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))
+                          for j, s in enumerate(t["samples"])
+                          if any(t["counts"][x][j] for x in a.above)))
+        print(f"\nevents ≥ {top:.0e} ε: sample, step, γ, S (ε), μ and p before")
+        for e in t["events"]:
+            print(f"  {e[0]:3d} {e[1]:5d} {e[2]:.5f} {e[3]:.3e} {e[4]:.4f} {e[5]:.3e}")
+        print(f"against the other {len(t['mu_rest'])} counted avalanches: Mann–Whitney p "
+              f"μ {mann_whitney(t['mu'], t['mu_rest']):.3g}, step "
+              f"{mann_whitney(t['step'], t['step_rest']):.3g}; median μ "
+              f"{np.median(t['mu']) if len(t['mu']) else float('nan'):.4f} against "
+              f"{np.median(t['mu_rest']) if len(t['mu_rest']) else float('nan'):.4f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,102 @@
+"""``scripts/tail_events.py``: per-sample counts, dispersion, halves and the event list of a small
+fixed-pressure run recomputed from the sample files (h5py), the statistics by hand and exact
+enumeration, and the refusals."""
+
+from __future__ import annotations
+
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from scipy import stats
+from tests.script_helpers import script_module
+
+
+@pytest.fixture(scope="module")
+def te():
+    return script_module("tail_events")
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    from jamlab.runs import Execution, Study, run_study
+
+    out = tmp_path_factory.mktemp("te") / "p"
+    study = Study(phi=["jamming"], n=[16], samples=3, dgamma=1e-3, gamma_max=3e-2, seed=4,
+                  pressure=1e-3)
+    run_study(study, out, Execution(workers=0))
+    return out
+
+
+def test_dispersion_by_hand_and_by_enumeration(te):
+    d = te.dispersion(np.array([2, 0]), trials=99999, seed=1)
+    assert (d["total"], d["mean"], d["variance"], d["index"], d["chi2"]) == (2, 1.0, 2.0, 2.0, 2.0)
+    assert d["p_chi2"] == pytest.approx(stats.chi2.sf(2.0, 1))
+    # two events in two equal cells: (2,0), (1,1), (0,2) with 1/4, 1/2, 1/4; Σc² ≥ 4 has 1/2
+    assert d["p_exact"] == pytest.approx(0.5, abs=0.01)
+    # three events in three cells, all in one: 3 · (1/3)³ = 1/9
+    assert te.dispersion(np.array([3, 0, 0]), 99999)["p_exact"] == pytest.approx(1 / 9, abs=0.005)
+    # evenly spread: every deal has Σc² ≥ 3
+    assert te.dispersion(np.array([1, 1, 1]), 999)["p_exact"] == 1.0
+    assert np.isnan(te.dispersion(np.array([0, 0, 0]), 10)["index"])
+    assert np.isnan(te.dispersion(np.array([4, 1]), 0)["p_exact"])
+
+
+def test_top_share_and_halves_by_hand(te):
+    assert te.top_share(np.array([0, 3, 0, 3, 1, 1, 1]), 2) == pytest.approx(6 / 9)
+    assert np.isnan(te.top_share(np.zeros(3), 2))
+    sizes = np.array([[1.0, 0.0, 5.0, 5.0, 5.0], [5.0, 0.0, 0.0, 5.0, 0.0]])
+    counted = sizes > 0
+    # first half: columns 0–1 (5 // 2 = 2): 1 event ≥ 2; second half: 4
+    first, second, p = te.halves(sizes, counted, 2.0)
+    assert (first, second) == (1, 4)
+    assert p == pytest.approx(2 * (1 + 5) / 32)  # two-sided binomial, n = 5
+    assert np.isnan(te.halves(sizes, counted, 10.0)[2])
+
+
+def direct(run, floor):
+    """Per-sample counts and the events ≥ floor from the sample files: S = −ΔE of plastic steps
+    with ΔE < 0 between two jammed minima; μ = σ_xy/p with σ_xy = Σ/L³ at the step's start."""
+    counts, events = [], []
+    for f in sorted(run.glob("samples/*/*/sample-*.h5")):
+        with h5py.File(f) as h:
+            t = {k: h[f"trace/{k}"][:] for k in ("shear_stress", "pressure", "gamma",
+                                                  "energy_jump", "plastic", "jammed")}
+            length, index = float(h.attrs["box_length"]), int(h.attrs["index"])
+        s = -t["energy_jump"][1:]
+        hit = t["plastic"][1:] & t["jammed"][:-1] & t["jammed"][1:] & (s > 0) & (s >= floor)
+        counts.append(int(hit.sum()))
+        mu = t["shear_stress"] / length**3 / t["pressure"]
+        events += [(index, k + 1, t["gamma"][k + 1], s[k], mu[k], t["pressure"][k])
+                   for k in np.flatnonzero(hit)]
+    return counts, sorted(events, key=lambda e: -e[3])
+
+
+def test_run_tail_equals_the_sample_files(te, small_run):
+    from jamlab.runs import open_run
+
+    t = te.run_tail(open_run(small_run), 16, [1e-300, 1e-6])
+    for floor in (1e-300, 1e-6):
+        counts, _ = direct(small_run, floor)
+        assert t["counts"][floor].tolist() == counts
+    counts, events = direct(small_run, 1e-6)
+    assert sum(counts) > 0  # the run has events to list
+    assert len(t["events"]) == len(events)
+    for got, want in zip(t["events"], events, strict=True):
+        assert got[:2] == want[:2]
+        np.testing.assert_allclose(got[2:], want[2:], rtol=1e-12)
+    assert len(t["mu"]) + len(t["mu_rest"]) == sum(direct(small_run, 1e-300)[0])
+
+
+@pytest.mark.parametrize("argv", [
+    ["a", "b", "--n", "250", "500", "1000"],
+    ["a", "--above", "0"],
+    ["a", "--trials", "-1"],
+    ["a", "--top", "0"],
+])
+def test_bad_arguments_exit_2(te, monkeypatch, argv):
+    monkeypatch.setattr(sys, "argv", ["tail_events.py", *argv])
+    with pytest.raises(SystemExit) as e:
+        te.main()
+    assert e.value.code == 2
