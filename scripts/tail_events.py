@@ -14,7 +14,10 @@ run directory (φ label ``jamming`` at ``--n``, finished samples) and each floor
   index-of-dispersion χ² test (also printed, ``(m − 1) s²/c̄`` on ``m − 1`` dof);
 - the share of the events in the ``--top`` samples that have most;
 - the events in the first and the second half of the strain window, with the two-sided binomial
-  p-value of that split against equal halves.
+  p-value of that split against equal halves;
+- pairs of such events ``--lags`` steps apart in one sample, against the number expected of
+  independent events placed uniformly among a sample's steps (``Σ c_i (c_i − 1)(T − ℓ)/(T (T −
+  1))`` for lag ``ℓ``, ``T`` steps): avalanches that come in bursts show at the lags they span.
 
 For the highest floor each event is listed: sample, step, strain γ, ``S``, the shear-stress
 ratio ``μ = σ_xy/p`` and the pressure of the minimum it starts from (the events' share
@@ -36,6 +39,9 @@ from scipy import stats
 
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
 from jamlab.runs import open_run
+
+LAGS = (1, 2, 3, 5, 10)
+"""The lags (in steps) of the pair counts."""
 
 
 def per_sample_counts(sizes: np.ndarray, counted: np.ndarray, floor: float) -> np.ndarray:
@@ -89,9 +95,21 @@ def halves(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[int, i
     return first, second, float(stats.binomtest(first, first + second, 0.5).pvalue)
 
 
+def lag_pairs(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: int) -> tuple[int, float]:
+    """Pairs of counted avalanches with ``S ≥ floor`` exactly ``lag`` steps apart in one row of
+    ``(samples, steps)`` arrays, and the number expected with each row's events placed uniformly
+    among its ``T`` steps, ``Σ c (c − 1)(T − lag)/(T (T − 1))``."""
+    hit = counted & (sizes >= floor)
+    steps = hit.shape[1]
+    c = hit.sum(axis=1).astype(float)
+    observed = int((hit[:, lag:] & hit[:, :-lag]).sum())
+    return observed, float(np.sum(c * (c - 1)) * (steps - lag) / (steps * (steps - 1)))
+
+
 def run_tail(ds, n: int, floors: list[float]) -> dict:
     """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
-    (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``events`` (the
+    (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``lags``
+    (``{(floor, lag):`` :func:`lag_pairs` ``}`` for the lags of :data:`LAGS`), ``events`` (the
     counted avalanches at or above the highest floor:
     tuples ``(sample id, step, γ, S, μ, p)`` with μ and p of the minimum each starts from, by
     decreasing S), and ``mu``, ``step`` of those events and ``mu_rest``, ``step_rest`` of every
@@ -107,6 +125,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     mu = intensive_stress(ds, "jamming", n) / pressure
     counts = {f: per_sample_counts(sizes, counted, f) for f in floors}
     split = {f: halves(sizes, counted, f) for f in floors}
+    lags = {(f, lag): lag_pairs(sizes, counted, f, lag) for f in floors for lag in LAGS}
     big = counted & (sizes >= max(floors))
     rest = counted & ~big
     i, k = np.nonzero(big)  # step k -> k + 1 of the trace (row 0 has no step)
@@ -114,7 +133,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
                       float(mu[a, b]), float(pressure[a, b])) for a, b in zip(i, k, strict=True)),
                     key=lambda e: -e[3])
     ir, kr = np.nonzero(rest)
-    return {"samples": ids, "counts": counts, "halves": split, "events": events,
+    return {"samples": ids, "counts": counts, "halves": split, "lags": lags, "events": events,
             "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
 
 
@@ -156,6 +175,11 @@ def main() -> None:
                   f"{d['index']:.2f} | {d['p_chi2']:.3g} | {d['p_exact']:.3g} | "
                   f"{top_share(t['counts'][x], a.top):.2f} | {t['halves'][x][0]} / "
                   f"{t['halves'][x][1]} ({t['halves'][x][2]:.2g}) |")
+        print("\npairs of avalanches ℓ steps apart, observed / expected of independent ones:")
+        for x in sorted(a.above):
+            print(f"  S ≥ {x:.0e}: " + ", ".join(
+                f"ℓ = {lag}: {t['lags'][x, lag][0]} / {t['lags'][x, lag][1]:.1f}"
+                for lag in LAGS))
         top = max(a.above)
         print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
               + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))

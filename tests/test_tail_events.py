@@ -55,6 +55,23 @@ def test_top_share_and_halves_by_hand(te):
     assert np.isnan(te.halves(sizes, counted, 10.0)[2])
 
 
+def test_lag_pairs_by_hand_and_by_placement(te):
+    sizes = np.array([[5.0, 5.0, 0.0, 5.0, 0.0, 0.0], [0.0, 5.0, 0.0, 0.0, 0.0, 0.0]])
+    counted = sizes > 0
+    # row 0 has events at 0, 1, 3: one pair at lag 1 (0–1), one at lag 2 (1–3), one at lag 3
+    # (0–3); expected: 3 · 2 · (6 − ℓ)/(6 · 5) (row 1 has one event: no pair)
+    for lag, observed in ((1, 1), (2, 1), (3, 1), (4, 0)):
+        assert te.lag_pairs(sizes, counted, 1.0, lag) == (observed, pytest.approx(
+            6 * (6 - lag) / 30))
+    # the expectation is that of uniform placement: 3 events among 6 steps, all 20 placements
+    from itertools import combinations
+
+    for lag in (1, 2):
+        mean = np.mean([sum(1 for a in pl for b in pl if b - a == lag)
+                        for pl in combinations(range(6), 3)])
+        assert te.lag_pairs(sizes[:1], counted[:1], 1.0, lag)[1] == pytest.approx(mean)
+
+
 def direct(run, floor):
     """Per-sample counts and the events ≥ floor from the sample files: S = −ΔE of plastic steps
     with ΔE < 0 between two jammed minima; μ = σ_xy/p with σ_xy = Σ/L³ at the step's start."""
