@@ -10,7 +10,9 @@ fraction, ``⟨S⟩``, and the two-sample KS test on the sizes (``scipy.stats.ks
 and those at or above ``--s-min``; with ``--fit-at`` τ with an exponential cut-off at fixed
 ``S_min`` in each run; the avalanches the two runs share (at the same step of a sample, and of
 the same size: do the two follow the same minima?); and the cost of the common samples in each
-run (FIRE iterations summed over the trace, machine-independent; the recorded CPU seconds).
+run (FIRE iterations summed over the trace, machine-independent; the recorded CPU seconds). The
+studies must agree but for the sample count, the checkpoint interval and the protocol choices of
+``PROTOCOL`` (the box-side rule ``volume_guess``), which are printed.
 
     PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
         [--fit-at 1.19e-11 1.11e-10]
@@ -31,6 +33,7 @@ from jamlab.analysis import fit_cutoff_power_law
 from jamlab.analysis.avalanches import classify_steps, exclusions
 
 NOT_PHYSICS = ("samples", "checkpoint_every")
+PROTOCOL = ("volume_guess",)  # a protocol choice these comparisons are made for: printed
 
 
 def study_differences(ap: argparse.ArgumentParser, runs: tuple[Path, Path],
@@ -104,9 +107,16 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     # the sample count and the checkpoint interval do not change a sample (a resumed sample
     # equals the uninterrupted one bit for bit)
-    _, differ = study_differences(ap, (args.a, args.b), NOT_PHYSICS)
+    _, differ = study_differences(ap, (args.a, args.b), NOT_PHYSICS + PROTOCOL)
     if differ:
         ap.error(f"the two runs are of different studies ({', '.join(differ)})")
+    from jamlab.runs import RunDir
+
+    for key in PROTOCOL:  # as each run was made (RunDir.study: a manifest from before a choice
+        # existed reads as the rule of its time)
+        values = [getattr(RunDir(r).study(), key) for r in (args.a, args.b)]
+        if values[0] != values[1]:
+            print(f"{key}: {values[0]!r} (a), {values[1]!r} (b)")
     sa, sb = samples(args.a), samples(args.b)
     common = sorted(set(sa) & set(sb))
     if not common:

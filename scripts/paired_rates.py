@@ -1,6 +1,7 @@
-"""Two runs of the same packings at different strain steps, compared packing by packing.
+"""Two runs of the same packings at different strain steps or box-side rules, packing by packing.
 
-Two run directories of one study that differ only in ``dgamma`` (the sample seeds, and so the
+Two run directories of one study that differ only in ``dgamma`` or in the fixed-pressure box-side
+rule ``volume_guess`` (the sample seeds, and so the
 prepared packings, depend on the sample's index only: ``jamlab.runs.seeds``) shear the same packings
 over the same strain window. For each packing in both (finished samples at the ``jamming`` label and
 ``--n``) and each floor of ``--above``, the avalanches counted by the report's rule
@@ -26,12 +27,12 @@ import numpy as np
 from scipy import stats
 
 from jamlab.reproduce.ensembles import avalanche_set, finished
-from jamlab.runs import open_run
+from jamlab.runs import RunDir, open_run
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from compare_runs import study_differences  # noqa: E402  (scripts run as scripts)
+from compare_runs import PROTOCOL, study_differences  # noqa: E402  (scripts run as scripts)
 
-MAY_DIFFER = ("dgamma", "samples", "checkpoint_every")
+MAY_DIFFER = ("dgamma", "samples", "checkpoint_every", *PROTOCOL)
 
 
 def per_packing(ds, n: int, floors: list[float]) -> dict:
@@ -76,14 +77,17 @@ def main() -> None:
         ap.error("--above floors must be > 0")
     study, differ = study_differences(ap, (args.a, args.b), MAY_DIFFER)
     if differ:
-        ap.error(f"the two runs differ in more than the strain step ({', '.join(differ)})")
+        ap.error(f"the two runs differ in more than the strain step and the box-side rule "
+                 f"({', '.join(differ)})")
+    rule = [RunDir(r).study().volume_guess for r in (args.a, args.b)]
     a = per_packing(open_run(args.a), args.n, args.above)
     b = per_packing(open_run(args.b), args.n, args.above)
     common = sorted(set(a) & set(b))
     if len(common) < 2:
         ap.error(f"{len(common)} packing(s) in both runs: need 2 or more")
-    print(f"{len(common)} packings in both; a = {args.a} (δγ = {study[0]['dgamma']:g}), "
-          f"b = {args.b} (δγ = {study[1]['dgamma']:g}); per unit strain, mean over the "
+    print(f"{len(common)} packings in both; a = {args.a} (δγ = {study[0]['dgamma']:g}, "
+          f"volume_guess {rule[0]}), b = {args.b} (δγ = {study[1]['dgamma']:g}, volume_guess "
+          f"{rule[1]}); per unit strain, mean over the "
           "packings; b − a paired, ± its standard error; Wilcoxon signed-rank p\n")
     print("| S ≥ (ε) | avalanches a | b | b − a | p | ΣS a (ε) | b | b − a | p |")
     print("|---|---|---|---|---|---|---|---|---|")

@@ -90,6 +90,17 @@ def test_checkpoint_interval_is_not_a_different_study(tmp_path, capsys):
     assert "| N=8/sample-00000 | [] | [] | 2 of 2 | None | None |" in capsys.readouterr().out
 
 
+def test_the_box_side_rule_is_compared_not_refused(tmp_path, capsys):
+    # comparing the rule before (a manifest without volume_guess: "always") with the new one is
+    # what the script is for: the rule of each run is printed
+    mod = script_module("compare_runs")
+    t = trace([-1e-9], [True], [True, True])
+    a = make_run(tmp_path / "a", [t])
+    b = make_run(tmp_path / "b", [t], study={**STUDY, "volume_guess": "elastic"})
+    assert mod.main([str(a), str(b)]) == 0
+    assert "volume_guess: 'always' (a), 'elastic' (b)" in capsys.readouterr().out
+
+
 def test_cost_per_sample(tmp_path, capsys):
     mod = script_module("compare_runs")
     t0 = {**trace([-1e-9], [True], [True, True]), "iterations": np.array([0, 300])}

@@ -83,3 +83,4 @@ def test_prints_a_row_per_floor(two_runs, monkeypatch, capsys):
     pr.main()
     out = capsys.readouterr().out
     assert "3 packings in both" in out and "| 1e-09 |" in out and "| 1e-08 |" in out
+    assert "volume_guess elastic), b" in out
