@@ -11,6 +11,19 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 def rng() -> np.random.Generator:
     return np.random.default_rng(20170214)
 
+
+@pytest.fixture(scope="session")
+def small_pressure_run(tmp_path_factory):
+    """A small fixed-pressure run directory (N = 16, p = 1e-3, 3 samples of 30 steps δγ = 1e-3),
+    read by the tests of the scripts that analyse finished runs."""
+    from jamlab.runs import Execution, Study, run_study
+
+    out = tmp_path_factory.mktemp("small-pressure-run") / "p"
+    study = Study(phi=["jamming"], n=[16], samples=3, dgamma=1e-3, gamma_max=3e-2, seed=4,
+                  pressure=1e-3)
+    run_study(study, out, Execution(workers=0))
+    return out
+
 # Property tests: deterministic in CI (a failure there must be reproducible), random locally.
 try:
     from hypothesis import settings

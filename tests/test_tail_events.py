@@ -19,14 +19,8 @@ def te():
 
 
 @pytest.fixture(scope="module")
-def small_run(tmp_path_factory):
-    from jamlab.runs import Execution, Study, run_study
-
-    out = tmp_path_factory.mktemp("te") / "p"
-    study = Study(phi=["jamming"], n=[16], samples=3, dgamma=1e-3, gamma_max=3e-2, seed=4,
-                  pressure=1e-3)
-    run_study(study, out, Execution(workers=0))
-    return out
+def small_run(small_pressure_run):
+    return small_pressure_run
 
 
 def test_dispersion_by_hand_and_by_enumeration(te):
