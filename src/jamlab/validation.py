@@ -27,6 +27,8 @@ __all__ = [
     "STRAIN_RESOLUTION",
     "FLOPPY",
     "VOLUME_GUESSES",
+    "DEFAULT_VOLUME_GUESS",
+    "VOLUME_GUESS_BEFORE",
     "floppy",
     "volume_guess",
     "integer",
@@ -62,6 +64,12 @@ VOLUME_GUESSES = ("elastic", "always", "never")
 extrapolation of the last two minima when the last step was not a candidate jump, else the
 current side; ``"always"`` — the extrapolation after every step (the rule of the runs and traces
 made before the choice existed); ``"never"`` — the current side."""
+
+DEFAULT_VOLUME_GUESS = "elastic"
+"""The rule of a fixed-pressure run that does not name one."""
+
+VOLUME_GUESS_BEFORE = "always"
+"""The rule of a fixed-pressure run directory or trace that records none (made before it)."""
 
 
 def floppy(value: Any, name: str = "floppy") -> str:

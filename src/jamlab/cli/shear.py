@@ -58,7 +58,7 @@ def check_resume(
 
 def check_resume_pressure(
     previous: Any, packing: Any, *, dgamma: float, ftol: float, pressure: float, ptol: float,
-    minimizer: str = "linear", confirm: str = "located", volume_guess: str = "elastic",
+    minimizer: str = "linear", confirm: str = "located", volume_guess: str | None = None,
 ) -> None:
     """:func:`check_resume` for a fixed-pressure run (``--pressure``): the same ``dgamma``,
     ``ftol``, target pressure, ``ptol`` and minimiser (``linear``: the Newton inner minimiser,
@@ -67,7 +67,8 @@ def check_resume_pressure(
     ``volume_guess`` (without the attribute: ``always``), and an
     input with the same N, d, seed, strain and box side (attribute ``input_box_length``: row 0 is
     already at the target pressure)."""
-    from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, minimizer_attribute
+    from jamlab import validation
+    from jamlab.spheres.pressure_shear import FROM_AQS_OPTION, RULES_BEFORE, minimizer_attribute
 
     attrs = previous.attrs
     if attrs.get("protocol") != "fixed-pressure":
@@ -77,8 +78,9 @@ def check_resume_pressure(
                              ("minimizer", "minimizer",
                               minimizer_attribute(FROM_AQS_OPTION[minimizer])),
                              ("confirm", "confirm", confirm),
-                             ("volume-guess", "volume_guess", volume_guess)):
-        recorded = attrs.get(key, {"confirm": "chain", "volume_guess": "always"}.get(key))
+                             ("volume-guess", "volume_guess",
+                              volume_guess or validation.DEFAULT_VOLUME_GUESS)):
+        recorded = attrs.get(key, RULES_BEFORE.get(key))
         if recorded != given:
             raise ValueError(f"--{name} {given} differs from the run being resumed ({recorded})")
     recorded = (attrs.get("N"), attrs.get("dim"), attrs.get("seed"), float(previous.gamma[0]),
@@ -257,7 +259,7 @@ def register(app: typer.Typer) -> None:
             raise ValueError("--volume-guess applies to fixed-pressure runs: give --pressure too")
         if pressure is not None:
             volume_guess = validation.volume_guess(
-                "elastic" if volume_guess is None else volume_guess, "--volume-guess")
+                volume_guess or validation.DEFAULT_VOLUME_GUESS, "--volume-guess")
         if save_every is not None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():

@@ -273,7 +273,7 @@ class RunDir:
         try:
             recorded = dict(manifest["study"])
             if recorded.get("pressure") is not None:
-                recorded.setdefault("volume_guess", "always")
+                recorded.setdefault("volume_guess", validation.VOLUME_GUESS_BEFORE)
             return Study.from_dict(recorded)
         except (KeyError, TypeError, ValueError) as exc:
             raise RunError(f"invalid study in {self.manifest_path}: {exc}") from None

@@ -188,7 +188,8 @@ class Study:
         if self.pressure is None and self.volume_guess is not None:
             raise ValueError("volume_guess applies to fixed-pressure runs only: give pressure too")
         if self.pressure is not None:
-            guess = "elastic" if self.volume_guess is None else self.volume_guess
+            guess = (validation.DEFAULT_VOLUME_GUESS if self.volume_guess is None
+                     else self.volume_guess)
             object.__setattr__(self, "volume_guess", validation.volume_guess(guess))
         object.__setattr__(
             self, "checkpoint_every", _int("checkpoint_every", self.checkpoint_every, minimum=0)

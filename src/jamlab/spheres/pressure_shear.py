@@ -93,7 +93,7 @@ from jamlab.spheres.rigidity import is_jammed
 from jamlab.spheres.trace import Trace, jump_columns
 
 __all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PLASTIC_FLOOR", "PRESSURE_COLUMNS",
-           "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
+           "RULES_BEFORE", "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
 
 PLASTIC_FLOOR: float = 0.1  # shear_at_pressure's default: the flag's threshold is >= this × δγ²
 
@@ -127,6 +127,9 @@ jump by :func:`~jamlab.spheres.confirm.jump_located`, without a second whole cha
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
 NewtonRelaxer`, FIRE where Newton does not apply) and ``fire`` (plain FIRE every time)."""
+
+RULES_BEFORE: dict[str, str] = {"confirm": "chain", "volume_guess": validation.VOLUME_GUESS_BEFORE}
+"""The rules a fixed-pressure trace without these attributes was made by (resume checks)."""
 
 FROM_AQS_OPTION: dict[str, str] = {"linear": "newton", "fire": "fire"}
 """The inner minimiser for each ``minimizer`` option of :func:`jamlab.spheres.aqs.shear` (and
@@ -258,7 +261,7 @@ def shear_at_pressure(
     confirm: str = "located",
     defer_confirmation: bool = True,
     confirm_below: float = CONFIRM_BELOW,
-    volume_guess: str = "elastic",
+    volume_guess: str = validation.DEFAULT_VOLUME_GUESS,
     minimizer: str = "newton",
     progress: Callable[[int, int], None] | None = None,
     observer: Callable[[int, Packing], None] | None = None,
@@ -325,12 +328,10 @@ def shear_at_pressure(
         raise ValueError(f"confirm_below must be >= 1 (math.inf: confirm every candidate), "
                          f"got confirm_below={confirm_below!r}")
     validation.volume_guess(volume_guess)
-    # a trace without the attribute was made by the rule of its time
-    for name, value, before in (("confirm", confirm, "chain"),
-                                ("volume_guess", volume_guess, "always")):
-        if previous is not None and previous.attrs.get(name, before) != value:
-            raise ValueError(f"{name}={value!r} differs from the run being resumed "
-                             f"({previous.attrs.get(name, before)!r})")
+    for name, value in (("confirm", confirm), ("volume_guess", volume_guess)):
+        was = None if previous is None else previous.attrs.get(name, RULES_BEFORE[name])
+        if was is not None and was != value:
+            raise ValueError(f"{name}={value!r} differs from the run being resumed ({was!r})")
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {', '.join(MINIMIZERS)}, got {minimizer!r}")
     relaxer = NewtonRelaxer() if minimizer == "newton" else None

@@ -216,7 +216,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
             confirm_below,
             keep_avalanches,
             avalanche_threshold,
-            "elastic" if volume_guess is None else volume_guess,
+            validation.DEFAULT_VOLUME_GUESS if volume_guess is None else volume_guess,
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
