@@ -36,7 +36,8 @@ def test_run_status_and_toml(tmp_path):
     assert len(sample_files(tmp_path / "a")) == 8
     r = jamlab("status", tmp_path / "a")
     assert r.returncode == 0
-    rows = [line for line in r.stdout.splitlines() if "jamming" in line or "0.8" in line]
+    rows = [line for line in r.stdout.splitlines()
+            if line.startswith("│") and ("jamming" in line or "0.8" in line)]  # fmt: skip
     assert len(rows) == 4 and all(" 2 " in row for row in rows)
     (tmp_path / "s.toml").write_text(
         'phi = ["jamming", 0.8]\nn = [8, 12]\nsamples = 2\ndgamma = 1e-3\ngamma_max = 4e-3\n'

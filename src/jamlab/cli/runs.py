@@ -99,6 +99,29 @@ def _progress(quiet: bool):  # -> factory for run_study(progress=...)
     return factory
 
 
+def cost_lines(costs: list[Any]) -> list[str]:
+    """`jamlab status`'s cost lines, one per (φ, N) cell (:func:`jamlab.runs.cost.cell_costs`):
+    the mean CPU time of a finished sample and the projection of what is left."""
+    lines = []
+    for c in costs:
+        head = f"cpu phi={c.phi} N={c.n}: "
+        if c.mean is None:
+            timed = "no finished sample records its CPU time"
+        else:
+            timed = (
+                f"{c.mean:,.0f} s per finished sample ({len(c.seconds)} timed of {c.done}; "
+                f"{min(c.seconds):,.0f}–{max(c.seconds):,.0f} s)"
+            )
+        if c.to_do == 0:
+            left = "nothing left"
+        elif c.left is None:
+            left = f"{c.to_do:.1f} samples' worth left, cost unknown"
+        else:
+            left = f"left ≈ {c.left / 3600:.2f} CPU-h ({c.to_do:.1f} samples' worth)"
+        lines.append(head + timed + "; " + left)
+    return lines
+
+
 def register(app: typer.Typer) -> None:
     """Add ``run`` and ``status``."""
 
@@ -280,6 +303,7 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         from jamlab.runs import RunDir
+        from jamlab.runs.cost import cell_costs
 
         run = RunDir(run_dir)
         study = run.study()
@@ -295,6 +319,8 @@ def register(app: typer.Typer) -> None:
         table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
         console = Console()
         console.print(table)
+        for line in cost_lines(cell_costs(run, study)):
+            console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
             steps = round(study.gamma_max / study.dgamma)
             for key in study.keys():
