@@ -307,7 +307,8 @@ def register(app: typer.Typer) -> None:
 
         run = RunDir(run_dir)
         study = run.study()
-        counts = run.summary(study)
+        states = run.scan(study)  # one pass over the sample files for the table and the costs
+        counts = run.summary(study, states)
         table = Table(title=f"{run_dir}  (seed {study.seed}, {study.samples} samples per cell)")
         for column in ("phi", "N", "done", "failed", "corrupt", "pending"):
             table.add_column(column, justify="left" if column == "phi" else "right")
@@ -319,19 +320,19 @@ def register(app: typer.Typer) -> None:
         table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
         console = Console()
         console.print(table)
-        for line in cost_lines(cell_costs(run, study)):
+        for line in cost_lines(cell_costs(run, study, states)):
             console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
-            steps = round(study.gamma_max / study.dgamma)
             for key in study.keys():
-                if run.state(key, study) == "done" or (step := run.checkpoint_step(key)) is None:
+                if states[key] == "done" or (step := run.checkpoint_step(key)) is None:
                     continue
-                where = "unreadable, will be redone" if step < 0 else f"at step {step} of {steps}"
+                where = ("unreadable, will be redone" if step < 0
+                         else f"at step {step} of {study.n_steps}")
                 console.print(f"checkpoint phi={key.phi_label} N={key.n} sample={key.index}: "
                               f"{where}", markup=False)
         if failures:
             for key in study.keys():
-                if run.state(key, study) == "failed":
+                if states[key] == "failed":
                     info = run.read_failure(key)
                     console.print(
                         f"phi={key.phi_label} N={key.n} sample={key.index}: "

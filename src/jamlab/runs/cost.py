@@ -12,6 +12,7 @@ docs/reproduce.md).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import h5py
@@ -61,11 +62,13 @@ def sample_cpu_seconds(run: RunDir, key: SampleKey) -> float | None:
     return float(value)
 
 
-def cell_costs(run: RunDir, study: Study) -> list[CellCost]:
-    """One :class:`CellCost` per ``(φ, N)`` of ``study``, in the study's order."""
-    steps = round(study.gamma_max / study.dgamma)
+def cell_costs(
+    run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None
+) -> list[CellCost]:
+    """One :class:`CellCost` per ``(φ, N)`` of ``study``, in the study's order; ``states``: a
+    :meth:`RunDir.scan` already made."""
     cells: dict[tuple[str, int], dict] = {}
-    for key, state in run.scan(study).items():
+    for key, state in (run.scan(study) if states is None else states).items():
         cell = cells.setdefault((key.phi_label, key.n), {"seconds": [], "done": 0, "to_do": 0.0})
         if state == "done":
             cell["done"] += 1
@@ -73,7 +76,7 @@ def cell_costs(run: RunDir, study: Study) -> list[CellCost]:
                 cell["seconds"].append(seconds)
             continue
         saved = run.checkpoint_step(key) if study.checkpoint_every else None
-        cell["to_do"] += 1.0 - (max(saved, 0) / steps if saved is not None else 0.0)
+        cell["to_do"] += 1.0 - (max(saved, 0) / study.n_steps if saved is not None else 0.0)
     return [
         CellCost(phi=phi, n=n, seconds=tuple(c["seconds"]), done=c["done"], to_do=c["to_do"])
         for (phi, n), c in cells.items()

@@ -462,11 +462,13 @@ class RunDir:
     def read_failure(self, key: SampleKey) -> dict[str, Any]:
         return json.loads(self.failure_path(key).read_text())
 
-    def summary(self, study: Study) -> dict[tuple[str, int], dict[str, int]]:
-        """Counts of each state per ``(φ label, N)``."""
+    def summary(
+        self, study: Study, states: Mapping[SampleKey, str] | None = None
+    ) -> dict[tuple[str, int], dict[str, int]]:
+        """Counts of each state per ``(φ label, N)``; ``states``: a :meth:`scan` already made."""
         counts: dict[tuple[str, int], dict[str, int]] = {
             (phi_label(phi), n): dict.fromkeys(STATES, 0) for phi in study.phi for n in study.n
         }
-        for key, state in self.scan(study).items():
+        for key, state in (self.scan(study) if states is None else states).items():
             counts[(key.phi_label, key.n)][state] += 1
         return counts

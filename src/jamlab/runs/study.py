@@ -226,6 +226,11 @@ class Study:
     def n_samples(self) -> int:
         return len(self.phi) * len(self.n) * self.samples
 
+    @property
+    def n_steps(self) -> int:
+        """AQS steps per sample, ``round(γ_max / δγ)``."""
+        return round(self.gamma_max / self.dgamma)
+
     # -- (de)serialisation ------------------------------------------------------------------
 
     def to_dict(self) -> dict[str, Any]:

@@ -52,7 +52,7 @@ def toy_task(study: Study, key: SampleKey, seed: int) -> SampleResult:
     if delay > 0:
         time.sleep(delay)
     rng = np.random.default_rng(seed)
-    steps = int(round(study.gamma_max / study.dgamma))
+    steps = study.n_steps
     gamma = study.dgamma * np.arange(steps + 1, dtype=np.float64)
     # N-dependent work so that timing scales like a real sample, and results depend on every draw
     kicks = rng.normal(size=(steps + 1, key.n)).sum(axis=1) / key.n
