@@ -6,7 +6,8 @@ import h5py
 import numpy as np
 
 # attributes that legitimately differ between two computations of the same sample
-VOLATILE_ATTRS = {"seconds", "cpu_seconds"}
+VOLATILE_ATTRS = {"seconds", "cpu_seconds", "provenance"}  # provenance: the host, and
+# one record per invocation (a resumed sample has more)
 
 
 def sample_files(run_dir: Path) -> dict[str, Path]:
@@ -45,3 +46,18 @@ def assert_same_runs(a: Path, b: Path) -> None:
             x, y = np.asarray(attrs_a[k]), np.asarray(attrs_b[k])
             # NaN attributes (e.g. φ_J of a direct preparation) are equal to themselves here
             assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (rel, k)
+
+
+class Stop(Exception):
+    """The interruption of a sample by its ``progress`` hook: the process stops there as a
+    killed worker would (what is on disk is what the saves wrote)."""
+
+
+def stop_after(step):
+    """A ``progress`` hook that raises :class:`Stop` after strain step ``step``."""
+
+    def progress(n, total):
+        if n == step:
+            raise Stop
+
+    return progress

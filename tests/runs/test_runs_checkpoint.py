@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from runs_helpers import Stop, stop_after
 
 from jamlab.runs import Execution, RunDir, Study, run_study, sample_seed
 from jamlab.runs.physics import PREPARED, TIMES, TRACE, prepare_and_shear
@@ -24,18 +25,6 @@ STUDIES = {
     "fixed-pressure": dict(phi=["jamming"], n=[16], samples=1, dgamma=5e-3, gamma_max=0.115,
                            seed=4, pressure=1e-2),
 }
-
-
-class Stop(Exception):
-    """The interruption."""
-
-
-def stop_after(step):
-    def progress(n, total):
-        if n == step:
-            raise Stop
-
-    return progress
 
 
 def same(a: SampleResult, b: SampleResult) -> None:

@@ -13,7 +13,11 @@ the driver names (``RunDir.checkpoint_dir``) and removes once the sample file is
   the run so far and its configuration, saved atomically every ``k`` steps;
 - ``times.json``: the sample's wall and CPU seconds so far at the preparation, at each save and
   at the last step, so that a resumed sample's ``seconds`` and ``cpu_seconds`` cover all its
-  invocations.
+  invocations;
+- ``provenance.json``: one record per invocation (``jamlab.provenance.segment``: the step it
+  resumed from, the host, the machine and libraries), appended as each starts; the sample
+  file's ``provenance`` attribute. A checkpoint from before these records starts its list
+  with ``{"resumed_from": -1, "recorded": false}``: the invocations before are not known.
 
 A later invocation resumes from the last save (``shear(previous=...)``): the result is the one
 an uninterrupted sample of the same study computes, bit for bit (each save is a restart point of
@@ -36,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from jamlab.provenance import segment
 from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleResult
 from jamlab.runs.storage import CHECKPOINT_PREPARED as PREPARED
 from jamlab.runs.storage import CHECKPOINT_TRACE as TRACE
@@ -43,6 +48,9 @@ from jamlab.runs.storage import write_json
 from jamlab.runs.study import SampleKey, Study
 
 TIMES = "times.json"
+PROVENANCE = "provenance.json"
+UNRECORDED = {"resumed_from": -1, "recorded": False}
+"""The first record of a checkpoint written before invocations were recorded."""
 
 
 def scalars(prefix: str, obj: Any) -> dict[str, Any]:
@@ -91,6 +99,10 @@ def prepare_and_shear(
         # the times of the last record not beyond the save resumed from
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
         earlier = tuple(times[str(max(steps))] if steps else times["prepared"])
+    provenance = [segment(resumed_from)]
+    if folder is not None:
+        provenance = _invocations(folder, fresh=saved is None) + provenance
+        write_json(folder / PROVENANCE, provenance)
     params = None if study.pressure is not None else aqs.AQSParameters(floppy=study.floppy)
     options = {"ftol": study.force_tol, "pressure": study.pressure, "params": params,
                "volume_guess": study.volume_guess}
@@ -147,8 +159,23 @@ def prepare_and_shear(
         arrays["diameters"] = np.asarray(config.diameters)
     return SampleResult(
         traces, attrs, arrays, resumed_from=resumed_from, earlier_seconds=earlier[0],
-        earlier_cpu_seconds=earlier[1],
+        earlier_cpu_seconds=earlier[1], provenance=provenance,
     )
+
+
+def _invocations(folder: Path, fresh: bool) -> list[dict[str, Any]]:
+    """The records of the earlier invocations of a checkpointed sample: none when this one
+    starts afresh, else those of ``provenance.json`` (:data:`UNRECORDED` when it is missing or
+    unreadable: a checkpoint from before the records)."""
+    if fresh:
+        return []
+    try:
+        records = json.loads((folder / PROVENANCE).read_text())
+    except (OSError, ValueError):
+        return [dict(UNRECORDED)]
+    if not isinstance(records, list) or not all(isinstance(r, dict) for r in records):
+        return [dict(UNRECORDED)]
+    return records
 
 
 def failed_steps(trace, ftol: float) -> int:

@@ -43,6 +43,10 @@ class SampleResult:
     resumed_from: int = -1
     earlier_seconds: float = 0.0
     earlier_cpu_seconds: float = 0.0
+    # where each invocation ran (jamlab.provenance.segment): one record per invocation, oldest
+    # first; a task may fill it (a resumed sample keeps its earlier invocations' records),
+    # run_sample fills it otherwise. Written as the sample file's ``provenance`` (JSON)
+    provenance: list[dict[str, Any]] = field(default_factory=list)
 
 
 @dataclass

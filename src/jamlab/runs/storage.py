@@ -12,8 +12,10 @@ Sample file (root of the HDF5 file): group ``trace`` with the 1-D per-step datas
 ``positions``; root attributes ``format = "jamlab-sample"``, ``format_version``, ``phi`` (label),
 ``n``, ``index``, ``seed`` (the sample's 64-bit seed, as a decimal string), ``master_seed``,
 ``task``, ``jamlab_version``, ``seconds`` (worker wall time), ``cpu_seconds`` (CPU time of the
-worker thread that ran the sample; absent in samples written before it existed), the task's own
-attributes, and ``complete = True`` written last.
+worker thread that ran the sample; absent in samples written before it existed), ``provenance``
+(JSON: one record per invocation of the sample, where it ran — ``jamlab.provenance.segment``;
+absent in samples written before it existed), the task's own attributes, and ``complete = True``
+written last.
 
 Atomicity: a file is written under a temporary name (``.sample-…h5.XXXX.tmp``) in its final
 directory, flushed, fsync'ed, closed and renamed with ``os.replace`` (atomic on POSIX), then the
@@ -425,6 +427,8 @@ class RunDir:
             h5.attrs["seconds"] = float(result.seconds)
             if math.isfinite(result.cpu_seconds):
                 h5.attrs["cpu_seconds"] = float(result.cpu_seconds)
+            if result.provenance:
+                h5.attrs["provenance"] = json.dumps(result.provenance)
             for name, value in result.attrs.items():
                 h5.attrs[name] = value
             trace = h5.create_group("trace")

@@ -25,6 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from jamlab.provenance import segment
 from jamlab.runs import physics
 from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study
@@ -119,4 +120,6 @@ def run_sample(
         )
     result.seconds = result.earlier_seconds + time.perf_counter() - start
     result.cpu_seconds = result.earlier_cpu_seconds + time.thread_time() - cpu_start
+    if not result.provenance:
+        result.provenance = [segment(result.resumed_from)]
     return result

@@ -1,0 +1,142 @@
+"""Where a computation ran: the machine and the software a result's bits depend on.
+
+The same code and inputs give the same bits on the same machine and libraries, and in general
+not across machines (measured: the same fixed-pressure study at p = 1e-6, N = 500 on two CPUs
+parts after its first jumps; docs/runs.md, "Bit for bit, per machine"). The parts that choose
+their code per CPU: numba compiles for the host CPU (LLVM's name for it), numpy dispatches its
+loops by the SIMD extensions it finds, OpenBLAS and CHOLMOD (through cvxopt) pick kernels per CPU,
+and the C library supplies ``exp`` and ``log``.
+
+:func:`machine` records these (cached per process), with jamlab's version and the git commit of
+its source tree (``+dirty`` when ``src/jamlab`` differs from it; empty outside a checkout).
+:func:`machine_key` is the part two computations must share to be expected to agree bit for bit
+(the host name and the commit are not in it: a commit that changes no physics keeps the bits,
+and one that does is a code change, not a machine's). :func:`segment` is one invocation's record,
+``{"resumed_from": k, "host": ..., **machine()}``: ``k = -1`` for an invocation that started
+afresh, else the saved step it resumed from. A run sample's ``provenance`` attribute is the JSON
+list of its invocations' segments (``jamlab.runs``).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata
+import platform
+import subprocess
+from pathlib import Path
+from typing import Any
+
+__all__ = ["KEY_FIELDS", "commit", "machine", "machine_key", "segment", "summary_text"]
+
+KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "libc", "python", "numpy", "scipy",
+              "numba", "llvmlite", "cvxopt")
+"""The fields of :func:`machine` that decide the bits (everything but jamlab's commit)."""
+
+_LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "cvxopt", "h5py")
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``; ``platform.processor()`` elsewhere)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _version(name: str) -> str:
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return ""
+
+
+def _numpy_build() -> tuple[str, str]:
+    """(SIMD extensions numpy found on this CPU, its BLAS's name and version)."""
+    import numpy as np
+
+    try:
+        config = np.show_config(mode="dicts")
+    except (TypeError, ValueError):  # an old numpy without the dict form
+        return "", ""
+    simd = ",".join(config.get("SIMD Extensions", {}).get("found", []) or [])
+    blas = config.get("Build Dependencies", {}).get("blas", {})
+    return simd, " ".join(str(blas.get(k, "")) for k in ("name", "version")).strip()
+
+
+def _llvm_cpu() -> str:
+    """The CPU numba compiles for: ``NUMBA_CPU_NAME`` when set, else LLVM's host CPU."""
+    import numba
+    from llvmlite import binding
+
+    return numba.config.CPU_NAME or binding.get_host_cpu_name()
+
+
+@functools.cache
+def commit() -> str:
+    """The git commit of the imported jamlab's source tree, with ``+dirty`` when the package's
+    files differ from it; ``""`` when the package is not in a git checkout or git is missing."""
+    package = Path(__file__).resolve().parent
+
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(package), *args], capture_output=True,
+                              text=True, timeout=10, check=False)
+
+    try:
+        head = git("rev-parse", "HEAD")
+        if head.returncode != 0:
+            return ""
+        dirty = git("diff", "--quiet", "HEAD", "--", ".").returncode != 0
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return head.stdout.strip() + ("+dirty" if dirty else "")
+
+
+@functools.cache
+def _machine() -> tuple[tuple[str, str], ...]:
+    from jamlab import __version__
+
+    simd, blas = _numpy_build()
+    record = {
+        "cpu": _cpu_model(),
+        "llvm_cpu": _llvm_cpu(),
+        "numpy_simd": simd,
+        "blas": blas,
+        "libc": " ".join(platform.libc_ver()).strip(),
+        "os": platform.platform(),
+        "python": platform.python_version(),
+        **{name: _version(name) for name in _LIBRARIES},
+        "jamlab": __version__,
+        "jamlab_commit": commit(),
+    }
+    return tuple(record.items())
+
+
+def machine() -> dict[str, str]:
+    """This process's machine and software (module docstring); computed once per process."""
+    return dict(_machine())
+
+
+def machine_key(record: dict[str, Any]) -> str:
+    """The fields of ``record`` that decide the bits (:data:`KEY_FIELDS`), as one string: two
+    records with the same key are the same machine and libraries."""
+    return "|".join(f"{name}={record.get(name, '')}" for name in KEY_FIELDS)
+
+
+def segment(resumed_from: int = -1) -> dict[str, Any]:
+    """One invocation's record: the step it resumed from (``-1``: started afresh), the host and
+    :func:`machine`."""
+    return {"resumed_from": int(resumed_from), "host": platform.node(), **machine()}
+
+
+def summary_text(record: dict[str, Any]) -> str:
+    """A one-line description of a record for people: CPU, LLVM's CPU, the libraries, commit."""
+    libs = ", ".join(f"{name} {record.get(name, '?')}" for name in ("numpy", "scipy", "numba",
+                                                                     "cvxopt"))
+    code = str(record.get("jamlab_commit", ""))
+    code = (code[:12] + ("+dirty" if code.endswith("+dirty") else "")) if code else "no commit"
+    return (f"{record.get('cpu', '?')} ({record.get('llvm_cpu', '?')}; "
+            f"{record.get('numpy_simd', '?') or 'no SIMD list'}); {libs}; "
+            f"{record.get('blas', '') or 'BLAS unknown'}; jamlab {code}")
