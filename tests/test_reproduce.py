@@ -90,6 +90,24 @@ def test_files_and_figures(tiny):
         assert f["caption"]
 
 
+def test_the_header_says_where_the_samples_ran(tiny):
+    out, _, data, _ = tiny
+    files = sorted(glob.glob(str(out / "runs" / "*" / "samples" / "*" / "*" / "sample-*.h5")))
+    machines = set()
+    for f in files:  # every sample's record, read here with h5py and json
+        with h5py.File(f, "r") as h5:
+            records = json.loads(h5.attrs["provenance"])
+        assert [r["resumed_from"] for r in records] == [-1]
+        machines.add((records[0]["cpu"], records[0]["llvm_cpu"], records[0]["numpy"]))
+    assert len(machines) == 1 and files
+    line = data["parameters"]["machines"]
+    assert "machines: 1 recorded" in line and f"machine 1, {len(files)} samples:" in line
+    cpu, llvm_cpu, numpy_version = machines.pop()
+    assert f"{cpu} ({llvm_cpu};" in line and f"numpy {numpy_version}" in line
+    assert "more than one machine" not in line and "record no machine" not in line
+    assert "machines: " in (out / "report.md").read_text()
+
+
 def test_html_is_well_formed_and_links_existing_images(tiny):
     out, _, data, rows = tiny
     p = parse_html((out / "index.html").read_text())

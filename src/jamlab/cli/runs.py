@@ -122,40 +122,6 @@ def cost_lines(costs: list[Any]) -> list[str]:
     return lines
 
 
-def _key_list(keys: list[Any]) -> str:
-    """Sample keys grouped by (φ, N): ``phi=jamming N=500 samples 12, 13``."""
-    groups: dict[tuple[str, int], list[int]] = {}
-    for key in keys:
-        groups.setdefault((key.phi_label, key.n), []).append(key.index)
-    return "; ".join(f"phi={phi} N={n} sample{'s' if len(ix) > 1 else ''} "
-                     f"{', '.join(str(i) for i in sorted(ix))}" for (phi, n), ix in groups.items())
-
-
-def machine_lines(census: Any) -> list[str]:
-    """`jamlab status`'s machine lines (:func:`jamlab.runs.origin.machine_census`): the
-    machines the finished samples ran on, and the samples that ran on more than one, that a
-    checkpoint from before the records left partly unknown, or that record nothing."""
-    from jamlab.provenance import summary_text
-
-    n_machines = len(census.machines)
-    if not n_machines and not census.unrecorded:
-        return []
-    lines = [f"machines: {n_machines} recorded (a sample's bits are reproducible on its own "
-             "machine and libraries; docs/runs.md)"]
-    for i, (mk, record) in enumerate(census.machines.items(), 1):
-        lines.append(f"  machine {i}, {len(census.samples[mk])} samples: {summary_text(record)}")
-    if census.mixed:
-        lines.append(f"  ran on more than one machine ({len(census.mixed)}): "
-                     f"{_key_list(census.mixed)}")
-    if census.partly_unknown:
-        lines.append(f"  resumed from a checkpoint older than the records, earlier machine "
-                     f"unknown ({len(census.partly_unknown)}): {_key_list(census.partly_unknown)}")
-    if census.unrecorded:
-        lines.append(f"  {len(census.unrecorded)} finished samples record no machine "
-                     "(written before jamlab recorded it)")
-    return lines
-
-
 def register(app: typer.Typer) -> None:
     """Add ``run`` and ``status``."""
 
@@ -338,7 +304,7 @@ def register(app: typer.Typer) -> None:
 
         from jamlab.runs import RunDir
         from jamlab.runs.cost import cell_costs
-        from jamlab.runs.origin import machine_census
+        from jamlab.runs.origin import census_lines, machine_census
 
         run = RunDir(run_dir)
         study = run.study()
@@ -357,7 +323,7 @@ def register(app: typer.Typer) -> None:
         console.print(table)
         for line in cost_lines(cell_costs(run, study, states)):
             console.print(line, markup=False, soft_wrap=True)
-        for line in machine_lines(machine_census(run, study, states)):
+        for line in census_lines(machine_census(run, study, states)):
             console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
             for key in study.keys():

@@ -177,6 +177,22 @@ def _run_all(scale: Scale, runs: Path, execution: Any, log: Callable[[str], None
     return summaries
 
 
+def _machines(scale: Scale, runs: Path) -> str:
+    """Where the report's samples ran (:func:`jamlab.runs.origin.census_lines`, counted over
+    its run directories) and where this report's analysis ran."""
+    from jamlab.provenance import machine, summary_text
+    from jamlab.runs import RunDir
+    from jamlab.runs.origin import MachineCensus, census_lines, machine_census
+
+    census = MachineCensus()
+    for name, study in studies(scale).items():
+        if (runs / name / "manifest.json").is_file():
+            machine_census(RunDir(runs / name), study, census=census)
+    samples = " ".join(line.strip() for line in census_lines(census, keys=False))
+    return (f"samples — {samples or 'none finished'}; this report's analysis, theory and "
+            f"cascades: {summary_text(machine())}")
+
+
 def _check_writable(path: Path) -> None:
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -271,7 +287,8 @@ def reproduce(
             f"{sum(v.done for v in summaries.values())} samples computed, "
             f"{sum(v.skipped for v in summaries.values())} reused from earlier runs, "
             f"{sum(v.failed for v in summaries.values())} failed "
-            f"(the wall time covers only this invocation)")} | table.parameters(scale, runs_dir),
+            f"(the wall time covers only this invocation)"),
+            "machines": _machines(scale, runs_dir)} | table.parameters(scale, runs_dir),
         notes=table.notes(scale),
         sections=dict(criticality_table.SECTION_TEXT),
     )

@@ -19,11 +19,11 @@ from typing import Any
 
 import h5py
 
-from jamlab.provenance import machine_key
+from jamlab.provenance import machine_key, summary_text
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, Study
 
-__all__ = ["MachineCensus", "machine_census", "sample_provenance"]
+__all__ = ["MachineCensus", "census_lines", "machine_census", "sample_provenance"]
 
 
 def sample_provenance(run: RunDir, key: SampleKey) -> list[dict[str, Any]] | None:
@@ -60,11 +60,13 @@ class MachineCensus:
 
 
 def machine_census(
-    run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None
+    run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None,
+    census: MachineCensus | None = None,
 ) -> MachineCensus:
     """The :class:`MachineCensus` of ``study``'s finished samples in ``run``; ``states``: a
-    :meth:`RunDir.scan` already made."""
-    census = MachineCensus()
+    :meth:`RunDir.scan` already made; ``census``: add to this one (several runs, as the
+    report's) instead of a new one."""
+    census = MachineCensus() if census is None else census
     for key, state in (run.scan(study) if states is None else states).items():
         if state != "done":
             continue
@@ -86,3 +88,39 @@ def machine_census(
         if len(keys) > 1:
             census.mixed.append(key)
     return census
+
+
+def _key_list(keys: list[SampleKey]) -> str:
+    """Sample keys grouped by (φ, N): ``phi=jamming N=500 samples 12, 13``."""
+    groups: dict[tuple[str, int], list[int]] = {}
+    for key in keys:
+        groups.setdefault((key.phi_label, key.n), []).append(key.index)
+    return "; ".join(f"phi={phi} N={n} sample{'s' if len(ix) > 1 else ''} "
+                     f"{', '.join(str(i) for i in sorted(ix))}" for (phi, n), ix in groups.items())
+
+
+def census_lines(census: MachineCensus, keys: bool = True) -> list[str]:
+    """The census for people (``jamlab status``, the report's header): the machines the
+    finished samples ran on, and the samples that ran on more than one, that a checkpoint from
+    before the records left partly unknown, or that record nothing — named when ``keys``
+    (one run's samples), counted otherwise. Empty when no sample is finished."""
+    n_machines = len(census.machines)
+    if not n_machines and not census.unrecorded:
+        return []
+
+    def which(found: list[SampleKey]) -> str:
+        return f"({len(found)})" + (f": {_key_list(found)}" if keys else "")
+
+    lines = [f"machines: {n_machines} recorded (a sample's bits are reproducible on its own "
+             "machine and libraries; docs/runs.md)"]
+    for i, (mk, record) in enumerate(census.machines.items(), 1):
+        lines.append(f"  machine {i}, {len(census.samples[mk])} samples: {summary_text(record)}")
+    if census.mixed:
+        lines.append(f"  ran on more than one machine {which(census.mixed)}")
+    if census.partly_unknown:
+        lines.append("  resumed from a checkpoint older than the records, earlier machine "
+                     f"unknown {which(census.partly_unknown)}")
+    if census.unrecorded:
+        lines.append(f"  {len(census.unrecorded)} finished samples record no machine "
+                     "(written before jamlab recorded it)")
+    return lines
