@@ -13,24 +13,31 @@ its source tree (``+dirty`` when ``src/jamlab`` differs from it; empty outside a
 (the host name and the commit are not in it: a commit that changes no physics keeps the bits,
 and one that does is a code change, not a machine's). :func:`segment` is one invocation's record,
 ``{"resumed_from": k, "host": ..., **machine()}``: ``k = -1`` for an invocation that started
-afresh, else the saved step it resumed from. A run sample's ``provenance`` attribute is the JSON
-list of its invocations' segments (``jamlab.runs``).
+afresh, else the saved step it resumed from; :func:`continued` appends it to the records of the
+earlier invocations. A run sample's ``provenance`` attribute, and an AQS trace's, is the JSON
+list of its invocations' records (``jamlab.runs``, ``jamlab.spheres.aqs``).
 """
 
 from __future__ import annotations
 
 import functools
 import importlib.metadata
+import json
 import platform
 import subprocess
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KEY_FIELDS", "commit", "machine", "machine_key", "segment", "summary_text"]
+__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "machine", "machine_key", "segment",
+           "summary_text"]
 
 KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "libc", "python", "numpy", "scipy",
               "numba", "llvmlite", "cvxopt")
 """The fields of :func:`machine` that decide the bits (everything but jamlab's commit)."""
+
+UNRECORDED = {"resumed_from": -1, "recorded": False}
+"""The first record of a computation resumed from a save written before invocations were
+recorded: the invocations before are not known."""
 
 _LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "cvxopt", "h5py")
 
@@ -129,6 +136,23 @@ def segment(resumed_from: int = -1) -> dict[str, Any]:
     """One invocation's record: the step it resumed from (``-1``: started afresh), the host and
     :func:`machine`."""
     return {"resumed_from": int(resumed_from), "host": platform.node(), **machine()}
+
+
+def continued(earlier: Any, resumed_from: int) -> list[dict[str, Any]]:
+    """The records of a computation after this invocation: none before it when it starts
+    afresh (``resumed_from = -1``), else the earlier invocations' (``earlier``: their list or its
+    JSON text; ``[UNRECORDED]`` when missing or unreadable), then this invocation's
+    :func:`segment`."""
+    records: list[dict[str, Any]] = []
+    if resumed_from >= 0:
+        if isinstance(earlier, bytes | str):
+            try:
+                earlier = json.loads(earlier)
+            except ValueError:
+                earlier = None
+        ok = isinstance(earlier, list) and all(isinstance(r, dict) for r in earlier)
+        records = list(earlier) if ok and earlier else [dict(UNRECORDED)]
+    return records + [segment(resumed_from)]
 
 
 def summary_text(record: dict[str, Any]) -> str:

@@ -4,6 +4,8 @@ the trace file; and `--resume` keeps (or refuses to change) the run's --save-eve
 
 from __future__ import annotations
 
+import json
+import platform
 import signal
 import subprocess
 import sys
@@ -29,10 +31,12 @@ def good(tmp_path_factory) -> Path:
 
 def h5_contents(path: Path) -> dict:
     """Every dataset's bytes and every attribute (``source`` left out: it names the input file,
-    the same in every run here anyway) of an HDF5 file, by name."""
+    the same in every run here anyway; ``provenance`` too: one record per invocation, so a
+    resumed run has more, checked by :func:`invocations`) of an HDF5 file, by name."""
     out = {}
     with h5py.File(path, "r") as h5:
-        out["/attrs"] = {k: str(v) for k, v in h5.attrs.items() if k != "source"}
+        out["/attrs"] = {k: str(v) for k, v in h5.attrs.items()
+                         if k not in ("source", "provenance")}
 
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):
@@ -42,6 +46,16 @@ def h5_contents(path: Path) -> dict:
 
         h5.visititems(visit)
     return out
+
+
+def invocations(path: Path) -> list[int]:
+    """The steps each invocation of a trace's run resumed from (-1: started afresh), from its
+    ``provenance`` records, each of which must name this machine and Python."""
+    with h5py.File(path, "r") as h5:
+        records = json.loads(h5.attrs["provenance"])
+    for record in records:
+        assert record["python"] == platform.python_version() and record["cpu"]
+    return [record["resumed_from"] for record in records]
 
 
 def same_file(a: Path, b: Path) -> list[str]:
@@ -62,6 +76,7 @@ def test_issue_split_then_resume_equals_one_run(good, tmp_path):
                "--out", split)  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert same_file(one, split) == []
+    assert invocations(one) == [-1] and invocations(split) == [-1, 400]
     with h5py.File(one, "r") as h5:
         assert np.count_nonzero(h5["plastic"][()]) >= 3
 
@@ -128,5 +143,7 @@ def test_sigkill_at_random_moments_then_resume_is_the_uninterrupted_run(good, tm
             r = jamlab("shear", good, *args, "--resume", "--out", out)
             assert r.returncode == 0, (trial, r.stderr)
         assert same_file(ref, out) == [], (trial, done, same_file(ref, out))
+        if done < 400:  # the resumed run's records: the killed invocation's, then the resume's
+            assert invocations(out) == [-1, done], (trial, done, invocations(out))
     # the kills landed at many different checkpoints, most inside the run
     assert len(set(done_at)) >= 5 and sum(d < 400 for d in done_at) >= 15, done_at

@@ -23,7 +23,7 @@ from cli_helpers import jamlab
 from jamlab import provenance
 from jamlab.runs import Execution, RunDir, Study, run_study, sample_seed
 from jamlab.runs.origin import machine_census, sample_provenance
-from jamlab.runs.physics import PROVENANCE, UNRECORDED, prepare_and_shear
+from jamlab.runs.physics import PROVENANCE, TRACE, prepare_and_shear
 
 ROOT = Path(__file__).resolve().parents[2]
 TOY = Study(phi=["jamming", 0.75], n=[8, 16], samples=2, dgamma=1e-3, gamma_max=4e-3, task="toy")
@@ -75,6 +75,16 @@ def test_the_machine_key_ignores_host_os_and_commit_and_nothing_else():
         assert provenance.machine_key({**record, name: "other"}) != key, name
 
 
+def test_continued_records():
+    here = provenance.segment
+    assert provenance.continued(None, -1) == [here(-1)]
+    assert provenance.continued([here(-1)], -1) == [here(-1)]  # afresh: earlier ones dropped
+    earlier = [{**here(-1), "cpu": "elsewhere"}]
+    assert provenance.continued(json.dumps(earlier), 30) == [*earlier, here(30)]
+    for unknown in (None, "not JSON", "{}", "[1, 2]", "[]", b"\xff"):
+        assert provenance.continued(unknown, 30) == [provenance.UNRECORDED, here(30)], unknown
+
+
 def test_every_sample_of_a_run_records_where_it_ran(tmp_path):
     run_study(TOY, tmp_path / "run", Execution(workers=0))
     rd = RunDir(tmp_path / "run")
@@ -103,10 +113,14 @@ def test_a_resumed_sample_records_each_invocation(tmp_path):
     resumed = prepare_and_shear(study, key, seed, folder)
     assert resumed.resumed_from == 15
     assert resumed.provenance == [other, provenance.segment(10), provenance.segment(15)]
+    # the shear's own trace keeps its invocations too (it knows nothing of the edit above)
+    with h5py.File(folder / TRACE, "r") as h5:
+        in_trace = json.loads(h5.attrs["provenance"])
+    assert in_trace == [provenance.segment(-1), provenance.segment(10), provenance.segment(15)]
     # a checkpoint from before the records: its earlier invocations are unknown, and said so
     (folder / PROVENANCE).unlink()
     again = prepare_and_shear(study, key, seed, folder)  # finished and saved: read back
-    assert again.provenance == [UNRECORDED, provenance.segment(23)]
+    assert again.provenance == [provenance.UNRECORDED, provenance.segment(23)]
     # starting afresh forgets the earlier records (a damaged checkpoint is replaced)
     shutil.rmtree(folder)
     assert prepare_and_shear(study, key, seed, folder).provenance == [provenance.segment(-1)]
@@ -121,7 +135,7 @@ def test_status_names_machines_and_the_samples_that_ran_on_several(tmp_path):
     elsewhere = {**here, "cpu": "another CPU", "numpy": "1.0"}
     edits = {keys[0]: [elsewhere, {**here, "resumed_from": 500}],  # resumed here
              keys[1]: [elsewhere],  # ran elsewhere
-             keys[2]: [dict(UNRECORDED), {**here, "resumed_from": 200}],  # checkpoint too old
+             keys[2]: [dict(provenance.UNRECORDED), {**here, "resumed_from": 200}],  # too old
              keys[3]: None}  # written before the records
     for key, records in edits.items():
         with h5py.File(rd.sample_path(key), "r+") as h5:

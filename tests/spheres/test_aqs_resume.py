@@ -10,6 +10,8 @@ and 783 plastic with ΔE equal to the elastic term.
 
 from __future__ import annotations
 
+import json
+
 import h5py
 import numpy as np
 import pytest
@@ -30,10 +32,13 @@ def start() -> Packing:
 
 
 def h5_contents(path) -> dict:
-    """Every dataset's bytes and every attribute of an HDF5 file, by name."""
+    """Every dataset's bytes and every attribute of an HDF5 file, by name; ``provenance`` (one
+    record per invocation: a resumed run has more) apart, as the steps each invocation resumed
+    from."""
     out = {}
     with h5py.File(path, "r") as h5:
-        out["/attrs"] = {k: str(v) for k, v in h5.attrs.items()}
+        out["/attrs"] = {k: str(v) for k, v in h5.attrs.items() if k != "provenance"}
+        out["/invocations"] = [r["resumed_from"] for r in json.loads(h5.attrs["provenance"])]
 
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):
@@ -70,6 +75,8 @@ def test_split_at_save_points_and_resumed_equals_the_uninterrupted_run(start, tm
                       out=out, previous=previous)  # fmt: skip
         a, b = h5_contents(whole), h5_contents(out)
         assert a.keys() == b.keys()
+        assert a.pop("/invocations") == [-1]
+        assert b.pop("/invocations") == [-1, split, *(stop for stop in stops[:-1])]
         differ = [k for k in a if a[k] != b[k]]
         assert differ == [], (split, differ)
 

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.provenance import segment
+from jamlab.provenance import continued
 from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleResult
 from jamlab.runs.storage import CHECKPOINT_PREPARED as PREPARED
 from jamlab.runs.storage import CHECKPOINT_TRACE as TRACE
@@ -49,8 +49,6 @@ from jamlab.runs.study import SampleKey, Study
 
 TIMES = "times.json"
 PROVENANCE = "provenance.json"
-UNRECORDED = {"resumed_from": -1, "recorded": False}
-"""The first record of a checkpoint written before invocations were recorded."""
 
 
 def scalars(prefix: str, obj: Any) -> dict[str, Any]:
@@ -99,9 +97,8 @@ def prepare_and_shear(
         # the times of the last record not beyond the save resumed from
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
         earlier = tuple(times[str(max(steps))] if steps else times["prepared"])
-    provenance = [segment(resumed_from)]
+    provenance = continued(None if folder is None else _earlier_records(folder), resumed_from)
     if folder is not None:
-        provenance = _invocations(folder, fresh=saved is None) + provenance
         write_json(folder / PROVENANCE, provenance)
     params = None if study.pressure is not None else aqs.AQSParameters(floppy=study.floppy)
     options = {"ftol": study.force_tol, "pressure": study.pressure, "params": params,
@@ -163,19 +160,14 @@ def prepare_and_shear(
     )
 
 
-def _invocations(folder: Path, fresh: bool) -> list[dict[str, Any]]:
-    """The records of the earlier invocations of a checkpointed sample: none when this one
-    starts afresh, else those of ``provenance.json`` (:data:`UNRECORDED` when it is missing or
-    unreadable: a checkpoint from before the records)."""
-    if fresh:
-        return []
+def _earlier_records(folder: Path) -> Any:
+    """The records in a checkpoint's ``provenance.json``, ``None`` when it has none (a
+    checkpoint from before the records; :func:`jamlab.provenance.continued` then starts the
+    list with ``UNRECORDED``)."""
     try:
-        records = json.loads((folder / PROVENANCE).read_text())
+        return json.loads((folder / PROVENANCE).read_text())
     except (OSError, ValueError):
-        return [dict(UNRECORDED)]
-    if not isinstance(records, list) or not all(isinstance(r, dict) for r in records):
-        return [dict(UNRECORDED)]
-    return records
+        return None
 
 
 def failed_steps(trace, ftol: float) -> int:

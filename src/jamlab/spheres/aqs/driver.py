@@ -19,6 +19,7 @@ from jamlab.spheres.aqs.parameters import AQSParameters
 from jamlab.spheres.aqs.record import (
     ROW_KEYS,
     append_row,
+    invocations,
     jamlab_version,
     make_trace,
     observe,
@@ -271,6 +272,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         "jamlab_version": jamlab_version(),
         "source": "" if source is None else str(source),
         "save_every": int(0 if save_every is None else save_every),
+        "provenance": invocations(previous),
     }
     counters = {
         "n_fallback": 0,
@@ -438,6 +440,7 @@ def _shear_at_pressure(
         "jamlab_version": jamlab_version(),
         "source": "" if source is None else str(source),
         "save_every": int(0 if save_every is None else save_every),
+        "provenance": invocations(previous),
         # the input's box side (row 0 is already at the target pressure), for resume checks
         "input_box_length": float(packing.box.length if previous is None
                                   else previous.attrs["input_box_length"]),

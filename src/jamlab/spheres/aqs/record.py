@@ -3,6 +3,8 @@ them."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
@@ -106,6 +108,17 @@ def make_trace(rows: dict[str, list], attrs: dict, counters: dict) -> Trace:
     if trace.jammed is not None:
         trace.attrs["n_unjammed"] = int(np.count_nonzero(~trace.jammed))
     return trace
+
+
+def invocations(previous: Trace | None) -> str:
+    """The trace's ``provenance`` attribute (JSON): where each invocation ran
+    (:func:`jamlab.provenance.continued`), the records of the resumed trace ``previous`` and
+    this invocation's, which resumes from its last step."""
+    from jamlab.provenance import continued
+
+    if previous is None:
+        return json.dumps(continued(None, -1))
+    return json.dumps(continued(previous.attrs.get("provenance"), int(previous.n_steps)))
 
 
 def jamlab_version() -> str:
