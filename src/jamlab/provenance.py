@@ -28,8 +28,8 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "machine", "machine_key", "segment",
-           "summary_text"]
+__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "machine", "machine_key",
+           "provenance_json", "segment", "summary_text"]
 
 KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "libc", "python", "numpy", "scipy",
               "numba", "llvmlite", "cvxopt")
@@ -136,6 +136,12 @@ def segment(resumed_from: int = -1) -> dict[str, Any]:
     """One invocation's record: the step it resumed from (``-1``: started afresh), the host and
     :func:`machine`."""
     return {"resumed_from": int(resumed_from), "host": platform.node(), **machine()}
+
+
+def provenance_json() -> str:
+    """The ``provenance`` attribute (JSON) of a file one invocation computed afresh (a packing
+    of ``jamlab prepare`` or ``jamlab minimize``): ``[segment(-1)]``."""
+    return json.dumps([segment(-1)])
 
 
 def continued(earlier: Any, resumed_from: int) -> list[dict[str, Any]]:

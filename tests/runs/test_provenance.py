@@ -163,3 +163,23 @@ def test_status_names_machines_and_the_samples_that_ran_on_several(tmp_path):
     assert mixed and f"sample {keys[0].index}" in mixed[0] and f"N={keys[0].n}" in mixed[0]
     assert any("earlier machine unknown (1)" in line for line in lines)
     assert any("1 finished samples record no machine" in line for line in lines)
+
+
+def test_prepared_and_minimised_packings_record_where_they_were_computed(tmp_path):
+    """`jamlab prepare` and `jamlab minimize` compute their packings: the files say where
+    (one record, started afresh); `jamlab shear` writes its trace's records (one invocation)."""
+    prepared, minimised, trace = tmp_path / "p.h5", tmp_path / "m.h5", tmp_path / "t.h5"
+    for args in (("prepare", "--phi", "0.8", "--n", "16", "--seed", "1", "--out", prepared,
+                  "--quiet"),
+                 ("minimize", prepared, "--out", minimised),
+                 ("shear", prepared, "--dgamma", "1e-3", "--gamma-max", "2e-3", "--out", trace)):
+        r = jamlab(*args)
+        assert r.returncode == 0, r.stderr
+    for path in (prepared, minimised, trace):
+        with h5py.File(path, "r") as h5:
+            records = json.loads(h5.attrs["provenance"])
+        assert len(records) == 1 and records[0]["resumed_from"] == -1, path
+        record = records[0]
+        # the subprocess's own record: this machine and these libraries, its own host
+        assert provenance.machine_key(record) == provenance.machine_key(provenance.machine())
+        assert record["host"] == platform.node()

@@ -81,6 +81,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from jamlab import validation
         from jamlab.files import check_outputs
+        from jamlab.provenance import provenance_json
         from jamlab.spheres.io import write_packing
         from jamlab.spheres.packing import jam, prepare
         from jamlab.spheres.pair import check_alpha
@@ -148,7 +149,7 @@ def register(app: typer.Typer) -> None:
         else:
             with _status(quiet, f"minimising N={n} d={dim} phi={value}"):
                 res = prepare(n, dim, value, seed, ftol=ftol, sizes=sizes, alpha=alpha)
-        write_packing(out, res.packing, **res.attrs())
+        write_packing(out, res.packing, **res.attrs(), provenance=provenance_json())
         s = res.state
         typer.echo(
             f"{out}: N={n} d={dim} phi={res.packing.phi:.10f} p={s.pressure:.4e} z={s.z:.5f} "

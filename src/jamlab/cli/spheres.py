@@ -68,6 +68,7 @@ def register(app: typer.Typer) -> None:
         force: Force = False,
     ) -> None:
         from jamlab.files import check_outputs
+        from jamlab.provenance import provenance_json
         from jamlab.spheres.fire import minimize
         from jamlab.spheres.io import read_packing, write_packing
 
@@ -85,6 +86,7 @@ def register(app: typer.Typer) -> None:
             minimize_iterations=result.iterations,
             minimize_max_force=result.max_force,
             minimize_ftol=ftol,
+            provenance=provenance_json(),
         )
         status = "converged" if result.converged else "NOT CONVERGED"
         typer.echo(
