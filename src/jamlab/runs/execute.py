@@ -34,9 +34,11 @@ from jamlab.runs.storage import RunDir, check_sample_data
 from jamlab.runs.study import SampleKey, Study
 from jamlab.runs.tasks import SampleFailure, SampleResult, Task, run_sample
 
-__all__ = ["Execution", "RunSummary", "die_with_parent", "run_study", "slurm_cluster_kwargs"]
+__all__ = ["SINGLE_THREAD_ENV", "Execution", "RunSummary", "die_with_parent", "run_study",
+           "slurm_cluster_kwargs"]
 
-_SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+"""The environment of every worker (local, Dask, SLURM): one BLAS/OpenMP thread."""
 _SLURM_KEYS = {
     "jobs",
     "cores",
@@ -136,7 +138,7 @@ def slurm_cluster_kwargs(options: dict[str, Any]) -> tuple[dict[str, Any], int]:
     if extra:
         kwargs["job_extra_directives"] = list(extra)
     # the same single-threaded environment as local and Dask workers
-    kwargs["job_script_prologue"] = [f"export {k}={v}" for k, v in _SINGLE_THREAD_ENV.items()]
+    kwargs["job_script_prologue"] = [f"export {k}={v}" for k, v in SINGLE_THREAD_ENV.items()]
     return kwargs, jobs
 
 
@@ -174,8 +176,8 @@ def _local_outcomes(
         for key, seed, checkpoint in items:
             yield key, run_sample(study, key, seed, task, checkpoint)
         return
-    saved = {k: os.environ.get(k) for k in _SINGLE_THREAD_ENV}
-    os.environ.update(_SINGLE_THREAD_ENV)  # inherited by the spawned workers
+    saved = {k: os.environ.get(k) for k in SINGLE_THREAD_ENV}
+    os.environ.update(SINGLE_THREAD_ENV)  # inherited by the spawned workers
     try:
         pool = ProcessPoolExecutor(
             max_workers=workers,
