@@ -5,7 +5,10 @@ not across machines (measured: the same fixed-pressure study at p = 1e-6, N = 50
 parts after its first jumps; docs/runs.md, "Bit for bit, per machine"). The parts that choose
 their code per CPU: numba compiles for the host CPU (LLVM's name for it), numpy dispatches its
 loops by the SIMD extensions it finds, OpenBLAS and CHOLMOD (through cvxopt) pick kernels per CPU,
-and the C library supplies ``exp`` and ``log``.
+and the C library supplies ``exp`` and ``log``. Measured (``scripts/machine_bits_probe.py``): on
+one machine, numpy without its AVX-512 loops, numba compiled for another CPU and BLAS on all cores
+gave the same bits; OpenBLAS's kernels (``OPENBLAS_CORETYPE``) did not — hence ``blas_cores``,
+the kernels every loaded BLAS runs (``jamlab.spheres.blas``).
 
 :func:`machine` records these (cached per process), with jamlab's version and the git commit of
 its source tree (``+dirty`` when ``src/jamlab`` differs from it; empty outside a checkout).
@@ -31,8 +34,8 @@ from typing import Any
 __all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "machine", "machine_key",
            "provenance_json", "segment", "summary_text"]
 
-KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "libc", "python", "numpy", "scipy",
-              "numba", "llvmlite", "cvxopt")
+KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "blas_cores", "libc", "python", "numpy",
+              "scipy", "numba", "llvmlite", "cvxopt")
 """The fields of :func:`machine` that decide the bits (everything but jamlab's commit)."""
 
 UNRECORDED = {"resumed_from": -1, "recorded": False}
@@ -101,6 +104,16 @@ def commit() -> str:
     return head.stdout.strip() + ("+dirty" if dirty else "")
 
 
+def _blas_cores() -> str:
+    """Every BLAS loaded once CHOLMOD is (``jamlab.spheres.blas``): library, version and the
+    kernels (OpenBLAS's core) it runs, sorted."""
+    from jamlab.spheres import blas
+
+    blas.import_cvxopt()
+    return "; ".join(sorted(f"{lib['prefix']} {lib['version']} {lib['architecture']}".strip()
+                            for lib in blas.cores()))
+
+
 @functools.cache
 def _machine() -> tuple[tuple[str, str], ...]:
     from jamlab import __version__
@@ -111,6 +124,7 @@ def _machine() -> tuple[tuple[str, str], ...]:
         "llvm_cpu": _llvm_cpu(),
         "numpy_simd": simd,
         "blas": blas,
+        "blas_cores": _blas_cores(),
         "libc": " ".join(platform.libc_ver()).strip(),
         "os": platform.platform(),
         "python": platform.python_version(),
@@ -169,4 +183,4 @@ def summary_text(record: dict[str, Any]) -> str:
     code = (code[:12] + ("+dirty" if code.endswith("+dirty") else "")) if code else "no commit"
     return (f"{record.get('cpu', '?')} ({record.get('llvm_cpu', '?')}; "
             f"{record.get('numpy_simd', '?') or 'no SIMD list'}); {libs}; "
-            f"{record.get('blas', '') or 'BLAS unknown'}; jamlab {code}")
+            f"BLAS {record.get('blas_cores') or record.get('blas') or 'unknown'}; jamlab {code}")

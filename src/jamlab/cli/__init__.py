@@ -91,9 +91,11 @@ def describe_os_error(exc: OSError) -> str:
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
     try:
+        from jamlab.spheres import blas
         from jamlab.spheres.kernel_choice import environment_mode
 
         environment_mode()  # a bad JAMLAB_FORCE_KERNEL fails here, not inside a worker
+        blas.environment_mode()  # and a bad JAMLAB_CHOLMOD_BLAS
         rv = _command().main(args=argv, prog_name="jamlab", standalone_mode=False)
     except NoArgsIsHelpError as exc:
         print(exc.format_message())

@@ -21,8 +21,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import cvxopt
-import cvxopt.cholmod
 import numpy as np
 import pymetis
 import scipy.sparse as sps
@@ -30,8 +28,11 @@ import scipy.sparse.linalg as spla
 
 from jamlab.spheres import kernels as AK
 from jamlab.spheres.aqs.network import contact_list, pair_keys
+from jamlab.spheres.blas import import_cvxopt
 from jamlab.spheres.pair import pair_sigmas
 from jamlab.spheres.potential import NeighborList, Packing
+
+cvxopt = import_cvxopt()  # with CHOLMOD, on the BLAS kernels of this CPU (spheres.blas)
 
 
 @dataclass(eq=False)
