@@ -90,3 +90,17 @@ def test_the_choice_is_recorded_with_every_record():
     assert len(listed) == len(blas.cores())
     for lib in blas.cores():
         assert f"{lib['prefix']} {lib['version']} {lib['architecture']}".strip() in listed
+
+
+def test_a_core_the_old_openblas_may_not_know_is_not_set():
+    """The rule, by hand: only names OpenBLAS 0.3.15 knows are set (the mapping included)."""
+    from jamlab.spheres import blas
+
+    assert "skylakex" in blas.KNOWN_CORES and "zen" in blas.KNOWN_CORES
+    assert blas.OLDER_NAMES["SapphireRapids"].lower() in blas.KNOWN_CORES
+    for unknown in ("NeoverseV2", "Zen4", "ARMV8", "Generic"):
+        assert unknown.lower() not in blas.KNOWN_CORES
+    # in a fresh process, numpy's core made to look unknown: nothing is set
+    found = probe("import jamlab.spheres.blas as b\nb.numpy_core = lambda: 'NeoverseV2'\n"
+                  "from jamlab.spheres.aqs import linalg\nblas = b", "blas.choice()")
+    assert found["choice"]["coretype"] is None and "left alone" in found["choice"]["reason"]

@@ -10,7 +10,8 @@ with the ``SkylakeX`` kernels (``benchmarks/bench_blas_core.py``, docs/aqs.md).
 
 :func:`import_cvxopt` therefore loads cvxopt with ``OPENBLAS_CORETYPE`` set, for the time of the
 import only, to the core numpy's OpenBLAS chose — a newer OpenBLAS that knows the CPU (mapped to a
-name the older one knows: :data:`OLDER_NAMES`). Where the bundled OpenBLAS knew the CPU already it
+name the older one knows: :data:`OLDER_NAMES`; a core it would not know, e.g. on ARM, is not
+set: :data:`KNOWN_CORES`). Where the bundled OpenBLAS knew the CPU already it
 chooses the same core and nothing changes; where it fell back, its factorisations get the
 kernels the CPU has. numpy's and scipy's own OpenBLAS are not touched (numpy's is loaded before,
 scipy's is made to load before). The kernels change the rounding, so results on such a machine
@@ -27,8 +28,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-__all__ = ["ENV", "MODES", "OLDER_NAMES", "choice", "cores", "environment_mode", "import_cvxopt",
-           "numpy_core"]
+__all__ = ["ENV", "KNOWN_CORES", "MODES", "OLDER_NAMES", "choice", "cores", "environment_mode",
+           "import_cvxopt", "numpy_core"]
 
 ENV = "JAMLAB_CHOLMOD_BLAS"
 MODES = ("aligned", "native")
@@ -37,6 +38,14 @@ CORETYPE = "OPENBLAS_CORETYPE"
 OLDER_NAMES = {"SapphireRapids": "Cooperlake"}
 """Cores of a newer OpenBLAS that the bundled one (0.3.15) does not know, and the nearest it
 does (the same AVX-512 kernels for double precision)."""
+
+KNOWN_CORES = frozenset(name.lower() for name in (
+    "Prescott", "Atom", "Core2", "Penryn", "Dunnington", "Nehalem", "Opteron", "Opteron_SSE3",
+    "Barcelona", "Nano", "Sandybridge", "Bobcat", "Bulldozer", "Piledriver", "Haswell",
+    "Steamroller", "Excavator", "Zen", "SkylakeX", "Cooperlake"))
+"""The x86-64 cores OpenBLAS 0.3.15 can be told (``OPENBLAS_CORETYPE``; it compares without
+case). Any other name is not set: an OpenBLAS told a core it does not know falls back to a
+generic one, which could be worse than its own choice."""
 
 _CHOICE: dict[str, Any] = {}
 
@@ -108,6 +117,8 @@ def import_cvxopt() -> Any:
         core = numpy_core()
         if core is None:
             reason = "numpy's BLAS names no OpenBLAS core"
+        elif OLDER_NAMES.get(core, core).lower() not in KNOWN_CORES:
+            reason = f"numpy's OpenBLAS runs {core}, a core cvxopt's may not know: left alone"
         else:
             coretype = OLDER_NAMES.get(core, core)
             reason = f"numpy's OpenBLAS runs {core}"
