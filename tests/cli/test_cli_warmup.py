@@ -65,6 +65,12 @@ def test_after_warmup_the_first_prepare_and_shear_compile_nothing(tmp_path) -> N
                           env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert "numba cache filled" in proc.stdout
+    # and says which machine and which BLAS kernels CHOLMOD runs (the record of every file)
+    from jamlab import provenance
+
+    here = provenance.machine()
+    assert f"this machine: {provenance.summary_text(here)}" in proc.stdout
+    assert "CHOLMOD's BLAS kernels: " in proc.stdout
     assert _first_run(runs, env) == 0
 
 

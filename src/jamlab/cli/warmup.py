@@ -35,3 +35,11 @@ def register(app: typer.Typer) -> None:
             f"numba cache filled: {result.compiled + result.left} kernels compiled in "
             f"{result.seconds:.1f} s{more}"
         )
+        from jamlab.provenance import machine, summary_text
+        from jamlab.spheres import blas
+
+        record = machine()  # loads CHOLMOD as the runs will (spheres.blas)
+        choice = blas.choice()
+        typer.echo(f"this machine: {summary_text(record)}")
+        typer.echo(f"CHOLMOD's BLAS kernels: {choice.get('coretype') or 'its own choice'} "
+                   f"({choice.get('reason', '')}; docs/aqs.md, \"CHOLMOD's BLAS kernels\")")
