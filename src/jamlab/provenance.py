@@ -31,7 +31,7 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "machine", "machine_key",
+__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "differ", "machine", "machine_key",
            "provenance_json", "segment", "summary_text"]
 
 KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "blas_cores", "libc", "python", "numpy",
@@ -146,6 +146,13 @@ def machine_key(record: dict[str, Any]) -> str:
     return "|".join(f"{name}={record.get(name, '')}" for name in KEY_FIELDS)
 
 
+def differ(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether two records are known to be different machines: a field of :data:`KEY_FIELDS`
+    that both hold differs. A field one of them lacks (a record written before jamlab recorded
+    it, e.g. ``blas_cores``) is unknown, not a difference."""
+    return any(a[name] != b[name] for name in KEY_FIELDS if name in a and name in b)
+
+
 def segment(resumed_from: int = -1) -> dict[str, Any]:
     """One invocation's record: the step it resumed from (``-1``: started afresh), the host and
     :func:`machine`."""
@@ -181,6 +188,8 @@ def summary_text(record: dict[str, Any]) -> str:
                                                                      "cvxopt"))
     code = str(record.get("jamlab_commit", ""))
     code = (code[:12] + ("+dirty" if code.endswith("+dirty") else "")) if code else "no commit"
+    if "blas_cores" not in record:
+        libs += "; BLAS kernels not recorded"
     return (f"{record.get('cpu', '?')} ({record.get('llvm_cpu', '?')}; "
             f"{record.get('numpy_simd', '?') or 'no SIMD list'}); {libs}; "
             f"BLAS {record.get('blas_cores') or record.get('blas') or 'unknown'}; jamlab {code}")

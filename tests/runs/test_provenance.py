@@ -183,3 +183,20 @@ def test_prepared_and_minimised_packings_record_where_they_were_computed(tmp_pat
         # the subprocess's own record: this machine and these libraries, its own host
         assert provenance.machine_key(record) == provenance.machine_key(provenance.machine())
         assert record["host"] == platform.node()
+
+
+def test_a_field_one_record_lacks_is_unknown_not_a_difference(tmp_path):
+    here = provenance.segment(-1)
+    older = {k: v for k, v in here.items() if k != "blas_cores"}  # written before the field
+    assert not provenance.differ(here, older) and not provenance.differ(older, here)
+    assert provenance.differ(here, {**older, "cpu": "another CPU"})
+    assert provenance.machine_key(older) != provenance.machine_key(here)  # grouped apart
+    assert "BLAS kernels not recorded" in provenance.summary_text(older)
+    # a sample resumed by a newer jamlab on the same machine did not run on two machines
+    run_study(TOY, tmp_path / "run", Execution(workers=0))
+    rd = RunDir(tmp_path / "run")
+    key = TOY.keys()[0]
+    with h5py.File(rd.sample_path(key), "r+") as h5:
+        h5.attrs["provenance"] = json.dumps([older, {**here, "resumed_from": 2}])
+    census = machine_census(rd, TOY)
+    assert census.mixed == [] and len(census.machines) == 2

@@ -19,7 +19,7 @@ from typing import Any
 
 import h5py
 
-from jamlab.provenance import machine_key, summary_text
+from jamlab.provenance import differ, machine_key, summary_text
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, Study
 
@@ -52,7 +52,9 @@ class MachineCensus:
     samples: dict[str, list[SampleKey]] = field(default_factory=dict)
     """Machine key → the finished samples with an invocation on it."""
     mixed: list[SampleKey] = field(default_factory=list)
-    """Samples whose invocations ran on more than one machine."""
+    """Samples whose invocations ran on more than one machine (records that differ in a field
+    both hold: :func:`jamlab.provenance.differ`; a record from before a field was recorded is
+    grouped apart in ``machines`` but is not a difference)."""
     partly_unknown: list[SampleKey] = field(default_factory=list)
     """Samples resumed from a checkpoint written before the records: earlier machines unknown."""
     unrecorded: list[SampleKey] = field(default_factory=list)
@@ -85,7 +87,8 @@ def machine_census(
                 keys.append(mk)
         for mk in keys:
             census.samples.setdefault(mk, []).append(key)
-        if len(keys) > 1:
+        known = [r for r in records if r.get("recorded", True) is not False]
+        if any(differ(a, b) for i, a in enumerate(known) for b in known[i + 1:]):
             census.mixed.append(key)
     return census
 
