@@ -83,3 +83,34 @@ def test_status_prints_them(run):
     mean = sum(seconds.values()) / 3
     assert f"{mean:,.0f} s per finished sample (3 timed of 3;" in lines["cpu phi=0.8 N=8"]
     assert f"left ≈ {mean / 3600:.2f} CPU-h (1.0 samples' worth)" in lines["cpu phi=0.8 N=8"]
+
+
+def test_status_opens_each_sample_file_once(run, monkeypatch):
+    """`jamlab status` reads the table's states, the costs and the machines in one pass: each
+    sample file is opened once, and what it prints is what the separate readers find."""
+    from typer.testing import CliRunner
+
+    from jamlab.cli import app
+    from jamlab.runs.origin import census_lines, machine_census
+
+    separate = (cell_costs(run, STUDY), census_lines(machine_census(run, STUDY)))
+    opened: list[str] = []
+    real = h5py.File
+
+    def counting(path, *args, **kwargs):
+        opened.append(str(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(h5py, "File", counting)
+    result = CliRunner().invoke(app, ["status", str(run.path)], terminal_width=400)
+    assert result.exit_code == 0, result.output
+    samples = [p for p in opened if "/samples/" in p]
+    assert len(samples) == len(STUDY.keys()) == len(set(samples))
+    opened.clear()
+    states, attrs = run.survey(STUDY, ("cpu_seconds", "provenance"))
+    assert states == run.scan(STUDY) and set(attrs) == set(STUDY.keys())
+    surveyed = (cell_costs(run, STUDY, states, attrs),
+                census_lines(machine_census(run, STUDY, states, attrs=attrs)))
+    assert surveyed == separate and separate[1]  # the census lines are not empty
+    for line in separate[1][:2]:
+        assert line.strip() in " ".join(result.output.split())

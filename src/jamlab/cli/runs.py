@@ -308,7 +308,8 @@ def register(app: typer.Typer) -> None:
 
         run = RunDir(run_dir)
         study = run.study()
-        states = run.scan(study)  # one pass over the sample files for the table and the costs
+        # one pass over the sample files, each opened once: the table, the costs, the machines
+        states, attrs = run.survey(study, ("cpu_seconds", "provenance"))
         counts = run.summary(study, states)
         table = Table(title=f"{run_dir}  (seed {study.seed}, {study.samples} samples per cell)")
         for column in ("phi", "N", "done", "failed", "corrupt", "pending"):
@@ -321,9 +322,9 @@ def register(app: typer.Typer) -> None:
         table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
         console = Console()
         console.print(table)
-        for line in cost_lines(cell_costs(run, study, states)):
+        for line in cost_lines(cell_costs(run, study, states, attrs)):
             console.print(line, markup=False, soft_wrap=True)
-        for line in census_lines(machine_census(run, study, states)):
+        for line in census_lines(machine_census(run, study, states, attrs=attrs)):
             console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
             for key in study.keys():

@@ -187,7 +187,9 @@ def _machines(scale: Scale, runs: Path) -> str:
     census = MachineCensus()
     for name, study in studies(scale).items():
         if (runs / name / "manifest.json").is_file():
-            machine_census(RunDir(runs / name), study, census=census)
+            run = RunDir(runs / name)
+            states, attrs = run.survey(study, ("provenance",))  # each file opened once
+            machine_census(run, study, states, census=census, attrs=attrs)
     samples = " ".join(line.strip() for line in census_lines(census, keys=False))
     return (f"samples — {samples or 'none finished'}; this report's analysis, theory and "
             f"cascades: {summary_text(machine())}")

@@ -14,13 +14,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import h5py
 
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, Study
 
-__all__ = ["CellCost", "cell_costs", "sample_cpu_seconds"]
+__all__ = ["CellCost", "cell_costs", "cpu_seconds_value", "sample_cpu_seconds"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,13 @@ class CellCost:
         return None if self.mean is None else self.mean * self.to_do
 
 
+def cpu_seconds_value(value: Any) -> float | None:
+    """A ``cpu_seconds`` attribute as a float; ``None`` when absent or not finite."""
+    if value is None or not math.isfinite(float(value)):
+        return None
+    return float(value)
+
+
 def sample_cpu_seconds(run: RunDir, key: SampleKey) -> float | None:
     """The ``cpu_seconds`` a finished sample's file records; ``None`` if it has none."""
     try:
@@ -57,22 +65,24 @@ def sample_cpu_seconds(run: RunDir, key: SampleKey) -> float | None:
             value = h5.attrs.get("cpu_seconds")
     except OSError:
         return None
-    if value is None or not math.isfinite(float(value)):
-        return None
-    return float(value)
+    return cpu_seconds_value(value)
 
 
 def cell_costs(
-    run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None
+    run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None,
+    attrs: Mapping[SampleKey, Mapping[str, Any]] | None = None,
 ) -> list[CellCost]:
     """One :class:`CellCost` per ``(φ, N)`` of ``study``, in the study's order; ``states``: a
-    :meth:`RunDir.scan` already made."""
+    :meth:`RunDir.scan` already made; ``attrs``: the finished samples' root attributes from
+    :meth:`RunDir.survey` (then no file is opened again)."""
     cells: dict[tuple[str, int], dict] = {}
     for key, state in (run.scan(study) if states is None else states).items():
         cell = cells.setdefault((key.phi_label, key.n), {"seconds": [], "done": 0, "to_do": 0.0})
         if state == "done":
             cell["done"] += 1
-            if (seconds := sample_cpu_seconds(run, key)) is not None:
+            seconds = (sample_cpu_seconds(run, key) if attrs is None
+                       else cpu_seconds_value(attrs.get(key, {}).get("cpu_seconds")))
+            if seconds is not None:
                 cell["seconds"].append(seconds)
             continue
         saved = run.checkpoint_step(key) if study.checkpoint_every else None

@@ -23,7 +23,9 @@ from jamlab.provenance import differ, machine_key, summary_text
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, Study
 
-__all__ = ["MachineCensus", "census_lines", "machine_census", "sample_provenance"]
+__all__ = [
+    "MachineCensus", "census_lines", "machine_census", "provenance_records", "sample_provenance",
+]
 
 
 def sample_provenance(run: RunDir, key: SampleKey) -> list[dict[str, Any]] | None:
@@ -34,6 +36,12 @@ def sample_provenance(run: RunDir, key: SampleKey) -> list[dict[str, Any]] | Non
             text = h5.attrs.get("provenance")
     except OSError:
         return None
+    return provenance_records(text)
+
+
+def provenance_records(text: Any) -> list[dict[str, Any]] | None:
+    """A ``provenance`` attribute's invocation records; ``None`` when absent or not a JSON
+    list."""
     if text is None:
         return None
     try:
@@ -64,15 +72,18 @@ class MachineCensus:
 def machine_census(
     run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None,
     census: MachineCensus | None = None,
+    attrs: Mapping[SampleKey, Mapping[str, Any]] | None = None,
 ) -> MachineCensus:
     """The :class:`MachineCensus` of ``study``'s finished samples in ``run``; ``states``: a
     :meth:`RunDir.scan` already made; ``census``: add to this one (several runs, as the
-    report's) instead of a new one."""
+    report's) instead of a new one; ``attrs``: the finished samples' root attributes from
+    :meth:`RunDir.survey` (then no file is opened again)."""
     census = MachineCensus() if census is None else census
     for key, state in (run.scan(study) if states is None else states).items():
         if state != "done":
             continue
-        records = sample_provenance(run, key)
+        records = (sample_provenance(run, key) if attrs is None
+                   else provenance_records(attrs.get(key, {}).get("provenance")))
         if not records:
             census.unrecorded.append(key)
             continue

@@ -185,14 +185,23 @@ def sample_state(path: Path, key: SampleKey, study: Study | None = None) -> str:
     """``"done"`` if ``path`` is a whole sample file for ``key`` (:func:`check_sample`);
     ``"corrupt"`` if it exists but is unreadable, damaged, incomplete or another sample's;
     ``"pending"`` if it does not exist."""
+    return sample_state_attrs(path, key, study)[0]
+
+
+def sample_state_attrs(
+    path: Path, key: SampleKey, study: Study | None = None, names: tuple[str, ...] = ()
+) -> tuple[str, dict[str, Any]]:
+    """:func:`sample_state` and, for a ``"done"`` file, the root attributes ``names`` it has,
+    read while the file is open for the check (one open per file); ``{}`` otherwise."""
     if not path.exists():
-        return "pending"
+        return "pending", {}
     try:
         with h5py.File(path, "r") as h5:
             check_sample(h5, key, study)
+            attrs = {name: h5.attrs[name] for name in names if name in h5.attrs}
     except Exception:  # noqa: BLE001 - any failure to read means the file must be redone
-        return "corrupt"
-    return "done"
+        return "corrupt", {}
+    return "done", attrs
 
 
 class RunDir:
@@ -401,6 +410,22 @@ class RunDir:
     def scan(self, study: Study) -> dict[SampleKey, str]:
         """The state of every sample of ``study``."""
         return {key: self.state(key, study) for key in study.keys()}
+
+    def survey(
+        self, study: Study, names: tuple[str, ...]
+    ) -> tuple[dict[SampleKey, str], dict[SampleKey, dict[str, Any]]]:
+        """:meth:`scan` and the root attributes ``names`` of every finished sample, each file
+        opened once (``jamlab status``: its costs and machines)."""
+        states: dict[SampleKey, str] = {}
+        attrs: dict[SampleKey, dict[str, Any]] = {}
+        for key in study.keys():
+            state, found = sample_state_attrs(self.sample_path(key), key, study, names)
+            if state == "pending" and self.failure_path(key).exists():
+                state = "failed"
+            states[key] = state
+            if state == "done":
+                attrs[key] = found
+        return states, attrs
 
     def write_sample(self, key: SampleKey, result: SampleResult, seed: int, study: Study) -> Path:
         """Write ``result`` atomically as ``key``'s sample file; removes a failure record."""
