@@ -18,7 +18,11 @@ run directory (φ label ``jamming`` at ``--n``, finished samples), the window is
   assumes independent avalanches; a guide, not a test).
 
     PYTHONPATH=src python scripts/strain_window.py RUNS/n250-p1e-6-fix40 RUNS/n500-p1e-6-fix \\
-        RUNS/n1000-p1e-6 --n 250 500 1000 --above 1e-10 1e-8
+        RUNS/n1000-p1e-6 --n 250 500 1000 --above 1e-10 1e-8 --fit-at 1e-10 3e-10
+
+With ``--fit-at``, τ with an exponential cut-off at each fixed floor is fitted separately in each
+of ``--fit-parts`` (default 2) equal parts of the window, with the difference between the first
+and the last part in units of their combined σ: does the exponent drift along the window?
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from jamlab.analysis import fit_cutoff_power_law
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
 from jamlab.runs import open_run
 
@@ -67,6 +72,34 @@ def window_parts(ds, n: int, parts: int, floors: list[float]) -> dict:
             "samples": m, "steps": steps, "edges": edges}
 
 
+def part_sizes(ds, n: int, parts: int) -> list[np.ndarray]:
+    """The counted avalanche sizes ``S = −ΔE`` (ε) of the finished samples at ``("jamming", n)``
+    in each of ``parts`` equal parts of the steps (the parts of :func:`window_parts`)."""
+    if not finished(ds, "jamming", n).any():
+        raise ValueError(f"no finished sample at N = {n}")
+    ej, counted = counted_steps(ds, "jamming", n)
+    steps = ej.shape[1]
+    if not 1 <= parts <= steps:
+        raise ValueError(f"parts must be in [1, {steps}], got {parts}")
+    edges = np.linspace(0, steps, parts + 1).round().astype(int)
+    return [-ej[:, a:b][counted[:, a:b]] for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def part_fits(sizes: list[np.ndarray], floor: float) -> list[tuple[int, float, float] | None]:
+    """Per part: the number of sizes at or above ``floor``, and τ ± its asymptotic σ of the
+    exponential cut-off fit there (:func:`jamlab.analysis.fit_cutoff_power_law`, ``x_min`` fixed
+    at ``floor``); ``None`` where the part has too few sizes for a fit."""
+    out: list[tuple[int, float, float] | None] = []
+    for s in sizes:
+        try:
+            fit = fit_cutoff_power_law(s, x_min=floor)
+        except ValueError:
+            out.append(None)
+            continue
+        out.append((int(np.count_nonzero(s >= floor)), float(fit.tau), float(fit.tau_stderr)))
+    return out
+
+
 def uniform_chi2(counts: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
     """χ² of ``counts`` against a rate proportional to each part's number of steps, and its
     p-value (``len(counts) − 1`` degrees of freedom); NaN without counts."""
@@ -86,6 +119,10 @@ def main() -> None:
     ap.add_argument("--parts", type=int, default=10)
     ap.add_argument("--above", type=float, nargs="+", default=[1e-10],
                     help="floors of S (ε) for the avalanche counts")
+    ap.add_argument("--fit-at", type=float, nargs="+", default=[],
+                    help="floors of S (ε): τ with an exponential cut-off in each of --fit-parts "
+                         "parts of the window")
+    ap.add_argument("--fit-parts", type=int, default=2)
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -93,6 +130,10 @@ def main() -> None:
         ap.error("--parts must be >= 1")
     if not all(x > 0 for x in a.above):
         ap.error("--above floors must be > 0")
+    if not all(x > 0 for x in a.fit_at):
+        ap.error("--fit-at floors must be > 0")
+    if a.fit_parts < 1:
+        ap.error("--fit-parts must be >= 1")
     for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
         w = window_parts(open_run(run), n, a.parts, a.above)
         print(f"\n{run} (N = {n}): {w['samples']} finished samples, {w['steps']} steps each; "
@@ -109,6 +150,23 @@ def main() -> None:
             chi2, p = uniform_chi2(w["counts"][x], w["edges"])
             print(f"avalanches ≥ {x:.0e}: χ² against a constant rate {chi2:.1f} "
                   f"({a.parts - 1} dof), p = {p:.3g} (independent avalanches assumed)")
+        if a.fit_at:
+            ds = open_run(run)
+            sizes = part_sizes(ds, n, a.fit_parts)
+            print(f"\nτ, exponential cut-off at fixed floors, in {a.fit_parts} parts of the "
+                  "window (sizes in the fit)\n")
+            print("| floor | " + " | ".join(f"part {k + 1}" for k in range(a.fit_parts))
+                  + " | difference first − last (σ) |")
+            print("|---|" + "---|" * (a.fit_parts + 1))
+            for floor in a.fit_at:
+                fits = part_fits(sizes, floor)
+                cells = [f"{f[1]:.3f} ± {f[2]:.3f} ({f[0]})" if f else "too few"
+                         for f in fits]
+                first, last = fits[0], fits[-1]
+                diff = (f"{first[1] - last[1]:+.3f} "
+                        f"({(first[1] - last[1]) / np.hypot(first[2], last[2]):+.1f} σ)"
+                        if first and last and a.fit_parts > 1 else "—")
+                print(f"| {floor:.0e} | " + " | ".join(cells) + f" | {diff} |")
 
 
 if __name__ == "__main__":

@@ -73,3 +73,35 @@ def test_bad_arguments_exit_2(monkeypatch, argv):
     with pytest.raises(SystemExit) as e:
         sw.main()
     assert e.value.code == 2
+
+
+def test_part_sizes_and_fits(small_run):
+    """The per-part sizes are the counted jumps of the sample files' own traces, and each part's
+    fit is the library's fit of exactly those sizes."""
+    from jamlab.analysis import fit_cutoff_power_law
+    from jamlab.runs import open_run
+
+    sw = script_module("strain_window")
+    sizes = sw.part_sizes(open_run(small_run), 16, 2)
+    by_part: list[list[float]] = [[], []]
+    for f in sorted(small_run.glob("samples/*/*/sample-*.h5")):
+        with h5py.File(f) as h:
+            t = {k: h[f"trace/{k}"][:] for k in ("energy_jump", "plastic", "jammed")}
+        steps = t["energy_jump"].size - 1
+        edges = np.linspace(0, steps, 3).round().astype(int)
+        s = -t["energy_jump"][1:]
+        hit = t["plastic"][1:] & t["jammed"][:-1] & t["jammed"][1:] & (s > 0)
+        for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+            by_part[k] += s[a:b][hit[a:b]].tolist()
+    for got, want in zip(sizes, by_part, strict=True):
+        assert sorted(got.tolist()) == sorted(want)
+    assert sum(s.size for s in sizes) > 0
+    # the fits: on sizes drawn from a pure power law (the small run has too few for a fit)
+    floor = 1e-10
+    drawn = floor * np.random.default_rng(5).pareto(0.5, 400) + floor  # τ = 1.5
+    fits = sw.part_fits([drawn, drawn[:3], drawn / 10], floor)
+    ref = fit_cutoff_power_law(drawn, x_min=floor)
+    assert fits[0] == (400, float(ref.tau), float(ref.tau_stderr))
+    assert abs(fits[0][1] - 1.5) < 4 * fits[0][2]  # the exponent drawn
+    assert fits[1] is None  # three sizes are too few for a fit
+    assert fits[2][0] == int(np.count_nonzero(drawn / 10 >= floor))  # only those at the floor
