@@ -13,7 +13,9 @@ about time.
 With ``--at-jamming N …`` it also times constant-volume shear (fast path, ``--jam-steps``
 steps of δγ = 1e-5) from ``jam(N, 3, seed, p_target=1e-7)`` for ``--at-jamming-seeds`` (default
 1 2), and with ``--prepared-seeds S …`` the fast path from ``prepare(1000, 3, 0.8, S)`` (the
-typical starts of ``bench_aqs.py``); those packings are made once per tree and kept in
+typical starts of ``bench_aqs.py``), and with ``--at-pressure P …`` fixed-pressure shear
+(``--jam-steps`` steps) from ``jam_at_pressure(--at-pressure-n, 3, seed, P)`` for the same seeds;
+those packings are made once per tree and kept in
 ``--cache`` between rounds. With ``--jam-n N`` (default 256)
 it also times ``jam(N, 3, seed)`` for seeds 1–3 (the
 ``bench_jam.py`` protocol, jamlab only), per packing (the "ms/step" columns are then ms per
@@ -44,7 +46,7 @@ import json, pickle, sys, time
 import jamlab
 from jamlab.spheres.aqs import shear
 from jamlab.spheres.io import read_lammps_positions
-from jamlab.spheres.packing import jam, prepare
+from jamlab.spheres.packing import jam, jam_at_pressure, prepare
 
 start_dir, steps, jam_steps, jamming = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 fast_only = sys.argv[5] == "1"
@@ -52,6 +54,7 @@ jam_n = int(sys.argv[6])
 at_jamming = json.loads(sys.argv[7])
 cache_dir = sys.argv[8]
 prepared_seeds = json.loads(sys.argv[9])
+at_pressure = json.loads(sys.argv[10])
 
 def cached(name, make):
     # a packing made once per tree (outside the timings) and kept in cache_dir between rounds
@@ -90,6 +93,11 @@ for n_cv, seed in at_jamming:
     # constant volume from jam(N, 3, seed, p_target=1e-7)
     packing = cached(f"jam_n{n_cv}_s{seed}", lambda: jam(n_cv, 3, seed=seed, p_target=1e-7).packing)
     timed(f"jamming N={n_cv} seed {seed} fast", packing, jam_steps)
+for n_p, pressure, seed in at_pressure:
+    # fixed pressure from jam_at_pressure(N, 3, seed, pressure)
+    packing = cached(f"jam_n{n_p}_p{pressure:g}_s{seed}",
+                     lambda: jam_at_pressure(n_p, 3, seed, pressure).packing)
+    timed(f"p={pressure:g} N={n_p} seed {seed}", packing, jam_steps, pressure=pressure)
 if jam_n:
     jam(64, 3, seed=1, p_target=1e-4)  # compile outside the timings
     wall, cpu = time.perf_counter(), time.process_time()
@@ -113,6 +121,8 @@ def run_child(src: str, args) -> dict:
         json.dumps([(n, s) for n in args.at_jamming for s in args.at_jamming_seeds]),
         args.cache,
         json.dumps(args.prepared_seeds),
+        json.dumps([(args.at_pressure_n, p, s) for p in args.at_pressure
+                    for s in args.at_jamming_seeds]),
     ]
     stdout = run_in_tree(src, CHILD, child_args)
     line = next(x for x in stdout.splitlines() if x.startswith("RESULT "))
@@ -137,6 +147,12 @@ def main(argv: list[str] | None = None) -> int:
         "jam(N, 3, seed, p_target=1e-7) for these N",
     )
     ap.add_argument("--at-jamming-seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument(
+        "--at-pressure", type=float, nargs="*", default=[],
+        help="also time fixed-pressure shear (the default inner minimiser, --jam-steps steps) "
+        "from jam_at_pressure(--at-pressure-n, 3, seed, P) for these P and --at-jamming-seeds",
+    )
+    ap.add_argument("--at-pressure-n", type=int, default=250)
     ap.add_argument(
         "--prepared-seeds", type=int, nargs="*", default=[],
         help="also time the fast path (--steps steps) from prepare(1000, 3, 0.8, seed), the "

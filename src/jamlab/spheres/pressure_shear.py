@@ -12,7 +12,8 @@ minimisations and the substeps of a plastic-flag confirmation), volume_steps, co
 enthalpy_jump, stress_jump, plastic``.
 
 The start, a minimum FIRE took part in, and one the jammed flag rejects are tested for a saddle,
-and pushed off it (``barostat.leave_saddle``; attribute ``n_saddles_left``; ``docs/aqs.md``).
+and pushed off it (``barostat.leave_saddle``; attribute ``n_saddles_left``; ``docs/aqs.md``),
+then ``barostat.polish_recorded`` (``n_polished``): no row reading ``max_force ≥ ftol`` converged.
 
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
@@ -44,23 +45,18 @@ minimum's contact network — the branch continued through the step, no FIRE —
 redone (a jump leaves the linear-response basin of the branch, where Newton fails and FIRE carries
 the event); measured against redoing every candidate (``confirm="chain"``) in ``docs/aqs.md``.
 ``confirm="located"`` (the default) redoes the same candidates, but decides each first on the one
-piece where the branch of the start ends (:func:`jamlab.spheres.confirm.jump_located`: Newton-only
-probes find the piece by bisection, and the step's own end minimum, continued back by Newton,
-closes it — the event is not carried by FIRE a second time; where the end's branch does not reach
-back that far, the chain's own pieces from there, then those before it: a final verdict), the whole
-chain only where the piece the probes located keeps less than the bound. It also counts as plastic
-the single step that lands in a lower minimum than quasi-static driving reaches (its end is not the
-continuation of its start: the constant-volume rule), which the chain calls a kink; measured in
-``docs/aqs.md``. By default the redoing is deferred (``defer_confirmation``): a candidate is kept
-and, once the run's threshold is known, redone only if ``|r_n|`` passes it between two jammed
-minima — the others cannot be plastic whatever their verdict (at N = 1000, p = 1e-4, δγ = 1e-5 two
-thirds of the candidates, since the noise of ``r_n`` puts the threshold ~50× above the candidates'
-floor), and of those only the ones that did not release for certain more than ``confirm_below`` (5)
-times ``max(threshold, δγ²)`` (:func:`~jamlab.spheres.confirm.released_at_least`; the others are
-jumps: ``docs/aqs.md``, measured). ``confirm_substeps=0`` skips the confirmation (cheaper, counts
-kinks). The recorded minimum is always the single step's; the sizes ``S = −ΔH_n > 0`` of the
-flagged steps follow from :func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and
-``jammed``.
+piece where the branch of the start ends, located by Newton-only probes, without carrying the
+event by FIRE a second time (:func:`jamlab.spheres.confirm.jump_located`; the whole chain only
+where that piece keeps less than the bound); it also flags the single step that lands lower than
+quasi-static driving reaches. Both measured in ``docs/aqs.md``. By default the redoing is
+deferred (``defer_confirmation``): once the run's threshold is known, a kept candidate is redone
+only if ``|r_n|`` passes it between two jammed minima (the others cannot be plastic: at N = 1000,
+p = 1e-4, δγ = 1e-5 two thirds of them) and it did not release for certain more than
+``confirm_below`` (5) times ``max(threshold, δγ²)`` (a jump:
+:func:`~jamlab.spheres.confirm.released_at_least`). ``confirm_substeps=0`` skips the confirmation
+(cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
+``S = −ΔH_n > 0`` of the flagged steps follow from
+:func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
 """
 
 from __future__ import annotations
@@ -74,11 +70,13 @@ import numpy as np
 
 from jamlab import validation
 from jamlab.spheres.barostat import (
+    POLISH_COUNT,
     box_side_guess,
     enthalpy_and_stress,
     leave_saddle,
     minimize_enthalpy,
     minimize_step,
+    polish_recorded,
 )
 from jamlab.spheres.confirm import (
     jump_in_chain,
@@ -218,7 +216,7 @@ def _row(res, ftol: float) -> dict:
         "max_force": ev.max_force,
         "iterations": res.iterations,
         "volume_steps": res.volume_steps,
-        "converged": res.converged,
+        "converged": bool(res.converged and ev.max_force < ftol),  # as the trace reads it
     }
 
 
@@ -350,6 +348,7 @@ def shear_at_pressure(
         gamma0 = packing.strain
         res, pushes = leave_saddle(minimize_enthalpy(packing, pressure, **kw), pressure, kw, True)
         counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes, RETRY_COUNT: 0}
+        res, counts[POLISH_COUNT] = polish_recorded(res, kw)
         rows = {k: [] for k in names}
         _append(rows, gamma0, _row(res, ftol))
         cur = res.packing
@@ -378,7 +377,9 @@ def shear_at_pressure(
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
-        row = _row(res, ftol) if pushes else row
+        res, polished = polish_recorded(res, kw)
+        counts[POLISH_COUNT] += polished
+        row = _row(res, ftol) if pushes or polished else row
         step = target - rows["gamma"][-1]
         r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
                                row["enthalpy"], row["shear_stress"], step)
@@ -537,7 +538,7 @@ def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], n
         "converged": fp["converged"],
     }
     rows = {k: source[k].tolist() for k in names}
-    kept = (*CANDIDATE_COUNTS, SADDLE_COUNT, RETRY_COUNT)
+    kept = (*CANDIDATE_COUNTS, SADDLE_COUNT, RETRY_COUNT, POLISH_COUNT)
     counts = {k: int(previous.attrs.get(k, 0)) for k in kept}
     return rows, np.asarray(fp["confirmed"], dtype=bool), counts
 
