@@ -105,3 +105,28 @@ def test_part_sizes_and_fits(small_run):
     assert abs(fits[0][1] - 1.5) < 4 * fits[0][2]  # the exponent drawn
     assert fits[1] is None  # three sizes are too few for a fit
     assert fits[2][0] == int(np.count_nonzero(drawn / 10 >= floor))  # only those at the floor
+
+
+def test_fit_table_printed(small_run, monkeypatch, capsys):
+    """``--fit-at``: one row per floor, one cell per part; the small run's parts are too small
+    for a fit, and say so rather than print a number."""
+    sw = script_module("strain_window")
+    monkeypatch.setattr(sys, "argv", ["strain_window.py", str(small_run), "--n", "16",
+                                      "--parts", "3", "--fit-at", "1e-12", "1e-10",
+                                      "--fit-parts", "2"])
+    sw.main()
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("| 1e-")]
+    assert [r.split("|")[1].strip() for r in rows] == ["1e-12", "1e-10"]
+    for r in rows:
+        cells = [c.strip() for c in r.strip("|").split("|")]
+        assert cells[1:3] == ["too few", "too few"] and cells[3] == "—"
+
+
+@pytest.mark.parametrize("argv", [["a", "--fit-at", "0"], ["a", "--fit-parts", "0"]])
+def test_bad_fit_arguments_exit_2(monkeypatch, argv):
+    sw = script_module("strain_window")
+    monkeypatch.setattr(sys, "argv", ["strain_window.py", *argv])
+    with pytest.raises(SystemExit) as e:
+        sw.main()
+    assert e.value.code == 2
