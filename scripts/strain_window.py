@@ -28,6 +28,7 @@ and the last part in units of their combined σ: does the exponent drift along t
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import numpy as np
@@ -85,18 +86,21 @@ def part_sizes(ds, n: int, parts: int) -> list[np.ndarray]:
     return [-ej[:, a:b][counted[:, a:b]] for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
 
-def part_fits(sizes: list[np.ndarray], floor: float) -> list[tuple[int, float, float] | None]:
-    """Per part: the number of sizes at or above ``floor``, and τ ± its asymptotic σ of the
-    exponential cut-off fit there (:func:`jamlab.analysis.fit_cutoff_power_law`, ``x_min`` fixed
-    at ``floor``); ``None`` where the part has too few sizes for a fit."""
-    out: list[tuple[int, float, float] | None] = []
+def part_fits(sizes: list[np.ndarray],
+              floor: float) -> list[tuple[int, float, float, float, float] | None]:
+    """Per part: the number of sizes at or above ``floor``, τ ± its asymptotic σ and the cut-off
+    ``S_c`` ± its σ of the exponential cut-off fit there
+    (:func:`jamlab.analysis.fit_cutoff_power_law`, ``x_min`` fixed at ``floor``); ``None`` where
+    the part has too few sizes for a fit."""
+    out: list[tuple[int, float, float, float, float] | None] = []
     for s in sizes:
         try:
             fit = fit_cutoff_power_law(s, x_min=floor)
         except ValueError:
             out.append(None)
             continue
-        out.append((int(np.count_nonzero(s >= floor)), float(fit.tau), float(fit.tau_stderr)))
+        out.append((int(np.count_nonzero(s >= floor)), float(fit.tau), float(fit.tau_stderr),
+                    float(fit.x_c), float(fit.x_c_stderr)))
     return out
 
 
@@ -109,6 +113,18 @@ def uniform_chi2(counts: np.ndarray, edges: np.ndarray) -> tuple[float, float]:
     expected = total * np.diff(edges) / edges[-1]
     chi2 = float(np.sum((counts - expected) ** 2 / expected))
     return chi2, float(stats.chi2.sf(chi2, counts.size - 1))
+
+
+def part_differences(first, last) -> tuple[str, str]:
+    """τ(first) − τ(last) and ln S_c(last) − ln S_c(first), each with its size in units of the
+    two parts' combined asymptotic σ (``σ(ln S_c) = σ(S_c)/S_c``); "—" without two fits."""
+    if first is None or last is None or first is last:
+        return "—", "—"
+    d_tau = first[1] - last[1]
+    d_log = math.log(last[3] / first[3])
+    s_log = math.hypot(first[4] / first[3], last[4] / last[3])
+    return (f"{d_tau:+.3f} ({d_tau / math.hypot(first[2], last[2]):+.1f} σ)",
+            f"{d_log:+.2f} ({d_log / s_log:+.1f} σ)")
 
 
 def main() -> None:
@@ -154,19 +170,16 @@ def main() -> None:
             ds = open_run(run)
             sizes = part_sizes(ds, n, a.fit_parts)
             print(f"\nτ, exponential cut-off at fixed floors, in {a.fit_parts} parts of the "
-                  "window (sizes in the fit)\n")
+                  "window (sizes in the fit; cut-off S_c in ε)\n")
             print("| floor | " + " | ".join(f"part {k + 1}" for k in range(a.fit_parts))
-                  + " | difference first − last (σ) |")
-            print("|---|" + "---|" * (a.fit_parts + 1))
+                  + " | τ: first − last (σ) | ln S_c: last − first (σ) |")
+            print("|---|" + "---|" * (a.fit_parts + 2))
             for floor in a.fit_at:
                 fits = part_fits(sizes, floor)
-                cells = [f"{f[1]:.3f} ± {f[2]:.3f} ({f[0]})" if f else "too few"
-                         for f in fits]
-                first, last = fits[0], fits[-1]
-                diff = (f"{first[1] - last[1]:+.3f} "
-                        f"({(first[1] - last[1]) / np.hypot(first[2], last[2]):+.1f} σ)"
-                        if first and last and a.fit_parts > 1 else "—")
-                print(f"| {floor:.0e} | " + " | ".join(cells) + f" | {diff} |")
+                cells = [f"{f[1]:.3f} ± {f[2]:.3f}, S_c {f[3]:.1e} ± {f[4]:.0e} ({f[0]})"
+                         if f else "too few" for f in fits]
+                print(f"| {floor:.0e} | " + " | ".join(cells) + " | "
+                      + " | ".join(part_differences(fits[0], fits[-1])) + " |")
 
 
 if __name__ == "__main__":

@@ -101,7 +101,8 @@ def test_part_sizes_and_fits(small_run):
     drawn = floor * np.random.default_rng(5).pareto(0.5, 400) + floor  # τ = 1.5
     fits = sw.part_fits([drawn, drawn[:3], drawn / 10], floor)
     ref = fit_cutoff_power_law(drawn, x_min=floor)
-    assert fits[0] == (400, float(ref.tau), float(ref.tau_stderr))
+    assert fits[0] == (400, float(ref.tau), float(ref.tau_stderr), float(ref.x_c),
+                       float(ref.x_c_stderr))
     assert abs(fits[0][1] - 1.5) < 4 * fits[0][2]  # the exponent drawn
     assert fits[1] is None  # three sizes are too few for a fit
     assert fits[2][0] == int(np.count_nonzero(drawn / 10 >= floor))  # only those at the floor
@@ -120,7 +121,7 @@ def test_fit_table_printed(small_run, monkeypatch, capsys):
     assert [r.split("|")[1].strip() for r in rows] == ["1e-12", "1e-10"]
     for r in rows:
         cells = [c.strip() for c in r.strip("|").split("|")]
-        assert cells[1:3] == ["too few", "too few"] and cells[3] == "—"
+        assert cells[1:] == ["too few", "too few", "—", "—"]
 
 
 @pytest.mark.parametrize("argv", [["a", "--fit-at", "0"], ["a", "--fit-parts", "0"]])
@@ -130,3 +131,14 @@ def test_bad_fit_arguments_exit_2(monkeypatch, argv):
     with pytest.raises(SystemExit) as e:
         sw.main()
     assert e.value.code == 2
+
+
+def test_part_differences():
+    """τ difference over hypot of the σ; ln S_c difference over hypot of the relative σ."""
+    sw = script_module("strain_window")
+    first, last = (100, 1.5, 0.03, 1e-8, 2e-9), (120, 1.46, 0.04, 4e-8, 1.2e-8)
+    d_tau, d_log = sw.part_differences(first, last)
+    assert d_tau == f"+0.040 ({0.04 / 0.05:+.1f} σ)"
+    assert d_log == f"{np.log(4):+.2f} ({np.log(4) / np.hypot(0.2, 0.3):+.1f} σ)"
+    assert sw.part_differences(first, None) == ("—", "—")
+    assert sw.part_differences(first, first) == ("—", "—")
