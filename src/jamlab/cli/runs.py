@@ -2,51 +2,27 @@
 
 from __future__ import annotations
 
-import re
 import sys
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from typer.core import TyperCommand
+
+from jamlab.cli import multivalue
 
 _MULTI_VALUE_OPTIONS = ("--phi", "--n")
-_NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
 
 def expand_multi_values(
     args: list[str], options: tuple[str, ...] = _MULTI_VALUE_OPTIONS
 ) -> list[str]:
-    """Rewrite ``--phi a b c`` as ``--phi a --phi b --phi c`` (click options take one value).
-
-    Values run until the next option (a token starting with ``-`` that is not a negative number),
-    ``--`` or a ``*.toml`` file name (the study file may follow the values)."""
-    out: list[str] = []
-    current: str | None = None
-    for token in args:
-        if token == "--":
-            current = None
-            out.append(token)
-        elif token in options:
-            current = token
-        elif current is not None and (not token.startswith("-") or _NUMBER.match(token)):
-            if token.endswith(".toml"):
-                current = None
-                out.append(token)
-            else:
-                out.extend([current, token])
-        else:
-            if current is not None and token.startswith("-"):
-                current = None
-            out.append(token)
-    return out
+    """Rewrite ``--phi a b c`` as ``--phi a --phi b --phi c`` (click options take one value):
+    :func:`jamlab.cli.multivalue.expand_multi_values` with ``jamlab run``'s options."""
+    return multivalue.expand_multi_values(args, options)
 
 
-class _MultiValueCommand(TyperCommand):
-    """A command whose ``--phi`` and ``--n`` accept several space-separated values."""
-
-    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
-        return super().parse_args(ctx, expand_multi_values(list(args)))
+_MultiValueCommand = multivalue.multi_value_command(_MULTI_VALUE_OPTIONS)
+"""A command whose ``--phi`` and ``--n`` accept several space-separated values."""
 
 
 def _progress(quiet: bool):  # -> factory for run_study(progress=...)

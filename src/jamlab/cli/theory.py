@@ -2,40 +2,24 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
-from typer.core import TyperCommand
 
 from jamlab.cli._options import Force
+from jamlab.cli.multivalue import expand_multi_values, multi_value_command
 
 THEORY_DGAMMA = (1e-30, 1e6)
 """Accepted ``|δγ|`` of ``jamlab theory``."""
 
-_NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
-
-
 def expand_dgamma(args: list[str]) -> list[str]:
-    """Rewrite ``--dgamma a b c`` as ``--dgamma a --dgamma b --dgamma c`` (values run until the
-    next option; negative numbers are values)."""
-    out: list[str] = []
-    active = False
-    for token in args:
-        if token == "--dgamma":
-            active = True
-        elif active and (not token.startswith("-") or _NUMBER.match(token)):
-            out.extend(["--dgamma", token])
-        else:
-            active = False
-            out.append(token)
-    return out
+    """Rewrite ``--dgamma a b c`` as ``--dgamma a --dgamma b --dgamma c``
+    (:func:`jamlab.cli.multivalue.expand_multi_values`)."""
+    return expand_multi_values(args, ("--dgamma",))
 
 
-class _TheoryCommand(TyperCommand):
-    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
-        return super().parse_args(ctx, expand_dgamma(list(args)))
+_TheoryCommand = multi_value_command(("--dgamma",))
 
 
 def theory(

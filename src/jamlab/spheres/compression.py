@@ -15,7 +15,8 @@ from jamlab.spheres.describe import describe, z_iso
 from jamlab.spheres.relax import compress_to
 from jamlab.spheres.state import Packing
 
-__all__ = ["CoordinationCurve", "coordination_curve", "fit_power_law", "fit_power_law_corrected"]
+__all__ = ["CoordinationCurve", "compression_schedule", "coordination_curve", "fit_power_law",
+           "fit_power_law_corrected"]
 
 ProgressCallback = Callable[[str], None]
 
@@ -47,6 +48,21 @@ class CoordinationCurve:
         return {k: getattr(self, k) for k in names} | {"converged": self.converged.astype(int)}
 
 
+def compression_schedule(phi_j: float, dphi_min: float, dphi_max: float,
+                         steps: int) -> np.ndarray:
+    """The ``Δφ_k`` of :func:`coordination_curve`: ``steps`` values spaced logarithmically from
+    ``dphi_min`` to ``dphi_max``; ValueError unless ``0 < dphi_min < dphi_max``, ``steps ≥ 2``
+    and ``φ_J + dphi_max < 1`` (callers check their arguments with it before any work)."""
+    if not (0 < dphi_min < dphi_max):
+        raise ValueError(f"need 0 < dphi_min < dphi_max, got {dphi_min!r}, {dphi_max!r}")
+    if not (isinstance(steps, int | np.integer) and steps >= 2):
+        raise ValueError(f"steps must be an integer >= 2, got steps={steps!r}")
+    dphi = np.geomspace(dphi_min, dphi_max, int(steps))
+    if phi_j + dphi[-1] >= 1.0:
+        raise ValueError(f"phi_J + dphi_max = {phi_j + dphi[-1]} must stay below 1")
+    return dphi
+
+
 def coordination_curve(
     packing: Packing,
     phi_j: float | None = None,
@@ -60,14 +76,8 @@ def coordination_curve(
     """Compress a jammed packing to ``φ_k = φ_J + Δφ_k`` with ``Δφ_k`` logarithmically spaced
     from ``dphi_min`` to ``dphi_max`` (``steps`` values); each minimum starts from the previous
     one, affinely rescaled (:func:`compress_to`). ``φ_J`` defaults to the packing's ``φ``."""
-    if not (0 < dphi_min < dphi_max):
-        raise ValueError(f"need 0 < dphi_min < dphi_max, got {dphi_min!r}, {dphi_max!r}")
-    if not (isinstance(steps, int | np.integer) and steps >= 2):
-        raise ValueError(f"steps must be an integer >= 2, got steps={steps!r}")
     phi_j = packing.phi if phi_j is None else float(phi_j)
-    dphi = np.geomspace(dphi_min, dphi_max, int(steps))
-    if phi_j + dphi[-1] >= 1.0:
-        raise ValueError(f"phi_J + dphi_max = {phi_j + dphi[-1]} must stay below 1")
+    dphi = compression_schedule(phi_j, dphi_min, dphi_max, steps)
     rows = []
     pk = packing
     for k, dp in enumerate(dphi):
