@@ -90,8 +90,19 @@ def test_the_trace_counts_polishes_and_never_calls_a_row_above_ftol_converged(mi
     assert run.attrs[POLISH_COUNT] >= 0 and run.n_not_converged == 0
 
     monkeypatch.setattr(pressure_shear, "polish_recorded",
-                        lambda res, kw: (nudged(res, 3e-12), 1))
+                        lambda res, kw, max_force=None: (nudged(res, 3e-12), 1))
     run = pressure_shear.shear_at_pressure(minimum.packing, 1e-4, n_steps=3, pressure=P)
     c = run.columns
     assert np.all(c["max_force"] >= FTOL) and not np.any(c["converged"])
     assert run.n_not_converged == 4 and run.attrs[POLISH_COUNT] == 4
+
+
+def test_the_callers_force_is_used(minimum):
+    """``max_force`` given by the caller (the row's own evaluation) decides, as the evaluation
+    made here would: a reading at or above ``ftol`` polishes, one below does not."""
+    bad = nudged(minimum, 3e-12)
+    a, runs_a = polish_recorded(bad, KW)
+    b, runs_b = polish_recorded(bad, KW, max_force(brute(bad.packing)))
+    assert runs_a == runs_b == 1 and a.max_force == b.max_force and b.converged
+    out, runs = polish_recorded(minimum, KW, 0.5 * FTOL)
+    assert out is minimum and runs == 0

@@ -402,10 +402,17 @@ class RunDir:
     def state(self, key: SampleKey, study: Study | None = None) -> str:
         """``done``, ``failed`` (no whole file but a failure record), ``corrupt`` or ``pending``
         (with ``study``: the trace length and dimension are checked too)."""
-        state = sample_state(self.sample_path(key), key, study)
+        return self.state_attrs(key, study)[0]
+
+    def state_attrs(
+        self, key: SampleKey, study: Study | None = None, names: tuple[str, ...] = ()
+    ) -> tuple[str, dict[str, Any]]:
+        """:meth:`state` and, for a finished sample, its root attributes ``names``, read in the
+        same open (:func:`sample_state_attrs`)."""
+        state, attrs = sample_state_attrs(self.sample_path(key), key, study, names)
         if state == "pending" and self.failure_path(key).exists():
-            return "failed"
-        return state
+            return "failed", {}
+        return state, attrs
 
     def scan(self, study: Study) -> dict[SampleKey, str]:
         """The state of every sample of ``study``."""
@@ -419,11 +426,8 @@ class RunDir:
         states: dict[SampleKey, str] = {}
         attrs: dict[SampleKey, dict[str, Any]] = {}
         for key in study.keys():
-            state, found = sample_state_attrs(self.sample_path(key), key, study, names)
-            if state == "pending" and self.failure_path(key).exists():
-                state = "failed"
-            states[key] = state
-            if state == "done":
+            states[key], found = self.state_attrs(key, study, names)
+            if states[key] == "done":
                 attrs[key] = found
         return states, attrs
 

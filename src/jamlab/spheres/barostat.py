@@ -372,8 +372,10 @@ POLISH_COUNT = "n_polished"  # trace attribute: minima relaxed further to be rec
 _POLISHES = 2  # FIRE runs at most per minimum in polish_recorded
 
 
-def polish_recorded(res: EnthalpyResult, kw: dict) -> tuple[EnthalpyResult, int]:
-    """``res`` as the trace records it: ``(result, FIRE runs)``.
+def polish_recorded(res: EnthalpyResult, kw: dict,
+                    max_force: float | None = None) -> tuple[EnthalpyResult, int]:
+    """``res`` as the trace records it: ``(result, FIRE runs)``; ``max_force``: the force the
+    caller already evaluated from ``res.packing`` (else evaluated here).
 
     The minimisers test ``max_i |F_i| < ftol`` on their own coordinates; the packing they return
     has its positions wrapped into the box, and the trace's ``max_force`` is evaluated afresh
@@ -389,12 +391,13 @@ def polish_recorded(res: EnthalpyResult, kw: dict) -> tuple[EnthalpyResult, int]
     returned as it is (a run without such a minimum is unchanged bit for bit). The result's
     ``iterations`` include the polish."""
     runs = 0
-    ev = evaluate(res.packing)
-    while res.converged and ev.max_force >= res.ftol and runs < _POLISHES:
+    fmax = evaluate(res.packing).max_force if max_force is None else max_force
+    while res.converged and fmax >= res.ftol and runs < _POLISHES:
         runs += 1
         out = minimize(res.packing, 0.5 * res.ftol, kw.get("max_iter", 1_000_000),
                        kw.get("params"))
         ev = evaluate(out.packing)
+        fmax = ev.max_force
         volume = out.packing.box.volume
         res = replace(
             res, packing=out.packing, energy=ev.energy,
@@ -403,6 +406,6 @@ def polish_recorded(res: EnthalpyResult, kw: dict) -> tuple[EnthalpyResult, int]
             converged=bool(out.converged and ev.max_force < res.ftol
                            and abs(ev.pressure - res.target_pressure) <= res.tolerance),
         )
-    if res.converged and ev.max_force >= res.ftol:
+    if res.converged and fmax >= res.ftol:
         res = replace(res, converged=False)
     return res, runs

@@ -12,8 +12,8 @@ minimisations and the substeps of a plastic-flag confirmation), volume_steps, co
 enthalpy_jump, stress_jump, plastic``.
 
 The start, a minimum FIRE took part in, and one the jammed flag rejects are tested for a saddle,
-and pushed off it (``barostat.leave_saddle``; attribute ``n_saddles_left``; ``docs/aqs.md``),
-then ``barostat.polish_recorded`` (``n_polished``): no row reading ``max_force ≥ ftol`` converged.
+and pushed off it (``barostat.leave_saddle``, ``n_saddles_left``; ``docs/aqs.md``), then
+``barostat.polish_recorded`` (``n_polished``): no row reading ``max_force ≥ ftol`` converged.
 
 **Trapezoid rule for the enthalpy** (``docs/aqs.md``, "At the jamming point"). Let
 ``H*(γ) = min_{x, L} [E(x, L, γ) + p_t L^d]`` along a branch (a smooth family of minima). By the
@@ -54,9 +54,8 @@ only if ``|r_n|`` passes it between two jammed minima (the others cannot be plas
 p = 1e-4, δγ = 1e-5 two thirds of them) and it did not release for certain more than
 ``confirm_below`` (5) times ``max(threshold, δγ²)`` (a jump:
 :func:`~jamlab.spheres.confirm.released_at_least`). ``confirm_substeps=0`` skips the confirmation
-(cheaper, counts kinks). The recorded minimum is always the single step's; the sizes
-``S = −ΔH_n > 0`` of the flagged steps follow from
-:func:`jamlab.analysis.avalanches.avalanche_sizes` with ``plastic`` and ``jammed``.
+(cheaper, counts kinks). The recorded minimum is always the single step's; the sizes ``S =
+−ΔH_n > 0`` follow from :func:`jamlab.analysis.avalanches.avalanche_sizes` (``plastic``, ``jammed``)
 """
 
 from __future__ import annotations
@@ -377,9 +376,10 @@ def shear_at_pressure(
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
-        res, polished = polish_recorded(res, kw)
+        row = _row(res, ftol) if pushes else row
+        res, polished = polish_recorded(res, kw, row["max_force"])  # the row's own evaluation
         counts[POLISH_COUNT] += polished
-        row = _row(res, ftol) if pushes or polished else row
+        row = _row(res, ftol) if polished else row
         step = target - rows["gamma"][-1]
         r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
                                row["enthalpy"], row["shear_stress"], step)
