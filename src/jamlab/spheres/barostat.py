@@ -49,7 +49,7 @@ from jamlab.spheres.aqs.network import find_backbone
 from jamlab.spheres.aqs.saddle import MAX_DESCENTS, saddle_push
 from jamlab.spheres.box import Box
 from jamlab.spheres.confirm import trapezoid_residual
-from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize
+from jamlab.spheres.fire import FireParameters, MinimizeResult, minimize, polish_reading
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import Packing, evaluate, pressure
 from jamlab.spheres.rigidity import pressure_floor
@@ -369,7 +369,6 @@ def leave_saddle(
 
 
 POLISH_COUNT = "n_polished"  # trace attribute: minima relaxed further to be recorded (below)
-_POLISHES = 2  # FIRE runs at most per minimum in polish_recorded
 
 
 def polish_recorded(res: EnthalpyResult, kw: dict,
@@ -377,35 +376,27 @@ def polish_recorded(res: EnthalpyResult, kw: dict,
     """``res`` as the trace records it: ``(result, FIRE runs)``; ``max_force``: the force the
     caller already evaluated from ``res.packing`` (else evaluated here).
 
-    The minimisers test ``max_i |F_i| < ftol`` on their own coordinates; the packing they return
-    has its positions wrapped into the box, and the trace's ``max_force`` is evaluated afresh
-    from those (:func:`~jamlab.spheres.potential.evaluate`). Wrapping rounds a coordinate by up
-    to ``ulp(L)`` (≈ 9e-16 at ``L ≈ 7``) and the forces move by as much, so a minimum accepted
-    just below ``ftol`` can read just above it: measured, 2 of the 18,018 minima of
-    ``data/runs/n500-p1e-6-vg`` (p = 1e-6, N = 500) read 1.0002e-12 and 1.0005e-12 at
-    ``ftol = 1e-12``, counted as converged. A converged result that reads ``≥ ftol`` there is
-    relaxed further at fixed box by FIRE (``kw``'s ``max_iter`` and ``params``) to ``ftol / 2``
-    — a margin far above the rounding — from the wrapped positions, at most ``_POLISHES`` times;
-    its pressure, energy, enthalpy and force are those of the polished packing, and it stays
+    The trace's ``max_force`` is evaluated afresh from the stored packing, and can read just
+    above ``ftol`` where the minimiser read just below it (rounding; measured, 4 of the 26,026
+    minima of ``data/runs/n500-p1e-6-vg`` at p = 1e-6, N = 500, counted as converged before this
+    check). Such a result is relaxed further at fixed box by
+    :func:`~jamlab.spheres.fire.polish_reading` (``kw``'s ``max_iter`` and ``params``); its
+    pressure, energy, enthalpy and force are then those of the polished packing, and it stays
     converged only if it reads ``< ftol`` and ``|p − p_t| ≤ tolerance``. Every other result is
     returned as it is (a run without such a minimum is unchanged bit for bit). The result's
     ``iterations`` include the polish."""
-    runs = 0
     fmax = evaluate(res.packing).max_force if max_force is None else max_force
-    while res.converged and fmax >= res.ftol and runs < _POLISHES:
-        runs += 1
-        out = minimize(res.packing, 0.5 * res.ftol, kw.get("max_iter", 1_000_000),
-                       kw.get("params"))
-        ev = evaluate(out.packing)
-        fmax = ev.max_force
-        volume = out.packing.box.volume
+    pt, tol = res.target_pressure, res.tolerance
+    start = MinimizeResult(packing=res.packing, energy=res.energy, max_force=fmax, iterations=0,
+                           converged=res.converged, time=0.0, ftol=res.ftol)
+    out, ev, runs = polish_reading(start, fmax, kw.get("max_iter", 1_000_000), kw.get("params"),
+                                   accept=lambda e: abs(e.pressure - pt) <= tol)
+    if ev is not None:
         res = replace(
             res, packing=out.packing, energy=ev.energy,
-            enthalpy=ev.energy + res.target_pressure * volume, pressure=ev.pressure,
+            enthalpy=ev.energy + pt * out.packing.box.volume, pressure=ev.pressure,
             max_force=ev.max_force, iterations=res.iterations + out.iterations,
-            converged=bool(out.converged and ev.max_force < res.ftol
-                           and abs(ev.pressure - res.target_pressure) <= res.tolerance),
         )
-    if res.converged and fmax >= res.ftol:
-        res = replace(res, converged=False)
+    if out.converged != res.converged:
+        res = replace(res, converged=out.converged)
     return res, runs

@@ -444,7 +444,7 @@ def jam_at_pressure(
     is added first; measured N = 64 at 1e-3: 11 attempts failed). Not an enthalpy minimisation
     from a random dense state: a different (deeper-quenched) ensemble. ``protocol`` is
     ``"jamming+enthalpy"``; ``ok`` needs both stages; ``params`` gain ``pressure``, ``ptol``."""
-    from jamlab.spheres.barostat import minimize_enthalpy
+    from jamlab.spheres.barostat import minimize_enthalpy, polish_recorded
 
     if not (isinstance(pressure, int | float) and math.isfinite(pressure) and pressure > 0):
         raise ValueError(f"pressure must be finite and > 0, got pressure={pressure!r}")
@@ -467,6 +467,7 @@ def jam_at_pressure(
     if progress is not None:
         progress(f"enthalpy minimisation to p={pressure:g}")
     res = minimize_enthalpy(first.packing, pressure, ftol=ftol, ptol=ptol)
+    res = polish_recorded(res, {})[0]  # converged as the stored packing reads
     reason = (
         ""
         if res.converged
