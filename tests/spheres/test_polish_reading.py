@@ -116,3 +116,31 @@ def test_prepare_and_jam_at_pressure_read_converged(monkeypatch):
     r = jam_at_pressure(32, 3, seed=1, pressure=1e-4)
     assert r.ok and r.converged
     assert brute_max_force(r.packing) < FTOL
+
+
+def test_the_minimize_command_writes_a_minimum_that_reads_converged(minimum, tmp_path,
+                                                                    monkeypatch):
+    """``jamlab minimize`` (in process) with a FIRE whose first answer reads above ``ftol``."""
+    import h5py
+
+    import jamlab.spheres.fire as fire
+    from jamlab.cli import main
+    from jamlab.spheres.io import read_packing, write_packing
+
+    real, calls = fire.minimize, []
+
+    def lying(packing, ftol=FTOL, max_iter=1_000_000, params=None, **kw):
+        res = real(packing, ftol, max_iter, params, **kw)
+        calls.append(ftol)
+        return claimed(res, 3e-12) if len(calls) == 1 else res
+
+    monkeypatch.setattr(fire, "minimize", lying)
+    start = write_packing(tmp_path / "start.h5", minimum.packing)
+    out = tmp_path / "out.h5"
+    with pytest.raises(SystemExit) as done:
+        main(["minimize", str(start), "--out", str(out)])
+    assert done.value.code in (0, None)
+    assert calls == [FTOL, FTOL / 2]  # the lie, then the polish
+    assert brute_max_force(read_packing(out)) < FTOL
+    with h5py.File(out) as h5:
+        assert h5.attrs["minimize_converged"] == 1 and h5.attrs["minimize_max_force"] < FTOL

@@ -69,8 +69,9 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         from jamlab.files import check_outputs
         from jamlab.provenance import provenance_json
-        from jamlab.spheres.fire import minimize
+        from jamlab.spheres.fire import minimize, polish_reading
         from jamlab.spheres.io import read_packing, write_packing
+        from jamlab.spheres.potential import max_force
 
         validation.positive("--ftol", ftol)
         validation.integer("--max-iter", max_iter, minimum=0)
@@ -79,6 +80,8 @@ def register(app: typer.Typer) -> None:
         check_outputs({"--out": out}, {"configuration": config}, force=force)
         packing = read_packing(config)
         result = minimize(packing, ftol=ftol, max_iter=max_iter)
+        if result.converged:  # converged as the written file reads (fire.polish_reading)
+            result = polish_reading(result, max_force(result.packing), max_iter)[0]
         write_packing(
             out,
             result.packing,

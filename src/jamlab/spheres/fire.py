@@ -202,20 +202,21 @@ def polish_reading(
 ) -> tuple[MinimizeResult, Evaluation | None, int]:
     """``result`` converged as a reader of its packing sees it: ``(result, evaluation, runs)``.
 
-    :func:`minimize` tests ``max_i |F_i| < ftol`` with its own neighbour list and image shifts; a
-    reader (a trace, a file read back, :func:`jamlab.spheres.potential.evaluate`) builds its own
-    list, and the pair separations then round differently, by up to ``ulp(L)`` (≈ 9e-16 at
-    ``L ≈ 7``): a minimum accepted just below ``ftol`` can read just above it (measured: 4 of
-    26,026 fixed-pressure minima of ``data/runs/n500-p1e-6-vg`` read 1.00007–1.00099e-12 at
-    ``ftol = 1e-12``). ``read`` is the caller's fresh reading of ``max_i |F_i|`` on
-    ``result.packing``. While the result is converged and reads ``≥ ftol``, FIRE relaxes it
-    again at fixed box to ``ftol / 2`` (a margin far above the rounding; ``max_iter`` and
-    ``params`` per run), at most :data:`POLISH_RUNS` times, and its packing is evaluated afresh
-    (``evaluation``; None when nothing ran). The result stays converged only if its reading is
-    ``< ftol`` and ``accept(evaluation)`` holds (e.g. a pressure within tolerance). A result
-    that is not converged, or reads ``< ftol``, is returned as it is (``runs = 0``). The
-    returned result's ``max_force`` is the reading, ``ftol`` the caller's, ``iterations`` and
-    ``time`` include the polish."""
+    :func:`minimize` tests ``max_i |F_i| < ftol`` with its own neighbour list; a reader (a
+    trace, a file read back, :func:`jamlab.spheres.potential.evaluate`) builds its own, which
+    maps the positions into the box along the sheared images, and in a sheared box the
+    separations then round differently: the forces differ by ~1e-15 (measured 5–7e-15 at N =
+    128, p = 1e-6, γ = 1e-5 … 5e-5; ≤ 1e-21 at γ = 0). So a minimum accepted just below ``ftol``
+    can read just above it (measured: 4 of 26,026 fixed-pressure minima of
+    ``data/runs/n500-p1e-6-vg`` read 1.00007–1.00099e-12 at ``ftol = 1e-12``). ``read`` is the
+    caller's fresh reading of ``max_i |F_i|`` on ``result.packing``. While the result is
+    converged and reads ``≥ ftol``, FIRE relaxes it again at fixed box to ``ftol / 2`` (a margin
+    far above the rounding; ``max_iter`` and ``params`` per run), at most :data:`POLISH_RUNS`
+    times, and its packing is evaluated afresh (``evaluation``; None when nothing ran). The
+    result stays converged only if its reading is ``< ftol`` and ``accept(evaluation)`` holds
+    (e.g. a pressure within tolerance). A result that is not converged, or reads ``< ftol``, is
+    returned as it is (``runs = 0``). The returned result's ``max_force`` is the reading,
+    ``ftol`` the caller's, ``iterations`` and ``time`` include the polish."""
     ftol = result.ftol
     runs, ev = 0, None
     while result.converged and read >= ftol and runs < POLISH_RUNS:
