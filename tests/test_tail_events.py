@@ -66,6 +66,28 @@ def test_lag_pairs_by_hand_and_by_placement(te):
         assert te.lag_pairs(sizes[:1], counted[:1], 1.0, lag)[1] == pytest.approx(mean)
 
 
+def test_far_lag_baseline_by_hand_and_against_a_drifting_rate(te):
+    # one row of 200 steps, events at 0, 1, 50, 120: of the six pairs, those at lags 20–100 are
+    # 0–50, 1–50 and 50–120: 3 pairs over Σ(200 − L) positions
+    sizes = np.zeros((1, 200))
+    sizes[0, [0, 1, 50, 120]] = 1.0
+    counted = sizes > 0
+    positions = sum(200 - g for g in range(20, 101))
+    expected, p = te.far_lag_baseline(sizes, counted, 0.5, 1)
+    assert expected == pytest.approx(3 / positions * 199)
+    assert p == pytest.approx(stats.poisson.sf(0, expected))  # one observed pair at lag 1
+    # independent events at a rate that grows along the window (and differs by sample): the
+    # far-lag baseline follows the pairs at lag 1 (simulated), the uniform placement does not
+    rng = np.random.default_rng(3)
+    ramp = np.linspace(0.002, 0.06, 1000) * rng.uniform(0.5, 1.5, size=(400, 1))
+    hit = rng.random((400, 1000)) < ramp
+    observed = int((hit[:, 1:] & hit[:, :-1]).sum())
+    far, _ = te.far_lag_baseline(hit.astype(float), hit, 0.5, 1)
+    uniform = te.lag_pairs(hit.astype(float), hit, 0.5, 1)[1]
+    assert 0.8 * observed < far < 1.1 * observed
+    assert uniform < 0.8 * observed  # what the drift adds, which uniform placement misses
+
+
 def direct(run, floor):
     """Per-sample counts and the events ≥ floor from the sample files: S = −ΔE of plastic steps
     with ΔE < 0 between two jammed minima; μ = σ_xy/p with σ_xy = Σ/L³ at the step's start."""
