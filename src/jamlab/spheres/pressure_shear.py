@@ -63,7 +63,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,17 +79,29 @@ from jamlab.spheres.barostat import (
 from jamlab.spheres.confirm import (
     jump_in_chain,
     jump_located,
-    plastic_threshold,
     trapezoid_residual,
 )
 from jamlab.spheres.fire import FireParameters
 from jamlab.spheres.newton_relax import RELAX_COUNTERS, NewtonRelaxer
-from jamlab.spheres.potential import Packing, affine_shear, evaluate, remove_rattlers
-from jamlab.spheres.rigidity import is_jammed
-from jamlab.spheres.trace import Trace, jump_columns
+from jamlab.spheres.potential import Packing, affine_shear
+from jamlab.spheres.pressure_rows import (
+    CANDIDATE_COUNTS,
+    PRESSURE_COLUMNS,
+    RETRY_COUNT,
+    SADDLE_COUNT,
+    PressureShearResult,
+    append_row,
+    can_be_plastic,
+    minimizer_attribute,
+    record_row,
+    resumed_rows,
+    run_result,
+)
+from jamlab.spheres.trace import Trace
 
 __all__ = ["CONFIRM_BELOW", "FROM_AQS_OPTION", "MINIMIZERS", "PLASTIC_FLOOR", "PRESSURE_COLUMNS",
-           "RULES_BEFORE", "PressureShearResult", "minimizer_attribute", "shear_at_pressure"]
+           "RETRY_COUNT", "RULES_BEFORE", "SADDLE_COUNT", "PressureShearResult",
+           "minimizer_attribute", "shear_at_pressure"]
 
 PLASTIC_FLOOR: float = 0.1  # shear_at_pressure's default: the flag's threshold is >= this × δγ²
 
@@ -107,20 +118,6 @@ CONFIRMS: tuple[str, ...] = ("continued", "chain", "located")
 event), the chain only where that piece, located by the probes alone, keeps less than the
 bound (plain FIRE: ``continued``)."""
 
-SADDLE_COUNT = "n_saddles_left"  # trace attribute: pushes off saddles (barostat.leave_saddle)
-RETRY_COUNT = "n_steps_retried"  # trace attribute: steps taken afresh (barostat.minimize_step)
-
-CANDIDATE_COUNTS: tuple[str, ...] = ("n_candidates", "n_candidates_continued",
-                                     "n_candidates_below_threshold", "n_candidates_located",
-                                     "n_candidates_sure")
-"""Trace attributes: candidate steps, those of them not redone because Newton continued,
-(``defer_confirmation``) those not redone because they cannot be plastic (``|r_n|`` at or below
-the run's final threshold, or an unjammed end), (``confirm="located"``) those decided a
-jump by :func:`~jamlab.spheres.confirm.jump_located`, without a second whole chain, and
-(``defer_confirmation``) those not redone because they released for certain more than
-``confirm_below · max(threshold, δγ²)`` (a jump:
-:func:`~jamlab.spheres.confirm.released_at_least`)."""
-
 MINIMIZERS: tuple[str, ...] = ("newton", "fire")
 """Fixed-box minimisers of the inner problem: ``newton`` (:class:`~jamlab.spheres.newton_relax.
 NewtonRelaxer`, FIRE where Newton does not apply) and ``fire`` (plain FIRE every time)."""
@@ -131,92 +128,6 @@ RULES_BEFORE: dict[str, str] = {"confirm": "chain", "volume_guess": validation.V
 FROM_AQS_OPTION: dict[str, str] = {"linear": "newton", "fire": "fire"}
 """The inner minimiser for each ``minimizer`` option of :func:`jamlab.spheres.aqs.shear` (and
 ``jamlab shear --minimizer``)."""
-
-
-def minimizer_attribute(minimizer: str) -> str:
-    """The trace attribute ``minimizer`` of a fixed-pressure run with this inner minimiser."""
-    return f"enthalpy-nested-{minimizer}"
-
-PRESSURE_COLUMNS: tuple[str, ...] = (
-    "gamma", "energy", "enthalpy", "shear_stress", "pressure", "phi", "box_length", "z", "z_nr",
-    "jammed", "max_force", "iterations", "volume_steps", "converged", "enthalpy_jump",
-    "stress_jump", "plastic",
-)
-
-
-@dataclass(frozen=True, eq=False)
-class PressureShearResult:
-    """Outcome of :func:`shear_at_pressure`: ``columns`` (name → 1-D array, rows ``0 … M``, see
-    the module docstring), the final ``packing``, run ``attrs``, ``threshold`` of the plastic
-    flag, ``time`` (s)."""
-
-    columns: dict[str, np.ndarray]
-    packing: Packing
-    attrs: dict = field(default_factory=dict)
-    threshold: float = math.nan
-    time: float = 0.0
-    confirmed: np.ndarray | None = None  # per row: a redone candidate step confirmed as a jump
-    continued: np.ndarray | None = None  # per row: every inner problem of the step was Newton's
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.columns[name]
-
-    @property
-    def n_not_converged(self) -> int:
-        return int(np.count_nonzero(~self.columns["converged"]))
-
-    def trace(self) -> Trace:
-        """The run as a :class:`~jamlab.spheres.trace.Trace` whose ``energy`` column is the
-        enthalpy ``H`` (so its ``energy_jump`` is ``ΔH`` and the analysis tools apply as they
-        are), with its ``jammed`` and ``phi`` columns; ``converged`` shows as ``max_force`` or
-        the pressure; ``E``, ``box_length``, ``volume_steps``, ``converged`` and the flag
-        confirmations are its group ``fixed_pressure`` (what a resumed run needs)."""
-        c = self.columns
-        return Trace(
-            gamma=c["gamma"],
-            energy=c["enthalpy"],
-            shear_stress=c["shear_stress"],
-            pressure=c["pressure"],
-            z=c["z"],
-            z_nr=c["z_nr"],
-            max_force=c["max_force"],
-            iterations=c["iterations"],
-            energy_jump=c["enthalpy_jump"],
-            stress_jump=c["stress_jump"],
-            plastic=c["plastic"],
-            jammed=c["jammed"],
-            phi=c["phi"],
-            attrs={**self.attrs, "energy_column": "enthalpy"},
-            fixed_pressure={
-                "energy": c["energy"],
-                "box_length": c["box_length"],
-                "volume_steps": c["volume_steps"],
-                "converged": c["converged"],
-                "confirmed": (np.zeros(c["gamma"].shape, dtype=bool) if self.confirmed is None
-                              else self.confirmed),
-            },
-        )
-
-
-def _row(res, ftol: float) -> dict:
-    pk = res.packing
-    ev = evaluate(pk)
-    rr = remove_rattlers(pk)
-    return {
-        "energy": ev.energy,
-        "enthalpy": ev.energy + res.target_pressure * pk.box.volume,
-        "shear_stress": ev.shear_stress,
-        "pressure": ev.pressure,
-        "phi": pk.phi,
-        "box_length": pk.box.length,
-        "z": 2.0 * ev.n_contacts / pk.n,
-        "z_nr": rr.z_nr,
-        "jammed": is_jammed(pk, ftol).jammed,
-        "max_force": ev.max_force,
-        "iterations": res.iterations,
-        "volume_steps": res.volume_steps,
-        "converged": bool(res.converged and ev.max_force < ftol),  # as the trace reads it
-    }
 
 
 def _advance(pressure: float, kw: dict, slope: float | None) -> Callable:
@@ -349,13 +260,13 @@ def shear_at_pressure(
         counts = dict.fromkeys(CANDIDATE_COUNTS, 0) | {SADDLE_COUNT: pushes, RETRY_COUNT: 0}
         res, counts[POLISH_COUNT] = polish_recorded(res, kw)
         rows = {k: [] for k in names}
-        _append(rows, gamma0, _row(res, ftol))
+        append_row(rows, gamma0, record_row(res, ftol))
         cur = res.packing
         first = 1
         if observer is not None:
             observer(0, cur)
     else:
-        rows, confirmed_before, counts = _resumed_rows(previous, names)
+        rows, confirmed_before, counts = resumed_rows(previous, names)
         gamma0 = rows["gamma"][0]
         first = len(rows["gamma"])
         if first > total:
@@ -370,16 +281,16 @@ def shear_at_pressure(
         res, retried = minimize_step(affine_shear(cur, target - cur.strain), cur, pressure, kw,
                                      guess, slope)
         counts[RETRY_COUNT] += retried
-        row = _row(res, ftol)  # tested where FIRE took part, or the flag rejects the minimum:
+        row = record_row(res, ftol)  # tested where FIRE took part, or the flag rejects the minimum:
         res, pushes = leave_saddle(res, pressure, kw, res.iterations > 0 or not row["jammed"])
         counts[SADDLE_COUNT] += pushes
         continued[n] = relaxer is not None and _departures(relaxer) == departed_before
         if relaxer is not None and math.isfinite(res.slope):
             slope = res.slope
-        row = _row(res, ftol) if pushes else row
+        row = record_row(res, ftol) if pushes else row
         res, polished = polish_recorded(res, kw, row["max_force"])  # the row's own evaluation
         counts[POLISH_COUNT] += polished
-        row = _row(res, ftol) if polished else row
+        row = record_row(res, ftol) if polished else row
         step = target - rows["gamma"][-1]
         r = trapezoid_residual(rows["enthalpy"][-1], rows["shear_stress"][-1],
                                row["enthalpy"], row["shear_stress"], step)
@@ -395,7 +306,7 @@ def shear_at_pressure(
                 else:
                     pending.append((n, cur, slope, step, r, res.packing))
         cur = res.packing
-        _append(rows, target, row)
+        append_row(rows, target, row)
         if pending and not defer_confirmation:
             _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps, confirm, counts)
         if observer is not None:
@@ -411,20 +322,20 @@ def shear_at_pressure(
             if relaxer is not None:
                 relaxer.reset()
             if on_save is not None:
-                on_save(n, _result(rows, confirmed[: n + 1], continued[: n + 1], cur,
+                on_save(n, run_result(rows, confirmed[: n + 1], continued[: n + 1], cur,
                                    counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
                                    plastic_floor, confirm_substeps, confirm, packing, minimizer,
                                    relaxer, defer_confirmation, confirm_below, volume_guess))
     if pending:
         # the run's threshold is known now: redo only the kept candidates that can be plastic,
         # and of those only the ones that did not surely release more than confirm_below ·
-        # max(threshold, δγ²) (released_at_least; _result flags the others)
-        can, sure = _can_be_plastic(rows, dgamma, plastic_floor, confirm_below)
+        # max(threshold, δγ²) (released_at_least; run_result flags the others)
+        can, sure = can_be_plastic(rows, dgamma, plastic_floor, confirm_below)
         counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
         counts["n_candidates_sure"] += sum(bool(sure[n]) for n, *_ in pending)
         _confirm([c for c in pending if can[c[0]] and not sure[c[0]]], rows, confirmed,
                  pressure, kw, confirm_substeps, confirm, counts)
-    return _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
+    return run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
                    pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
                    minimizer, relaxer, defer_confirmation, confirm_below, volume_guess)
 
@@ -437,7 +348,7 @@ def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, 
     added to row ``n``; empties ``pending``."""
     relaxer = kw.get("relax")
     for n, start, slope, step, r, end in pending:
-        # rows n − 1 and n are the start's and the end's own H and Σ (_row evaluated them; r_n
+        # rows n − 1 and n are the start's and the end's own H and Σ (record_row evaluated them; r_n
         # was computed from them)
         v0, s0 = rows["enthalpy"][n - 1], rows["shear_stress"][n - 1]
         if confirm == "located" and isinstance(relaxer, NewtonRelaxer):
@@ -488,21 +399,6 @@ def _probe(pressure: float, kw: dict, slope: float | None, relaxer: NewtonRelaxe
     return probe
 
 
-def _jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(γ, ΔH_n, ΔΣ_n, jammed)`` of the rows (NaN jumps in row 0)."""
-    g = np.asarray(rows["gamma"], dtype=np.float64)
-    hj, sj = jump_columns(g, rows["enthalpy"], rows["shear_stress"])
-    return g, hj, sj, np.asarray(rows["jammed"], dtype=np.bool_)
-
-
-def _can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
-                    confirm_below: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per row: the step passes the run's threshold, and it is a jump without confirmation
-    (:func:`~jamlab.spheres.confirm.plastic_threshold`)."""
-    g, hj, sj, jammed = _jumps(rows)
-    return plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor, confirm_below)[1:]
-
-
 def _departures(relaxer: NewtonRelaxer | None) -> int:
     """How often the Newton relaxer has departed from continuing the parent's branch so far:
     used FIRE (fallbacks and rattler polish), or settled rattlers that could not be freed one
@@ -515,86 +411,3 @@ def _departures(relaxer: NewtonRelaxer | None) -> int:
     c = relaxer.counters
     return (c["n_fire_fallbacks"] + c["n_rattler_polish"] + c["n_rattler_rejoined"]
             + c["n_rattlers_moved_together"])
-
-
-def _append(rows: dict[str, list], gamma: float, row: dict) -> None:
-    rows["gamma"].append(float(gamma))
-    for k, v in row.items():
-        rows[k].append(v)
-
-
-def _resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np.ndarray, int]:
-    """The rows, confirmations and candidate counts of a fixed-pressure trace being continued."""
-    fp = previous.fixed_pressure
-    if fp is None or previous.jammed is None or previous.phi is None:
-        raise ValueError("the trace has no fixed-pressure columns (group fixed_pressure): it was "
-                         "not written by a fixed-pressure run that can be resumed")
-    source = {
-        "gamma": previous.gamma, "energy": fp["energy"], "enthalpy": previous.energy,
-        "shear_stress": previous.shear_stress, "pressure": previous.pressure, "phi": previous.phi,
-        "box_length": fp["box_length"], "z": previous.z, "z_nr": previous.z_nr,
-        "jammed": previous.jammed, "max_force": previous.max_force,
-        "iterations": previous.iterations, "volume_steps": fp["volume_steps"],
-        "converged": fp["converged"],
-    }
-    rows = {k: source[k].tolist() for k in names}
-    kept = (*CANDIDATE_COUNTS, SADDLE_COUNT, RETRY_COUNT, POLISH_COUNT)
-    counts = {k: int(previous.attrs.get(k, 0)) for k in kept}
-    return rows, np.asarray(fp["confirmed"], dtype=bool), counts
-
-
-def _result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
-            ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
-            defer_confirmation, confirm_below, volume_guess) -> PressureShearResult:
-    """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
-    cols: dict[str, np.ndarray] = {}
-    for k, v in rows.items():
-        dtype = np.int64 if k in ("iterations", "volume_steps") else np.float64
-        if k in ("jammed", "converged"):
-            dtype = np.bool_
-        cols[k] = np.asarray(v, dtype=dtype)
-    confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
-    g, hj, sj, jammed = _jumps(rows)
-    cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
-    threshold, plastic, sure = plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
-                                                  confirm_below)
-    if confirm_substeps > 1:
-        if confirm != "chain":
-            # a candidate Newton continued is a kink and never redone: not one to spare
-            sure &= ~np.asarray(continued[: sure.size], dtype=bool)
-        plastic &= confirmed | sure
-    cols["plastic"] = plastic
-    attrs = {
-        "protocol": "fixed-pressure",
-        "pressure_target": float(pressure),
-        "ptol": float(ptol),
-        "dgamma": float(dgamma),
-        "gamma_max": float(gamma0 + total * dgamma),
-        "n_steps": int(total),
-        "ftol": float(ftol),
-        "minimizer": minimizer_attribute(minimizer),
-        "N": int(packing.n),
-        "dim": int(packing.dim),
-        "seed": int(-1 if packing.seed is None else packing.seed),
-        "plastic_threshold": float(threshold),
-        "n_plastic": int(plastic.sum()),
-        "confirm_substeps": int(confirm_substeps),
-        "confirm": confirm,
-        "volume_guess": volume_guess,
-        "confirm_deferred": int(bool(defer_confirmation)),
-        "confirm_below": float(confirm_below),
-        **{k: int(v) for k, v in counts.items()},
-        "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
-        "n_not_converged": int(np.count_nonzero(~cols["converged"])),
-        # the Newton relaxer's counters, over the whole run (a resumed one starts from its trace's)
-        **({k: int(relaxer.counters[k]) for k in RELAX_COUNTERS} if relaxer is not None else {}),
-    }
-    return PressureShearResult(
-        columns={k: cols[k] for k in PRESSURE_COLUMNS},
-        packing=cur,
-        attrs=attrs,
-        threshold=float(threshold),
-        time=time.perf_counter() - t0,
-        confirmed=confirmed,
-        continued=np.array(continued[: cols["gamma"].size], dtype=bool),
-    )
