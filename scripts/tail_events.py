@@ -20,6 +20,8 @@ run directory (φ label ``jamming`` at ``--n``, finished samples) and each floor
   1))`` for lag ``ℓ``, ``T`` steps): avalanches that come in bursts show at the lags they span;
   and against the pairs at far lags (20–100 steps) per available position, which a rate that
   drifts along the window or differs between samples makes too (:func:`far_lag_baseline`);
+- how often an avalanche is followed by one at the next step, by its size and by whether its
+  backbone gained or lost contacts (:func:`follow_on`);
 
 For the highest floor each event is listed: sample, step, strain γ, ``S``, the shear-stress
 ratio ``μ = σ_xy/p`` and the pressure of the minimum it starts from (the events' share
@@ -136,6 +138,34 @@ def far_lag_baseline(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: 
     return float(expected), p
 
 
+def follow_on(sizes: np.ndarray, counted: np.ndarray, z_nr: np.ndarray, floor: float) -> dict:
+    """Does an avalanche make one at the next step more likely, and after which ones?
+
+    ``sizes``, ``counted``: ``(samples, steps)``; ``z_nr``: ``(samples, steps + 1)``, the
+    backbone coordination of the minima (row 0 the start). For the events ``S ≥ floor``: the
+    ``base`` rate (events per step), and the fraction of events followed by one at the next
+    step, overall and split by the event's size (decades from ``floor``) and by the sign of its
+    ``Δz_nr`` (whether the backbone gained or lost contacts): ``{label: (n, followed, p)}``,
+    ``p`` the one-sided binomial p-value of that many followers at the base rate."""
+    hit = counted & (sizes >= floor)
+    base = float(hit.mean())
+    first = hit[:, :-1]
+    nxt = hit[:, 1:][first]
+    size = sizes[:, :-1][first]
+    dz = (z_nr[:, 1:-1] - z_nr[:, :-2])[first]
+    groups = {"all": np.ones(nxt.size, dtype=bool)}
+    for k in range(3):
+        lo, hi = floor * 10.0**k, (floor * 10.0 ** (k + 1) if k < 2 else np.inf)
+        groups[f"S in [{lo:.0e}, {hi:.0e})"] = (size >= lo) & (size < hi)
+    groups |= {"Δz_nr < 0": dz < 0, "Δz_nr = 0": dz == 0, "Δz_nr > 0": dz > 0}
+    out = {}
+    for label, m in groups.items():
+        k, followed = int(m.sum()), int(nxt[m].sum())
+        p = float(stats.binomtest(followed, k, base, alternative="greater").pvalue) if k else 1.0
+        out[label] = (k, followed, p)
+    return {"base": base, "groups": out}
+
+
 def run_tail(ds, n: int, floors: list[float]) -> dict:
     """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
     (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``lags``
@@ -157,6 +187,8 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     split = {f: halves(sizes, counted, f) for f in floors}
     lags = {(f, lag): lag_pairs(sizes, counted, f, lag) for f in floors for lag in LAGS}
     far = {(f, lag): far_lag_baseline(sizes, counted, f, lag) for f in floors for lag in LAGS}
+    z_nr = np.asarray(ds.z_nr.sel(phi="jamming", N=n).values)[done]
+    follow = {f: follow_on(sizes, counted, z_nr, f) for f in floors}
     big = counted & (sizes >= max(floors))
     rest = counted & ~big
     i, k = np.nonzero(big)  # step k -> k + 1 of the trace (row 0 has no step)
@@ -165,7 +197,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
                     key=lambda e: -e[3])
     ir, kr = np.nonzero(rest)
     return {"samples": ids, "counts": counts, "halves": split, "lags": lags, "far": far,
-            "events": events,
+            "follow": follow, "events": events,
             "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
 
 
@@ -219,6 +251,13 @@ def main() -> None:
             print(f"  S ≥ {x:.0e}: " + ", ".join(
                 f"ℓ = {lag}: {t['far'][x, lag][0]:.1f} (p {t['far'][x, lag][1]:.2g})"
                 for lag in LAGS))
+        print("\nan avalanche followed by one at the next step (n events, followed, binomial p "
+              "against the base rate), by its size and by its Δz_nr:")
+        for x in sorted(a.above):
+            fo = t["follow"][x]
+            print(f"  S ≥ {x:.0e}, base rate {fo['base']:.4f} per step: " + "; ".join(
+                f"{label} {k}, {f} ({f / k if k else float('nan'):.3f}, p {p:.2g})"
+                for label, (k, f, p) in fo["groups"].items()))
         top = max(a.above)
         print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
               + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))

@@ -88,6 +88,25 @@ def test_far_lag_baseline_by_hand_and_against_a_drifting_rate(te):
     assert uniform < 0.8 * observed  # what the drift adds, which uniform placement misses
 
 
+def test_follow_on_by_hand(te):
+    # two samples of 6 steps; events (S ≥ 1) at steps 0, 1, 3 of row 0 and 2 of row 1: 4 events
+    # in 12 steps (base 1/3); those with a next step: 0 (followed), 1, 3, 2 (not)
+    sizes = np.array([[5.0, 50.0, 0.0, 500.0, 0.0, 0.0], [0.0, 0.0, 5.0, 0.0, 0.0, 0.0]])
+    counted = sizes > 0
+    z_nr = np.array([[6.0, 6.1, 6.0, 6.0, 5.9, 5.9, 5.9], [6.0, 6.0, 6.0, 6.0, 6.0, 6.0, 6.0]])
+    out = te.follow_on(sizes, counted, z_nr, 1.0)
+    assert out["base"] == pytest.approx(4 / 12)
+    g = out["groups"]
+    assert g["all"][:2] == (4, 1)
+    assert g["all"][2] == pytest.approx(stats.binomtest(1, 4, 1 / 3, alternative="greater").pvalue)
+    assert g["S in [1e+00, 1e+01)"][:2] == (2, 1)  # steps 0 (followed) and row 1's step 2
+    assert g["S in [1e+01, 1e+02)"][:2] == (1, 0)
+    assert g["S in [1e+02, inf)"][:2] == (1, 0)
+    # Δz_nr of step k is z_nr[k + 1] − z_nr[k]: step 0 +0.1, step 1 −0.1, step 3 −0.1, row 1 0
+    assert g["Δz_nr > 0"][:2] == (1, 1) and g["Δz_nr < 0"][:2] == (2, 0)
+    assert g["Δz_nr = 0"][:2] == (1, 0)
+
+
 def direct(run, floor):
     """Per-sample counts and the events ≥ floor from the sample files: S = −ΔE of plastic steps
     with ΔE < 0 between two jammed minima; μ = σ_xy/p with σ_xy = Σ/L³ at the step's start."""
