@@ -42,6 +42,7 @@ def minimizer_attribute(minimizer: str) -> str:
     """The trace attribute ``minimizer`` of a fixed-pressure run with this inner minimiser."""
     return f"enthalpy-nested-{minimizer}"
 
+
 PRESSURE_COLUMNS: tuple[str, ...] = (
     "gamma", "energy", "enthalpy", "shear_stress", "pressure", "phi", "box_length", "z", "z_nr",
     "jammed", "max_force", "iterations", "volume_steps", "converged", "enthalpy_jump",
@@ -134,7 +135,7 @@ def row_jumps(rows: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
 
 
 def can_be_plastic(rows: dict, dgamma: float, plastic_floor: float,
-                    confirm_below: float) -> tuple[np.ndarray, np.ndarray]:
+                   confirm_below: float) -> tuple[np.ndarray, np.ndarray]:
     """Per row: the step passes the run's threshold, and it is a jump without confirmation
     (:func:`~jamlab.spheres.confirm.plastic_threshold`)."""
     g, hj, sj, jammed = row_jumps(rows)
@@ -169,8 +170,8 @@ def resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np
 
 
 def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
-            ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
-            defer_confirmation, confirm_below, volume_guess) -> PressureShearResult:
+               ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
+               defer_confirmation, confirm_below, volume_guess) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
     cols: dict[str, np.ndarray] = {}
     for k, v in rows.items():

@@ -323,9 +323,10 @@ def shear_at_pressure(
                 relaxer.reset()
             if on_save is not None:
                 on_save(n, run_result(rows, confirmed[: n + 1], continued[: n + 1], cur,
-                                   counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
-                                   plastic_floor, confirm_substeps, confirm, packing, minimizer,
-                                   relaxer, defer_confirmation, confirm_below, volume_guess))
+                                      counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
+                                      plastic_floor, confirm_substeps, confirm, packing,
+                                      minimizer, relaxer, defer_confirmation, confirm_below,
+                                      volume_guess))
     if pending:
         # the run's threshold is known now: redo only the kept candidates that can be plastic,
         # and of those only the ones that did not surely release more than confirm_below ·
@@ -336,8 +337,8 @@ def shear_at_pressure(
         _confirm([c for c in pending if can[c[0]] and not sure[c[0]]], rows, confirmed,
                  pressure, kw, confirm_substeps, confirm, counts)
     return run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
-                   pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
-                   minimizer, relaxer, defer_confirmation, confirm_below, volume_guess)
+                      pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
+                      minimizer, relaxer, defer_confirmation, confirm_below, volume_guess)
 
 
 def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
