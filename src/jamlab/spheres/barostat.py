@@ -396,7 +396,6 @@ def polish_recorded(res: EnthalpyResult, kw: dict,
             res, packing=out.packing, energy=ev.energy,
             enthalpy=ev.energy + pt * out.packing.box.volume, pressure=ev.pressure,
             max_force=ev.max_force, iterations=res.iterations + out.iterations,
+            converged=out.converged,
         )
-    if out.converged != res.converged:
-        res = replace(res, converged=out.converged)
-    return res, runs
+    return res, runs  # (nothing ran: out is start, converged as res was)
