@@ -15,6 +15,14 @@ as the report counts them; ``S = −ΔH`` at fixed pressure):
    :func:`jamlab.analysis.cutoff_shape_profile` there — τ and ``2Δlog L`` per ``a``, the
    likelihood ratio against the exponential cut-off and the interval of τ with ``a`` free.
 
+3. *Which packings the shape rests on* (``--leave-out``): at the report's window (``x_min``
+   fixed), the profile again with each packing's avalanches left out in turn
+   (:func:`leave_one_out`): the best ``a``, τ there and the 95 % interval of τ with ``a`` free,
+   ``2Δlog L`` against the exponential, and τ at ``a = 1``; the packings whose removal moves the
+   verdict (exponential rejected or not) or the interval most; and the jackknife standard error
+   over packings of τ at the best ``a`` and at ``a = 1`` (packings, not avalanches, as the
+   independent units).
+
 ``--figure``: for the first run, the complementary CDF of the sizes in the report's window
 beside the exponential and the best stretched model, and τ and ``2Δlog L`` against ``a``.
 
@@ -33,6 +41,7 @@ import numpy as np
 
 from jamlab.analysis import cutoff_power_law_cdf, cutoff_shape_profile
 from jamlab.analysis.avalanches import branch_residual, jammed_steps
+from jamlab.analysis.cutoff_powerlaw import CHI2_1_95, DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import avalanche_set, finished
 from jamlab.reproduce.measurements import fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
@@ -44,11 +53,12 @@ from jamlab.spheres.pressure_shear import CONFIRM_BELOW, PLASTIC_FLOOR
 BINS = (1.0, 1.5, 2.0, 3.0, 5.0, 10.0, 30.0, 100.0, np.inf)
 
 
-def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(S, r_n, threshold)`` of every counted avalanche of ``(jamming, n)``, in the order of
-    :func:`~jamlab.reproduce.ensembles.avalanche_set` (samples, then steps)."""
+def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(S, r_n, threshold, sample)`` of every counted avalanche of ``(jamming, n)``, in the
+    order of :func:`~jamlab.reproduce.ensembles.avalanche_set` (samples, then steps); ``sample``
+    is the sample id of the packing each comes from."""
     d = ds.sel(phi="jamming", N=n)
-    sizes, resid, thr = [], [], []
+    sizes, resid, thr, which = [], [], [], []
     for i in np.flatnonzero(finished(ds, "jamming", n)):
         t = d.isel(sample=int(i))
         hj, sj, g = t.energy_jump.values, t.stress_jump.values, t.gamma.values
@@ -64,7 +74,69 @@ def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         sizes.append(-hj[1:][counted])
         resid.append(r[counted])
         thr.append(np.full(int(counted.sum()), threshold))
-    return np.concatenate(sizes), np.concatenate(resid), np.concatenate(thr)
+        which.append(np.full(int(counted.sum()), int(d.sample.values[i])))
+    return (np.concatenate(sizes), np.concatenate(resid), np.concatenate(thr),
+            np.concatenate(which))
+
+
+def leave_one_out(s: np.ndarray, groups: np.ndarray, x_min: float,
+                  stretches: tuple[float, ...] = DEFAULT_STRETCHES) -> list[dict]:
+    """The shape profile at ``x_min`` (over the grid ``stretches`` of ``a``) with each group's
+    data left out in turn: per group (in increasing order of its label) ``group``, ``removed``
+    (its data at or above ``x_min``) and the :class:`~jamlab.analysis.CutoffShapeProfile`
+    ``profile`` of the rest. ValueError when the arrays differ in length or fewer than two
+    groups have data."""
+    s, groups = np.asarray(s, dtype=np.float64), np.asarray(groups)
+    if s.shape != groups.shape:
+        raise ValueError(f"{s.size} sizes but {groups.size} group labels")
+    labels = np.unique(groups)
+    if labels.size < 2:
+        raise ValueError("leaving one out needs at least two groups")
+    out = []
+    for g in labels:
+        keep = groups != g
+        out.append({"group": g.item(), "removed": int(np.count_nonzero(~keep & (s >= x_min))),
+                    "profile": cutoff_shape_profile(s[keep], x_min, stretches)})
+    return out
+
+
+def jackknife_se(values: np.ndarray) -> float:
+    """The jackknife standard error from the leave-one-out estimates ``values``:
+    ``sqrt((n − 1)/n · Σ (θ_i − θ̄)²)``."""
+    v = np.asarray(values, dtype=np.float64)
+    return float(np.sqrt((v.size - 1) / v.size * np.sum((v - v.mean()) ** 2)))
+
+
+def leave_out_report(s: np.ndarray, groups: np.ndarray, full) -> None:
+    """Print :func:`leave_one_out` at the window of the profile ``full`` (of all the data)."""
+    rows = leave_one_out(s, groups, full.x_min, full.stretches)
+    one = full.stretches.index(1.0)
+    rejected = full.lr_exponential > CHI2_1_95
+    print(f"\nleaving one packing out at S ≥ {full.x_min:.3g} (all: best a = {full.best:g}, "
+          f"τ {full.tau_best:.3f}, [{full.tau_low:.3f}, {full.tau_high:.3f}], 2Δlog L vs "
+          f"exponential {full.lr_exponential:.1f}):\n")
+    print("| packing left out | its sizes in the window | best a | τ there | 95 % interval, a free "
+          "| 2Δlog L vs exponential | τ at a = 1 |")
+    print("|---|---|---|---|---|---|---|")
+    order = sorted(rows, key=lambda r: -abs(r["profile"].tau_low - full.tau_low))
+    for r in order:
+        p = r["profile"]
+        flip = " (verdict flips)" if (p.lr_exponential > CHI2_1_95) != rejected else ""
+        print(f"| {r['group']} | {r['removed']} | {p.best:g} | {p.tau_best:.3f} | "
+              f"[{p.tau_low:.3f}, {p.tau_high:.3f}] | {p.lr_exponential:.1f}{flip} | "
+              f"{p.taus[one]:.3f} |")
+    low = np.array([r["profile"].tau_low for r in rows])
+    lr = np.array([r["profile"].lr_exponential for r in rows])
+    flips = [r["group"] for r in rows if (r["profile"].lr_exponential > CHI2_1_95) != rejected]
+    print(f"\n{len(rows)} packings: lower end of the interval {low.min():.3f} … {low.max():.3f}; "
+          f"best a {min(r['profile'].best for r in rows):g} … "
+          f"{max(r['profile'].best for r in rows):g}; 2Δlog L vs exponential {lr.min():.1f} … "
+          f"{lr.max():.1f}; the verdict flips without packing(s) {flips or 'none'}")
+    print(f"jackknife over packings: τ at the best a {full.tau_best:.3f} ± "
+          f"{jackknife_se(np.array([r['profile'].tau_best for r in rows])):.3f} (asymptotic "
+          f"{full.tau_best_stderr:.3f}); τ at a = 1 {full.taus[one]:.3f} ± "
+          f"{jackknife_se(np.array([r['profile'].taus[one] for r in rows])):.3f} (asymptotic "
+          f"{full.tau_stderrs[one]:.3f})")
 
 
 def figure(path: Path, s: np.ndarray, p, title: str) -> None:
@@ -115,12 +187,18 @@ def main() -> None:
     ap.add_argument("--thresholds", type=float, nargs="*", default=[2.0, 5.0, 20.0],
                     help="further windows, S >= this many times the largest threshold")
     ap.add_argument("--figure", type=Path, default=None)
+    ap.add_argument("--leave-out", action="store_true",
+                    help="the report's window again with each packing left out in turn")
     a = ap.parse_args()
     scale = SCALES[a.scale]
     for run in a.runs:
         ds = open_run(run)
         parts = [detection(ds, n) for n in a.n]
-        s, r, thr = (np.concatenate(v) for v in zip(*parts, strict=True))
+        s, r, thr, which = (np.concatenate(v) for v in zip(*parts, strict=True))
+        if len(a.n) > 1:  # a packing is (N, sample id): label it N·10⁶ + id
+            sizes_n = np.concatenate([np.full(p[0].size, n) for p, n in zip(parts, a.n,
+                                                                            strict=True)])
+            which = sizes_n * 1_000_000 + which
         counted = np.concatenate([avalanche_set(ds, "jamming", n).sizes for n in a.n])
         if not np.array_equal(np.sort(s), np.sort(counted)):
             raise SystemExit(f"{run}: the recomputed avalanches are not the report's")
@@ -152,6 +230,8 @@ def main() -> None:
             print("| τ | " + " | ".join(f"{v:.3f}" for v in p.taus) + " |")
             best = max(p.logliks)
             print("| 2Δlog L | " + " | ".join(f"{2 * (v - best):.1f}" for v in p.logliks) + " |")
+            if a.leave_out and x_min == windows[0][1]:
+                leave_out_report(s, which, p)
             if a.figure is not None and run == a.runs[0] and x_min == windows[0][1]:
                 figure(a.figure, s, p, f"{run.name}, N = {a.n}: the report's cut-off window")
 
