@@ -115,18 +115,19 @@ FAR_LAGS = (20, 100)
 
 
 def far_lag_baseline(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: int,
-                     far: tuple[int, int] = FAR_LAGS) -> tuple[float, float]:
+                     far: tuple[int, int] = FAR_LAGS) -> tuple[float, float, float]:
     """The pairs expected ``lag`` steps apart if events were correlated only over long strains,
-    and the Poisson p-value of the observed count: ``(expected, p)``.
+    and the Poisson p-values of the observed count, one for an excess and one for a deficit:
+    ``(expected, p_more, p_fewer)``.
 
     The uniform placement of :func:`lag_pairs` ignores a rate that drifts along the strain
     window or differs between samples; both also make pairs at far lags. So the baseline is the
     observed pair count per available position at lags ``far[0] … far[1]``, ``Σ_L o_L / Σ_L
-    (T − L)``, times the ``T − lag`` positions of ``lag``; ``p = P(X ≥ o_lag)`` for ``X`` Poisson
-    with that mean (the far lags hold many positions, so their own noise is left out). A rate
-    that drifts steeply makes the baseline somewhat low (independent events whose rate grows
-    30-fold along the window: 3–12 % below the pairs at lag 1; the uniform placement 20–30 %
-    below; ``tests/test_tail_events.py``)."""
+    (T − L)``, times the ``T − lag`` positions of ``lag``; ``p_more = P(X ≥ o_lag)`` and
+    ``p_fewer = P(X ≤ o_lag)`` for ``X`` Poisson with that mean (the far lags hold many
+    positions, so their own noise is left out). A rate that drifts steeply makes the baseline
+    somewhat low (independent events whose rate grows 30-fold along the window: 3–12 % below
+    the pairs at lag 1; the uniform placement 20–30 % below; ``tests/test_tail_events.py``)."""
     hit = counted & (sizes >= floor)
     steps = hit.shape[1]
     lags = range(far[0], min(far[1], steps - 1) + 1)
@@ -134,8 +135,17 @@ def far_lag_baseline(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: 
     positions = sum(hit.shape[0] * (steps - g) for g in lags)
     expected = pairs / positions * hit.shape[0] * (steps - lag) if positions else float("nan")
     observed = int((hit[:, lag:] & hit[:, :-lag]).sum())
-    p = float(stats.poisson.sf(observed - 1, expected)) if expected > 0 else float("nan")
-    return float(expected), p
+    if not expected > 0:
+        return float(expected), float("nan"), float("nan")
+    return (float(expected), float(stats.poisson.sf(observed - 1, expected)),
+            float(stats.poisson.cdf(observed, expected)))
+
+
+def far_text(observed: int, expected: float, p_more: float, p_fewer: float) -> str:
+    """``expected (p …)`` with the p-value of the side the observed count lies on."""
+    if observed < expected:
+        return f"{expected:.1f} (fewer, p {p_fewer:.2g})"
+    return f"{expected:.1f} (p {p_more:.2g})"
 
 
 def follow_on(sizes: np.ndarray, counted: np.ndarray, z_nr: np.ndarray, floor: float) -> dict:
@@ -246,10 +256,10 @@ def main() -> None:
                 for lag in LAGS))
         print(f"  against the far-lag baseline (pairs per position at ℓ = {FAR_LAGS[0]}–"
               f"{FAR_LAGS[1]}: a rate that drifts along γ or differs between samples), "
-              "expected and Poisson p of the observed:")
+              "expected and Poisson p of the observed (of an excess; 'fewer': of a deficit):")
         for x in sorted(a.above):
             print(f"  S ≥ {x:.0e}: " + ", ".join(
-                f"ℓ = {lag}: {t['far'][x, lag][0]:.1f} (p {t['far'][x, lag][1]:.2g})"
+                f"ℓ = {lag}: {far_text(t['lags'][x, lag][0], *t['far'][x, lag])}"
                 for lag in LAGS))
         print("\nan avalanche followed by one at the next step (n events, followed, binomial p "
               "against the base rate), by its size and by its Δz_nr:")

@@ -73,16 +73,23 @@ def test_far_lag_baseline_by_hand_and_against_a_drifting_rate(te):
     sizes[0, [0, 1, 50, 120]] = 1.0
     counted = sizes > 0
     positions = sum(200 - g for g in range(20, 101))
-    expected, p = te.far_lag_baseline(sizes, counted, 0.5, 1)
+    expected, p, fewer = te.far_lag_baseline(sizes, counted, 0.5, 1)
     assert expected == pytest.approx(3 / positions * 199)
     assert p == pytest.approx(stats.poisson.sf(0, expected))  # one observed pair at lag 1
+    assert fewer == pytest.approx(np.exp(-expected) * (1 + expected))  # P(X ≤ 1), by hand
+    # at lag 2 no pair: P(X ≥ 0) = 1, P(X ≤ 0) = e^(−μ), μ scaled to the 198 positions
+    expected2, p2, fewer2 = te.far_lag_baseline(sizes, counted, 0.5, 2)
+    assert expected2 == pytest.approx(3 / positions * 198)
+    assert p2 == pytest.approx(1.0) and fewer2 == pytest.approx(np.exp(-expected2))
+    assert te.far_text(0, expected2, p2, fewer2).endswith(f"(fewer, p {fewer2:.2g})")
+    assert te.far_text(1, expected, p, fewer).endswith(f"(p {p:.2g})")
     # independent events at a rate that grows along the window (and differs by sample): the
     # far-lag baseline follows the pairs at lag 1 (simulated), the uniform placement does not
     rng = np.random.default_rng(3)
     ramp = np.linspace(0.002, 0.06, 1000) * rng.uniform(0.5, 1.5, size=(400, 1))
     hit = rng.random((400, 1000)) < ramp
     observed = int((hit[:, 1:] & hit[:, :-1]).sum())
-    far, _ = te.far_lag_baseline(hit.astype(float), hit, 0.5, 1)
+    far = te.far_lag_baseline(hit.astype(float), hit, 0.5, 1)[0]
     uniform = te.lag_pairs(hit.astype(float), hit, 0.5, 1)[1]
     assert 0.8 * observed < far < 1.1 * observed
     assert uniform < 0.8 * observed  # what the drift adds, which uniform placement misses
