@@ -112,6 +112,7 @@ def leave_out_report(s: np.ndarray, groups: np.ndarray, full) -> None:
     rows = leave_one_out(s, groups, full.x_min, full.stretches)
     one = full.stretches.index(1.0)
     rejected = full.lr_exponential > CHI2_1_95
+    flips = [r["group"] for r in rows if (r["profile"].lr_exponential > CHI2_1_95) != rejected]
     print(f"\nleaving one packing out at S ≥ {full.x_min:.3g} (all: best a = {full.best:g}, "
           f"τ {full.tau_best:.3f}, [{full.tau_low:.3f}, {full.tau_high:.3f}], 2Δlog L vs "
           f"exponential {full.lr_exponential:.1f}):\n")
@@ -121,13 +122,12 @@ def leave_out_report(s: np.ndarray, groups: np.ndarray, full) -> None:
     order = sorted(rows, key=lambda r: -abs(r["profile"].tau_low - full.tau_low))
     for r in order:
         p = r["profile"]
-        flip = " (verdict flips)" if (p.lr_exponential > CHI2_1_95) != rejected else ""
+        flip = " (verdict flips)" if r["group"] in flips else ""
         print(f"| {r['group']} | {r['removed']} | {p.best:g} | {p.tau_best:.3f} | "
               f"[{p.tau_low:.3f}, {p.tau_high:.3f}] | {p.lr_exponential:.1f}{flip} | "
               f"{p.taus[one]:.3f} |")
     low = np.array([r["profile"].tau_low for r in rows])
     lr = np.array([r["profile"].lr_exponential for r in rows])
-    flips = [r["group"] for r in rows if (r["profile"].lr_exponential > CHI2_1_95) != rejected]
     print(f"\n{len(rows)} packings: lower end of the interval {low.min():.3f} … {low.max():.3f}; "
           f"best a {min(r['profile'].best for r in rows):g} … "
           f"{max(r['profile'].best for r in rows):g}; 2Δlog L vs exponential {lr.min():.1f} … "
