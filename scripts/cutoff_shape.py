@@ -42,6 +42,7 @@ import numpy as np
 from jamlab.analysis import cutoff_power_law_cdf, cutoff_shape_profile
 from jamlab.analysis.avalanches import branch_residual, jammed_steps
 from jamlab.analysis.cutoff_powerlaw import CHI2_1_95, DEFAULT_STRETCHES
+from jamlab.analysis.jackknife import jackknife_variance
 from jamlab.reproduce.ensembles import avalanche_set, finished
 from jamlab.reproduce.measurements import fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
@@ -101,10 +102,9 @@ def leave_one_out(s: np.ndarray, groups: np.ndarray, x_min: float,
 
 
 def jackknife_se(values: np.ndarray) -> float:
-    """The jackknife standard error from the leave-one-out estimates ``values``:
-    ``sqrt((n − 1)/n · Σ (θ_i − θ̄)²)``."""
-    v = np.asarray(values, dtype=np.float64)
-    return float(np.sqrt((v.size - 1) / v.size * np.sum((v - v.mean()) ** 2)))
+    """The jackknife standard error from the leave-one-out estimates ``values``: the square root
+    of :func:`jamlab.analysis.jackknife.jackknife_variance`."""
+    return float(np.sqrt(jackknife_variance(np.ravel(values))))
 
 
 def leave_out_report(s: np.ndarray, groups: np.ndarray, full) -> None:

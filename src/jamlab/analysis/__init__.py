@@ -42,6 +42,7 @@ from jamlab.analysis.finite_size import (
     fit_joint_scaling,
 )
 from jamlab.analysis.histograms import LogHistogram, log_histogram
+from jamlab.analysis.jackknife import jackknife_variance
 from jamlab.analysis.moduli import (
     ModulusMoments,
     SlopeFit,
@@ -81,6 +82,7 @@ __all__ = [
     "fit_cutoff_scaling",
     "JointScaling",
     "fit_joint_scaling",
+    "jackknife_variance",
     "CoarseSteps",
     "coarsen_steps",
     "Exclusions",

@@ -62,6 +62,7 @@ from scipy import optimize
 
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_log_norm
 from jamlab.analysis.histograms import log_histogram
+from jamlab.analysis.jackknife import jackknife_variance
 from jamlab.analysis.powerlaw import mle_tau, power_law_loglik
 
 __all__ = [
@@ -480,7 +481,7 @@ def fit_joint_scaling(
                 continue
             fits = np.array([fit([np.delete(st, i, axis=0) if jj == j else s
                                   for jj, s in enumerate(base)], x) for i in range(m)])
-            var += (m - 1) / m * np.sum((fits - fits.mean(axis=0)) ** 2, axis=0)
+            var += jackknife_variance(fits)
             out.extend([ns[j], i, *f] for i, f in enumerate(fits))
         loo = np.array(out, dtype=np.float64).reshape(-1, 5)
         err_jack = np.sqrt(var)
