@@ -182,6 +182,16 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         assert t16[0][0] == alone.tau and np.isnan(t16[0][1])  # p = 1e-3 first, 1e-4 none
         assert np.isnan(t32[0][0]) and t32[0][1] == alone.tau
         assert t32[2][1] == alone.tau + alone.tau_stderr
+        # the first panel's title names the N the rows pool, not "all N"
+        from jamlab.reproduce.figures import tau_pressure_title
+
+        one = {16: est.per_n[16]}
+        assert tau_pressure_title({1e-3: replace(est, per_n=one)}) == "fixed-pressure AQS, N = 16"
+        both = {16: est.per_n[16], 32: est.per_n[16]}
+        assert (tau_pressure_title({1e-3: replace(est, per_n=both), 1e-4: replace(est, per_n=both)})
+                == "fixed-pressure AQS, N = 16 + 32 pooled")
+        assert (tau_pressure_title({1e-3: replace(est, per_n=both), 1e-4: replace(est, per_n=one)})
+                == "fixed-pressure AQS, N = 16, 32 (not every N at every p)")
     else:
         assert est.cutoff is None and cut_row.value_text == "n/a"
         assert est.cutoff_shape is None

@@ -182,6 +182,17 @@ def tau_pressure_per_n(estimates: dict[float, TauEstimate],
         for fits in per_p]) for n in ns}
 
 
+def tau_pressure_title(estimates: dict[float, TauEstimate]) -> str:
+    """The first panel's title: the sizes N the rows pool (``TauEstimate.per_n``), as run."""
+    sets = {tuple(sorted(e.per_n)) for e in estimates.values()}
+    ns = sorted({n for ns in sets for n in ns})
+    names = " + ".join(str(n) for n in ns)
+    if len(sets) > 1:
+        return f"fixed-pressure AQS, N = {names.replace(' + ', ', ')} (not every N at every p)"
+    return (f"fixed-pressure AQS, N = {names}" if len(ns) == 1
+            else f"fixed-pressure AQS, N = {names} pooled")
+
+
 def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Path | None:
     """τ(p) of the report's fixed-pressure rows against τ_J, the paper's constant-volume fit
     and τ_UNSAT (None without fixed-pressure studies)."""
@@ -196,7 +207,7 @@ def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Pa
     refs = {f"theory τ_J = {tau_j:.5f} (p → 0)": (tau_j, 0.0),
             f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
             "τ_UNSAT = 1": (1.0, 0.0)}
-    panels = [("fixed-pressure AQS, all N pooled", fits)]
+    panels = [(tau_pressure_title(estimates), fits)]
     per_n = tau_pressure_per_n(estimates)
     if per_n:
         panels.append(("each N alone, exponential cut-off in the pooled window", per_n))
