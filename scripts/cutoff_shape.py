@@ -23,12 +23,20 @@ as the report counts them; ``S = −ΔH`` at fixed pressure):
    over packings of τ at the best ``a`` and at ``a = 1`` (packings, not avalanches, as the
    independent units).
 
-``--figure``: for the first run, the complementary CDF of the sizes in the report's window
+Each run directory is analysed alone, pooling the ``--n`` it holds (a run without any of them is
+refused); ``--pool`` pools all the runs into one analysis (e.g. the N = 500 and N = 1000 halves
+of one pressure, run as two directories). A packing is labelled by its sample id, or, with
+several (run, N) sources, by ``N · 10⁶ + id`` (``k · 10⁶ + id``, ``k`` the source's index, when
+two sources share an N).
+
+``--figure``: for the first analysis, the complementary CDF of the sizes in the report's window
 beside the exponential and the best stretched model, and τ and ``2Δlog L`` against ``a``.
 
     PYTHONPATH=src python scripts/cutoff_shape.py RUNS/n1000-p1e-5 --n 1000 \\
         --figure docs/figures/cutoff_shape_n1000_p1e-5.png
     PYTHONPATH=src python scripts/cutoff_shape.py RUNS/pressure-1e-02 --n 500 1000
+    PYTHONPATH=src python scripts/cutoff_shape.py RUNS/n500-p1e-2 RUNS/n1000-p1e-2 \\
+        --n 500 1000 --pool
 """
 
 from __future__ import annotations
@@ -78,6 +86,30 @@ def detection(ds, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
         which.append(np.full(int(counted.sum()), int(d.sample.values[i])))
     return (np.concatenate(sizes), np.concatenate(resid), np.concatenate(thr),
             np.concatenate(which))
+
+
+def plan(held: list[tuple[str, list[int]]], wanted: list[int],
+         pool: bool) -> list[list[tuple[int, int]]]:
+    """The analyses to make: per analysis the ``(run index, N)`` sources it pools. ``held``:
+    per run its name and the N it holds; each run contributes the ``wanted`` N it holds, alone
+    or (``pool``) all into one. ValueError naming a run that holds none of ``wanted``."""
+    out = []
+    for k, (name, ns) in enumerate(held):
+        mine = [(k, n) for n in wanted if n in ns]
+        if not mine:
+            raise ValueError(f"{name}: holds N = {sorted(ns)}, none of --n {wanted}")
+        out.append(mine)
+    return [[src for part in out for src in part]] if pool else out
+
+
+def packing_labels(ns: list[int], ids: list[np.ndarray]) -> np.ndarray:
+    """One label per avalanche naming its packing, from each source's N and sample ids: the ids
+    themselves for one source, else ``N · 10⁶ + id`` (``k · 10⁶ + id``, ``k`` the source's
+    index, when two sources share an N)."""
+    if len(ids) == 1:
+        return np.asarray(ids[0])
+    keys = ns if len(set(ns)) == len(ns) else list(range(len(ns)))
+    return np.concatenate([k * 1_000_000 + np.asarray(i) for k, i in zip(keys, ids, strict=True)])
 
 
 def leave_one_out(s: np.ndarray, groups: np.ndarray, x_min: float,
@@ -189,20 +221,27 @@ def main() -> None:
     ap.add_argument("--figure", type=Path, default=None)
     ap.add_argument("--leave-out", action="store_true",
                     help="the report's window again with each packing left out in turn")
+    ap.add_argument("--pool", action="store_true",
+                    help="pool all the runs into one analysis (default: each run alone)")
     a = ap.parse_args()
     scale = SCALES[a.scale]
-    for run in a.runs:
-        ds = open_run(run)
-        parts = [detection(ds, n) for n in a.n]
-        s, r, thr, which = (np.concatenate(v) for v in zip(*parts, strict=True))
-        if len(a.n) > 1:  # a packing is (N, sample id): label it N·10⁶ + id
-            sizes_n = np.concatenate([np.full(p[0].size, n) for p, n in zip(parts, a.n,
-                                                                            strict=True)])
-            which = sizes_n * 1_000_000 + which
-        counted = np.concatenate([avalanche_set(ds, "jamming", n).sizes for n in a.n])
+    datasets = [open_run(run) for run in a.runs]
+    try:
+        analyses = plan([(str(run), [int(n) for n in ds.N.values])
+                         for run, ds in zip(a.runs, datasets, strict=True)], a.n, a.pool)
+    except ValueError as err:
+        ap.error(str(err))
+    for first, sources in enumerate(analyses):
+        parts = [detection(datasets[k], n) for k, n in sources]
+        s, r, thr, _ = (np.concatenate(v) for v in zip(*parts, strict=True))
+        which = packing_labels([n for _, n in sources], [p[3] for p in parts])
+        counted = np.concatenate([avalanche_set(datasets[k], "jamming", n).sizes
+                                  for k, n in sources])
+        run = " + ".join(dict.fromkeys(str(a.runs[k]) for k, _ in sources))
+        ns = sorted({n for _, n in sources})
         if not np.array_equal(np.sort(s), np.sort(counted)):
             raise SystemExit(f"{run}: the recomputed avalanches are not the report's")
-        print(f"\n# {run}, N = {a.n}: {s.size} avalanches; thresholds of the plastic flag "
+        print(f"\n# {run}, N = {ns}: {s.size} avalanches; thresholds of the plastic flag "
               f"{thr.min():.3g} … {thr.max():.3g} (median {np.median(thr):.3g}) ε\n")
         print("| S / threshold | avalanches | −r_n/S, median | −r_n/S, 5–95 % |")
         print("|---|---|---|---|")
@@ -232,8 +271,9 @@ def main() -> None:
             print("| 2Δlog L | " + " | ".join(f"{2 * (v - best):.1f}" for v in p.logliks) + " |")
             if a.leave_out and x_min == windows[0][1]:
                 leave_out_report(s, which, p)
-            if a.figure is not None and run == a.runs[0] and x_min == windows[0][1]:
-                figure(a.figure, s, p, f"{run.name}, N = {a.n}: the report's cut-off window")
+            if a.figure is not None and first == 0 and x_min == windows[0][1]:
+                name0 = " + ".join(dict.fromkeys(a.runs[k].name for k, _ in sources))
+                figure(a.figure, s, p, f"{name0}, N = {ns}: the report's cut-off window")
 
 
 if __name__ == "__main__":

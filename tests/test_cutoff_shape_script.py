@@ -53,3 +53,24 @@ def test_bad_groups_are_refused():
         cs.leave_one_out(s, np.zeros(29), 1.0)
     with pytest.raises(ValueError, match="two groups"):
         cs.leave_one_out(s, np.zeros(30), 1.0)
+
+
+def test_plan_pools_only_what_each_run_holds():
+    held = [("a", [500]), ("b", [1000]), ("c", [500, 1000])]
+    assert cs.plan(held, [500, 1000], pool=False) == [[(0, 500)], [(1, 1000)],
+                                                      [(2, 500), (2, 1000)]]
+    assert cs.plan(held[:2], [500, 1000], pool=True) == [[(0, 500), (1, 1000)]]
+    assert cs.plan(held[1:], [1000], pool=False) == [[(0, 1000)], [(1, 1000)]]
+    with pytest.raises(ValueError, match=r"a: holds N = \[500\], none of --n \[1000\]"):
+        cs.plan(held, [1000], pool=True)
+
+
+def test_packing_labels_tell_sources_apart():
+    ids = [np.array([0, 3, 3]), np.array([3, 7])]
+    np.testing.assert_array_equal(cs.packing_labels([500], ids[:1]), [0, 3, 3])
+    both = cs.packing_labels([500, 1000], ids)
+    np.testing.assert_array_equal(both, [500_000_000, 500_000_003, 500_000_003,
+                                         1_000_000_003, 1_000_000_007])
+    same_n = cs.packing_labels([500, 500], ids)  # two runs of one N: by source index
+    assert np.unique(same_n).size == 4
+    np.testing.assert_array_equal(same_n, [0, 3, 3, 1_000_003, 1_000_007])
