@@ -176,6 +176,19 @@ def follow_on(sizes: np.ndarray, counted: np.ndarray, z_nr: np.ndarray, floor: f
     return {"base": base, "groups": out}
 
 
+def pair_order(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[int, int, float]:
+    """Of the pairs of counted avalanches ``S ≥ floor`` at consecutive steps (``(samples,
+    steps)`` arrays), how many there are, in how many the second is the larger, and the
+    two-sided binomial p of that count against ½ — what i.i.d. sizes give whatever their law:
+    ``> ½`` is a small event before a large one (a foreshock), ``< ½`` an aftershock."""
+    hit = counted & (sizes >= floor)
+    both = hit[:, :-1] & hit[:, 1:]
+    first, second = sizes[:, :-1][both], sizes[:, 1:][both]
+    k, larger = int(both.sum()), int(np.count_nonzero(second > first))
+    p = float(stats.binomtest(larger, k, 0.5).pvalue) if k else 1.0
+    return k, larger, p
+
+
 def run_tail(ds, n: int, floors: list[float]) -> dict:
     """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
     (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``lags``
@@ -199,6 +212,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     far = {(f, lag): far_lag_baseline(sizes, counted, f, lag) for f in floors for lag in LAGS}
     z_nr = np.asarray(ds.z_nr.sel(phi="jamming", N=n).values)[done]
     follow = {f: follow_on(sizes, counted, z_nr, f) for f in floors}
+    order = {f: pair_order(sizes, counted, f) for f in floors}
     big = counted & (sizes >= max(floors))
     rest = counted & ~big
     i, k = np.nonzero(big)  # step k -> k + 1 of the trace (row 0 has no step)
@@ -207,7 +221,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
                     key=lambda e: -e[3])
     ir, kr = np.nonzero(rest)
     return {"samples": ids, "counts": counts, "halves": split, "lags": lags, "far": far,
-            "follow": follow, "events": events,
+            "follow": follow, "order": order, "events": events,
             "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
 
 
@@ -268,6 +282,12 @@ def main() -> None:
             print(f"  S ≥ {x:.0e}, base rate {fo['base']:.4f} per step: " + "; ".join(
                 f"{label} {k}, {f} ({f / k if k else float('nan'):.3f}, p {p:.2g})"
                 for label, (k, f, p) in fo["groups"].items()))
+        print("\npairs at consecutive steps: the second the larger (of i.i.d. sizes half; more: "
+              "a small event before a large one), two-sided binomial p:")
+        for x in sorted(a.above):
+            k, larger, p = t["order"][x]
+            print(f"  S ≥ {x:.0e}: {larger} of {k} ({larger / k if k else float('nan'):.2f}, "
+                  f"p {p:.2g})")
         top = max(a.above)
         print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
               + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))

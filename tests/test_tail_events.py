@@ -159,3 +159,23 @@ def test_bad_arguments_exit_2(te, monkeypatch, argv):
     with pytest.raises(SystemExit) as e:
         te.main()
     assert e.value.code == 2
+
+
+def test_pair_order_counts_which_of_two_consecutive_is_larger(te):
+    sizes = np.array([[1.0, 5.0, 0.0, 3.0, 2.0, 9.0],
+                      [4.0, 1.0, 0.5, 0.0, 7.0, 8.0]])
+    counted = sizes > 0
+    # consecutive counted pairs: (1,5) (3,2) (2,9) | (4,1) (1,0.5) (7,8): 6 pairs, 3 larger second
+    assert te.pair_order(sizes, counted, 0.1) == (6, 3, 1.0)
+    # above 0.9 the 0.5 drops out: (1,5) (3,2) (2,9) (4,1) (7,8) -> 3 of 5
+    k, larger, p = te.pair_order(sizes, counted, 0.9)
+    assert (k, larger) == (5, 3)
+    assert p == pytest.approx(stats.binomtest(3, 5, 0.5).pvalue)
+    assert te.pair_order(sizes, counted, 100.0) == (0, 0, 1.0)
+
+
+def test_pair_order_of_iid_sizes_is_even(te):
+    rng = np.random.default_rng(4)
+    sizes = rng.pareto(0.5, size=(50, 400))
+    k, larger, p = te.pair_order(sizes, np.ones_like(sizes, dtype=bool), 0.0)
+    assert k == 50 * 399 and abs(larger / k - 0.5) < 0.02 and p > 1e-3
