@@ -12,7 +12,7 @@ from jamlab.analysis import jackknife_variance
 @given(st.lists(st.floats(-1e3, 1e3, allow_nan=False), min_size=2, max_size=40))
 def test_of_the_mean_is_the_squared_standard_error(x):
     """For the mean the leave-one-out estimates are (Σx − x_i)/(m − 1), and the jackknife
-    variance is exactly s²/m (Efron & Tibshirani eq. 11.6)."""
+    variance is exactly s²/m (Efron & Tibshirani, ch. 11)."""
     x = np.array(x)
     m = x.size
     loo = (x.sum() - x) / (m - 1)

@@ -3,7 +3,7 @@ reports a jackknife error).
 
 From the estimates ``θ_(i)`` with unit ``i`` left out, ``i = 1 … m``:
 ``v = (m − 1)/m · Σ_i (θ_(i) − θ̄)²``, ``θ̄`` their mean (Efron & Tibshirani, *An Introduction
-to the Bootstrap*, eq. 11.5). For the sample mean it is exactly ``s²/m`` (``s²`` with ``m − 1``
+to the Bootstrap*, ch. 11). For the sample mean it is exactly ``s²/m`` (``s²`` with ``m − 1``
 in the denominator). A stratified jackknife sums this over strata.
 """
 
