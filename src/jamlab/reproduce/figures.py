@@ -184,13 +184,10 @@ def tau_pressure_per_n(estimates: dict[float, TauEstimate],
 
 def tau_pressure_title(estimates: dict[float, TauEstimate]) -> str:
     """The first panel's title: the sizes N the rows pool (``TauEstimate.per_n``), as run."""
-    sets = {tuple(sorted(e.per_n)) for e in estimates.values()}
-    ns = sorted({n for ns in sets for n in ns})
-    names = " + ".join(str(n) for n in ns)
-    if len(sets) > 1:
-        return f"fixed-pressure AQS, N = {names.replace(' + ', ', ')} (not every N at every p)"
-    return (f"fixed-pressure AQS, N = {names}" if len(ns) == 1
-            else f"fixed-pressure AQS, N = {names} pooled")
+    names = [str(n) for n in sorted({n for e in estimates.values() for n in e.per_n})]
+    if len({frozenset(e.per_n) for e in estimates.values()}) > 1:
+        return f"fixed-pressure AQS, N = {', '.join(names)} (not every N at every p)"
+    return f"fixed-pressure AQS, N = {' + '.join(names)}" + (" pooled" if len(names) > 1 else "")
 
 
 def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Path | None:
