@@ -242,7 +242,8 @@ def main() -> None:
         which = packing_labels([n for _, n in sources], [p[3] for p in parts])
         counted = np.concatenate([avalanche_set(datasets[k], "jamming", n).sizes
                                   for k, n in sources])
-        run = " + ".join(dict.fromkeys(str(a.runs[k]) for k, _ in sources))
+        paths = [a.runs[k] for k in dict.fromkeys(k for k, _ in sources)]
+        run = " + ".join(str(q) for q in paths)
         ns = sorted({n for _, n in sources})
         if not np.array_equal(np.sort(s), np.sort(counted)):
             raise SystemExit(f"{run}: the recomputed avalanches are not the report's")
@@ -277,8 +278,8 @@ def main() -> None:
             if a.leave_out and x_min == windows[0][1]:
                 leave_out_report(s, which, p)
             if a.figure is not None and first == 0 and x_min == windows[0][1]:
-                name0 = " + ".join(dict.fromkeys(a.runs[k].name for k, _ in sources))
-                figure(a.figure, s, p, f"{name0}, N = {ns}: the report's cut-off window")
+                figure(a.figure, s, p, " + ".join(q.name for q in paths)
+                       + f", N = {ns}: the report's cut-off window")
 
 
 if __name__ == "__main__":

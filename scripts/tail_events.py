@@ -22,6 +22,9 @@ run directory (φ label ``jamming`` at ``--n``, finished samples) and each floor
   drifts along the window or differs between samples makes too (:func:`far_lag_baseline`);
 - how often an avalanche is followed by one at the next step, by its size and by whether its
   backbone gained or lost contacts (:func:`follow_on`);
+- of the pairs at consecutive steps, how many have the larger second (:func:`pair_order`); with
+  ``--list-pairs`` each pair at the lowest floor (sample, step, both sizes) and how many of
+  their second events reach each floor (:func:`consecutive_pairs`);
 
 For the highest floor each event is listed: sample, step, strain γ, ``S``, the shear-stress
 ratio ``μ = σ_xy/p`` and the pressure of the minimum it starts from (the events' share
@@ -48,10 +51,15 @@ LAGS = (1, 2, 3, 5, 10)
 """The lags (in steps) of the pair counts."""
 
 
+def hits(sizes: np.ndarray, counted: np.ndarray, floor: float) -> np.ndarray:
+    """The counted avalanches with ``S = −ΔE ≥ floor``: a boolean ``(samples, steps)`` mask of
+    arrays ``sizes`` (``S``) and ``counted`` of that shape."""
+    return counted & (sizes >= floor)
+
+
 def per_sample_counts(sizes: np.ndarray, counted: np.ndarray, floor: float) -> np.ndarray:
-    """Counted avalanches with ``S = −ΔE ≥ floor`` in each row (sample) of ``(samples, steps)``
-    arrays ``sizes`` (``S``) and ``counted``."""
-    return np.asarray((counted & (sizes >= floor)).sum(axis=1), dtype=int)
+    """Counted avalanches with ``S ≥ floor`` in each row (sample) (:func:`hits`)."""
+    return np.asarray(hits(sizes, counted, floor).sum(axis=1), dtype=int)
 
 
 def dispersion(counts: np.ndarray, trials: int, seed: int = 0) -> dict:
@@ -91,7 +99,7 @@ def halves(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[int, i
     """Counted avalanches with ``S ≥ floor`` in the first and the second half of the steps
     (columns of ``(samples, steps)`` arrays; an odd middle step goes to the second half), and the
     two-sided binomial p-value of that split against ½ (NaN without events)."""
-    hit = counted & (sizes >= floor)
+    hit = hits(sizes, counted, floor)
     half = hit.shape[1] // 2
     first, second = int(hit[:, :half].sum()), int(hit[:, half:].sum())
     if first + second == 0:
@@ -103,7 +111,7 @@ def lag_pairs(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: int) ->
     """Pairs of counted avalanches with ``S ≥ floor`` exactly ``lag`` steps apart in one row of
     ``(samples, steps)`` arrays, and the number expected with each row's events placed uniformly
     among its ``T`` steps, ``Σ c (c − 1)(T − lag)/(T (T − 1))``."""
-    hit = counted & (sizes >= floor)
+    hit = hits(sizes, counted, floor)
     steps = hit.shape[1]
     c = hit.sum(axis=1).astype(float)
     observed = int((hit[:, lag:] & hit[:, :-lag]).sum())
@@ -128,7 +136,7 @@ def far_lag_baseline(sizes: np.ndarray, counted: np.ndarray, floor: float, lag: 
     positions, so their own noise is left out). A rate that drifts steeply makes the baseline
     somewhat low (independent events whose rate grows 30-fold along the window: 3–12 % below
     the pairs at lag 1; the uniform placement 20–30 % below; ``tests/test_tail_events.py``)."""
-    hit = counted & (sizes >= floor)
+    hit = hits(sizes, counted, floor)
     steps = hit.shape[1]
     lags = range(far[0], min(far[1], steps - 1) + 1)
     pairs = sum(int((hit[:, g:] & hit[:, :-g]).sum()) for g in lags)
@@ -157,7 +165,7 @@ def follow_on(sizes: np.ndarray, counted: np.ndarray, z_nr: np.ndarray, floor: f
     step, overall and split by the event's size (decades from ``floor``) and by the sign of its
     ``Δz_nr`` (whether the backbone gained or lost contacts): ``{label: (n, followed, p)}``,
     ``p`` the one-sided binomial p-value of that many followers at the base rate."""
-    hit = counted & (sizes >= floor)
+    hit = hits(sizes, counted, floor)
     base = float(hit.mean())
     first = hit[:, :-1]
     nxt = hit[:, 1:][first]
@@ -181,7 +189,7 @@ def pair_order(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[in
     steps)`` arrays), how many there are, in how many the second is the larger, and the
     two-sided binomial p of that count against ½ — what i.i.d. sizes give whatever their law:
     ``> ½`` is a small event before a large one (a foreshock), ``< ½`` an aftershock."""
-    hit = counted & (sizes >= floor)
+    hit = hits(sizes, counted, floor)
     both = hit[:, :-1] & hit[:, 1:]
     first, second = sizes[:, :-1][both], sizes[:, 1:][both]
     k, larger = int(both.sum()), int(np.count_nonzero(second > first))
@@ -189,9 +197,21 @@ def pair_order(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[in
     return k, larger, p
 
 
+def consecutive_pairs(sizes: np.ndarray, counted: np.ndarray, floor: float,
+                      ids: np.ndarray) -> list[tuple[int, int, float, float]]:
+    """The pairs counted by :func:`pair_order`, one by one: ``(sample id, step of the second,
+    S first, S second)``, steps numbered as the trace's (step ``k`` goes from minimum ``k − 1``
+    to ``k``), in sample and step order."""
+    hit = hits(sizes, counted, floor)
+    i, k = np.nonzero(hit[:, :-1] & hit[:, 1:])
+    return [(int(ids[a]), int(b) + 2, float(sizes[a, b]), float(sizes[a, b + 1]))
+            for a, b in zip(i, k, strict=True)]
+
+
 def run_tail(ds, n: int, floors: list[float]) -> dict:
     """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
-    (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``lags``
+    (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``order`` and
+    ``pairs`` (``{floor:`` :func:`pair_order` / :func:`consecutive_pairs` ``}``), ``lags``
     (``{(floor, lag):`` :func:`lag_pairs` ``}`` for the lags of :data:`LAGS`), ``events`` (the
     counted avalanches at or above the highest floor:
     tuples ``(sample id, step, γ, S, μ, p)`` with μ and p of the minimum each starts from, by
@@ -213,7 +233,8 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     z_nr = np.asarray(ds.z_nr.sel(phi="jamming", N=n).values)[done]
     follow = {f: follow_on(sizes, counted, z_nr, f) for f in floors}
     order = {f: pair_order(sizes, counted, f) for f in floors}
-    big = counted & (sizes >= max(floors))
+    pairs = {f: consecutive_pairs(sizes, counted, f, ids) for f in floors}
+    big = hits(sizes, counted, max(floors))
     rest = counted & ~big
     i, k = np.nonzero(big)  # step k -> k + 1 of the trace (row 0 has no step)
     events = sorted(((int(ids[a]), int(b) + 1, float(gamma[a, b + 1]), float(sizes[a, b]),
@@ -221,7 +242,7 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
                     key=lambda e: -e[3])
     ir, kr = np.nonzero(rest)
     return {"samples": ids, "counts": counts, "halves": split, "lags": lags, "far": far,
-            "follow": follow, "order": order, "events": events,
+            "follow": follow, "order": order, "pairs": pairs, "events": events,
             "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
 
 
@@ -243,6 +264,8 @@ def main() -> None:
                     help="multinomial deals for the exact dispersion p-value")
     ap.add_argument("--top", type=int, default=2, help="samples in the top share")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--list-pairs", action="store_true",
+                    help="list the pairs at consecutive steps at the lowest floor")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -288,6 +311,15 @@ def main() -> None:
             k, larger, p = t["order"][x]
             print(f"  S ≥ {x:.0e}: {larger} of {k} ({larger / k if k else float('nan'):.2f}, "
                   f"p {p:.2g})")
+        if a.list_pairs:
+            low = min(a.above)
+            pairs = t["pairs"][low]
+            print(f"\npairs at consecutive steps, S ≥ {low:.0e} ε: sample, step of the second, "
+                  "S first, S second (ε); how many of the seconds reach each floor: " + ", ".join(
+                      f"≥ {x:.0e}: {sum(q[3] >= x for q in pairs)} of {len(pairs)}"
+                      for x in sorted(a.above)))
+            for q in pairs:
+                print(f"  {q[0]:3d} {q[1]:5d} {q[2]:.3e} {q[3]:.3e}")
         top = max(a.above)
         print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
               + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))

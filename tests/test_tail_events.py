@@ -146,6 +146,12 @@ def test_run_tail_equals_the_sample_files(te, small_run):
         assert got[:2] == want[:2]
         np.testing.assert_allclose(got[2:], want[2:], rtol=1e-12)
     assert len(t["mu"]) + len(t["mu_rest"]) == sum(direct(small_run, 1e-300)[0])
+    # the consecutive pairs, from the events read off the sample files
+    every = {(e[0], e[1]): e[3] for e in direct(small_run, 1e-300)[1]}
+    want = sorted((i, k, every[i, k - 1], s) for (i, k), s in every.items() if (i, k - 1) in every)
+    assert [q[:2] for q in t["pairs"][1e-300]] == [q[:2] for q in want]
+    np.testing.assert_allclose([q[2:] for q in t["pairs"][1e-300]], [q[2:] for q in want],
+                               rtol=1e-12)
 
 
 @pytest.mark.parametrize("argv", [
@@ -179,3 +185,21 @@ def test_pair_order_of_iid_sizes_is_even(te):
     sizes = rng.pareto(0.5, size=(50, 400))
     k, larger, p = te.pair_order(sizes, np.ones_like(sizes, dtype=bool), 0.0)
     assert k == 50 * 399 and abs(larger / k - 0.5) < 0.02 and p > 1e-3
+
+
+def test_consecutive_pairs_lists_the_pairs_by_hand(te):
+    sizes = np.array([[1.0, 5.0, 0.0, 3.0, 2.0, 9.0],
+                      [4.0, 1.0, 0.5, 0.0, 7.0, 8.0]])
+    counted = sizes > 0
+    counted[1, 5] = False  # an uncounted step (e.g. unjammed) breaks the pair (7, 8)
+    ids = np.array([3, 11])
+    # column b is the step b + 1 of the trace, so the second of a pair at columns (b, b + 1)
+    # is the step b + 2
+    assert te.consecutive_pairs(sizes, counted, 0.1, ids) == [
+        (3, 2, 1.0, 5.0), (3, 5, 3.0, 2.0), (3, 6, 2.0, 9.0), (11, 2, 4.0, 1.0),
+        (11, 3, 1.0, 0.5)]
+    assert te.consecutive_pairs(sizes, counted, 0.9, ids) == [
+        (3, 2, 1.0, 5.0), (3, 5, 3.0, 2.0), (3, 6, 2.0, 9.0), (11, 2, 4.0, 1.0)]
+    k, larger, _ = te.pair_order(sizes, counted, 0.1)
+    pairs = te.consecutive_pairs(sizes, counted, 0.1, ids)
+    assert (k, larger) == (len(pairs), sum(q[3] > q[2] for q in pairs))
