@@ -18,6 +18,17 @@ that with the run's own step ``k + 1`` (a counted avalanche or not).
 
     PYTHONPATH=src python scripts/follow_on_probe.py \\
         RUNS/n250-p1e-6-fix40/samples/phi=jamming/N=250/sample-0000{0,1,2}.h5 --above 1e-9
+
+With ``--pairs`` it probes the pairs of counted avalanches at consecutive steps ``k`` and
+``k + 1`` instead (``tail_events.py``'s foreshocks: mostly a small one, then a larger one): is
+the first a separate instability, or the start of one instability that a step of ``δγ`` split
+in two? The replay stops at the last pair; from the minimum ``k − 1`` before each pair the two
+steps are taken again in ``2 m`` substeps of ``δγ/m`` (``--substeps m``), one fixed-pressure
+run as the study's. Printed for each pair: the run's two sizes, the substeps the replay flags
+plastic (counted by the report's rule: plastic, ``ΔH < 0``, both minima jammed), each with
+its ``S``, and the sum of the substeps' ``−ΔH`` against the run's two. Two releases with an
+elastic substep between are two instabilities at distinct strains; releases in adjacent
+substeps are one at this resolution.
 """
 
 from __future__ import annotations
@@ -41,18 +52,24 @@ def options(study) -> dict:
                 confirm_below=CONFIRM_BELOW, volume_guess=study.volume_guess)
 
 
-def replay(sample: Path):
+def replay(sample: Path, n_steps: int | None = None, keep=None):
     """``(study, stored trace columns, replayed trace, minima)`` of one sample file: the shear
-    redone from its prepared packing, every minimum kept (``minima[n]`` ends step ``n``)."""
+    redone from its prepared packing (its first ``n_steps`` steps; all by default), the minima
+    kept (``minima[n]`` ends step ``n``; only the steps in ``keep`` if given)."""
     study = RunDir(sample.parents[3]).study()
     if study.pressure is None:
         raise ValueError(f"{sample}: not a fixed-pressure run")
     with h5py.File(sample, "r") as h5:
         stored = {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
     minima = {}
+
+    def observe(n, p):
+        if keep is None or n in keep:
+            minima[n] = p
+
     res = shear_at_pressure(prepared_packing(sample), study.dgamma,
-                            n_steps=stored["energy_jump"].size - 1,
-                            observer=lambda n, p: minima.__setitem__(n, p), **options(study))
+                            n_steps=stored["energy_jump"].size - 1 if n_steps is None else n_steps,
+                            observer=observe, **options(study))
     return study, stored, res.trace(), minima
 
 
@@ -63,18 +80,83 @@ def fresh_release(start, study) -> float:
     return -(float(t.energy_jump[1]) - 0.5 * study.dgamma * float(t.stress_jump[1]))
 
 
+def fine_steps(start, study, substeps: int):
+    """The two steps ``δγ`` after the minimum ``start`` redone in ``2 substeps`` steps of
+    ``δγ/substeps``: ``(S, counted)`` per substep, ``S = −ΔH``, ``counted`` by the report's rule
+    (:func:`jamlab.analysis.classify_steps`)."""
+    t = shear_at_pressure(start, study.dgamma / substeps, n_steps=2 * substeps,
+                          **options(study)).trace()
+    dh = np.asarray(t.energy_jump)[1:]
+    return -dh, classify_steps(dh, np.asarray(t.plastic)[1:], jammed=np.asarray(t.jammed))
+
+
+def gaps(counted: np.ndarray) -> str:
+    """How the counted substeps lie: ``none``, ``one``, ``adjacent`` (all in one run of
+    consecutive substeps) or ``separated`` (an elastic substep between two of them)."""
+    k = np.flatnonzero(counted)
+    if k.size == 0:
+        return "none"
+    if k.size == 1:
+        return "one"
+    return "adjacent" if np.all(np.diff(k) == 1) else "separated"
+
+
+def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
+    """The ``--pairs`` probe (module docstring), printed."""
+    verdicts: dict[str, int] = {}
+    print("sample, step k of the first, the run's S at k and k + 1 (ε); the replay's counted "
+          "substeps (index from 1, k's step is 1 … m): S; the replay's Σ(−ΔH) against the run's")
+    for sample in samples:
+        with h5py.File(sample, "r") as h5:
+            stored = {key: h5[f"trace/{key}"][()] for key in ("energy_jump", "plastic", "jammed")}
+        dh = stored["energy_jump"]
+        counted = classify_steps(dh[1:], stored["plastic"][1:], jammed=stored["jammed"])
+        hit = counted & (-dh[1:] >= above)
+        firsts = [int(b) + 1 for b in np.flatnonzero(hit[:-1] & hit[1:])]  # trace steps
+        if not firsts:
+            print(f"{sample.name}: no pair ≥ {above:.0e}", flush=True)
+            continue
+        t0 = time.process_time()
+        study, _, trace, minima = replay(sample, n_steps=max(max(firsts) - 1, 1),
+                                         keep={k - 1 for k in firsts})
+        n = np.asarray(trace.energy_jump).size
+        same = np.array_equal(np.asarray(trace.energy_jump)[1:], dh[1:n])
+        print(f"{sample.name}: replay to step {n - 1} "
+              f"{time.process_time() - t0:.0f} CPU s, "
+              f"{'equal to the stored trace' if same else 'DIFFERS from the stored trace'}",
+              flush=True)
+        for k in firsts:
+            size, hits = fine_steps(minima[k - 1], study, substeps)
+            v = gaps(hits)
+            verdicts[v] = verdicts.get(v, 0) + 1
+            rows = ", ".join(f"{j + 1}: {size[j]:.2e}" for j in np.flatnonzero(hits))
+            print(f"  {sample.name} {k:5d} {-dh[k]:.2e} {-dh[k + 1]:.2e} | {rows or '—'} | "
+                  f"{size.sum():.3e} against {-dh[k] - dh[k + 1]:.3e} ({v})", flush=True)
+    print("\nthe pairs by how the replay's releases lie: "
+          + ", ".join(f"{v} {n}" for v, n in sorted(verdicts.items())))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("samples", type=Path, nargs="+")
     ap.add_argument("--above", type=float, default=1e-10, help="avalanches probed: S ≥ (ε)")
     ap.add_argument("--event", type=float, default=1e-11,
                     help="the fresh step releases: −r > (ε)")
+    ap.add_argument("--pairs", action="store_true",
+                    help="probe the pairs of avalanches at consecutive steps instead")
+    ap.add_argument("--substeps", type=int, default=10,
+                    help="with --pairs: each step redone in this many substeps")
     a = ap.parse_args()
     if a.above <= 0 or a.event <= 0:
         ap.error("--above and --event must be > 0")
+    if a.substeps < 1:
+        ap.error("--substeps must be >= 1")
     for s in a.samples:
         if not s.is_file():
             ap.error(f"no sample file {s}")
+    if a.pairs:
+        probe_pairs(a.samples, a.above, a.substeps)
+        return
     table = np.zeros((2, 2), dtype=int)  # [run's next step counted][fresh step releases]
     rows = []
     for sample in a.samples:
