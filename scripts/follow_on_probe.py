@@ -54,8 +54,9 @@ def options(study) -> dict:
 
 def replay(sample: Path, n_steps: int | None = None, keep=None):
     """``(study, stored trace columns, replayed trace, minima)`` of one sample file: the shear
-    redone from its prepared packing (its first ``n_steps`` steps; all by default), the minima
-    kept (``minima[n]`` ends step ``n``; only the steps in ``keep`` if given)."""
+    redone from its prepared packing with the run's options and restart points (its first
+    ``n_steps`` steps; all by default), the minima kept (``minima[n]`` ends step ``n``; only the
+    steps in ``keep`` if given)."""
     study = RunDir(sample.parents[3]).study()
     if study.pressure is None:
         raise ValueError(f"{sample}: not a fixed-pressure run")
@@ -67,9 +68,12 @@ def replay(sample: Path, n_steps: int | None = None, keep=None):
         if keep is None or n in keep:
             minima[n] = p
 
+    # a run's checkpoints are restart points of the solver state (``Study.checkpoint_every``):
+    # the replay restarts where the run did, or it parts from it at rounding level
     res = shear_at_pressure(prepared_packing(sample), study.dgamma,
                             n_steps=stored["energy_jump"].size - 1 if n_steps is None else n_steps,
-                            observer=observe, **options(study))
+                            observer=observe, save_every=study.checkpoint_every or None,
+                            **options(study))
     return study, stored, res.trace(), minima
 
 

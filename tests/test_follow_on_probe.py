@@ -101,3 +101,12 @@ def test_pairs_mode_probes_the_pair(fop, tmp_path, monkeypatch, capsys):
     total, run = (float(v) for v in lines[0].split("|")[2].split("(")[0].split("against"))
     assert total == pytest.approx(run, rel=1e-3)
     assert "the pairs by how the replay's releases lie: " in out
+
+
+def test_replay_of_a_checkpointed_run_restarts_where_the_run_did(fop, tmp_path):
+    # checkpoints are restart points of the solver state (rounding-level changes): the replay
+    # takes the study's, so it equals the stored trace bit for bit
+    sample = one_sample(tmp_path, pressure=1e-3, checkpoint_every=7)
+    _, stored, trace, _ = fop.replay(sample, keep=set())
+    np.testing.assert_array_equal(trace.energy_jump[1:], stored["energy_jump"][1:])
+    np.testing.assert_array_equal(trace.plastic, stored["plastic"])
