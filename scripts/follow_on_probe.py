@@ -52,6 +52,12 @@ def options(study) -> dict:
                 confirm_below=CONFIRM_BELOW, volume_guess=study.volume_guess)
 
 
+def stored_columns(sample: Path) -> dict:
+    """The trace columns ``energy_jump``, ``plastic``, ``jammed`` stored in a sample file."""
+    with h5py.File(sample, "r") as h5:
+        return {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
+
+
 def replay(sample: Path, n_steps: int | None = None, keep=None):
     """``(study, stored trace columns, replayed trace, minima)`` of one sample file: the shear
     redone from its prepared packing with the run's options and restart points (its first
@@ -60,8 +66,7 @@ def replay(sample: Path, n_steps: int | None = None, keep=None):
     study = RunDir(sample.parents[3]).study()
     if study.pressure is None:
         raise ValueError(f"{sample}: not a fixed-pressure run")
-    with h5py.File(sample, "r") as h5:
-        stored = {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
+    stored = stored_columns(sample)
     minima = {}
 
     def observe(n, p):
@@ -111,8 +116,7 @@ def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
     print("sample, step k of the first, the run's S at k and k + 1 (ε); the replay's counted "
           "substeps (index from 1, k's step is 1 … m): S; the replay's Σ(−ΔH) against the run's")
     for sample in samples:
-        with h5py.File(sample, "r") as h5:
-            stored = {key: h5[f"trace/{key}"][()] for key in ("energy_jump", "plastic", "jammed")}
+        stored = stored_columns(sample)
         dh = stored["energy_jump"]
         counted = classify_steps(dh[1:], stored["plastic"][1:], jammed=stored["jammed"])
         hit = counted & (-dh[1:] >= above)
