@@ -40,7 +40,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from jamlab.analysis import classify_steps
+from jamlab.analysis import classify_steps, consecutive_events
 from jamlab.runs import RunDir, prepared_packing
 from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
@@ -120,7 +120,7 @@ def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
         dh = stored["energy_jump"]
         counted = classify_steps(dh[1:], stored["plastic"][1:], jammed=stored["jammed"])
         hit = counted & (-dh[1:] >= above)
-        firsts = [int(b) + 1 for b in np.flatnonzero(hit[:-1] & hit[1:])]  # trace steps
+        firsts = [int(b) + 1 for b in consecutive_events(hit)[0]]  # trace steps
         if not firsts:
             print(f"{sample.name}: no pair ≥ {above:.0e}", flush=True)
             continue

@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from jamlab.analysis import consecutive_events
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
 from jamlab.runs import open_run
 
@@ -186,24 +187,23 @@ def follow_on(sizes: np.ndarray, counted: np.ndarray, z_nr: np.ndarray, floor: f
 
 def pair_order(sizes: np.ndarray, counted: np.ndarray, floor: float) -> tuple[int, int, float]:
     """Of the pairs of counted avalanches ``S ≥ floor`` at consecutive steps (``(samples,
-    steps)`` arrays), how many there are, in how many the second is the larger, and the
-    two-sided binomial p of that count against ½ — what i.i.d. sizes give whatever their law:
-    ``> ½`` is a small event before a large one (a foreshock), ``< ½`` an aftershock."""
-    hit = hits(sizes, counted, floor)
-    both = hit[:, :-1] & hit[:, 1:]
-    first, second = sizes[:, :-1][both], sizes[:, 1:][both]
-    k, larger = int(both.sum()), int(np.count_nonzero(second > first))
+    steps)`` arrays; :func:`consecutive_pairs`), how many there are, in how many the second is
+    the larger, and the two-sided binomial p of that count against ½ — what i.i.d. sizes give
+    whatever their law: ``> ½`` is a small event before a large one (a foreshock), ``< ½`` an
+    aftershock."""
+    pairs = consecutive_pairs(sizes, counted, floor, np.arange(sizes.shape[0]))
+    k, larger = len(pairs), sum(second > first for _, _, first, second in pairs)
     p = float(stats.binomtest(larger, k, 0.5).pvalue) if k else 1.0
     return k, larger, p
 
 
 def consecutive_pairs(sizes: np.ndarray, counted: np.ndarray, floor: float,
                       ids: np.ndarray) -> list[tuple[int, int, float, float]]:
-    """The pairs counted by :func:`pair_order`, one by one: ``(sample id, step of the second,
+    """The pairs of counted avalanches ``S ≥ floor`` at consecutive steps
+    (:func:`jamlab.analysis.consecutive_events`), one by one: ``(sample id, step of the second,
     S first, S second)``, steps numbered as the trace's (step ``k`` goes from minimum ``k − 1``
     to ``k``), in sample and step order."""
-    hit = hits(sizes, counted, floor)
-    i, k = np.nonzero(hit[:, :-1] & hit[:, 1:])
+    i, k = consecutive_events(hits(sizes, counted, floor))
     return [(int(ids[a]), int(b) + 2, float(sizes[a, b]), float(sizes[a, b + 1]))
             for a, b in zip(i, k, strict=True)]
 

@@ -2,12 +2,15 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from jamlab.analysis import (
     avalanche_sizes,
     branch_residual,
     classify_steps,
     coarsen_steps,
+    consecutive_events,
     exclusions,
     jammed_steps,
     jumps_from_trace,
@@ -207,3 +210,22 @@ def test_coarsen_steps_flags_and_samples_axis(rng):
         coarsen_steps(de, ds[:, :5], 1e-5, 2)
     with pytest.raises(ValueError):
         coarsen_steps(de, ds, 1e-5, 2, jammed=jammed[:, :10])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.lists(st.booleans(), min_size=1, max_size=12), min_size=1, max_size=4))
+def test_consecutive_events_equals_a_loop_over_neighbours(rows):
+    width = min(len(r) for r in rows)
+    events = np.array([r[:width] for r in rows], dtype=bool)
+    expected = [(a, b) for a in range(events.shape[0]) for b in range(width - 1)
+                if events[a, b] and events[a, b + 1]]
+    i, k = consecutive_events(events)
+    assert list(zip(i.tolist(), k.tolist(), strict=True)) == expected
+    # a run of r consecutive events gives r - 1 overlapping pairs
+    (j,) = consecutive_events(np.array([0, 1, 1, 1, 0, 1], dtype=bool))
+    assert j.tolist() == [1, 2]
+
+
+def test_consecutive_events_refuses_a_scalar():
+    with pytest.raises(ValueError, match="steps axis"):
+        consecutive_events(np.bool_(True))

@@ -39,6 +39,7 @@ __all__ = [
     "branch_residual",
     "classify_steps",
     "coarsen_steps",
+    "consecutive_events",
     "Exclusions",
     "exclusions",
     "jammed_steps",
@@ -376,3 +377,15 @@ def coarsen_steps(
         k=k,
         dropped=m - blocks * k,
     )
+
+
+def consecutive_events(events: ArrayLike) -> tuple[NDArray[np.intp], ...]:
+    """Where two events follow at consecutive steps: for a boolean mask ``events`` of shape
+    ``(..., steps)`` (steps along the last axis, e.g. the counted avalanches above a size), the
+    indices (as :func:`numpy.nonzero`) of the first event of each pair; the second is one step
+    later along the last axis. A run of ``r`` consecutive events gives ``r − 1`` overlapping
+    pairs."""
+    ev = np.asarray(events, dtype=bool)
+    if ev.ndim == 0:
+        raise ValueError("events must have a steps axis")
+    return np.nonzero(ev[..., :-1] & ev[..., 1:])
