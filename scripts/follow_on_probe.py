@@ -41,7 +41,9 @@ import h5py
 import numpy as np
 
 from jamlab.analysis import classify_steps, consecutive_events
+from jamlab.provenance import differ, machine, summary_text
 from jamlab.runs import RunDir, prepared_packing
+from jamlab.runs.origin import provenance_records
 from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
 
@@ -56,6 +58,27 @@ def stored_columns(sample: Path) -> dict:
     """The trace columns ``energy_jump``, ``plastic``, ``jammed`` stored in a sample file."""
     with h5py.File(sample, "r") as h5:
         return {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
+
+
+def other_machine(sample: Path) -> str:
+    """Why a replay may part from the stored trace at rounding level: ``""`` when every
+    invocation recorded in the sample's ``provenance`` ran on this machine and libraries
+    (``jamlab.provenance.differ``; e.g. ``JAMLAB_CHOLMOD_BLAS`` changes the BLAS kernels), else
+    a sentence naming the first that did not."""
+    with h5py.File(sample, "r") as h5:
+        records = provenance_records(h5.attrs.get("provenance")) or []
+    here = machine()
+    for r in records:
+        if differ(r, here):
+            return (f" (made on another machine or BLAS: {summary_text(r)}; "
+                    f"here: {summary_text(here)})")
+    return ""
+
+
+def verdict(sample: Path, same: bool) -> str:
+    """``equal to the stored trace``, or ``DIFFERS …`` with :func:`other_machine`'s reason."""
+    return ("equal to the stored trace" if same
+            else "DIFFERS from the stored trace" + other_machine(sample))
 
 
 def replay(sample: Path, n_steps: int | None = None, keep=None):
@@ -131,7 +154,7 @@ def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
         same = np.array_equal(np.asarray(trace.energy_jump)[1:], dh[1:n])
         print(f"{sample.name}: replay to step {n - 1} "
               f"{time.process_time() - t0:.0f} CPU s, "
-              f"{'equal to the stored trace' if same else 'DIFFERS from the stored trace'}",
+              f"{verdict(sample, same)}",
               flush=True)
         for k in firsts:
             size, hits = fine_steps(minima[k - 1], study, substeps)
@@ -144,6 +167,127 @@ def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
           + ", ".join(f"{v} {n}" for v, n in sorted(verdicts.items())))
 
 
+def nonaffine(before, after) -> np.ndarray:
+    """The non-affine displacement ``(N, d)`` from minimum ``before`` to minimum ``after`` of one
+    fixed-pressure run: ``x_after − λ (x_before + δγ y_before e_x)`` with ``λ = L_after /
+    L_before`` and ``δγ`` the strain between them (the affine map of a step,
+    ``state.affine_shear`` then ``barostat.rescale_box``), in ``after``'s minimum image (so
+    wraps between the two minima do not count)."""
+    pos = np.array(before.positions, dtype=np.float64)
+    pos[:, 0] += (after.strain - before.strain) * pos[:, 1]
+    pos *= after.box.length / before.box.length
+    return after.box.minimum_image(np.asarray(after.positions) - pos)
+
+
+def weights(u: np.ndarray) -> np.ndarray:
+    """Each particle's share ``|u_i|² / Σ_j |u_j|²`` of a displacement field."""
+    sq = np.einsum("ij,ij->i", u, u)
+    return sq / sq.sum()
+
+
+def participation(u: np.ndarray) -> float:
+    """``(Σ|u_i|²)² / (N Σ|u_i|⁴)``: 1 when every particle moves alike, ``1/N`` for one."""
+    w = weights(u)
+    return float(1.0 / (w.size * np.sum(w * w)))
+
+
+def shared_weight(u: np.ndarray, v: np.ndarray) -> float:
+    """``Σ_i min(w_i(u), w_i(v))`` (:func:`weights`): 1 when two displacement fields move the
+    same particles in the same proportions, ≈ 0 when they move different particles."""
+    return float(np.minimum(weights(u), weights(v)).sum())
+
+
+def cosine(u: np.ndarray, v: np.ndarray) -> float:
+    """``|u · v| / (|u| |v|)`` over all particles and components."""
+    return float(abs(np.sum(u * v)) / np.sqrt(np.sum(u * u) * np.sum(v * v)))
+
+
+def centre_distance(u: np.ndarray, v: np.ndarray, at) -> float:
+    """The distance (minimum image of packing ``at``) between the particles that move most in
+    ``u`` and in ``v``, in particle diameters."""
+    i, j = int(np.argmax(weights(u))), int(np.argmax(weights(v)))
+    d = at.box.minimum_image(np.asarray(at.positions)[i] - np.asarray(at.positions)[j])
+    return float(np.linalg.norm(d))
+
+
+def elastic_before(plastic: np.ndarray, step: int) -> int:
+    """The last step before trace step ``step`` that the run did not flag plastic (0: none)."""
+    e = step - 1
+    while e >= 1 and plastic[e]:
+        e -= 1
+    return e
+
+
+def event_field(minima: dict, step: int, ref: int) -> np.ndarray:
+    """The plastic displacement of trace step ``step`` (minimum ``step − 1`` to ``step``): its
+    non-affine displacement less that of the elastic step ``ref`` (the same δγ), which removes
+    the branch's own smooth non-affine motion to first order."""
+    return (nonaffine(minima[step - 1], minima[step])
+            - nonaffine(minima[ref - 1], minima[ref]))
+
+
+def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
+    """The ``--where`` probe (module docstring), printed."""
+    from scipy import stats
+
+    close: dict[str, list[tuple[float, float, float]]] = {"consecutive": [], "far": []}
+    print("sample, steps of the two events, their S (ε), participation ratios, shared weight, "
+          "cosine, distance of the most-moving particles (d), elastic share of the first")
+    for sample in samples:
+        stored = stored_columns(sample)
+        dh, plastic = stored["energy_jump"], stored["plastic"]
+        counted = classify_steps(dh[1:], plastic[1:], jammed=stored["jammed"])
+        hit = counted & (-dh[1:] >= above)
+        firsts = [int(b) + 1 for b in consecutive_events(hit)[0]]  # trace steps
+        if not firsts:
+            print(f"{sample.name}: no pair ≥ {above:.0e}", flush=True)
+            continue
+        end = max(firsts) + 1
+        events = [int(b) + 1 for b in np.flatnonzero(hit) if b + 1 <= end]
+        far = [(a, b) for a in events for b in events if b - a >= lag_min]
+        pairs = [("consecutive", k, k + 1) for k in firsts] + [("far", a, b) for a, b in far]
+        need = set()
+        for _, a, b in pairs:
+            for j in (a, b):
+                e = elastic_before(plastic, j)
+                if e < 1:
+                    raise ValueError(f"{sample}: no elastic step before step {j}")
+                need |= {j - 1, j, e - 1, e}
+        t0 = time.process_time()
+        _, _, trace, minima = replay(sample, n_steps=end, keep=need)
+        n = np.asarray(trace.energy_jump).size
+        same = np.array_equal(np.asarray(trace.energy_jump)[1:], dh[1:n])
+        print(f"{sample.name}: replay to step {n - 1} {time.process_time() - t0:.0f} CPU s, "
+              f"{verdict(sample, same)}; "
+              f"{len(firsts)} consecutive pairs, {len(far)} pairs ≥ {lag_min} steps apart",
+              flush=True)
+        fields = {j: event_field(minima, j, elastic_before(plastic, j))
+                  for _, a, b in pairs for j in (a, b)}
+        for kind, a, b in pairs:
+            u, v = fields[a], fields[b]
+            row = (shared_weight(u, v), cosine(u, v), centre_distance(u, v, minima[b]))
+            close[kind].append(row)
+            if kind == "consecutive":
+                raw = nonaffine(minima[a - 1], minima[a])
+                ref = raw - u
+                print(f"  {sample.name} {a:5d} {b:5d} {-dh[a]:.2e} {-dh[b]:.2e} "
+                      f"{participation(u):.3f} {participation(v):.3f} "
+                      f"{row[0]:.3f} {row[1]:.3f} {row[2]:6.2f} "
+                      f"{np.sum(ref * ref) / np.sum(raw * raw):.1e}", flush=True)
+    print("\nthe two events of a pair: median [quartiles] of each measure, consecutive pairs "
+          f"against pairs ≥ {lag_min} steps apart in the same samples (two-sided Mann–Whitney p)")
+    for m, name in enumerate(("shared weight", "cosine", "distance (d)")):
+        c = np.array([r[m] for r in close["consecutive"]])
+        f = np.array([r[m] for r in close["far"]])
+        if c.size == 0 or f.size == 0:
+            print(f"  {name}: too few pairs")
+            continue
+        p = float(stats.mannwhitneyu(c, f, alternative="two-sided").pvalue)
+        q = [np.percentile(x, (25, 50, 75)) for x in (c, f)]
+        print(f"  {name}: consecutive {q[0][1]:.3g} [{q[0][0]:.3g}, {q[0][2]:.3g}] ({c.size}) "
+              f"against far {q[1][1]:.3g} [{q[1][0]:.3g}, {q[1][2]:.3g}] ({f.size}), p {p:.2g}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("samples", type=Path, nargs="+")
@@ -152,6 +296,11 @@ def main() -> None:
                     help="the fresh step releases: −r > (ε)")
     ap.add_argument("--pairs", action="store_true",
                     help="probe the pairs of avalanches at consecutive steps instead")
+    ap.add_argument("--where", action="store_true",
+                    help="where the two events of each consecutive pair happen, against pairs "
+                         "of events far apart")
+    ap.add_argument("--lag-min", type=int, default=20,
+                    help="with --where: the far pairs are at least this many steps apart")
     ap.add_argument("--substeps", type=int, default=10,
                     help="with --pairs: each step redone in this many substeps")
     a = ap.parse_args()
@@ -162,8 +311,15 @@ def main() -> None:
     for s in a.samples:
         if not s.is_file():
             ap.error(f"no sample file {s}")
+    if a.lag_min < 2:
+        ap.error("--lag-min must be >= 2")
+    if a.pairs and a.where:
+        ap.error("--pairs and --where are two probes: give one")
     if a.pairs:
         probe_pairs(a.samples, a.above, a.substeps)
+        return
+    if a.where:
+        where_pairs(a.samples, a.above, a.lag_min)
         return
     table = np.zeros((2, 2), dtype=int)  # [run's next step counted][fresh step releases]
     rows = []
@@ -178,8 +334,8 @@ def main() -> None:
         size = -dh[1:]
         ends = [k + 1 for k in np.flatnonzero(counted & (size >= a.above)) if k + 1 < size.size]
         print(f"{sample.name}: replay {time.process_time() - t0:.0f} CPU s "
-              f"(volume_guess {study.volume_guess}), trace "
-              f"{'equal to the stored one bit for bit' if same else 'DIFFERS from the stored one'};"
+              f"(volume_guess {study.volume_guess}), "
+              f"{verdict(sample, same)};"
               f" {len(ends)} avalanches ≥ {a.above:.0e}", flush=True)
         for k in ends:
             fresh = fresh_release(minima[k], study)

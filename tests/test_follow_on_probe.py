@@ -110,3 +110,102 @@ def test_replay_of_a_checkpointed_run_restarts_where_the_run_did(fop, tmp_path):
     _, stored, trace, _ = fop.replay(sample, keep=set())
     np.testing.assert_array_equal(trace.energy_jump[1:], stored["energy_jump"][1:])
     np.testing.assert_array_equal(trace.plastic, stored["plastic"])
+
+
+def random_packing_at(n=12, length=5.0, strain=0.37, seed=3):
+    from jamlab.spheres.box import Box
+    from jamlab.spheres.state import Packing
+
+    rng = np.random.default_rng(seed)
+    return Packing(positions=rng.uniform(0, length, (n, 3)), box=Box(length, 3, strain))
+
+
+def test_nonaffine_of_an_affine_step_is_zero_and_finds_a_moved_particle(fop):
+    from jamlab.spheres.barostat import rescale_box
+    from jamlab.spheres.state import affine_shear
+
+    before = random_packing_at()
+    # the affine map of one fixed-pressure step, then positions wrapped into the new box
+    after = rescale_box(affine_shear(before, 3e-2), before.box.length * 1.01).wrapped()
+    assert not np.allclose(after.positions, before.positions)
+    np.testing.assert_allclose(fop.nonaffine(before, after), 0.0, atol=1e-12)
+    moved = np.array(after.positions)
+    moved[4] += [1e-3, -2e-3, 5e-4]
+    u = fop.nonaffine(before, after.with_positions(moved))
+    np.testing.assert_allclose(u[4], [1e-3, -2e-3, 5e-4], atol=1e-12)
+    np.testing.assert_allclose(np.delete(u, 4, axis=0), 0.0, atol=1e-12)
+
+
+def test_field_measures_by_hand(fop):
+    n = 10
+    one = np.zeros((n, 3))
+    one[2] = [0.0, 3.0, 4.0]
+    other = np.zeros((n, 3))
+    other[7] = [1.0, 0.0, 0.0]
+    alike = np.ones((n, 3))
+    assert fop.participation(one) == pytest.approx(1 / n)
+    assert fop.participation(alike) == pytest.approx(1.0)
+    assert fop.shared_weight(one, other) == 0.0
+    assert fop.shared_weight(alike, 2 * alike) == pytest.approx(1.0)
+    assert fop.shared_weight(one, alike) == pytest.approx(1 / n)  # min(1, 1/n) at particle 2
+    assert fop.cosine(one, -one) == pytest.approx(1.0) and fop.cosine(one, other) == 0.0
+    # the most-moving particles 2 and 7, placed across the y boundary of a sheared box
+    at = random_packing_at(n=n, length=5.0, strain=0.1)
+    pos = np.array(at.positions)
+    pos[2] = [1.0, 0.2, 2.0]
+    pos[7] = [1.0 + 0.1 * 5.0 + 0.3, 4.9, 2.0]  # the image of 7 below y = 0 is at x 1.3, y −0.1
+    d = fop.centre_distance(one, other, at.with_positions(pos))
+    assert d == pytest.approx(np.hypot(0.3, 0.3))
+
+
+def test_elastic_before_skips_plastic_steps(fop):
+    plastic = np.array([False, False, True, True, False, True, True])
+    assert fop.elastic_before(plastic, 6) == 4
+    assert fop.elastic_before(plastic, 4) == 1
+    assert fop.elastic_before(np.array([False, True, True]), 2) == 0
+
+
+def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
+    import sys
+
+    sample = pair_sample(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), "--where",
+                                      "--above", "1e-300", "--lag-min", "3"])
+    fop.main()
+    out = capsys.readouterr().out
+    assert "equal to the stored trace" in out and "DIFFERS" not in out
+    lines = [x.split() for x in out.splitlines() if x.startswith("  sample-00000.h5")]
+    assert len(lines) == 1 and lines[0][1:3] == ["9", "10"]
+    shared, cos, dist = (float(v) for v in lines[0][7:10])
+    assert 0.0 <= shared <= 1.0 and 0.0 <= cos <= 1.0 and dist >= 0.0
+    # the elastic step's field is a small part of a plastic step's displacement
+    assert float(lines[0][10]) < 0.5
+    # the only events up to step 10 are the pair's: no far pair to compare with
+    assert "0 pairs ≥ 3 steps apart" in out and "shared weight: too few pairs" in out
+
+
+def test_pairs_and_where_are_refused_together(fop, tmp_path, monkeypatch):
+    import sys
+
+    sample = pair_sample(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), "--where", "--pairs"])
+    with pytest.raises(SystemExit) as e:
+        fop.main()
+    assert e.value.code == 2
+
+
+def test_a_sample_from_another_machine_is_named_when_the_replay_differs(fop, tmp_path):
+    import json
+
+    import h5py
+
+    sample = one_sample(tmp_path, pressure=1e-3)
+    assert fop.other_machine(sample) == ""
+    assert fop.verdict(sample, True) == "equal to the stored trace"
+    with h5py.File(sample, "r+") as h5:
+        records = json.loads(h5.attrs["provenance"])
+        records[0]["blas_cores"] = "libopenblas 0.3.15 Prescott"
+        h5.attrs["provenance"] = json.dumps(records)
+    text = fop.verdict(sample, False)
+    assert text.startswith("DIFFERS from the stored trace (made on another machine or BLAS: ")
+    assert "Prescott" in text
