@@ -29,6 +29,16 @@ plastic (counted by the report's rule: plastic, ``ΔH < 0``, both minima jammed)
 its ``S``, and the sum of the substeps' ``−ΔH`` against the run's two. Two releases with an
 elastic substep between are two instabilities at distinct strains; releases in adjacent
 substeps are one at this resolution.
+
+With ``--where`` it asks where the two events of each such pair happen. The replay stops at
+the last pair and keeps the minima around every counted avalanche ``S ≥ --above`` up to there.
+An event's plastic displacement is its step's non-affine displacement less that of the last
+step before it the run did not flag plastic (the branch's smooth response, same δγ). Printed
+for each consecutive pair: both participation ratios, the shared weight ``Σ min(w_i, w'_i)`` of
+the two fields' per-particle shares ``w``, the cosine of the two fields, the distance between
+their most-moving particles, and the elastic reference's share of the first step's
+displacement. The same measures are then summarised against pairs of events 2 … ``--lag-min``
+− 1 steps apart and ``≥ --lag-min`` apart in the same samples.
 """
 
 from __future__ import annotations
@@ -230,7 +240,8 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
     """The ``--where`` probe (module docstring), printed."""
     from scipy import stats
 
-    close: dict[str, list[tuple[float, float, float]]] = {"consecutive": [], "far": []}
+    close: dict[str, list[tuple[float, float, float]]] = {"consecutive": [], "near": [],
+                                                           "far": []}
     print("sample, steps of the two events, their S (ε), participation ratios, shared weight, "
           "cosine, distance of the most-moving particles (d), elastic share of the first")
     for sample in samples:
@@ -245,7 +256,9 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
         end = max(firsts) + 1
         events = [int(b) + 1 for b in np.flatnonzero(hit) if b + 1 <= end]
         far = [(a, b) for a in events for b in events if b - a >= lag_min]
-        pairs = [("consecutive", k, k + 1) for k in firsts] + [("far", a, b) for a, b in far]
+        near = [(a, b) for a in events for b in events if 2 <= b - a < lag_min]
+        pairs = ([("consecutive", k, k + 1) for k in firsts] + [("near", a, b) for a, b in near]
+                 + [("far", a, b) for a, b in far])
         need = set()
         for _, a, b in pairs:
             for j in (a, b):
@@ -259,7 +272,8 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
         same = np.array_equal(np.asarray(trace.energy_jump)[1:], dh[1:n])
         print(f"{sample.name}: replay to step {n - 1} {time.process_time() - t0:.0f} CPU s, "
               f"{verdict(sample, same)}; "
-              f"{len(firsts)} consecutive pairs, {len(far)} pairs ≥ {lag_min} steps apart",
+              f"{len(firsts)} consecutive pairs, {len(near)} 2 – {lag_min - 1} steps apart, "
+              f"{len(far)} ≥ {lag_min} steps apart",
               flush=True)
         fields = {j: event_field(minima, j, elastic_before(plastic, j))
                   for _, a, b in pairs for j in (a, b)}
@@ -274,18 +288,21 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
                       f"{participation(u):.3f} {participation(v):.3f} "
                       f"{row[0]:.3f} {row[1]:.3f} {row[2]:6.2f} "
                       f"{np.sum(ref * ref) / np.sum(raw * raw):.1e}", flush=True)
-    print("\nthe two events of a pair: median [quartiles] of each measure, consecutive pairs "
-          f"against pairs ≥ {lag_min} steps apart in the same samples (two-sided Mann–Whitney p)")
+    print("\nthe two events of a pair: median [quartiles] of each measure; consecutive pairs, "
+          f"pairs 2 – {lag_min - 1} steps apart (near) and ≥ {lag_min} apart (far) in the same "
+          "samples; two-sided Mann–Whitney p of consecutive against far")
     for m, name in enumerate(("shared weight", "cosine", "distance (d)")):
-        c = np.array([r[m] for r in close["consecutive"]])
-        f = np.array([r[m] for r in close["far"]])
+        c, n, f = (np.array([r[m] for r in close[k]]) for k in ("consecutive", "near", "far"))
         if c.size == 0 or f.size == 0:
             print(f"  {name}: too few pairs")
             continue
         p = float(stats.mannwhitneyu(c, f, alternative="two-sided").pvalue)
-        q = [np.percentile(x, (25, 50, 75)) for x in (c, f)]
-        print(f"  {name}: consecutive {q[0][1]:.3g} [{q[0][0]:.3g}, {q[0][2]:.3g}] ({c.size}) "
-              f"against far {q[1][1]:.3g} [{q[1][0]:.3g}, {q[1][2]:.3g}] ({f.size}), p {p:.2g}")
+        text = [f"{np.median(x):.3g} [{np.percentile(x, 25):.3g}, {np.percentile(x, 75):.3g}] "
+                f"({x.size})" if x.size else "none" for x in (c, n, f)]
+        print(f"  {name}: consecutive {text[0]}, near {text[1]}, far {text[2]}, p {p:.2g}")
+    same = {k: (sum(r[2] == 0.0 for r in v), len(v)) for k, v in close.items()}
+    print("  the same particle moves most in both: "
+          + ", ".join(f"{k} {a} of {b}" for k, (a, b) in same.items()))
 
 
 def main() -> None:

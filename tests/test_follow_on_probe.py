@@ -181,7 +181,7 @@ def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
     # the elastic step's field is a small part of a plastic step's displacement
     assert float(lines[0][10]) < 0.5
     # the only events up to step 10 are the pair's: no far pair to compare with
-    assert "0 pairs ≥ 3 steps apart" in out and "shared weight: too few pairs" in out
+    assert "0 ≥ 3 steps apart" in out and "shared weight: too few pairs" in out
 
 
 def test_pairs_and_where_are_refused_together(fop, tmp_path, monkeypatch):
