@@ -33,7 +33,8 @@ substeps are one at this resolution.
 With ``--where`` it asks where the two events of each such pair happen. The replay stops at
 the last pair and keeps the minima around every counted avalanche ``S ≥ --above`` up to there.
 An event's plastic displacement is its step's non-affine displacement less that of the last
-step before it the run did not flag plastic (the branch's smooth response, same δγ). Printed
+step before it the run did not flag plastic (the branch's smooth response, same δγ), rattlers
+left out. Printed
 for each consecutive pair: both participation ratios, the shared weight ``Σ min(w_i, w'_i)`` of
 the two fields' per-particle shares ``w``, the cosine of the two fields, the distance between
 their most-moving particles, and the elastic reference's share of the first step's
@@ -54,6 +55,7 @@ from jamlab.analysis import classify_steps, consecutive_events
 from jamlab.provenance import differ, machine, summary_text
 from jamlab.runs import RunDir, prepared_packing
 from jamlab.runs.origin import provenance_records
+from jamlab.spheres.contacts import remove_rattlers
 from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
 
@@ -228,12 +230,22 @@ def elastic_before(plastic: np.ndarray, step: int) -> int:
     return e
 
 
+def backbone(minima: dict, steps) -> np.ndarray:
+    """The particles in the backbone (``contacts.remove_rattlers``) of every minimum in
+    ``steps``."""
+    return np.logical_and.reduce([remove_rattlers(minima[k]).mask for k in steps])
+
+
 def event_field(minima: dict, step: int, ref: int) -> np.ndarray:
     """The plastic displacement of trace step ``step`` (minimum ``step − 1`` to ``step``): its
     non-affine displacement less that of the elastic step ``ref`` (the same δγ), which removes
-    the branch's own smooth non-affine motion to first order."""
-    return (nonaffine(minima[step - 1], minima[step])
-            - nonaffine(minima[ref - 1], minima[ref]))
+    the branch's own smooth non-affine motion to first order; zero on the rattlers (outside the
+    :func:`backbone` of any of the four minima), whose moves in their cages are not the
+    backbone's rearrangement."""
+    u = (nonaffine(minima[step - 1], minima[step])
+         - nonaffine(minima[ref - 1], minima[ref]))
+    u[~backbone(minima, {step - 1, step, ref - 1, ref})] = 0.0
+    return u
 
 
 def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
@@ -282,7 +294,9 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
             row = (shared_weight(u, v), cosine(u, v), centre_distance(u, v, minima[b]))
             close[kind].append(row)
             if kind == "consecutive":
+                e = elastic_before(plastic, a)
                 raw = nonaffine(minima[a - 1], minima[a])
+                raw[~backbone(minima, {a - 1, a, e - 1, e})] = 0.0  # as in the field
                 ref = raw - u
                 print(f"  {sample.name} {a:5d} {b:5d} {-dh[a]:.2e} {-dh[b]:.2e} "
                       f"{participation(u):.3f} {participation(v):.3f} "

@@ -209,3 +209,15 @@ def test_a_sample_from_another_machine_is_named_when_the_replay_differs(fop, tmp
     text = fop.verdict(sample, False)
     assert text.startswith("DIFFERS from the stored trace (made on another machine or BLAS: ")
     assert "Prescott" in text
+
+
+def test_event_field_leaves_the_rattlers_out(fop, tmp_path):
+    from jamlab.spheres.contacts import remove_rattlers
+
+    sample = pair_sample(tmp_path)
+    _, stored, _, minima = fop.replay(sample, n_steps=10, keep=set(range(11)))
+    e = fop.elastic_before(stored["plastic"], 9)
+    u = fop.event_field(minima, 9, e)
+    mask = np.logical_and.reduce([remove_rattlers(minima[k]).mask for k in (8, 9, e - 1, e)])
+    assert np.all(u[~mask] == 0.0) and np.any(u[mask] != 0.0)
+    np.testing.assert_array_equal(fop.backbone(minima, {8, 9, e - 1, e}), mask)
