@@ -85,16 +85,22 @@ def test_fine_steps_of_one_substep_are_the_runs_steps(fop, tmp_path):
         # (the flags of a two-step run are not the run's: its noise floor comes from two steps)
 
 
-def test_pairs_mode_probes_the_pair(fop, tmp_path, monkeypatch, capsys):
+def pair_probe_lines(fop, tmp_path, monkeypatch, capsys, *options):
+    """The script's output on the pair sample with ``options``, checked to replay the stored
+    trace, and its lines about sample 0's pairs."""
     import sys
 
     sample = pair_sample(tmp_path)
-    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), "--pairs",
-                                      "--above", "1e-300", "--substeps", "1"])
+    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), *options])
     fop.main()
     out = capsys.readouterr().out
     assert "equal to the stored trace" in out and "DIFFERS" not in out
-    lines = [x for x in out.splitlines() if x.startswith("  sample-00000.h5")]
+    return out, [x for x in out.splitlines() if x.startswith("  sample-00000.h5")]
+
+
+def test_pairs_mode_probes_the_pair(fop, tmp_path, monkeypatch, capsys):
+    out, lines = pair_probe_lines(fop, tmp_path, monkeypatch, capsys, "--pairs", "--above",
+                                  "1e-300", "--substeps", "1")
     assert len(lines) == 1 and lines[0].split()[1] == "9"
     # with one substep per step the replay retakes the run's two steps: the same total −ΔH
     # (finer substeps may end elsewhere: the path of a jump depends on the driving)
@@ -166,15 +172,9 @@ def test_elastic_before_skips_plastic_steps(fop):
 
 
 def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
-    import sys
-
-    sample = pair_sample(tmp_path)
-    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), "--where",
-                                      "--above", "1e-300", "--lag-min", "3"])
-    fop.main()
-    out = capsys.readouterr().out
-    assert "equal to the stored trace" in out and "DIFFERS" not in out
-    lines = [x.split() for x in out.splitlines() if x.startswith("  sample-00000.h5")]
+    out, lines = pair_probe_lines(fop, tmp_path, monkeypatch, capsys, "--where", "--above",
+                                  "1e-300", "--lag-min", "3")
+    lines = [x.split() for x in lines]
     assert len(lines) == 1 and lines[0][1:3] == ["9", "10"]
     shared, cos, dist = (float(v) for v in lines[0][7:10])
     assert 0.0 <= shared <= 1.0 and 0.0 <= cos <= 1.0 and dist >= 0.0
