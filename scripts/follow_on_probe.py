@@ -210,8 +210,9 @@ def shared_weight(u: np.ndarray, v: np.ndarray) -> float:
 
 
 def cosine(u: np.ndarray, v: np.ndarray) -> float:
-    """``|u · v| / (|u| |v|)`` over all particles and components."""
-    return float(abs(np.sum(u * v)) / np.sqrt(np.sum(u * u) * np.sum(v * v)))
+    """``u · v / (|u| |v|)`` over all particles and components: > 0 when ``v`` goes on the way
+    ``u`` went, < 0 when it goes back."""
+    return float(np.sum(u * v) / np.sqrt(np.sum(u * u) * np.sum(v * v)))
 
 
 def centre_distance(u: np.ndarray, v: np.ndarray, at) -> float:
@@ -252,10 +253,10 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
     """The ``--where`` probe (module docstring), printed."""
     from scipy import stats
 
-    close: dict[str, list[tuple[float, float, float]]] = {"consecutive": [], "near": [],
+    close: dict[str, list[tuple[float, float, float, float]]] = {"consecutive": [], "near": [],
                                                            "far": []}
     print("sample, steps of the two events, their S (ε), participation ratios, shared weight, "
-          "cosine, distance of the most-moving particles (d), elastic share of the first")
+          "cosine (signed), distance of the most-moving particles (d), elastic share of the first")
     for sample in samples:
         stored = stored_columns(sample)
         dh, plastic = stored["energy_jump"], stored["plastic"]
@@ -291,7 +292,8 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
                   for _, a, b in pairs for j in (a, b)}
         for kind, a, b in pairs:
             u, v = fields[a], fields[b]
-            row = (shared_weight(u, v), cosine(u, v), centre_distance(u, v, minima[b]))
+            cos = cosine(u, v)
+            row = (shared_weight(u, v), abs(cos), centre_distance(u, v, minima[b]), cos)
             close[kind].append(row)
             if kind == "consecutive":
                 e = elastic_before(plastic, a)
@@ -300,12 +302,12 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
                 ref = raw - u
                 print(f"  {sample.name} {a:5d} {b:5d} {-dh[a]:.2e} {-dh[b]:.2e} "
                       f"{participation(u):.3f} {participation(v):.3f} "
-                      f"{row[0]:.3f} {row[1]:.3f} {row[2]:6.2f} "
+                      f"{row[0]:.3f} {row[3]:+.3f} {row[2]:6.2f} "
                       f"{np.sum(ref * ref) / np.sum(raw * raw):.1e}", flush=True)
     print("\nthe two events of a pair: median [quartiles] of each measure; consecutive pairs, "
           f"pairs 2 – {lag_min - 1} steps apart (near) and ≥ {lag_min} apart (far) in the same "
           "samples; two-sided Mann–Whitney p of consecutive against far")
-    for m, name in enumerate(("shared weight", "cosine", "distance (d)")):
+    for m, name in enumerate(("shared weight", "|cosine|", "distance (d)")):
         c, n, f = (np.array([r[m] for r in close[k]]) for k in ("consecutive", "near", "far"))
         if c.size == 0 or f.size == 0:
             print(f"  {name}: too few pairs")
@@ -314,6 +316,9 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
         text = [f"{np.median(x):.3g} [{np.percentile(x, 25):.3g}, {np.percentile(x, 75):.3g}] "
                 f"({x.size})" if x.size else "none" for x in (c, n, f)]
         print(f"  {name}: consecutive {text[0]}, near {text[1]}, far {text[2]}, p {p:.2g}")
+    ahead = {k: (sum(r[3] > 0.0 for r in v), len(v)) for k, v in close.items()}
+    print("  the second goes on the way the first went (cosine > 0): "
+          + ", ".join(f"{k} {a} of {b}" for k, (a, b) in ahead.items()))
     same = {k: (sum(r[2] == 0.0 for r in v), len(v)) for k, v in close.items()}
     print("  the same particle moves most in both: "
           + ", ".join(f"{k} {a} of {b}" for k, (a, b) in same.items()))

@@ -154,7 +154,8 @@ def test_field_measures_by_hand(fop):
     assert fop.shared_weight(one, other) == 0.0
     assert fop.shared_weight(alike, 2 * alike) == pytest.approx(1.0)
     assert fop.shared_weight(one, alike) == pytest.approx(1 / n)  # min(1, 1/n) at particle 2
-    assert fop.cosine(one, -one) == pytest.approx(1.0) and fop.cosine(one, other) == 0.0
+    assert fop.cosine(one, -one) == pytest.approx(-1.0) and fop.cosine(one, other) == 0.0
+    assert fop.cosine(one + other, one) == pytest.approx(5.0 / np.sqrt(26.0))
     # the most-moving particles 2 and 7, placed across the y boundary of a sheared box
     at = random_packing_at(n=n, length=5.0, strain=0.1)
     pos = np.array(at.positions)
@@ -177,7 +178,7 @@ def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
     lines = [x.split() for x in lines]
     assert len(lines) == 1 and lines[0][1:3] == ["9", "10"]
     shared, cos, dist = (float(v) for v in lines[0][7:10])
-    assert 0.0 <= shared <= 1.0 and 0.0 <= cos <= 1.0 and dist >= 0.0
+    assert 0.0 <= shared <= 1.0 and -1.0 <= cos <= 1.0 and dist >= 0.0
     # the elastic step's field is a small part of a plastic step's displacement
     assert float(lines[0][10]) < 0.5
     # the only events up to step 10 are the pair's: no far pair to compare with
