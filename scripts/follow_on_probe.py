@@ -72,6 +72,16 @@ def stored_columns(sample: Path) -> dict:
         return {k: h5[f"trace/{k}"][()] for k in ("energy_jump", "plastic", "jammed")}
 
 
+def pair_steps(stored: dict, above: float) -> tuple[np.ndarray, list[int]]:
+    """Of a sample's :func:`stored_columns`: the mask of the counted avalanches (the report's
+    rule, :func:`jamlab.analysis.classify_steps`) with ``S ≥ above``, one entry per step from
+    step 1, and the trace steps ``k`` at which a pair of them at ``k`` and ``k + 1`` starts."""
+    dh = stored["energy_jump"]
+    hit = classify_steps(dh[1:], stored["plastic"][1:], jammed=stored["jammed"]) & (
+        -dh[1:] >= above)
+    return hit, [int(b) + 1 for b in consecutive_events(hit)[0]]
+
+
 def other_machine(sample: Path) -> str:
     """Why a replay may part from the stored trace at rounding level: ``""`` when every
     invocation recorded in the sample's ``provenance`` ran on this machine and libraries
@@ -153,9 +163,7 @@ def probe_pairs(samples: list[Path], above: float, substeps: int) -> None:
     for sample in samples:
         stored = stored_columns(sample)
         dh = stored["energy_jump"]
-        counted = classify_steps(dh[1:], stored["plastic"][1:], jammed=stored["jammed"])
-        hit = counted & (-dh[1:] >= above)
-        firsts = [int(b) + 1 for b in consecutive_events(hit)[0]]  # trace steps
+        hit, firsts = pair_steps(stored, above)
         if not firsts:
             print(f"{sample.name}: no pair ≥ {above:.0e}", flush=True)
             continue
@@ -237,16 +245,25 @@ def backbone(minima: dict, steps) -> np.ndarray:
     return np.logical_and.reduce([remove_rattlers(minima[k]).mask for k in steps])
 
 
-def event_field(minima: dict, step: int, ref: int) -> np.ndarray:
-    """The plastic displacement of trace step ``step`` (minimum ``step − 1`` to ``step``): its
-    non-affine displacement less that of the elastic step ``ref`` (the same δγ), which removes
-    the branch's own smooth non-affine motion to first order; zero on the rattlers (outside the
+def step_parts(minima: dict, step: int, ref: int) -> tuple[np.ndarray, np.ndarray]:
+    """The non-affine displacement of trace step ``step`` (minimum ``step − 1`` to ``step``) and
+    that of the elastic step ``ref`` (the same δγ), both zero on the rattlers (outside the
     :func:`backbone` of any of the four minima), whose moves in their cages are not the
     backbone's rearrangement."""
-    u = (nonaffine(minima[step - 1], minima[step])
-         - nonaffine(minima[ref - 1], minima[ref]))
-    u[~backbone(minima, {step - 1, step, ref - 1, ref})] = 0.0
-    return u
+    keep = backbone(minima, {step - 1, step, ref - 1, ref})
+    raw = nonaffine(minima[step - 1], minima[step])
+    elastic = nonaffine(minima[ref - 1], minima[ref])
+    raw[~keep] = 0.0
+    elastic[~keep] = 0.0
+    return raw, elastic
+
+
+def event_field(minima: dict, step: int, ref: int) -> np.ndarray:
+    """The plastic displacement of trace step ``step``: its non-affine displacement less that
+    of the elastic step ``ref``, which removes the branch's own smooth non-affine motion to
+    first order; rattlers left out (:func:`step_parts`)."""
+    raw, elastic = step_parts(minima, step, ref)
+    return raw - elastic
 
 
 def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
@@ -260,9 +277,7 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
     for sample in samples:
         stored = stored_columns(sample)
         dh, plastic = stored["energy_jump"], stored["plastic"]
-        counted = classify_steps(dh[1:], plastic[1:], jammed=stored["jammed"])
-        hit = counted & (-dh[1:] >= above)
-        firsts = [int(b) + 1 for b in consecutive_events(hit)[0]]  # trace steps
+        hit, firsts = pair_steps(stored, above)
         if not firsts:
             print(f"{sample.name}: no pair ≥ {above:.0e}", flush=True)
             continue
@@ -272,13 +287,12 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
         near = [(a, b) for a in events for b in events if 2 <= b - a < lag_min]
         pairs = ([("consecutive", k, k + 1) for k in firsts] + [("near", a, b) for a, b in near]
                  + [("far", a, b) for a, b in far])
+        refs = {j: elastic_before(plastic, j) for _, a, b in pairs for j in (a, b)}
         need = set()
-        for _, a, b in pairs:
-            for j in (a, b):
-                e = elastic_before(plastic, j)
-                if e < 1:
-                    raise ValueError(f"{sample}: no elastic step before step {j}")
-                need |= {j - 1, j, e - 1, e}
+        for j, e in refs.items():
+            if e < 1:
+                raise ValueError(f"{sample}: no elastic step before step {j}")
+            need |= {j - 1, j, e - 1, e}
         t0 = time.process_time()
         _, _, trace, minima = replay(sample, n_steps=end, keep=need)
         n = np.asarray(trace.energy_jump).size
@@ -288,22 +302,19 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
               f"{len(firsts)} consecutive pairs, {len(near)} 2 – {lag_min - 1} steps apart, "
               f"{len(far)} ≥ {lag_min} steps apart",
               flush=True)
-        fields = {j: event_field(minima, j, elastic_before(plastic, j))
-                  for _, a, b in pairs for j in (a, b)}
+        parts = {j: step_parts(minima, j, e) for j, e in refs.items()}
+        fields = {j: raw - elastic for j, (raw, elastic) in parts.items()}
         for kind, a, b in pairs:
             u, v = fields[a], fields[b]
             cos = cosine(u, v)
             row = (shared_weight(u, v), abs(cos), centre_distance(u, v, minima[b]), cos)
             close[kind].append(row)
             if kind == "consecutive":
-                e = elastic_before(plastic, a)
-                raw = nonaffine(minima[a - 1], minima[a])
-                raw[~backbone(minima, {a - 1, a, e - 1, e})] = 0.0  # as in the field
-                ref = raw - u
+                raw, elastic = parts[a]
                 print(f"  {sample.name} {a:5d} {b:5d} {-dh[a]:.2e} {-dh[b]:.2e} "
                       f"{participation(u):.3f} {participation(v):.3f} "
                       f"{row[0]:.3f} {row[3]:+.3f} {row[2]:6.2f} "
-                      f"{np.sum(ref * ref) / np.sum(raw * raw):.1e}", flush=True)
+                      f"{np.sum(elastic * elastic) / np.sum(raw * raw):.1e}", flush=True)
     print("\nthe two events of a pair: median [quartiles] of each measure; consecutive pairs, "
           f"pairs 2 – {lag_min - 1} steps apart (near) and ≥ {lag_min} apart (far) in the same "
           "samples; two-sided Mann–Whitney p of consecutive against far")
