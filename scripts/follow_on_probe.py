@@ -52,6 +52,7 @@ import h5py
 import numpy as np
 
 from jamlab.analysis import classify_steps, consecutive_events
+from jamlab.analysis.anatomy import participation_ratio
 from jamlab.provenance import differ, machine, summary_text
 from jamlab.runs import RunDir, prepared_packing
 from jamlab.runs.origin import provenance_records
@@ -205,12 +206,6 @@ def weights(u: np.ndarray) -> np.ndarray:
     return sq / sq.sum()
 
 
-def participation(u: np.ndarray) -> float:
-    """``(Σ|u_i|²)² / (N Σ|u_i|⁴)``: 1 when every particle moves alike, ``1/N`` for one."""
-    w = weights(u)
-    return float(1.0 / (w.size * np.sum(w * w)))
-
-
 def shared_weight(u: np.ndarray, v: np.ndarray) -> float:
     """``Σ_i min(w_i(u), w_i(v))`` (:func:`weights`): 1 when two displacement fields move the
     same particles in the same proportions, ≈ 0 when they move different particles."""
@@ -312,7 +307,7 @@ def where_pairs(samples: list[Path], above: float, lag_min: int) -> None:
             if kind == "consecutive":
                 raw, elastic = parts[a]
                 print(f"  {sample.name} {a:5d} {b:5d} {-dh[a]:.2e} {-dh[b]:.2e} "
-                      f"{participation(u):.3f} {participation(v):.3f} "
+                      f"{participation_ratio(u):.3f} {participation_ratio(v):.3f} "
                       f"{row[0]:.3f} {row[3]:+.3f} {row[2]:6.2f} "
                       f"{np.sum(elastic * elastic) / np.sum(raw * raw):.1e}", flush=True)
     print("\nthe two events of a pair: median [quartiles] of each measure; consecutive pairs, "

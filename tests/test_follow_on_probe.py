@@ -149,8 +149,8 @@ def test_field_measures_by_hand(fop):
     other = np.zeros((n, 3))
     other[7] = [1.0, 0.0, 0.0]
     alike = np.ones((n, 3))
-    assert fop.participation(one) == pytest.approx(1 / n)
-    assert fop.participation(alike) == pytest.approx(1.0)
+    assert fop.participation_ratio(one) == pytest.approx(1 / n)
+    assert fop.participation_ratio(alike) == pytest.approx(1.0)
     assert fop.shared_weight(one, other) == 0.0
     assert fop.shared_weight(alike, 2 * alike) == pytest.approx(1.0)
     assert fop.shared_weight(one, alike) == pytest.approx(1 / n)  # min(1, 1/n) at particle 2
