@@ -1,5 +1,5 @@
-"""jamlab.analysis.anatomy against exact cases worked by hand and, for the Lees–Edwards image,
-an explicit search over periodic images."""
+"""jamlab.analysis.anatomy against exact cases worked by hand and, for the Lees–Edwards image it
+uses (jamlab.lees_edwards), an explicit search over periodic images."""
 
 from __future__ import annotations
 
@@ -14,12 +14,12 @@ from jamlab.analysis.anatomy import (
     event_anatomy,
     event_field,
     is_localized,
-    lees_edwards_minimum_image,
     moved_particles,
     nonaffine_displacements,
     only_bucklers_rattlers,
     participation_ratio,
 )
+from jamlab.lees_edwards import minimum_image
 
 
 def explicit_image(dr, L, gamma):
@@ -43,7 +43,7 @@ def test_minimum_image_is_the_shortest_lattice_image():
             short = rng.uniform(-1.0, 1.0, 3)
             n = rng.integers(-3, 4, 3)
             dr = short + np.array([n[0] * L + n[1] * gamma * L, n[1] * L, n[2] * L])
-            got = lees_edwards_minimum_image(dr, L, gamma)
+            got = minimum_image(dr, L, gamma)
             np.testing.assert_allclose(got, explicit_image(dr, L, gamma), atol=1e-12)
             np.testing.assert_allclose(got, short, atol=1e-12)
 

@@ -40,9 +40,8 @@ nothing is subtracted (``u^ev = u``) and ``elastic_fraction`` is NaN. A plastic 
 the linear response does not predict, so ``u^ev`` is the event plus the ``O(δγ²)`` remainder
 of the elastic step (and of the translation ``t``, which is no displacement of the packing).
 
-The analysis package never imports ``jamlab.spheres``: the Lees–Edwards minimum image is written
-here (:func:`lees_edwards_minimum_image`, the rule of ``jamlab.spheres.box.Box.minimum_image``;
-``tests/analysis/test_anatomy.py`` checks the two agree).
+The analysis package never imports ``jamlab.spheres``: the Lees–Edwards minimum image is
+:func:`jamlab.lees_edwards.minimum_image`, the one that ``jamlab.spheres.box.Box`` uses.
 """
 
 from __future__ import annotations
@@ -51,6 +50,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from jamlab.lees_edwards import minimum_image
 
 __all__ = [
     "N_EFF_LOCALIZED",
@@ -61,7 +62,6 @@ __all__ = [
     "event_field",
     "event_anatomy",
     "is_localized",
-    "lees_edwards_minimum_image",
     "moved_particles",
     "nonaffine_displacements",
     "only_bucklers_rattlers",
@@ -70,23 +70,6 @@ __all__ = [
 
 N_EFF_LOCALIZED = 10.0
 """Default ``n_eff_max`` of :func:`is_localized`: an event with ``PR·N ≤ 10`` is localized."""
-
-
-def lees_edwards_minimum_image(dr: ArrayLike, length: float, strain: float) -> NDArray[np.float64]:
-    """Minimum-image vectors ``(..., d)`` in a cube of side ``length`` with Lees–Edwards strain
-    ``strain`` (flow ``x`` = axis 0, gradient ``y`` = axis 1): first ``n_y = round(Δy/L)``,
-    ``Δx −= n_y γ' L`` (``γ' = γ − round(γ)``), ``Δy −= n_y L``; then ``Δ_a −= round(Δ_a/L) L`` on
-    every other axis."""
-    dr = np.array(dr, dtype=np.float64, copy=True)
-    L = float(length)
-    reduced = strain - np.floor(strain + 0.5)
-    ny = np.floor(dr[..., 1] / L + 0.5)
-    dr[..., 0] -= ny * reduced * L
-    dr[..., 1] -= ny * L
-    for a in range(dr.shape[-1]):
-        if a != 1:
-            dr[..., a] -= np.floor(dr[..., a] / L + 0.5) * L
-    return dr
 
 
 def nonaffine_displacements(
@@ -105,7 +88,7 @@ def nonaffine_displacements(
         raise ValueError(f"positions must be two (N, d) arrays, got {xb.shape} and {xa.shape}")
     affine = xb.copy()
     affine[:, 0] += (strain_after - strain_before) * xb[:, 1]
-    return lees_edwards_minimum_image(xa - affine, length, strain_after)
+    return minimum_image(xa - affine, length, strain_after)
 
 
 def participation_ratio(u: ArrayLike) -> float:

@@ -10,6 +10,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
+from jamlab.lees_edwards import reduced_strain, wrap
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
@@ -80,14 +82,8 @@ def pairs_within(
         raise ValueError(
             f"cut-off max(D)(1 + h_max) = {cutoff:.4g} must be below L/2 = {length / 2:.4g}"
         )
-    g = float(strain) - math.floor(float(strain) + 0.5)
-    w = pos.copy()
-    ny = np.floor(w[:, 1] / length)
-    w[:, 1] -= ny * length
-    w[:, 0] -= ny * g * length
-    for a in range(d):
-        if a != 1:
-            w[:, a] -= np.floor(w[:, a] / length) * length
+    g = reduced_strain(float(strain))
+    w = wrap(pos, length, float(strain))
     grid = np.array(np.meshgrid(*([(-1, 0, 1)] * d), indexing="ij")).reshape(d, -1).T
     shifts = grid * length
     shifts[:, 0] += grid[:, 1] * g * length

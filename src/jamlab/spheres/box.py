@@ -20,6 +20,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from jamlab import lees_edwards
+from jamlab.lees_edwards import reduced_strain
+
 __all__ = [
     "Box",
     "sphere_volume",
@@ -47,11 +50,6 @@ def box_length_for(n: int, dim: int, phi: float) -> float:
     if not (math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
     return (n * sphere_volume(dim) / phi) ** (1.0 / dim)
-
-
-def reduced_strain(strain: float) -> float:
-    """``γ − round(γ)`` in ``[−1/2, 1/2]``: the strain that gives the same periodic lattice."""
-    return strain - math.floor(strain + 0.5)
 
 
 def _check_dim(dim: int) -> None:
@@ -102,43 +100,19 @@ class Box:
         return replace(self, strain=float(strain))
 
     def minimum_image(self, dr: np.ndarray) -> np.ndarray:
-        """Minimum-image separation vectors (array ``(..., d)``).
-
-        First the ``y`` image: ``n_y = round(Δy/L)``, ``Δx −= n_y γ' L``, ``Δy −= n_y L`` with the
-        reduced strain ``γ'``; then every other axis ``Δ_a −= round(Δ_a/L) L``. When
-        ``L > 2`` (twice the cut-off) any image closer than 1 is unique and this finds it.
+        """Minimum-image separation vectors (array ``(..., d)``;
+        :func:`jamlab.lees_edwards.minimum_image`, which states the rule). When ``L > 2`` (twice
+        the cut-off) any image closer than 1 is unique and this finds it.
         """
-        dr = np.array(dr, dtype=np.float64, copy=True)
+        dr = np.asarray(dr)
         if dr.shape[-1] != self.dim:
             raise ValueError(f"separations must have last axis {self.dim}, got shape {dr.shape}")
-        L = self.length
-        ny = np.floor(dr[..., 1] / L + 0.5)
-        dr[..., 0] -= ny * self.reduced_strain * L
-        dr[..., 1] -= ny * L
-        for a in range(self.dim):
-            if a == 1:
-                continue
-            dr[..., a] -= np.floor(dr[..., a] / L + 0.5) * L
-        return dr
+        return lees_edwards.minimum_image(dr, self.length, self.strain)
 
     def wrap(self, positions: np.ndarray) -> np.ndarray:
-        """Equivalent positions inside ``[0, L)^d`` (Cartesian, sheared frame).
-
-        Crossing the ``y`` boundary ``k`` times moves ``x`` by ``−k γ' L``; all other axes, and
-        then ``x``, are reduced modulo ``L``.
-        """
-        pos = np.array(positions, dtype=np.float64, copy=True)
+        """Equivalent positions inside ``[0, L)^d`` (Cartesian, sheared frame;
+        :func:`jamlab.lees_edwards.wrap`, which states the rule)."""
+        pos = np.asarray(positions)
         if pos.ndim != 2 or pos.shape[1] != self.dim:
             raise ValueError(f"positions must have shape (N, {self.dim}), got {pos.shape}")
-        L = self.length
-        ky = np.floor(pos[:, 1] / L)
-        pos[:, 0] -= ky * self.reduced_strain * L
-        pos[:, 1] -= ky * L
-        for a in range(self.dim):
-            if a == 1:
-                continue
-            pos[:, a] -= np.floor(pos[:, a] / L) * L
-        # floor(x/L)*L can round x up to exactly L
-        pos[pos >= L] -= L
-        pos[pos < 0] = 0.0
-        return pos
+        return lees_edwards.wrap(pos, self.length, self.strain)
