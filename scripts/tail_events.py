@@ -25,6 +25,11 @@ run directory (φ label ``jamming`` at ``--n``, finished samples) and each floor
 - of the pairs at consecutive steps, how many have the larger second (:func:`pair_order`); with
   ``--list-pairs`` each pair at the lowest floor (sample, step, both sizes) and how many of
   their second events reach each floor (:func:`consecutive_pairs`);
+- with ``--bursts FLOOR WINDOW X_MIN``, τ with an exponential cut-off at ``X_MIN`` with and
+  without the avalanches that follow one of ``S ≥ FLOOR`` within ``WINDOW`` steps
+  (:func:`burst_fit`): do bursts move the exponent? And are those followers larger than the
+  other avalanches beyond what each sample's own scale and a drift along the window give
+  (:func:`follower_sizes`, a permutation test)?
 
 For the highest floor each event is listed: sample, step, strain γ, ``S``, the shear-stress
 ratio ``μ = σ_xy/p`` and the pressure of the minimum it starts from (the events' share
@@ -44,7 +49,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from jamlab.analysis import consecutive_events
+from jamlab.analysis import consecutive_events, fit_cutoff_power_law
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
 from jamlab.runs import open_run
 
@@ -208,6 +213,71 @@ def consecutive_pairs(sizes: np.ndarray, counted: np.ndarray, floor: float,
             for a, b in zip(i, k, strict=True)]
 
 
+def followers(sizes: np.ndarray, counted: np.ndarray, floor: float, window: int) -> np.ndarray:
+    """The counted avalanches (any size) that lie 1 … ``window`` steps after a counted one with
+    ``S ≥ floor`` in the same row: a boolean mask of the ``(samples, steps)`` arrays. An event
+    that is itself large and follows another is a follower too."""
+    big = hits(sizes, counted, floor)
+    after = np.zeros_like(big)
+    for lag in range(1, window + 1):
+        after[:, lag:] |= big[:, :-lag]
+    return counted & after
+
+
+def burst_fit(sizes: np.ndarray, counted: np.ndarray, floor: float, window: int,
+              x_min: float) -> dict:
+    """τ with an exponential cut-off at ``x_min`` (:func:`jamlab.analysis.fit_cutoff_power_law`)
+    of every counted avalanche and of those left when the :func:`followers` of the events
+    ``S ≥ floor`` are dropped: ``all``, ``without`` (the fits), ``dropped`` (followers in all /
+    at or above ``x_min``) and ``sigma_diff``, the standard error of the difference of two nested
+    fits, ``√(σ_without² − σ_all²)`` (the dropped events' own share of the noise)."""
+    drop = followers(sizes, counted, floor, window)
+    every = sizes[counted]
+    kept = sizes[counted & ~drop]
+    f_all = fit_cutoff_power_law(every, x_min)
+    f_without = fit_cutoff_power_law(kept, x_min)
+    var = f_without.tau_stderr**2 - f_all.tau_stderr**2
+    return {"all": f_all, "without": f_without,
+            "dropped": (int(drop.sum()), int((sizes[drop] >= x_min).sum())),
+            "sigma_diff": float(np.sqrt(var)) if var > 0 else float("nan")}
+
+
+def follower_sizes(sizes: np.ndarray, counted: np.ndarray, floor: float, window: int,
+                   x_min: float, block: int, trials: int, seed: int = 0) -> dict:
+    """Are the :func:`followers` of the events ``S ≥ floor`` larger than the other counted
+    avalanches? Statistic: the mean of ``ln S`` over the followers with ``S ≥ x_min`` minus that
+    over the other counted avalanches ``S ≥ x_min``. Null: the sizes are exchangeable among the
+    counted steps of one sample within blocks of ``block`` steps (so a sample's own scale and a
+    drift along the strain window are kept, the order within a block is not); ``trials``
+    permutations (``numpy.random.default_rng(seed)``), which also re-decide which events are
+    large and which follow. Returns ``n`` (followers), ``delta``, ``null_mean``, ``null_sd`` and
+    ``p`` (one-sided, ``(1 + hits)/(1 + trials)``)."""
+    def stat(s: np.ndarray) -> tuple[float, int]:
+        f = followers(s, counted, floor, window)
+        a = s[f & (s >= x_min)]
+        b = s[counted & ~f & (s >= x_min)]
+        if not (a.size and b.size):
+            return float("nan"), int(a.size)
+        return float(np.mean(np.log(a)) - np.mean(np.log(b))), int(a.size)
+
+    sizes = np.where(counted, sizes, 0.0)
+    delta, n = stat(sizes)
+    rng = np.random.default_rng(seed)
+    null = np.empty(trials)
+    for t in range(trials):
+        s = sizes.copy()
+        for i in range(s.shape[0]):
+            for k0 in range(0, s.shape[1], block):
+                idx = np.nonzero(counted[i, k0:k0 + block])[0] + k0
+                s[i, idx] = sizes[i, rng.permutation(idx)]
+        null[t] = stat(s)[0]
+    ok = np.isfinite(null)
+    p = (1 + int((null[ok] >= delta).sum())) / (1 + int(ok.sum())) if trials else float("nan")
+    return {"n": n, "delta": delta, "null_mean": float(np.mean(null[ok])) if ok.any() else
+            float("nan"), "null_sd": float(np.std(null[ok])) if ok.any() else float("nan"),
+            "p": float(p)}
+
+
 def run_tail(ds, n: int, floors: list[float]) -> dict:
     """For the finished samples at ``("jamming", n)``: ``samples`` (their ids), ``counts``
     (``{floor: per sample}``), ``halves`` (``{floor:`` :func:`halves` ``}``), ``order`` and
@@ -215,8 +285,8 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     (``{(floor, lag):`` :func:`lag_pairs` ``}`` for the lags of :data:`LAGS`), ``events`` (the
     counted avalanches at or above the highest floor:
     tuples ``(sample id, step, γ, S, μ, p)`` with μ and p of the minimum each starts from, by
-    decreasing S), and ``mu``, ``step`` of those events and ``mu_rest``, ``step_rest`` of every
-    other counted avalanche."""
+    decreasing S), ``mu``, ``step`` of those events and ``mu_rest``, ``step_rest`` of every
+    other counted avalanche, and ``arrays``: the ``(samples, steps)`` sizes and counted mask."""
     done = finished(ds, "jamming", n)
     if not done.any():
         raise ValueError(f"no finished sample at N = {n}")
@@ -243,7 +313,8 @@ def run_tail(ds, n: int, floors: list[float]) -> dict:
     ir, kr = np.nonzero(rest)
     return {"samples": ids, "counts": counts, "halves": split, "lags": lags, "far": far,
             "follow": follow, "order": order, "pairs": pairs, "events": events,
-            "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1}
+            "mu": mu[i, k], "step": k + 1, "mu_rest": mu[ir, kr], "step_rest": kr + 1,
+            "arrays": (sizes, counted)}
 
 
 def mann_whitney(a: np.ndarray, b: np.ndarray) -> float:
@@ -266,6 +337,14 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--list-pairs", action="store_true",
                     help="list the pairs at consecutive steps at the lowest floor")
+    ap.add_argument("--bursts", type=float, nargs=3, metavar=("FLOOR", "WINDOW", "X_MIN"),
+                    help="τ (exponential cut-off at X_MIN) with and without the avalanches "
+                         "1 … WINDOW steps after one of S ≥ FLOOR, and their sizes against "
+                         "the others by a permutation test")
+    ap.add_argument("--burst-block", type=int, default=100,
+                    help="steps of the blocks within which --bursts permutes a sample's sizes")
+    ap.add_argument("--burst-trials", type=int, default=400,
+                    help="permutations of the --bursts size test")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -273,6 +352,11 @@ def main() -> None:
         ap.error("--above floors must be > 0")
     if a.trials < 0 or a.top < 1:
         ap.error("--trials must be >= 0 and --top >= 1")
+    if a.bursts is not None and not (a.bursts[0] > 0 and a.bursts[1] >= 1
+                                     and a.bursts[1] == int(a.bursts[1]) and a.bursts[2] > 0):
+        ap.error("--bursts takes FLOOR > 0, an integer WINDOW >= 1 and X_MIN > 0")
+    if a.burst_block < 1 or a.burst_trials < 0:
+        ap.error("--burst-block must be >= 1 and --burst-trials >= 0")
     for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
         t = run_tail(open_run(run), n, a.above)
         m = len(t["samples"])
@@ -320,6 +404,22 @@ def main() -> None:
                       for x in sorted(a.above)))
             for q in pairs:
                 print(f"  {q[0]:3d} {q[1]:5d} {q[2]:.3e} {q[3]:.3e}")
+        if a.bursts is not None:
+            floor, window, x_min = a.bursts[0], int(a.bursts[1]), a.bursts[2]
+            sizes, counted = t["arrays"]
+            b = burst_fit(sizes, counted, floor, window, x_min)
+            fa, fw = b["all"], b["without"]
+            print(f"\nτ at S ≥ {x_min:.3g} ε (exponential cut-off) without the avalanches "
+                  f"1–{window} steps after one ≥ {floor:.3g} ε: dropped {b['dropped'][0]} "
+                  f"({b['dropped'][1]} in the window); all {fa.tau:.3f} ± {fa.tau_stderr:.3f} "
+                  f"({fa.n_tail}), without {fw.tau:.3f} ± {fw.tau_stderr:.3f} ({fw.n_tail}); "
+                  f"difference {fw.tau - fa.tau:+.3f} (nested σ {b['sigma_diff']:.3f})")
+            fs = follower_sizes(sizes, counted, floor, window, x_min, a.burst_block,
+                                a.burst_trials, a.seed)
+            print(f"  the {fs['n']} followers ≥ {x_min:.3g} ε against the other avalanches: "
+                  f"<ln S> {fs['delta']:+.3f} (sizes permuted within {a.burst_block}-step blocks "
+                  f"of each sample: {fs['null_mean']:+.3f} ± {fs['null_sd']:.3f}; p "
+                  f"{fs['p']:.3g}, {a.burst_trials} permutations)")
         top = max(a.above)
         print(f"\nper sample (id: count ≥ {', '.join(f'{x:.0e}' for x in sorted(a.above))}): "
               + "; ".join(f"{s}: " + "/".join(str(t["counts"][x][j]) for x in sorted(a.above))

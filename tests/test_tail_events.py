@@ -159,6 +159,9 @@ def test_run_tail_equals_the_sample_files(te, small_run):
     ["a", "--above", "0"],
     ["a", "--trials", "-1"],
     ["a", "--top", "0"],
+    ["a", "--bursts", "1e-8", "0", "1e-9"],
+    ["a", "--bursts", "1e-8", "2.5", "1e-9"],
+    ["a", "--bursts", "0", "3", "1e-9"],
 ])
 def test_bad_arguments_exit_2(te, monkeypatch, argv):
     monkeypatch.setattr(sys, "argv", ["tail_events.py", *argv])
@@ -203,3 +206,57 @@ def test_consecutive_pairs_lists_the_pairs_by_hand(te):
     k, larger, _ = te.pair_order(sizes, counted, 0.1)
     pairs = te.consecutive_pairs(sizes, counted, 0.1, ids)
     assert (k, larger) == (len(pairs), sum(q[3] > q[2] for q in pairs))
+
+
+def test_followers_by_a_loop_over_events(te):
+    rng = np.random.default_rng(4)
+    sizes = rng.pareto(0.5, size=(6, 200)) * 1e-10
+    counted = rng.random((6, 200)) < 0.3
+    floor, window = float(np.quantile(sizes[counted], 0.8)), 3
+    want = np.zeros_like(counted)
+    for i, k in zip(*np.nonzero(counted & (sizes >= floor)), strict=True):
+        for lag in range(1, window + 1):
+            if k + lag < sizes.shape[1] and counted[i, k + lag]:
+                want[i, k + lag] = True
+    got = te.followers(sizes, counted, floor, window)
+    assert got.any() and np.array_equal(got, want)
+    # by hand: the large event at column 1 makes columns 2 and 3 followers (window 2), the
+    # uncounted column 2 is not one; the large event at column 3 makes column 4 one
+    s = np.array([[1.0, 9.0, 1.0, 8.0, 1.0, 1.0]])
+    c = np.array([[True, True, False, True, True, True]])
+    assert te.followers(s, c, 5.0, 2).tolist() == [[False, False, False, True, True, True]]
+
+
+def test_burst_fit_drops_the_followers_and_refits(te):
+    rng = np.random.default_rng(5)
+    sizes = (rng.pareto(0.5, size=(10, 300)) + 1.0) * 1e-10
+    counted = rng.random((10, 300)) < 0.5
+    floor, window, x_min = float(np.quantile(sizes[counted], 0.9)), 2, 2e-10
+    b = te.burst_fit(sizes, counted, floor, window, x_min)
+    drop = te.followers(sizes, counted, floor, window)
+    assert b["dropped"] == (int(drop.sum()), int((sizes[drop] >= x_min).sum()))
+    assert b["all"].n_tail == int((sizes[counted] >= x_min).sum())
+    assert b["without"].n_tail == b["all"].n_tail - b["dropped"][1]
+    # i.i.d. sizes: dropping the followers moves τ by noise only
+    assert abs(b["without"].tau - b["all"].tau) < 4 * b["sigma_diff"]
+
+
+def test_follower_sizes_finds_planted_aftershocks_and_not_iid_ones(te):
+    rng = np.random.default_rng(6)
+    # i.i.d. sizes, each sample with its own scale: no effect
+    scale = np.exp(rng.normal(0, 1, size=(8, 1)))
+    sizes = (rng.pareto(0.6, size=(8, 400)) + 1.0) * scale
+    counted = rng.random((8, 400)) < 0.4
+    floor = float(np.quantile(sizes[counted], 0.9))
+    iid = te.follower_sizes(sizes, counted, floor, 3, 1.0, 100, 200, seed=1)
+    assert iid["n"] > 0 and iid["p"] > 0.01
+    # the statistic by hand
+    f = te.followers(sizes, counted, floor, 3)
+    big = sizes >= 1.0
+    want = np.mean(np.log(sizes[f & big])) - np.mean(np.log(sizes[counted & ~f & big]))
+    assert iid["delta"] == pytest.approx(want, rel=1e-12)
+    # aftershocks: every counted step within 3 after a large event made 20 times larger
+    planted = sizes.copy()
+    planted[f] *= 20.0
+    shocked = te.follower_sizes(planted, counted, floor, 3, 1.0, 100, 200, seed=1)
+    assert shocked["delta"] > 2.0 and shocked["p"] < 0.01
