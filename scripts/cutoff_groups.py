@@ -18,12 +18,16 @@ the group models with ``a = 1`` and with ``a`` free on the same grid (``--null R
 group model's ΔAIC read against data sets drawn from the single stretched law,
 :func:`null_daic`, since a cut-off per group is an incidental parameter and the AIC's penalty
 for it is only asymptotic — measured: with a cut-off per packing the best ``a`` goes to the
-grid's end 2 even when every packing draws from one law with ``a = 0.5``). Per model: ``τ`` ± its
-σ (the curvature of the profile likelihood in ``τ``), the maximised log-likelihood ``ℓ``, the
-likelihood ratio against **one** (``χ²`` with the number of extra cut-offs as degrees of
-freedom) and Akaike's ``AIC = 2 k − 2 ℓ`` against **shape**. If the groups explain the shape,
-the group model with ``a = 1`` is as good as **shape** (ΔAIC ≲ 0) and its own best ``a`` is near
-1. Groups without a size at or above the floor carry no information and are left out (their
+grid's end 2 even when every packing draws from one law with ``a = 0.5``).
+
+Per model: ``τ`` ± its σ (the curvature of the profile likelihood in ``τ``), the maximised
+log-likelihood ``ℓ``, the likelihood ratio against **one** (``χ²`` with the number of extra
+cut-offs as degrees of freedom) and Akaike's ``AIC = 2 k − 2 ℓ`` against **shape**. For the
+models with the shape free: the 95 % profile-likelihood interval of ``τ`` over the shapes
+(σ = its width / 3.92, as the tables of ``docs/reproduce.md`` quote it) and ``2Δℓ`` of the
+best shape against ``a = 1``. If the groups explain the shape, the group model with ``a = 1``
+is as good as **shape** (ΔAIC ≲ 0) and its own best ``a`` is near 1. Groups without a size at
+or above the floor carry no information and are left out (their
 count is printed). With ``--pool`` the runs share ``τ`` (the groups are then per run).
 
     PYTHONPATH=src python scripts/cutoff_groups.py data/runs/n1000-p1e-5-vg --n 1000 \\
@@ -44,7 +48,7 @@ from jamlab.analysis import (
     cutoff_shape_profile,
     sample_cutoff_power_law,
 )
-from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
+from jamlab.analysis.cutoff_powerlaw import CHI2_1_95, DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import counted_steps, finished
 from jamlab.runs import open_run
 
@@ -136,11 +140,23 @@ def fit_groups(groups: list[np.ndarray], x_min: float, stretch: float = 1.0) -> 
 def best_shape(groups: list[np.ndarray], x_min: float,
                stretches: tuple[float, ...] = STRETCHES) -> dict:
     """:func:`fit_groups` on each ``a`` of the grid: the ``a`` of the largest ``ℓ`` and that fit
-    (``a``, ``fit``), and ``lr_exponential = 2 (ℓ_best − ℓ(a = 1))``."""
+    (``a``, ``fit``), ``lr_exponential = 2 (ℓ_best − ℓ(a = 1))`` and the 95 % profile-likelihood
+    interval of ``τ`` with the shape free (``tau_low``, ``tau_high``: the union over the grid of
+    ``τ_a ± σ_a √(3.84 − 2 (ℓ_best − ℓ(a)))``, the rule of
+    :func:`jamlab.analysis.cutoff_shape_profile`)."""
     fits = {a: fit_groups(groups, x_min, a) for a in stretches}
     a = max(fits, key=lambda s: fits[s]["loglik"])
-    lr = 2.0 * (fits[a]["loglik"] - fits[1.0]["loglik"]) if 1.0 in fits else math.nan
-    return {"a": a, "fit": fits[a], "lr_exponential": lr}
+    best = fits[a]["loglik"]
+    lr = 2.0 * (best - fits[1.0]["loglik"]) if 1.0 in fits else math.nan
+    lows, highs = [], []
+    for f in fits.values():
+        room = CHI2_1_95 - 2.0 * (best - f["loglik"])
+        if room >= 0:
+            reach = f["tau_stderr"] * math.sqrt(room) if math.isfinite(f["tau_stderr"]) else 0.0
+            lows.append(f["tau"] - reach)
+            highs.append(f["tau"] + reach)
+    return {"a": a, "fit": fits[a], "lr_exponential": lr, "tau_low": min(lows),
+            "tau_high": max(highs)}
 
 
 def compare(groups_by_model: dict[str, list[np.ndarray]], x_min: float) -> list[dict]:
@@ -169,6 +185,13 @@ def compare(groups_by_model: dict[str, list[np.ndarray]], x_min: float) -> list[
                          "sigma": fit["tau_stderr"], "loglik": fit["loglik"], "k": k, "lr": lr,
                          "p": float(stats.chi2.sf(lr, k - 2)), "groups": fit["groups_used"],
                          "empty": fit["groups_empty"]})
+            if label == "a = 1":
+                rows[-1]["cutoffs"] = fit["cutoffs"]
+            if label == "a free":
+                rows[-1]["interval"] = (free["tau_low"], free["tau_high"])
+                rows[-1]["lr_exponential"] = free["lr_exponential"]
+    rows[1]["interval"] = (prof.tau_low, prof.tau_high)
+    rows[1]["lr_exponential"] = prof.lr_exponential
     for r in rows:
         r["daic"] = 2 * r["k"] - 2 * r["loglik"] - aic_shape
     return rows
@@ -263,9 +286,17 @@ def main() -> None:
                 v = null[r["model"]]
                 pv = (1 + int((v <= r["daic"]).sum())) / (1 + v.size)
                 extra = f"; {np.median(v):+.1f}, p {pv:.2g}"
+            shape = ""
+            if "interval" in r:
+                lo, hi = r["interval"]
+                shape = (f"; shape free: [{lo:.3f}, {hi:.3f}] (σ {(hi - lo) / 3.92:.3f}), "
+                         f"exponential 2Δℓ {r['lr_exponential']:.1f}")
             print(f"| {r['model']} | {r['groups']} ({r.get('empty', 0)}) | {r['a']:g} | "
-                  f"{r['tau']:.3f} ± {r['sigma']:.3f} | {r['loglik']:.2f} | {r['k']} | {lr} | "
-                  f"{r['daic']:+.1f}{extra} |")
+                  f"{r['tau']:.3f} ± {r['sigma']:.3f}{shape} | {r['loglik']:.2f} | {r['k']} | "
+                  f"{lr} | {r['daic']:+.1f}{extra} |")
+        for r in rows:
+            if r["model"] == "parts, a = 1":
+                print("\nS_c per part (a = 1, ε): " + ", ".join(f"{c:.3g}" for c in r["cutoffs"]))
 
 
 if __name__ == "__main__":

@@ -92,3 +92,17 @@ def test_bad_arguments_exit_2(cg, monkeypatch, argv):
     with pytest.raises(SystemExit) as e:
         cg.main()
     assert e.value.code == 2
+
+
+def test_best_shape_of_one_group_is_the_library_profile(cg):
+    from jamlab.analysis import cutoff_shape_profile
+
+    x = sample_cutoff_power_law(800, 1.4, 1e-7, 1e-9, np.random.default_rng(3), stretch=0.6)
+    grid = (0.4, 0.6, 1.0, 1.5)
+    want = cutoff_shape_profile(x, 1e-9, grid)
+    got = cg.best_shape([x], 1e-9, grid)
+    assert got["a"] == want.best
+    assert got["fit"]["tau"] == pytest.approx(want.tau_best, abs=1e-5)
+    assert got["lr_exponential"] == pytest.approx(want.lr_exponential, abs=1e-4)
+    assert got["tau_low"] == pytest.approx(want.tau_low, abs=2e-3)
+    assert got["tau_high"] == pytest.approx(want.tau_high, abs=2e-3)
