@@ -28,7 +28,8 @@ models with the shape free: the 95 % profile-likelihood interval of ``τ`` over 
 best shape against ``a = 1``. If the groups explain the shape, the group model with ``a = 1``
 is as good as **shape** (ΔAIC ≲ 0) and its own best ``a`` is near 1. Groups without a size at
 or above the floor carry no information and are left out (their
-count is printed). With ``--pool`` the runs share ``τ`` (the groups are then per run).
+count is printed). With ``--pool`` the runs share ``τ`` (the groups are then per run). With
+``--skip K`` the first ``K`` steps of every sample are left out (a loading transient).
 
     PYTHONPATH=src python scripts/cutoff_groups.py data/runs/n1000-p1e-5-vg --n 1000 \\
         --x-min 1.21e-9 --parts 4
@@ -225,16 +226,20 @@ def null_daic(groups_by_model: dict[str, list[np.ndarray]], x_min: float, reps: 
     return {m: np.asarray(v) for m, v in out.items()}
 
 
-def run_groups(runs: list[Path], ns: list[int], parts: int) -> dict[str, list[np.ndarray]]:
+def run_groups(runs: list[Path], ns: list[int], parts: int,
+               skip: int = 0) -> dict[str, list[np.ndarray]]:
     """The groups of every run (concatenated over runs: a pooled fit shares τ, and every run has
-    its own parts and packings)."""
+    its own parts and packings), from the steps after the first ``skip`` of each sample (the
+    parts then divide what is left)."""
     out: dict[str, list[np.ndarray]] = {"one": [], "parts": [], "samples": []}
     for run, n in zip(runs, ns, strict=True):
         ds = open_run(run)
         if not finished(ds, "jamming", n).any():
             raise ValueError(f"{run}: no finished sample at N = {n}")
         ej, counted = counted_steps(ds, "jamming", n)
-        sizes = -ej
+        if not 0 <= skip < ej.shape[1]:
+            raise ValueError(f"skip must be in [0, {ej.shape[1]}), got {skip}")
+        sizes, counted = -ej[:, skip:], counted[:, skip:]
         out["one"].append(sizes[counted])
         out["parts"] += group_sizes(sizes, counted, "parts", parts)
         out["samples"] += group_sizes(sizes, counted, "samples", parts)
@@ -253,6 +258,8 @@ def main() -> None:
                     help="data sets drawn from the single stretched law, for the p of each "
                          "ΔAIC (null_daic)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--skip", type=int, default=0,
+                    help="leave out the first SKIP steps of every sample (a loading transient)")
     a = ap.parse_args()
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
@@ -260,13 +267,13 @@ def main() -> None:
         ap.error("--x-min must be finite and > 0")
     if a.parts < 1:
         ap.error("--parts must be >= 1")
-    if a.null < 0:
-        ap.error("--null must be >= 0")
+    if a.null < 0 or a.skip < 0:
+        ap.error("--null and --skip must be >= 0")
     ns = a.n * len(a.runs) if len(a.n) == 1 else a.n
     sets = [(a.runs, ns)] if a.pool else [([r], [n]) for r, n in zip(a.runs, ns, strict=True)]
     for runs, n in sets:
         try:
-            groups = run_groups(runs, n, a.parts)
+            groups = run_groups(runs, n, a.parts, a.skip)
             groups["one"] = [np.concatenate(groups["one"])]
             rows = compare(groups, a.x_min)
             null = null_daic(groups, a.x_min, a.null, a.seed) if a.null else {}
@@ -274,7 +281,8 @@ def main() -> None:
             raise SystemExit(f"error: {e}") from None
         names = " + ".join(f"{r} (N = {m})" for r, m in zip(runs, n, strict=True))
         print(f"\n{names}: S ≥ {a.x_min:.3g} ε, {rows[0]['n_tail']} sizes, {a.parts} parts of "
-              "the strain window\n")
+              f"the strain window" + (f" after its first {a.skip} steps" if a.skip else "")
+              + "\n")
         head = f" under the single stretched law ({a.null} data sets): median, p" if null else ""
         print("| model | groups (empty) | a | τ ± σ | ℓ | parameters | 2Δℓ against one (p) "
               f"| ΔAIC against shape{head} |")

@@ -79,6 +79,11 @@ def test_run_groups_reads_the_counted_avalanches(cg, small_pressure_run):
     g = cg.run_groups([run], [n], 2)
     assert np.array_equal(np.sort(g["one"][0]), np.sort(-ej[counted]))
     assert sum(a.size for a in g["parts"]) == sum(a.size for a in g["samples"]) == counted.sum()
+    late = cg.run_groups([run], [n], 3, skip=10)
+    assert np.array_equal(np.sort(late["one"][0]), np.sort(-ej[:, 10:][counted[:, 10:]]))
+    assert len(late["parts"]) == 3 and sum(a.size for a in late["parts"]) == counted[:, 10:].sum()
+    with pytest.raises(ValueError):
+        cg.run_groups([run], [n], 2, skip=ej.shape[1])
 
 
 @pytest.mark.parametrize("argv", [
@@ -86,6 +91,7 @@ def test_run_groups_reads_the_counted_avalanches(cg, small_pressure_run):
     ["a", "--n", "250", "--x-min", "0"],
     ["a", "--n", "250", "--x-min", "1e-9", "--parts", "0"],
     ["a", "--n", "250", "--x-min", "1e-9", "--null", "-1"],
+    ["a", "--n", "250", "--x-min", "1e-9", "--skip", "-1"],
 ])
 def test_bad_arguments_exit_2(cg, monkeypatch, argv):
     monkeypatch.setattr(sys, "argv", ["cutoff_groups.py", *argv])
