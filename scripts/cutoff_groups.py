@@ -141,7 +141,8 @@ def fit_groups(groups: list[np.ndarray], x_min: float, stretch: float = 1.0) -> 
 def best_shape(groups: list[np.ndarray], x_min: float,
                stretches: tuple[float, ...] = STRETCHES) -> dict:
     """:func:`fit_groups` on each ``a`` of the grid: the ``a`` of the largest ``ℓ`` and that fit
-    (``a``, ``fit``), ``lr_exponential = 2 (ℓ_best − ℓ(a = 1))`` and the 95 % profile-likelihood
+    (``a``, ``fit``; every fit by ``a`` in ``fits``), ``lr_exponential = 2 (ℓ_best − ℓ(a = 1))``
+    and the 95 % profile-likelihood
     interval of ``τ`` with the shape free (``tau_low``, ``tau_high``: the union over the grid of
     ``τ_a ± σ_a √(3.84 − 2 (ℓ_best − ℓ(a)))``, the rule of
     :func:`jamlab.analysis.cutoff_shape_profile`)."""
@@ -156,7 +157,7 @@ def best_shape(groups: list[np.ndarray], x_min: float,
             reach = f["tau_stderr"] * math.sqrt(room) if math.isfinite(f["tau_stderr"]) else 0.0
             lows.append(f["tau"] - reach)
             highs.append(f["tau"] + reach)
-    return {"a": a, "fit": fits[a], "lr_exponential": lr, "tau_low": min(lows),
+    return {"a": a, "fit": fits[a], "fits": fits, "lr_exponential": lr, "tau_low": min(lows),
             "tau_high": max(highs)}
 
 
@@ -165,20 +166,20 @@ def compare(groups_by_model: dict[str, list[np.ndarray]], x_min: float) -> list[
     with its p, ΔAIC against **shape**."""
     one = fit_groups(groups_by_model["one"], x_min, 1.0)
     prof = cutoff_shape_profile(np.concatenate(groups_by_model["one"]), x_min, STRETCHES)
-    aic_shape = 2 * 3 - 2 * max(prof.logliks)
+    best = max(prof.logliks)
+    aic_shape = 2 * 3 - 2 * best
     rows = [{"model": "one", "a": 1.0, "tau": one["tau"], "sigma": one["tau_stderr"],
              "loglik": one["loglik"], "k": 2, "lr": math.nan, "p": math.nan, "groups": 1,
              "n_tail": one["n_tail"]},
             {"model": "shape", "a": prof.best, "tau": prof.tau_best, "sigma": prof.tau_best_stderr,
-             "loglik": max(prof.logliks), "k": 3, "lr": 2 * (max(prof.logliks) - one["loglik"]),
-             "p": float(stats.chi2.sf(2 * (max(prof.logliks) - one["loglik"]), 1)),
-             "groups": 1}]
+             "loglik": best, "k": 3, "lr": 2 * (best - one["loglik"]),
+             "p": float(stats.chi2.sf(2 * (best - one["loglik"]), 1)), "groups": 1}]
     for name in ("parts", "samples"):
         if name not in groups_by_model:
             continue
         g = groups_by_model[name]
         free = best_shape(g, x_min)
-        for label, fit, a in (("a = 1", fit_groups(g, x_min, 1.0), 1.0),
+        for label, fit, a in (("a = 1", free["fits"][1.0], 1.0),
                               ("a free", free["fit"], free["a"])):
             k = fit["groups_used"] + 1 + (1 if label == "a free" else 0)
             lr = 2 * (fit["loglik"] - one["loglik"])
