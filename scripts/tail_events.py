@@ -262,14 +262,14 @@ def follower_sizes(sizes: np.ndarray, counted: np.ndarray, floor: float, window:
 
     sizes = np.where(counted, sizes, 0.0)
     delta, n = stat(sizes)
+    blocks = [(i, np.nonzero(counted[i, k0:k0 + block])[0] + k0)
+              for i in range(sizes.shape[0]) for k0 in range(0, sizes.shape[1], block)]
     rng = np.random.default_rng(seed)
     null = np.empty(trials)
     for t in range(trials):
         s = sizes.copy()
-        for i in range(s.shape[0]):
-            for k0 in range(0, s.shape[1], block):
-                idx = np.nonzero(counted[i, k0:k0 + block])[0] + k0
-                s[i, idx] = sizes[i, rng.permutation(idx)]
+        for i, idx in blocks:
+            s[i, idx] = sizes[i, rng.permutation(idx)]
         null[t] = stat(s)[0]
     ok = np.isfinite(null)
     p = (1 + int((null[ok] >= delta).sum())) / (1 + int(ok.sum())) if trials else float("nan")
