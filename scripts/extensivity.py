@@ -1,0 +1,304 @@
+"""Are the avalanches of finished runs extensive in N? Rate, mean size and released energy per
+particle and unit strain, one size against another.
+
+If the avalanches of a run at fixed pressure are local events whose sizes do not depend on the
+box, the number of avalanches ≥ S per particle and unit strain (the *rate*), their mean size
+and the energy they release per particle and unit strain (the *release*, ``Σ S / (N γ)``) are
+the same at every N. If instead the largest events span the box, the release per particle can
+stay the same while the mean size grows with N and the rate falls as its inverse (the energy
+the loading stores must go somewhere): ``rate ∝ N^−α``, ``⟨S⟩ ∝ N^α``.
+
+For each run directory (φ label ``jamming`` at its ``--n``, finished samples, the avalanches the
+report counts: :func:`jamlab.reproduce.ensembles.avalanche_set`) and each floor of ``--above``:
+the three numbers above for the avalanches with ``S ≥ floor``, each ± its standard error from
+``--boot`` resamplings of whole samples (avalanches of one trajectory need not be independent).
+Then for every pair of runs, larger N against smaller: the ratio of each, its bootstrap 95 %
+interval, the exponent ``ln(ratio)/ln(N₂/N₁)``, and a two-sided permutation p-value
+(``--permutations`` deals of whole samples between the two runs; the rate and the release are
+compared per particle, so samples of different N can be exchanged under the null of
+extensivity, and so can the sizes under the null of one size law).
+
+Beside them, once per run, the energy balance per particle and unit strain: the *work* of the
+shear, ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}`` (the rule of the trace's ``energy_jump``, so that
+``Σ_n energy_jump = ΔE − work`` exactly; ``E`` is the enthalpy ``H`` at fixed pressure), the
+energy the packings gave up, ``−ΔE`` from the first minimum to the last, and the release of all
+counted avalanches (no floor). What the avalanches release is the work plus what the packings
+give up, less the elastic steps' small jumps and the uncounted plastic steps (the *rest*; the
+balance is exact by the definition of ``energy_jump``, so the rest is the check that nothing
+large is left out).
+
+``--labels`` (one per run, e.g. the pressure) groups the runs: pairs are formed within a group
+only. ``--figure F``: one column per group; above, the rate of avalanches ≥ S against S for
+each run; below, each larger N's rate divided by the smallest N's, with its bootstrap 95 %
+band, on a grid of S from the smallest floor of ``--above`` up to where each run keeps
+``--least`` avalanches.
+
+    PYTHONPATH=src python scripts/extensivity.py data/runs/n500-p1e-4-vg \\
+        data/runs/n1000-p1e-4-vg --n 500 1000 --above 1.03e-8 1e-7
+    PYTHONPATH=src python scripts/extensivity.py data/runs/n{500,1000}-p1e-{2,3,4,5}-vg \\
+        --n 500 500 500 500 1000 1000 1000 1000 --labels 1e-2 1e-3 1e-4 1e-5 1e-2 1e-3 \\
+        1e-4 1e-5 --above 1e-9 --permutations 0 --figure docs/figures/extensivity.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+
+from jamlab.reproduce.ensembles import avalanche_set, finished
+from jamlab.runs import open_run
+
+QUANTITIES = ("rate", "mean size", "release")
+
+
+def sample_strains(ds, n: int) -> np.ndarray:
+    """The strain sheared by each finished sample at ``("jamming", n)`` (its largest ``γ`` less
+    its first; rows past a sample's end are NaN)."""
+    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[finished(ds, "jamming", n)]
+    return np.nanmax(gam, axis=1) - gam[:, 0]
+
+
+def sample_energies(ds, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(work, given_up)`` per finished sample at ``("jamming", n)``: ``Σ_n (γ_n − γ_{n−1})
+    Σ_{n−1}`` and ``E_0 − E_last`` (``E`` the trace's ``energy`` column)."""
+    done = finished(ds, "jamming", n)
+    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[done]
+    sig = np.asarray(ds.shear_stress.sel(phi="jamming", N=n).values)[done]
+    ene = np.asarray(ds.energy.sel(phi="jamming", N=n).values)[done]
+    work = np.nansum(np.diff(gam, axis=1) * sig[:, :-1], axis=1)
+    last = np.array([row[np.isfinite(row)][-1] for row in ene])
+    return work, ene[:, 0] - last
+
+
+def balance(work: np.ndarray, given_up: np.ndarray, released: np.ndarray, exposure: np.ndarray,
+            boot: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """``(values, standard errors)`` of ``[work, given up, released, rest]`` per unit of
+    ``Σ exposure`` (``N γ`` per sample), the rest being ``work + given up − released``; errors
+    from ``boot`` resamplings of whole samples."""
+    def one(k):
+        w, g, r = work[k].sum(), given_up[k].sum(), released[k].sum()
+        return np.array([w, g, r, w + g - r]) / exposure[k].sum()
+
+    m = work.size
+    draws = np.array([one(rng.integers(0, m, m)) for _ in range(boot)])
+    return one(np.arange(m)), np.std(draws, axis=0, ddof=1)
+
+
+def per_sample_sums(per_sample, floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(counts, sums)``: per sample, the number and the sum of its sizes ``≥ floor``."""
+    counts = np.array([np.count_nonzero(s >= floor) for s in per_sample], dtype=float)
+    sums = np.array([float(np.sum(s[s >= floor])) for s in per_sample])
+    return counts, sums
+
+
+def pooled(counts: np.ndarray, sums: np.ndarray, particles: np.ndarray,
+           strains: np.ndarray) -> np.ndarray:
+    """``[rate, mean size, release]`` of a set of samples: ``Σ counts / Σ N γ``,
+    ``Σ sums / Σ counts`` (NaN without a count) and ``Σ sums / Σ N γ``."""
+    exposure = float(np.sum(particles * strains))
+    total = float(np.sum(counts))
+    return np.array([total / exposure, float(np.sum(sums)) / total if total else math.nan,
+                     float(np.sum(sums)) / exposure])
+
+
+def bootstrap(counts, sums, particles, strains, boot: int, rng) -> np.ndarray:
+    """``boot`` × 3 values of :func:`pooled` on resamplings of whole samples."""
+    m = counts.size
+    out = np.empty((boot, 3))
+    for b in range(boot):
+        k = rng.integers(0, m, m)
+        out[b] = pooled(counts[k], sums[k], particles[k], strains[k])
+    return out
+
+
+def permutation_p(a: tuple, b: tuple, observed: np.ndarray, count: int, rng) -> np.ndarray:
+    """Two-sided p-values of ``|ln ratio|`` of the three quantities (``b`` against ``a``, each
+    ``(counts, sums, particles, strains)``) when whole samples are dealt at random between the
+    two runs, ``count`` times (the deal keeps each run's number of samples)."""
+    joined = [np.concatenate([x, y]) for x, y in zip(a, b, strict=True)]
+    m = a[0].size
+    obs = np.abs(np.log(observed))
+    hits = np.zeros(3)
+    for _ in range(count):
+        k = rng.permutation(joined[0].size)
+        first = pooled(*(x[k[:m]] for x in joined))
+        second = pooled(*(x[k[m:]] for x in joined))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            hits += np.abs(np.log(second / first)) >= obs - 1e-12
+    return (hits + 1) / (count + 1)
+
+
+def run_values(sets: dict, boot: int, rng) -> dict:
+    """For each run of ``sets`` (``{name: (counts, sums, particles, strains)}``, per sample):
+    ``(values, standard errors)`` of :func:`pooled`, the errors from ``boot`` resamplings of
+    whole samples."""
+    return {name: (pooled(*x), np.nanstd(bootstrap(*x, boot, rng), axis=0, ddof=1))
+            for name, x in sets.items()}
+
+
+def pair_values(first: tuple, second: tuple, boot: int, permutations: int, rng) -> dict:
+    """``second`` against ``first`` (each ``(counts, sums, particles, strains)``): the ratio of
+    each of the three quantities, its bootstrap 95 % interval (``lo``, ``hi``: each run
+    resampled on its own) and the permutation p-values (NaN for ``permutations`` 0)."""
+    ratio = pooled(*second) / pooled(*first)
+    b = bootstrap(*second, boot, rng) / bootstrap(*first, boot, rng)
+    lo, hi = np.nanpercentile(b, [2.5, 97.5], axis=0)
+    p = (permutation_p(first, second, ratio, permutations, rng) if permutations
+         else np.full(3, math.nan))
+    return {"ratio": ratio, "lo": lo, "hi": hi, "p": p}
+
+
+def rate_curves(sets_by_run: dict, grid: np.ndarray, boot: int, least: int, rng) -> dict:
+    """For each run (``{name: (per_sample sizes, particles, strains)}``): the rate of
+    avalanches ``≥ S`` at each ``S`` of ``grid`` and ``boot`` × ``len(grid)`` bootstrap
+    resamplings of whole samples (the same resampled samples at every ``S``); NaN where the run
+    has fewer than ``least`` such avalanches."""
+    out = {}
+    for name, (per_sample, particles, strains) in sets_by_run.items():
+        counts = np.array([[np.count_nonzero(s >= g) for g in grid] for s in per_sample],
+                          dtype=float)
+        exposure = particles * strains
+        rate = counts.sum(axis=0) / exposure.sum()
+        m = counts.shape[0]
+        draws = np.empty((boot, grid.size))
+        for b in range(boot):
+            k = rng.integers(0, m, m)
+            draws[b] = counts[k].sum(axis=0) / exposure[k].sum()
+        few = counts.sum(axis=0) < least
+        rate[few] = np.nan
+        draws[:, few] = np.nan
+        out[name] = (rate, draws)
+    return out
+
+
+def figure(data: list, labels: list, floor: float, boot: int, least: int, path: Path,
+           rng) -> None:
+    """The figure of ``--figure`` (module docstring)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = list(dict.fromkeys(labels))
+    fig, ax = plt.subplots(2, len(groups), figsize=(3.4 * len(groups), 5.6), squeeze=False,
+                           sharex="col", gridspec_kw={"height_ratios": [3, 2]})
+    for col, group in enumerate(groups):
+        members = [d for d, lab in zip(data, labels, strict=True) if lab == group]
+        top = max(float(np.max(np.concatenate(d[2]))) for d in members)
+        grid = np.logspace(math.log10(floor), math.log10(top), 40)
+        curves = rate_curves({d[0]: (d[2], float(d[1]), d[3]) for d in members}, grid, boot,
+                             least, rng)
+        base_name, base_n = members[0][0], members[0][1]
+        base, base_draws = curves[base_name]
+        for name, n, *_ in members:
+            rate, draws = curves[name]
+            ax[0, col].loglog(grid, rate, "-", label=f"N = {n}")
+            if name == base_name:
+                continue
+            ok = np.isfinite(rate / base)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lo, hi = np.full(grid.size, np.nan), np.full(grid.size, np.nan)
+                lo[ok], hi[ok] = np.nanpercentile((draws / base_draws)[:, ok], [2.5, 97.5],
+                                                  axis=0)
+            line, = ax[1, col].semilogx(grid, rate / base, "-", label=f"{n} / {base_n}")
+            ax[1, col].fill_between(grid, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
+        ax[1, col].axhline(1.0, color="k", lw=0.6)
+        ax[0, col].set_title(f"{group}" if group else "")
+        ax[1, col].set_xlabel("S (ε)")
+        ax[0, col].legend(fontsize=7)
+        if ax[1, col].get_legend_handles_labels()[0]:
+            ax[1, col].legend(fontsize=7)
+    ax[0, 0].set_ylabel("avalanches ≥ S per particle per unit strain")
+    ax[1, 0].set_ylabel("rate ratio (95 % band)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"\nfigure: {path}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+")
+    ap.add_argument("--n", type=int, nargs="+", required=True,
+                    help="N of the runs: one for all, or one per run")
+    ap.add_argument("--above", type=float, nargs="+", required=True, help="floors S (ε)")
+    ap.add_argument("--boot", type=int, default=1000)
+    ap.add_argument("--permutations", type=int, default=999)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--labels", nargs="+", default=None,
+                    help="one group label per run (pairs within a group only)")
+    ap.add_argument("--figure", type=Path, default=None)
+    ap.add_argument("--least", type=int, default=20,
+                    help="the figure's curves stop where a run has fewer avalanches ≥ S")
+    a = ap.parse_args()
+    if len(a.n) not in (1, len(a.runs)):
+        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    if any(not x > 0 for x in a.above):
+        ap.error("--above needs floors > 0")
+    if a.boot < 2 or a.permutations < 0 or a.least < 1:
+        ap.error("--boot must be >= 2, --permutations >= 0 and --least >= 1")
+    if a.labels is not None and len(a.labels) != len(a.runs):
+        ap.error(f"--labels takes one label per run ({len(a.runs)}), got {len(a.labels)}")
+    sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
+    rng = np.random.default_rng(a.seed)
+    data = []
+    for run, n in zip(a.runs, sizes_n, strict=True):
+        ds = open_run(run)
+        if n not in np.asarray(ds.N.values) or "jamming" not in np.asarray(ds.phi.values):
+            ap.error(f"{run}: no φ label jamming at N = {n}")
+        aval = avalanche_set(ds, "jamming", n)
+        strains = sample_strains(ds, n)
+        if not aval.samples or not np.all(strains > 0):
+            ap.error(f"{run}: no finished sample at N = {n}")
+        data.append((str(run), n, aval.per_sample, strains, sample_energies(ds, n)))
+    labels = a.labels if a.labels is not None else [""] * len(data)
+    order = sorted(range(len(data)), key=lambda i: data[i][1])
+    data, labels = [data[i] for i in order], [labels[i] for i in order]
+    label_of = {d[0]: lab for d, lab in zip(data, labels, strict=True)}
+    print("\n## Energy balance (ε per particle per unit strain; all counted avalanches)\n")
+    print("| run | N (samples) | work of the shear | given up by the packings (−ΔE) "
+          "| released by the avalanches | rest |")
+    print("|---|---|---|---|---|---|")
+    for run, n, per_sample, strains, (work, given_up) in data:
+        released = np.array([float(np.sum(x)) for x in per_sample])
+        val, err = balance(work, given_up, released, n * strains, a.boot, rng)
+        print(f"| {Path(run).name} | {n} ({strains.size}) | "
+              + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True)) + " |")
+    for floor in a.above:
+        sets = {}
+        for run, n, per_sample, strains, _ in data:
+            counts, sums = per_sample_sums(per_sample, floor)
+            sets[run] = (counts, sums, np.full(counts.size, float(n)), strains)
+        values = run_values(sets, a.boot, rng)
+        print(f"\n## S ≥ {floor:.3g} ε\n")
+        print("| run | N (samples) | avalanches | rate (per particle per unit strain) "
+              "| mean size (ε) | release (ε per particle per unit strain) |")
+        print("|---|---|---|---|---|---|")
+        for run, n, *_ in data:
+            val, err = values[run]
+            print(f"| {Path(run).name} | {n} ({sets[run][0].size}) | {int(sets[run][0].sum())} | "
+                  + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True))
+                  + " |")
+        print("\n| group | pair (N₂ against N₁) | quantity | ratio (95 %) | exponent ln ratio / "
+              "ln(N₂/N₁) (95 %) | permutation p |")
+        print("|---|---|---|---|---|---|")
+        for (r1, n1, *_), (r2, n2, *_) in itertools.combinations(data, 2):
+            if label_of[r1] != label_of[r2]:
+                continue
+            v = pair_values(sets[r1], sets[r2], a.boot, a.permutations, rng)
+            scale = math.log(n2 / n1) if n2 != n1 else math.nan
+            for i, q in enumerate(QUANTITIES):
+                print(f"| {label_of[r1]} | {n2} against {n1} | {q} | {v['ratio'][i]:.3f} "
+                      f"({v['lo'][i]:.3f}, "
+                      f"{v['hi'][i]:.3f}) | {math.log(v['ratio'][i]) / scale:+.2f} "
+                      f"({math.log(v['lo'][i]) / scale:+.2f}, {math.log(v['hi'][i]) / scale:+.2f})"
+                      f" | {v['p'][i]:.3g} |")
+    if a.figure is not None:
+        figure(data, labels, min(a.above), a.boot, a.least, a.figure, rng)
+
+
+if __name__ == "__main__":
+    main()
