@@ -27,6 +27,10 @@ give up, less the elastic steps' small jumps and the uncounted plastic steps (th
 balance is exact by the definition of ``energy_jump``, so the rest is the check that nothing
 large is left out).
 
+Where a group has three or more sizes: the least-squares slope of each quantity's logarithm
+against ``ln N`` with its bootstrap interval, and the slopes between the first two and the last
+two sizes with the interval of their difference (is one power of N enough?).
+
 ``--labels`` (one per run, e.g. the pressure) groups the runs: pairs are formed within a group
 only. ``--figure F``: one column per group; above, the rate of avalanches ≥ S against S for
 each run; below, each larger N's rate divided by the smallest N's, with its bootstrap 95 %
@@ -138,6 +142,27 @@ def run_values(sets: dict, boot: int, rng) -> dict:
     whole samples."""
     return {name: (pooled(*x), np.nanstd(bootstrap(*x, boot, rng), axis=0, ddof=1))
             for name, x in sets.items()}
+
+
+def slope_values(runs: list[tuple], boot: int, rng) -> dict:
+    """Over three or more runs (each ``(N, (counts, sums, particles, strains))``): the
+    least-squares slope of ``ln(quantity)`` against ``ln N`` for each of the three quantities,
+    its bootstrap 95 % interval (each run resampled on its own), and the slope between the
+    first two and between the last two sizes (is one power law enough?)."""
+    ln_n = np.log([float(n) for n, _ in runs])
+    values = np.log(np.array([pooled(*x) for _, x in runs]))
+    draws = np.log(np.array([bootstrap(*x, boot, rng) for _, x in runs]))  # runs, boot, 3
+    slope = np.polyfit(ln_n, values, 1)[0]
+    boot_slopes = np.array([np.polyfit(ln_n, draws[:, b, :], 1)[0] for b in range(boot)
+                            if np.all(np.isfinite(draws[:, b, :]))])
+    lo, hi = np.percentile(boot_slopes, [2.5, 97.5], axis=0)
+    first = (values[1] - values[0]) / (ln_n[1] - ln_n[0])
+    last = (values[-1] - values[-2]) / (ln_n[-1] - ln_n[-2])
+    change = (draws[-1] - draws[-2]) / (ln_n[-1] - ln_n[-2]) - (draws[1] - draws[0]) / (
+        ln_n[1] - ln_n[0])
+    c_lo, c_hi = np.nanpercentile(change, [2.5, 97.5], axis=0)
+    return {"slope": slope, "lo": lo, "hi": hi, "first": first, "last": last,
+            "change_lo": c_lo, "change_hi": c_hi}
 
 
 def pair_values(first: tuple, second: tuple, boot: int, permutations: int, rng) -> dict:
@@ -296,6 +321,21 @@ def main() -> None:
                       f"{v['hi'][i]:.3f}) | {math.log(v['ratio'][i]) / scale:+.2f} "
                       f"({math.log(v['lo'][i]) / scale:+.2f}, {math.log(v['hi'][i]) / scale:+.2f})"
                       f" | {v['p'][i]:.3g} |")
+        groups = {}
+        for run, n, *_ in data:
+            groups.setdefault(label_of[run], []).append((n, sets[run]))
+        wide = {g: runs for g, runs in groups.items() if len({n for n, _ in runs}) >= 3}
+        if wide:
+            print("\n| group | quantity | slope of ln(quantity) on ln N (95 %) | slope first "
+                  "two sizes / last two | last − first (95 %) |")
+            print("|---|---|---|---|---|")
+        for g, runs in wide.items():
+            v = slope_values(runs, a.boot, rng)
+            for i, q in enumerate(QUANTITIES):
+                print(f"| {g} | {q} | {v['slope'][i]:+.2f} ({v['lo'][i]:+.2f}, "
+                      f"{v['hi'][i]:+.2f}) | {v['first'][i]:+.2f} / {v['last'][i]:+.2f} | "
+                      f"{v['last'][i] - v['first'][i]:+.2f} ({v['change_lo'][i]:+.2f}, "
+                      f"{v['change_hi'][i]:+.2f}) |")
     if a.figure is not None:
         figure(data, labels, min(a.above), a.boot, a.least, a.figure, rng)
 

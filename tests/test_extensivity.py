@@ -127,6 +127,20 @@ def test_permutation_p_at_its_limits(ex):
     assert p[1] > 0.05  # every size is 1 in both: the mean size does not differ
 
 
+def test_slope_over_three_sizes_of_exact_power_laws(ex):
+    """rate ∝ N^−0.5 and mean size ∝ N^0.25 exactly (identical samples): every slope, its
+    interval and both two-size slopes are those powers."""
+    runs = []
+    for n in (100, 200, 400):
+        counts = np.full(5, 10.0 * math.sqrt(n / 100))
+        sums = counts * (n / 100) ** 0.25
+        runs.append((n, (counts, sums, np.full(5, float(n)), np.full(5, 1.0 / 100))))
+    v = ex.slope_values(runs, 30, np.random.default_rng(2))
+    for key in ("slope", "lo", "hi", "first", "last"):
+        np.testing.assert_allclose(v[key], [-0.5, 0.25, -0.25], atol=1e-12)
+    np.testing.assert_allclose([v["change_lo"], v["change_hi"]], 0.0, atol=1e-12)
+
+
 def test_rate_curves_count_by_hand(ex):
     rng = np.random.default_rng(0)
     per_sample = (np.array([1.0, 10.0, 100.0]), np.array([5.0]))
