@@ -8,7 +8,10 @@ the same at every N. If instead the largest events span the box, the release per
 stay the same while the mean size grows with N and the rate falls as its inverse (the energy
 the loading stores must go somewhere): ``rate ∝ N^−α``, ``⟨S⟩ ∝ N^α``.
 
-For each run directory (φ label ``jamming`` at its ``--n``, finished samples, the avalanches the
+First, per run, all the counted avalanches (no floor): the plastic fraction (avalanches per AQS
+step, with its binomial σ; it depends on the plastic flag's threshold, which grows with N),
+``⟨S⟩`` ± a bootstrap over whole samples, the median and the largest size. Then, for each run
+directory (φ label ``jamming`` at its ``--n``, finished samples, the avalanches the
 report counts: :func:`jamlab.reproduce.ensembles.avalanche_set`) and each floor of ``--above``:
 the three numbers above for the avalanches with ``S ≥ floor``, each ± its standard error from
 ``--boot`` resamplings of whole samples (avalanches of one trajectory need not be independent).
@@ -278,23 +281,38 @@ def main() -> None:
         strains = sample_strains(ds, n)
         if not aval.samples or not np.all(strains > 0):
             ap.error(f"{run}: no finished sample at N = {n}")
-        data.append((str(run), n, aval.per_sample, strains, sample_energies(ds, n)))
+        data.append((str(run), n, aval.per_sample, strains, sample_energies(ds, n), aval.steps))
     labels = a.labels if a.labels is not None else [""] * len(data)
     order = sorted(range(len(data)), key=lambda i: data[i][1])
     data, labels = [data[i] for i in order], [labels[i] for i in order]
     label_of = {d[0]: lab for d, lab in zip(data, labels, strict=True)}
+    print("\n## All counted avalanches (no floor)\n")
+    print("| run | N (samples) | steps | avalanches | plastic fraction (binomial σ) "
+          "| ⟨S⟩ (ε) | median S (ε) | largest S (ε) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for run, n, per_sample, strains, _, steps in data:
+        every = np.concatenate(per_sample)
+        counts = np.array([x.size for x in per_sample], dtype=float)
+        sums = np.array([float(np.sum(x)) for x in per_sample])
+        mean_err = np.nanstd(bootstrap(counts, sums, np.full(counts.size, float(n)), strains,
+                                       a.boot, rng)[:, 1], ddof=1)
+        f = every.size / steps
+        print(f"| {Path(run).name} | {n} ({strains.size}) | {steps} | {every.size} | {f:.4f} "
+              f"({math.sqrt(f * (1 - f) / steps):.4f}) | "
+              + (f"{every.mean():.3g} ± {mean_err:.2g} | {np.median(every):.3g} | "
+                 f"{every.max():.3g} |" if every.size else "— | — | — |"))
     print("\n## Energy balance (ε per particle per unit strain; all counted avalanches)\n")
     print("| run | N (samples) | work of the shear | given up by the packings (−ΔE) "
           "| released by the avalanches | rest |")
     print("|---|---|---|---|---|---|")
-    for run, n, per_sample, strains, (work, given_up) in data:
+    for run, n, per_sample, strains, (work, given_up), _ in data:
         released = np.array([float(np.sum(x)) for x in per_sample])
         val, err = balance(work, given_up, released, n * strains, a.boot, rng)
         print(f"| {Path(run).name} | {n} ({strains.size}) | "
               + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True)) + " |")
     for floor in a.above:
         sets = {}
-        for run, n, per_sample, strains, _ in data:
+        for run, n, per_sample, strains, *_ in data:
             counts, sums = per_sample_sums(per_sample, floor)
             sets[run] = (counts, sums, np.full(counts.size, float(n)), strains)
         values = run_values(sets, a.boot, rng)

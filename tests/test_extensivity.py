@@ -165,6 +165,8 @@ def test_main_prints_the_tables_and_the_figure(ex, small_pressure_run, tmp_path,
     counts, sums, strains = direct(small_pressure_run, 1e-300)
     rate = counts.sum() / (16 * strains.sum())
     assert f"| {int(counts.sum())} | {rate:.3g} ±" in out
+    steps = 3 * 30  # the fixture: 3 samples of 30 steps
+    assert f"| {steps} | {int(counts.sum())} | {counts.sum() / steps:.4f} (" in out
     # a run against itself: ratio 1 and p = 1 for each quantity
     assert out.count("| 1.000 (") == 3 and out.count("| 1 |") == 3
     assert fig.stat().st_size > 0
