@@ -204,14 +204,15 @@ def rate_curves(sets_by_run: dict, grid: np.ndarray, boot: int, least: int, rng)
 
 
 def figure(data: list, labels: list, floor: float, boot: int, least: int, path: Path,
-           rng) -> None:
-    """The figure of ``--figure`` (module docstring)."""
+           rng, order: list | None = None) -> None:
+    """The figure of ``--figure`` (module docstring); one column per group, in ``order`` (by
+    default as the groups first appear in ``labels``)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    groups = list(dict.fromkeys(labels))
+    groups = list(dict.fromkeys(order if order is not None else labels))
     fig, ax = plt.subplots(2, len(groups), figsize=(3.4 * len(groups), 5.6), squeeze=False,
                            sharex="col", gridspec_kw={"height_ratios": [3, 2]})
     for col, group in enumerate(groups):
@@ -355,7 +356,8 @@ def main() -> None:
                       f"{v['last'][i] - v['first'][i]:+.2f} ({v['change_lo'][i]:+.2f}, "
                       f"{v['change_hi'][i]:+.2f}) |")
     if a.figure is not None:
-        figure(data, labels, min(a.above), a.boot, a.least, a.figure, rng)
+        figure(data, labels, min(a.above), a.boot, a.least, a.figure, rng,
+               order=a.labels)
 
 
 if __name__ == "__main__":
