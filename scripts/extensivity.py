@@ -53,20 +53,28 @@ import argparse
 import itertools
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set, finished
+from jamlab.reproduce.ensembles import avalanche_set, finished, sample_strains
 from jamlab.runs import open_run
 
 QUANTITIES = ("rate", "mean size", "release")
 
 
-def sample_strains(ds, n: int) -> np.ndarray:
-    """The strain sheared by each finished sample at ``("jamming", n)`` (its largest ``γ`` less
-    its first; rows past a sample's end are NaN)."""
-    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[finished(ds, "jamming", n)]
-    return np.nanmax(gam, axis=1) - gam[:, 0]
+class Run(NamedTuple):
+    """One run directory's finished samples at its ``N``: the counted sizes of each sample, the
+    strain each sheared, the work and given-up energy of :func:`sample_energies`, and the
+    number of AQS steps of all samples."""
+
+    name: str
+    n: int
+    per_sample: tuple
+    strains: np.ndarray
+    work: np.ndarray
+    given_up: np.ndarray
+    steps: int
 
 
 def sample_energies(ds, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -203,7 +211,7 @@ def rate_curves(sets_by_run: dict, grid: np.ndarray, boot: int, least: int, rng)
     return out
 
 
-def figure(data: list, labels: list, floor: float, boot: int, least: int, path: Path,
+def figure(data: list[Run], labels: list, floor: float, boot: int, least: int, path: Path,
            rng, order: list | None = None) -> None:
     """The figure of ``--figure`` (module docstring); one column per group, in ``order`` (by
     default as the groups first appear in ``labels``)."""
@@ -217,13 +225,13 @@ def figure(data: list, labels: list, floor: float, boot: int, least: int, path: 
                            sharex="col", gridspec_kw={"height_ratios": [3, 2]})
     for col, group in enumerate(groups):
         members = [d for d, lab in zip(data, labels, strict=True) if lab == group]
-        top = max(float(np.max(np.concatenate(d[2]))) for d in members)
+        top = max(float(np.max(np.concatenate(r.per_sample))) for r in members)
         grid = np.logspace(math.log10(floor), math.log10(top), 40)
-        curves = rate_curves({d[0]: (d[2], float(d[1]), d[3]) for d in members}, grid, boot,
-                             least, rng)
-        base_name, base_n = members[0][0], members[0][1]
+        curves = rate_curves({r.name: (r.per_sample, float(r.n), r.strains) for r in members},
+                             grid, boot, least, rng)
+        base_name, base_n = members[0].name, members[0].n
         base, base_draws = curves[base_name]
-        for name, n, *_ in members:
+        for name, n in ((r.name, r.n) for r in members):
             rate, draws = curves[name]
             ax[0, col].loglog(grid, rate, "-", label=f"N = {n}")
             if name == base_name:
@@ -279,51 +287,53 @@ def main() -> None:
         if n not in np.asarray(ds.N.values) or "jamming" not in np.asarray(ds.phi.values):
             ap.error(f"{run}: no φ label jamming at N = {n}")
         aval = avalanche_set(ds, "jamming", n)
-        strains = sample_strains(ds, n)
+        strains = sample_strains(ds, "jamming", n)
         if not aval.samples or not np.all(strains > 0):
             ap.error(f"{run}: no finished sample at N = {n}")
-        data.append((str(run), n, aval.per_sample, strains, sample_energies(ds, n), aval.steps))
+        data.append(Run(str(run), n, aval.per_sample, strains, *sample_energies(ds, n),
+                        aval.steps))
     labels = a.labels if a.labels is not None else [""] * len(data)
-    order = sorted(range(len(data)), key=lambda i: data[i][1])
+    order = sorted(range(len(data)), key=lambda i: data[i].n)
     data, labels = [data[i] for i in order], [labels[i] for i in order]
-    label_of = {d[0]: lab for d, lab in zip(data, labels, strict=True)}
+    label_of = {r.name: lab for r, lab in zip(data, labels, strict=True)}
+    every_sum = {r.name: per_sample_sums(r.per_sample, 0.0) for r in data}  # counted S > 0
     print("\n## All counted avalanches (no floor)\n")
     print("| run | N (samples) | steps | avalanches | plastic fraction (binomial σ) "
           "| ⟨S⟩ (ε) | median S (ε) | largest S (ε) |")
     print("|---|---|---|---|---|---|---|---|")
-    for run, n, per_sample, strains, _, steps in data:
-        every = np.concatenate(per_sample)
-        counts = np.array([x.size for x in per_sample], dtype=float)
-        sums = np.array([float(np.sum(x)) for x in per_sample])
-        mean_err = np.nanstd(bootstrap(counts, sums, np.full(counts.size, float(n)), strains,
+    for r in data:
+        every = np.concatenate(r.per_sample)
+        counts, sums = every_sum[r.name]
+        mean_err = np.nanstd(bootstrap(counts, sums, np.full(counts.size, float(r.n)), r.strains,
                                        a.boot, rng)[:, 1], ddof=1)
-        f = every.size / steps
-        print(f"| {Path(run).name} | {n} ({strains.size}) | {steps} | {every.size} | {f:.4f} "
-              f"({math.sqrt(f * (1 - f) / steps):.4f}) | "
+        f = every.size / r.steps
+        print(f"| {Path(r.name).name} | {r.n} ({r.strains.size}) | {r.steps} | {every.size} | "
+              f"{f:.4f} ({math.sqrt(f * (1 - f) / r.steps):.4f}) | "
               + (f"{every.mean():.3g} ± {mean_err:.2g} | {np.median(every):.3g} | "
                  f"{every.max():.3g} |" if every.size else "— | — | — |"))
     print("\n## Energy balance (ε per particle per unit strain; all counted avalanches)\n")
     print("| run | N (samples) | work of the shear | given up by the packings (−ΔE) "
           "| released by the avalanches | rest |")
     print("|---|---|---|---|---|---|")
-    for run, n, per_sample, strains, (work, given_up), _ in data:
-        released = np.array([float(np.sum(x)) for x in per_sample])
-        val, err = balance(work, given_up, released, n * strains, a.boot, rng)
-        print(f"| {Path(run).name} | {n} ({strains.size}) | "
+    for r in data:
+        val, err = balance(r.work, r.given_up, every_sum[r.name][1], r.n * r.strains, a.boot,
+                           rng)
+        print(f"| {Path(r.name).name} | {r.n} ({r.strains.size}) | "
               + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True)) + " |")
     for floor in a.above:
         sets = {}
-        for run, n, per_sample, strains, *_ in data:
-            counts, sums = per_sample_sums(per_sample, floor)
-            sets[run] = (counts, sums, np.full(counts.size, float(n)), strains)
+        for r in data:
+            counts, sums = per_sample_sums(r.per_sample, floor)
+            sets[r.name] = (counts, sums, np.full(counts.size, float(r.n)), r.strains)
         values = run_values(sets, a.boot, rng)
         print(f"\n## S ≥ {floor:.3g} ε\n")
         print("| run | N (samples) | avalanches | rate (per particle per unit strain) "
               "| mean size (ε) | release (ε per particle per unit strain) |")
         print("|---|---|---|---|---|---|")
-        for run, n, *_ in data:
-            val, err = values[run]
-            print(f"| {Path(run).name} | {n} ({sets[run][0].size}) | {int(sets[run][0].sum())} | "
+        for r in data:
+            val, err = values[r.name]
+            counts = sets[r.name][0]
+            print(f"| {Path(r.name).name} | {r.n} ({counts.size}) | {int(counts.sum())} | "
                   + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True))
                   + " |")
         print("\n| group | pair (N₂ against N₁) | quantity | ratio (95 %) | exponent ln ratio / "
@@ -341,8 +351,8 @@ def main() -> None:
                       f"({math.log(v['lo'][i]) / scale:+.2f}, {math.log(v['hi'][i]) / scale:+.2f})"
                       f" | {v['p'][i]:.3g} |")
         groups = {}
-        for run, n, *_ in data:
-            groups.setdefault(label_of[run], []).append((n, sets[run]))
+        for r in data:
+            groups.setdefault(label_of[r.name], []).append((r.n, sets[r.name]))
         wide = {g: runs for g, runs in groups.items() if len({n for n, _ in runs}) >= 3}
         if wide:
             print("\n| group | quantity | slope of ln(quantity) on ln N (95 %) | slope first "

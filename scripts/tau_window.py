@@ -78,7 +78,7 @@ from jamlab.analysis import (
     fit_power_law,
 )
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
-from jamlab.reproduce.ensembles import finished, jammed_flags
+from jamlab.reproduce.ensembles import finished, jammed_flags, sample_strains
 from jamlab.reproduce.measurements import (
     avalanche_set,
     fit_tau,
@@ -502,10 +502,7 @@ def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: in
 def total_strain(ds, n: int) -> float:
     """The strain sheared over all finished samples at ``("jamming", n)`` of a run's dataset
     (each sample's largest ``γ`` less its first; rows past a sample's end are NaN)."""
-    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[finished(ds, "jamming", n)]
-    if not gam.size:
-        return 0.0
-    return float(np.sum(np.nanmax(gam, axis=1) - gam[:, 0]))
+    return float(np.sum(sample_strains(ds, "jamming", n)))
 
 
 def flag_threshold(ds, n: int) -> float:

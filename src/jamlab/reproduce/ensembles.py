@@ -24,6 +24,7 @@ __all__ = [
     "counted_steps",
     "finished",
     "intensive_stress",
+    "sample_strains",
 ]
 
 
@@ -163,6 +164,13 @@ def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:
     if flags.size and np.all(np.isfinite(flags)):
         return flags > 0.5
     return None
+
+
+def sample_strains(ds: Any, label: str, n: int) -> np.ndarray:
+    """The strain sheared by each finished sample at ``(φ label, N)``: its largest ``γ`` less its
+    first (rows past a sample's end are NaN)."""
+    gam = np.asarray(ds.gamma.sel(phi=label, N=n).values)[finished(ds, label, n)]
+    return np.nanmax(gam, axis=1) - gam[:, 0] if gam.size else np.empty(0)
 
 
 def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:
