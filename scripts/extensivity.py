@@ -28,7 +28,11 @@ energy the packings gave up, ``−ΔE`` from the first minimum to the last, and 
 counted avalanches (no floor). What the avalanches release is the work plus what the packings
 give up, less the elastic steps' small jumps and the uncounted plastic steps (the *rest*; the
 balance is exact by the definition of ``energy_jump``, so the rest is the check that nothing
-large is left out).
+large is left out). At fixed pressure the energy given up is split: its volume part
+``p (V_0 − V_last)`` (``V = v/φ`` from the trace's φ) and the mean change of φ over the
+window. For every pair of runs in a group, the differences of these per particle and unit
+strain (larger N − smaller) with bootstrap 95 % intervals: where a difference of the release
+between sizes comes from.
 
 Where a group has three or more sizes: the least-squares slope of each quantity's logarithm
 against ``ln N`` with its bootstrap interval, and the slopes between the first two and the last
@@ -51,6 +55,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import math
 from pathlib import Path
 from typing import NamedTuple
@@ -65,8 +70,8 @@ QUANTITIES = ("rate", "mean size", "release")
 
 class Run(NamedTuple):
     """One run directory's finished samples at its ``N``: the counted sizes of each sample, the
-    strain each sheared, the work and given-up energy of :func:`sample_energies`, and the
-    number of AQS steps of all samples."""
+    strain each sheared, the work, given-up energy, its volume part and the change of φ of
+    :func:`sample_energies`, and the number of AQS steps of all samples."""
 
     name: str
     n: int
@@ -74,33 +79,72 @@ class Run(NamedTuple):
     strains: np.ndarray
     work: np.ndarray
     given_up: np.ndarray
+    volume_given_up: np.ndarray
+    dphi: np.ndarray
     steps: int
 
 
-def sample_energies(ds, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(work, given_up)`` per finished sample at ``("jamming", n)``: ``Σ_n (γ_n − γ_{n−1})
-    Σ_{n−1}`` and ``E_0 − E_last`` (``E`` the trace's ``energy`` column)."""
+def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
+    """``(work, given_up, volume_given_up, dphi)`` per finished sample at ``("jamming", n)``:
+    ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}``, ``E_0 − E_last`` (``E`` the trace's ``energy`` column, the
+    enthalpy ``H = U + pV`` at fixed pressure), its volume part ``p (V_0 − V_last)`` and
+    ``φ_last − φ_0``. The volume of step ``n`` is ``V_n = v / φ_n``, ``v = L^d φ`` the particles'
+    volume from the sample's box side and packing fraction; at constant volume the volume part
+    and the change of φ are 0."""
     done = finished(ds, "jamming", n)
-    gam = np.asarray(ds.gamma.sel(phi="jamming", N=n).values)[done]
-    sig = np.asarray(ds.shear_stress.sel(phi="jamming", N=n).values)[done]
-    ene = np.asarray(ds.energy.sel(phi="jamming", N=n).values)[done]
+    sel = {"phi": "jamming", "N": n}
+    gam = np.asarray(ds.gamma.sel(**sel).values)[done]
+    sig = np.asarray(ds.shear_stress.sel(**sel).values)[done]
+    ene = np.asarray(ds.energy.sel(**sel).values)[done]
     work = np.nansum(np.diff(gam, axis=1) * sig[:, :-1], axis=1)
-    last = np.array([row[np.isfinite(row)][-1] for row in ene])
-    return work, ene[:, 0] - last
+    last = [np.flatnonzero(np.isfinite(row))[-1] for row in ene]
+    given_up = ene[:, 0] - ene[np.arange(len(last)), last]
+    study = json.loads(ds.attrs.get("study", "{}"))
+    pressure = study.get("pressure")
+    if pressure is None or "phi_step" not in ds:
+        zero = np.zeros(given_up.size)
+        return work, given_up, zero, zero
+    phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
+    particles = (np.asarray(ds.box_length.sel(**sel).values)[done] ** int(study.get("dim", 3))
+                 * np.asarray(ds.phi_actual.sel(**sel).values)[done])
+    phi_last = phi[np.arange(len(last)), last]
+    volume = float(pressure) * particles * (1.0 / phi[:, 0] - 1.0 / phi_last)
+    return work, given_up, volume, phi_last - phi[:, 0]
 
 
-def balance(work: np.ndarray, given_up: np.ndarray, released: np.ndarray, exposure: np.ndarray,
-            boot: int, rng) -> tuple[np.ndarray, np.ndarray]:
-    """``(values, standard errors)`` of ``[work, given up, released, rest]`` per unit of
-    ``Σ exposure`` (``N γ`` per sample), the rest being ``work + given up − released``; errors
-    from ``boot`` resamplings of whole samples."""
+def balance(work: np.ndarray, given_up: np.ndarray, volume: np.ndarray, released: np.ndarray,
+            exposure: np.ndarray, boot: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """``(values, standard errors)`` of ``[work, given up, of which volume, released, rest]``
+    per unit of ``Σ exposure`` (``N γ`` per sample), the rest being ``work + given up −
+    released``; errors from ``boot`` resamplings of whole samples."""
     def one(k):
-        w, g, r = work[k].sum(), given_up[k].sum(), released[k].sum()
-        return np.array([w, g, r, w + g - r]) / exposure[k].sum()
+        w, g, v, r = work[k].sum(), given_up[k].sum(), volume[k].sum(), released[k].sum()
+        return np.array([w, g, v, r, w + g - r]) / exposure[k].sum()
 
     m = work.size
     draws = np.array([one(rng.integers(0, m, m)) for _ in range(boot)])
     return one(np.arange(m)), np.std(draws, axis=0, ddof=1)
+
+
+def balance_difference(first: tuple, second: tuple, boot: int, rng) -> tuple[np.ndarray, ...]:
+    """``second`` − ``first`` (each ``(work, given_up, volume, released, dphi, exposure)`` per
+    sample) of ``[work, given up, of which volume, released]`` per unit of exposure and of the
+    mean change of φ: ``(values, lo, hi)``, the bootstrap 95 % interval from resampling each
+    run on its own."""
+    def one(x, k):
+        w, g, v, r, dphi, e = (y[k] for y in x)
+        return np.array([w.sum(), g.sum(), v.sum(), r.sum()]) / e.sum(), dphi.mean()
+
+    def both(k1, k2):
+        a, da = one(first, k1)
+        b, db = one(second, k2)
+        return np.append(b - a, db - da)
+
+    m1, m2 = first[0].size, second[0].size
+    draws = np.array([both(rng.integers(0, m1, m1), rng.integers(0, m2, m2))
+                      for _ in range(boot)])
+    lo, hi = np.percentile(draws, [2.5, 97.5], axis=0)
+    return both(np.arange(m1), np.arange(m2)), lo, hi
 
 
 def per_sample_sums(per_sample, floor: float) -> tuple[np.ndarray, np.ndarray]:
@@ -313,13 +357,29 @@ def main() -> None:
                  f"{every.max():.3g} |" if every.size else "— | — | — |"))
     print("\n## Energy balance (ε per particle per unit strain; all counted avalanches)\n")
     print("| run | N (samples) | work of the shear | given up by the packings (−ΔE) "
-          "| released by the avalanches | rest |")
-    print("|---|---|---|---|---|---|")
+          "| of which volume p(V₀ − V) | released by the avalanches | rest | Δφ over the "
+          "window |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in data:
-        val, err = balance(r.work, r.given_up, every_sum[r.name][1], r.n * r.strains, a.boot,
-                           rng)
+        val, err = balance(r.work, r.given_up, r.volume_given_up, every_sum[r.name][1],
+                           r.n * r.strains, a.boot, rng)
+        dphi_err = np.std(r.dphi, ddof=1) / math.sqrt(r.dphi.size) if r.dphi.size > 1 else 0.0
         print(f"| {Path(r.name).name} | {r.n} ({r.strains.size}) | "
-              + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True)) + " |")
+              + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True))
+              + f" | {r.dphi.mean():+.2e} ± {dphi_err:.1e} |")
+    print("\n## Where the release differs between sizes (larger N − smaller, ε per particle per "
+          "unit strain; bootstrap 95 %)\n")
+    print("| group | pair | work | given up | of which volume | released | Δφ |")
+    print("|---|---|---|---|---|---|---|")
+    for r1, r2 in itertools.combinations(data, 2):
+        if label_of[r1.name] != label_of[r2.name]:
+            continue
+        val, lo, hi = balance_difference(
+            *((r.work, r.given_up, r.volume_given_up, every_sum[r.name][1], r.dphi,
+               r.n * r.strains) for r in (r1, r2)), a.boot, rng)
+        print(f"| {label_of[r1.name]} | {r2.n} − {r1.n} | "
+              + " | ".join(f"{v:+.3g} ({x:+.2g}, {y:+.2g})"
+                           for v, x, y in zip(val, lo, hi, strict=True)) + " |")
     for floor in a.above:
         sets = {}
         for r in data:
