@@ -25,3 +25,14 @@ def load_by_path(path: Path, key: str) -> ModuleType:
 def script_module(name: str) -> ModuleType:
     """``scripts/<name>.py`` as a module."""
     return load_by_path(SCRIPTS / f"{name}.py", f"jamlab_scripts_{name}")
+
+
+def exit_code(module: ModuleType, argv: list[str], monkeypatch) -> int | str | None:
+    """The code ``module.main()`` exits with when run as ``<script> *argv`` (the test fails if
+    it returns instead of exiting)."""
+    import pytest
+
+    monkeypatch.setattr(sys, "argv", [f"{module.__name__}.py", *argv])
+    with pytest.raises(SystemExit) as e:
+        module.main()
+    return e.value.code

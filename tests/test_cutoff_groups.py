@@ -4,11 +4,9 @@ on a small fixed-pressure run, and the refusals."""
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 from jamlab.analysis import fit_cutoff_power_law, sample_cutoff_power_law
 
@@ -94,10 +92,7 @@ def test_run_groups_reads_the_counted_avalanches(cg, small_pressure_run):
     ["a", "--n", "250", "--x-min", "1e-9", "--skip", "-1"],
 ])
 def test_bad_arguments_exit_2(cg, monkeypatch, argv):
-    monkeypatch.setattr(sys, "argv", ["cutoff_groups.py", *argv])
-    with pytest.raises(SystemExit) as e:
-        cg.main()
-    assert e.value.code == 2
+    assert exit_code(cg, argv, monkeypatch) == 2
 
 
 def test_best_shape_of_one_group_is_the_library_profile(cg):

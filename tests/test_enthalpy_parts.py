@@ -5,11 +5,8 @@ a constant-volume run."""
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
-import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 from jamlab.runs import Execution, RunDir, Study, open_run, prepared_packing, run_study
 from jamlab.spheres.pressure_shear import shear_at_pressure
@@ -37,8 +34,5 @@ def test_constant_volume_run_is_refused(tmp_path, monkeypatch, capsys):
     ep = script_module("enthalpy_parts")
     study = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=3e-3, seed=4)
     run_study(study, tmp_path / "v", Execution(workers=0))
-    monkeypatch.setattr(sys, "argv", ["enthalpy_parts.py", "--runs", str(tmp_path / "v"),
-                                      "--run-n", "16"])
-    with pytest.raises(SystemExit) as e:
-        ep.main()
-    assert e.value.code == 2 and "not a fixed-pressure run" in capsys.readouterr().err
+    assert exit_code(ep, ["--runs", str(tmp_path / "v"), "--run-n", "16"], monkeypatch) == 2
+    assert "not a fixed-pressure run" in capsys.readouterr().err

@@ -10,7 +10,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -204,15 +204,10 @@ def test_main_prints_the_tables_and_the_figure(ex, small_pressure_run, tmp_path,
     ["a", "b", "--n", "16", "--above", "1e-9", "--labels", "x"],
 ])
 def test_bad_arguments_exit_2(ex, monkeypatch, argv):
-    monkeypatch.setattr(sys, "argv", ["extensivity.py", *argv])
-    with pytest.raises(SystemExit) as e:
-        ex.main()
-    assert e.value.code == 2
+    assert exit_code(ex, argv, monkeypatch) == 2
 
 
 def test_a_size_the_run_lacks_exits_2(ex, small_pressure_run, monkeypatch, capsys):
-    monkeypatch.setattr(sys, "argv", ["extensivity.py", str(small_pressure_run), "--n", "999",
-                                      "--above", "1e-9"])
-    with pytest.raises(SystemExit) as e:
-        ex.main()
-    assert e.value.code == 2 and "no φ label jamming at N = 999" in capsys.readouterr().err
+    argv = [str(small_pressure_run), "--n", "999", "--above", "1e-9"]
+    assert exit_code(ex, argv, monkeypatch) == 2
+    assert "no φ label jamming at N = 999" in capsys.readouterr().err

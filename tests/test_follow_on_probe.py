@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -186,13 +186,9 @@ def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
 
 
 def test_pairs_and_where_are_refused_together(fop, tmp_path, monkeypatch):
-    import sys
 
     sample = pair_sample(tmp_path)
-    monkeypatch.setattr(sys, "argv", ["follow_on_probe.py", str(sample), "--where", "--pairs"])
-    with pytest.raises(SystemExit) as e:
-        fop.main()
-    assert e.value.code == 2
+    assert exit_code(fop, [str(sample), "--where", "--pairs"], monkeypatch) == 2
 
 
 def test_a_sample_from_another_machine_is_named_when_the_replay_differs(fop, tmp_path):

@@ -9,7 +9,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -68,11 +68,8 @@ def test_wilcoxon_p():
 @pytest.mark.parametrize("which", ["c", "missing"])
 def test_refuses_runs_that_differ_in_more_than_the_step(two_runs, monkeypatch, which):
     pr = script_module("paired_rates")
-    monkeypatch.setattr(sys, "argv", ["paired_rates.py", str(two_runs / "a"),
-                                      str(two_runs / which), "--n", "16"])
-    with pytest.raises(SystemExit) as e:
-        pr.main()
-    assert e.value.code == 2
+    argv = [str(two_runs / "a"), str(two_runs / which), "--n", "16"]
+    assert exit_code(pr, argv, monkeypatch) == 2
 
 
 def test_prints_a_row_per_floor(two_runs, monkeypatch, capsys):

@@ -8,7 +8,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
-from tests.script_helpers import script_module
+from tests.script_helpers import exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -69,10 +69,7 @@ def test_uniform_chi2():
 ])
 def test_bad_arguments_exit_2(monkeypatch, argv):
     sw = script_module("strain_window")
-    monkeypatch.setattr(sys, "argv", ["strain_window.py", *argv])
-    with pytest.raises(SystemExit) as e:
-        sw.main()
-    assert e.value.code == 2
+    assert exit_code(sw, argv, monkeypatch) == 2
 
 
 def test_part_sizes_and_fits(small_run):
@@ -127,10 +124,7 @@ def test_fit_table_printed(small_run, monkeypatch, capsys):
 @pytest.mark.parametrize("argv", [["a", "--fit-at", "0"], ["a", "--fit-parts", "0"]])
 def test_bad_fit_arguments_exit_2(monkeypatch, argv):
     sw = script_module("strain_window")
-    monkeypatch.setattr(sys, "argv", ["strain_window.py", *argv])
-    with pytest.raises(SystemExit) as e:
-        sw.main()
-    assert e.value.code == 2
+    assert exit_code(sw, argv, monkeypatch) == 2
 
 
 def test_part_differences():
