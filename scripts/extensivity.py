@@ -29,10 +29,11 @@ counted avalanches (no floor). What the avalanches release is the work plus what
 give up, less the elastic steps' small jumps and the uncounted plastic steps (the *rest*; the
 balance is exact by the definition of ``energy_jump``, so the rest is the check that nothing
 large is left out). At fixed pressure the energy given up is split: its volume part
-``p (V_0 − V_last)`` (``V = v/φ`` from the trace's φ) and the mean change of φ over the
-window. For every pair of runs in a group, the differences of these per particle and unit
-strain (larger N − smaller) with bootstrap 95 % intervals: where a difference of the release
-between sizes comes from.
+``p (V_0 − V_last)`` (``V = v/φ`` from the trace's φ), the volume the counted avalanches give
+up, ``Σ p (V_{n−1} − V_n)`` over their steps (the other steps store the rest of the work as
+dilatancy), and the mean change of φ over the window. For every pair of runs in a group, the
+differences of these per particle and unit strain (larger N − smaller) with bootstrap 95 %
+intervals: where a difference of the release between sizes comes from.
 
 Where a group has three or more sizes: the least-squares slope of each quantity's logarithm
 against ``ln N`` with its bootstrap interval, and the slopes between the first two and the last
@@ -62,7 +63,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set, finished, sample_strains
+from jamlab.reproduce.ensembles import avalanche_set, counted_steps, finished, sample_strains
 from jamlab.runs import open_run
 
 QUANTITIES = ("rate", "mean size", "release")
@@ -70,8 +71,9 @@ QUANTITIES = ("rate", "mean size", "release")
 
 class Run(NamedTuple):
     """One run directory's finished samples at its ``N``: the counted sizes of each sample, the
-    strain each sheared, the work, given-up energy, its volume part and the change of φ of
-    :func:`sample_energies`, and the number of AQS steps of all samples."""
+    strain each sheared, the work, given-up energy, its volume part, the volume part of the
+    avalanches and the change of φ of :func:`sample_energies`, and the number of AQS steps of
+    all samples."""
 
     name: str
     n: int
@@ -80,16 +82,19 @@ class Run(NamedTuple):
     work: np.ndarray
     given_up: np.ndarray
     volume_given_up: np.ndarray
+    avalanche_volume: np.ndarray
     dphi: np.ndarray
     steps: int
 
 
 def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
-    """``(work, given_up, volume_given_up, dphi)`` per finished sample at ``("jamming", n)``:
-    ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}``, ``E_0 − E_last`` (``E`` the trace's ``energy`` column, the
-    enthalpy ``H = U + pV`` at fixed pressure), its volume part ``p (V_0 − V_last)`` and
+    """``(work, given_up, volume_given_up, avalanche_volume, dphi)`` per finished sample at
+    ``("jamming", n)``: ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}``, ``E_0 − E_last`` (``E`` the trace's
+    ``energy`` column, the enthalpy ``H = U + pV`` at fixed pressure), its volume part
+    ``p (V_0 − V_last)``, the part of that given up at the counted avalanches
+    (:func:`jamlab.reproduce.ensembles.counted_steps`), ``Σ p (V_{n−1} − V_n)`` over them, and
     ``φ_last − φ_0``. The volume of step ``n`` is ``V_n = v / φ_n``, ``v = L^d φ`` the particles'
-    volume from the sample's box side and packing fraction; at constant volume the volume part
+    volume from the sample's box side and packing fraction; at constant volume the volume parts
     and the change of φ are 0."""
     done = finished(ds, "jamming", n)
     sel = {"phi": "jamming", "N": n}
@@ -103,23 +108,28 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     pressure = study.get("pressure")
     if pressure is None or "phi_step" not in ds:
         zero = np.zeros(given_up.size)
-        return work, given_up, zero, zero
+        return work, given_up, zero, zero, zero
     phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
     particles = (np.asarray(ds.box_length.sel(**sel).values)[done] ** int(study.get("dim", 3))
                  * np.asarray(ds.phi_actual.sel(**sel).values)[done])
     phi_last = phi[np.arange(len(last)), last]
     volume = float(pressure) * particles * (1.0 / phi[:, 0] - 1.0 / phi_last)
-    return work, given_up, volume, phi_last - phi[:, 0]
+    lost = float(pressure) * particles[:, None] * np.diff(1.0 / phi, axis=1)  # p (V_n − V_{n−1})
+    counted = counted_steps(ds, "jamming", n)[1]
+    avalanche_volume = -np.where(counted, lost, 0.0).sum(axis=1)
+    return work, given_up, volume, avalanche_volume, phi_last - phi[:, 0]
 
 
-def balance(work: np.ndarray, given_up: np.ndarray, volume: np.ndarray, released: np.ndarray,
-            exposure: np.ndarray, boot: int, rng) -> tuple[np.ndarray, np.ndarray]:
-    """``(values, standard errors)`` of ``[work, given up, of which volume, released, rest]``
-    per unit of ``Σ exposure`` (``N γ`` per sample), the rest being ``work + given up −
-    released``; errors from ``boot`` resamplings of whole samples."""
+def balance(work: np.ndarray, given_up: np.ndarray, volume: np.ndarray, avalanche: np.ndarray,
+            released: np.ndarray, exposure: np.ndarray, boot: int,
+            rng) -> tuple[np.ndarray, np.ndarray]:
+    """``(values, standard errors)`` of ``[work, given up, of which volume, volume given up by
+    the avalanches, released, rest]`` per unit of ``Σ exposure`` (``N γ`` per sample), the rest
+    being ``work + given up − released``; errors from ``boot`` resamplings of whole samples."""
     def one(k):
-        w, g, v, r = work[k].sum(), given_up[k].sum(), volume[k].sum(), released[k].sum()
-        return np.array([w, g, v, r, w + g - r]) / exposure[k].sum()
+        w, g, r = work[k].sum(), given_up[k].sum(), released[k].sum()
+        return np.array([w, g, volume[k].sum(), avalanche[k].sum(), r, w + g - r]) / (
+            exposure[k].sum())
 
     m = work.size
     draws = np.array([one(rng.integers(0, m, m)) for _ in range(boot)])
@@ -127,13 +137,13 @@ def balance(work: np.ndarray, given_up: np.ndarray, volume: np.ndarray, released
 
 
 def balance_difference(first: tuple, second: tuple, boot: int, rng) -> tuple[np.ndarray, ...]:
-    """``second`` − ``first`` (each ``(work, given_up, volume, released, dphi, exposure)`` per
-    sample) of ``[work, given up, of which volume, released]`` per unit of exposure and of the
-    mean change of φ: ``(values, lo, hi)``, the bootstrap 95 % interval from resampling each
-    run on its own."""
+    """``second`` − ``first`` (each ``(work, given_up, volume, avalanche volume, released,
+    dphi, exposure)`` per sample) of ``[work, given up, of which volume, volume given up by the
+    avalanches, released]`` per unit of exposure and of the mean change of φ: ``(values, lo,
+    hi)``, the bootstrap 95 % interval from resampling each run on its own."""
     def one(x, k):
-        w, g, v, r, dphi, e = (y[k] for y in x)
-        return np.array([w.sum(), g.sum(), v.sum(), r.sum()]) / e.sum(), dphi.mean()
+        w, g, v, a, r, dphi, e = (y[k] for y in x)
+        return np.array([w.sum(), g.sum(), v.sum(), a.sum(), r.sum()]) / e.sum(), dphi.mean()
 
     def both(k1, k2):
         a, da = one(first, k1)
@@ -357,26 +367,27 @@ def main() -> None:
                  f"{every.max():.3g} |" if every.size else "— | — | — |"))
     print("\n## Energy balance (ε per particle per unit strain; all counted avalanches)\n")
     print("| run | N (samples) | work of the shear | given up by the packings (−ΔE) "
-          "| of which volume p(V₀ − V) | released by the avalanches | rest | Δφ over the "
-          "window |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| of which volume p(V₀ − V) | volume given up by the avalanches | released by the "
+          "avalanches | rest | Δφ over the window |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in data:
-        val, err = balance(r.work, r.given_up, r.volume_given_up, every_sum[r.name][1],
-                           r.n * r.strains, a.boot, rng)
+        val, err = balance(r.work, r.given_up, r.volume_given_up, r.avalanche_volume,
+                           every_sum[r.name][1], r.n * r.strains, a.boot, rng)
         dphi_err = np.std(r.dphi, ddof=1) / math.sqrt(r.dphi.size) if r.dphi.size > 1 else 0.0
         print(f"| {Path(r.name).name} | {r.n} ({r.strains.size}) | "
               + " | ".join(f"{v:.3g} ± {e:.2g}" for v, e in zip(val, err, strict=True))
               + f" | {r.dphi.mean():+.2e} ± {dphi_err:.1e} |")
     print("\n## Where the release differs between sizes (larger N − smaller, ε per particle per "
           "unit strain; bootstrap 95 %)\n")
-    print("| group | pair | work | given up | of which volume | released | Δφ |")
-    print("|---|---|---|---|---|---|---|")
+    print("| group | pair | work | given up | of which volume | volume given up by the "
+          "avalanches | released | Δφ |")
+    print("|---|---|---|---|---|---|---|---|")
     for r1, r2 in itertools.combinations(data, 2):
         if label_of[r1.name] != label_of[r2.name]:
             continue
         val, lo, hi = balance_difference(
-            *((r.work, r.given_up, r.volume_given_up, every_sum[r.name][1], r.dphi,
-               r.n * r.strains) for r in (r1, r2)), a.boot, rng)
+            *((r.work, r.given_up, r.volume_given_up, r.avalanche_volume, every_sum[r.name][1],
+               r.dphi, r.n * r.strains) for r in (r1, r2)), a.boot, rng)
         print(f"| {label_of[r1.name]} | {r2.n} − {r1.n} | "
               + " | ".join(f"{v:+.3g} ({x:+.2g}, {y:+.2g})"
                            for v, x, y in zip(val, lo, hi, strict=True)) + " |")

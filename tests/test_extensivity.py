@@ -71,9 +71,10 @@ def test_energy_balance_closes_on_the_sample_files(ex, small_pressure_run):
     from jamlab.runs import open_run
 
     ds = open_run(small_pressure_run)
-    work, given_up, volume, dphi = ex.sample_energies(ds, 16)
+    work, given_up, volume, avalanche_volume, dphi = ex.sample_energies(ds, 16)
     released = np.array([x.sum() for x in avalanche_set(ds, "jamming", 16).per_sample])
     want_work, want_given, want_volume, want_dphi, uncounted = [], [], [], [], []
+    want_avalanche = []
     for f in sorted(small_pressure_run.glob("samples/*/*/sample-*.h5")):
         with h5py.File(f) as h:
             assert "packing/diameters" not in h  # monodisperse, diameter 1 (SPEC.md §5)
@@ -82,6 +83,10 @@ def test_energy_balance_closes_on_the_sample_files(ex, small_pressure_run):
         # the volume from the particles' own volume, 16 π/6, and the trace's φ
         want_volume.append(1e-3 * 16 * math.pi / 6 * (1 / t["phi"][0] - 1 / t["phi"][-1]))
         want_dphi.append(t["phi"][-1] - t["phi"][0])
+        counted = (t["plastic"][1:] & t["jammed"][:-1] & t["jammed"][1:]
+                   & (t["energy_jump"][1:] < 0))
+        vol = 16 * math.pi / 6 / t["phi"]
+        want_avalanche.append(1e-3 * (vol[:-1] - vol[1:])[counted].sum())
         want_work.append(sum((t["gamma"][k] - t["gamma"][k - 1]) * t["shear_stress"][k - 1]
                              for k in range(1, t["gamma"].size)))
         want_given.append(t["energy"][0] - t["energy"][-1])
@@ -93,27 +98,30 @@ def test_energy_balance_closes_on_the_sample_files(ex, small_pressure_run):
     np.testing.assert_allclose(volume, want_volume, rtol=1e-9)
     np.testing.assert_allclose(dphi, want_dphi, rtol=0, atol=1e-15)
     assert np.any(dphi != 0)  # the box did change: the volume part is not trivially 0
+    np.testing.assert_allclose(avalanche_volume, want_avalanche, rtol=1e-9, atol=1e-15)
+    assert np.any(avalanche_volume != 0)
     scale = np.abs(work).max()
     np.testing.assert_allclose(work + given_up - released, -np.array(uncounted), rtol=0,
                                atol=1e-9 * scale)
     exposure = np.full(work.size, 16.0) * 0.03
-    val, err = ex.balance(work, given_up, volume, released, exposure, 50,
+    val, err = ex.balance(work, given_up, volume, avalanche_volume, released, exposure, 50,
                           np.random.default_rng(1))
     np.testing.assert_allclose(val, np.array([work.sum(), given_up.sum(), volume.sum(),
-                                              released.sum(),
+                                              avalanche_volume.sum(), released.sum(),
                                               (work + given_up - released).sum()])
                                / exposure.sum(), rtol=1e-12)
-    assert err.shape == (5,) and np.all(err >= 0)
+    assert err.shape == (6,) and np.all(err >= 0)
 
 
 def test_balance_difference_of_constant_samples_is_exact(ex):
     """Every sample of a run the same: the differences are exact and so are their intervals."""
     ones = np.ones(4)
-    first = (1.0 * ones, 2.0 * ones, 1.5 * ones, 3.0 * ones, -1e-4 * ones, 10.0 * ones)
-    second = (1.0 * ones[:3], 5.0 * ones[:3], 4.0 * ones[:3], 6.0 * ones[:3], 2e-4 * ones[:3],
-              20.0 * ones[:3])
+    first = (1.0 * ones, 2.0 * ones, 1.5 * ones, 1.0 * ones, 3.0 * ones, -1e-4 * ones,
+             10.0 * ones)
+    second = (1.0 * ones[:3], 5.0 * ones[:3], 4.0 * ones[:3], 4.0 * ones[:3], 6.0 * ones[:3],
+              2e-4 * ones[:3], 20.0 * ones[:3])
     val, lo, hi = ex.balance_difference(first, second, 30, np.random.default_rng(0))
-    want = [0.05 - 0.1, 0.25 - 0.2, 0.2 - 0.15, 0.3 - 0.3, 3e-4]
+    want = [0.05 - 0.1, 0.25 - 0.2, 0.2 - 0.15, 0.2 - 0.1, 0.3 - 0.3, 3e-4]
     for x in (val, lo, hi):
         np.testing.assert_allclose(x, want, rtol=0, atol=1e-15)
 
@@ -192,7 +200,7 @@ def test_main_prints_the_tables_and_the_figure(ex, small_pressure_run, tmp_path,
     assert out.count("| 1.000 (") == 3 and out.count("| 1 |") == 3
     # and its balance against itself: every difference 0
     assert "| 16 − 16 | +0 (" in out
-    assert out.split("| 16 − 16 |")[1].split("\n")[0].count("+0 (") == 5
+    assert out.split("| 16 − 16 |")[1].split("\n")[0].count("+0 (") == 6
     assert fig.stat().st_size > 0
 
 
