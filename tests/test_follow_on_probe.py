@@ -186,7 +186,6 @@ def test_where_mode_measures_the_pair(fop, tmp_path, monkeypatch, capsys):
 
 
 def test_pairs_and_where_are_refused_together(fop, tmp_path, monkeypatch):
-
     sample = pair_sample(tmp_path)
     assert exit_code(fop, [str(sample), "--where", "--pairs"], monkeypatch) == 2
 
