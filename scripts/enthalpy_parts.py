@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis.avalanches import classify_steps
-from jamlab.reproduce.ensembles import finished, jammed_flags
+from jamlab.reproduce.ensembles import finished, jammed_flags, row_volumes
 from jamlab.runs import open_run
 from jamlab.spheres.packing import jam
 from jamlab.spheres.pressure_shear import shear_at_pressure
@@ -77,19 +77,6 @@ def main() -> None:
               f"(10–90 %: {q[0]:.2f} – {q[2]:.2f})")
 
 
-def row_volumes(ds, n: int) -> np.ndarray:
-    """``V`` of every row of the finished samples at ``(jamming, N)``, ``(samples, rows)``: the
-    particles' volume (the prepared packing's ``L^d φ``; a sample file keeps the start of its
-    shear) over each row's φ."""
-    sel = {"phi": "jamming", "N": n}
-    done = finished(ds, "jamming", n)
-    dim = int(json.loads(ds.attrs["study"])["dim"])
-    length = np.asarray(ds.box_length.sel(**sel).values)[done]
-    phi_prep = np.asarray(ds.phi_actual.sel(**sel).values)[done]
-    phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
-    return (length**dim * phi_prep)[:, None] / phi
-
-
 def run_parts(run: Path, n: int, floor: float) -> None:
     """The ``--runs`` report of one run directory (module docstring)."""
     ds = open_run(run)
@@ -104,7 +91,7 @@ def run_parts(run: Path, n: int, floor: float) -> None:
     pl = np.asarray(ds.plastic.sel(**sel).values)[done] > 0.5
     jammed = jammed_flags(ds, "jamming", n)
     counted = classify_steps(ej[:, 1:], pl[:, 1:], jammed=jammed)
-    v = row_volumes(ds, n)
+    v = row_volumes(ds, "jamming", n)
     size = -ej[:, 1:]
     share = -p * np.diff(v, axis=1) / size
     sample, step = np.nonzero(counted & (size >= floor))

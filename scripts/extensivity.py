@@ -63,7 +63,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set, counted_steps, finished, sample_strains
+from jamlab.reproduce.ensembles import (
+    avalanche_set,
+    counted_steps,
+    finished,
+    row_volumes,
+    sample_strains,
+)
 from jamlab.runs import open_run
 
 QUANTITIES = ("rate", "mean size", "release")
@@ -94,7 +100,7 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     ``p (V_0 − V_last)``, the part of that given up at the counted avalanches
     (:func:`jamlab.reproduce.ensembles.counted_steps`), ``Σ p (V_{n−1} − V_n)`` over them, and
     ``φ_last − φ_0``. The volume of step ``n`` is ``V_n = v / φ_n``, ``v = L^d φ`` the particles'
-    volume from the sample's box side and packing fraction; at constant volume the volume parts
+    volume (:func:`jamlab.reproduce.ensembles.row_volumes`); at constant volume the volume parts
     and the change of φ are 0."""
     done = finished(ds, "jamming", n)
     sel = {"phi": "jamming", "N": n}
@@ -110,11 +116,11 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
         zero = np.zeros(given_up.size)
         return work, given_up, zero, zero, zero
     phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
-    particles = (np.asarray(ds.box_length.sel(**sel).values)[done] ** int(study.get("dim", 3))
-                 * np.asarray(ds.phi_actual.sel(**sel).values)[done])
-    phi_last = phi[np.arange(len(last)), last]
-    volume = float(pressure) * particles * (1.0 / phi[:, 0] - 1.0 / phi_last)
-    lost = float(pressure) * particles[:, None] * np.diff(1.0 / phi, axis=1)  # p (V_n − V_{n−1})
+    vol = row_volumes(ds, "jamming", n)
+    rows = np.arange(len(last))
+    volume = float(pressure) * (vol[:, 0] - vol[rows, last])
+    lost = float(pressure) * np.diff(vol, axis=1)  # p (V_n − V_{n−1})
+    phi_last = phi[rows, last]
     counted = counted_steps(ds, "jamming", n)[1]
     avalanche_volume = -np.where(counted, lost, 0.0).sum(axis=1)
     return work, given_up, volume, avalanche_volume, phi_last - phi[:, 0]

@@ -1,33 +1,11 @@
-"""``scripts/enthalpy_parts.py --runs``: the volume of every row of a fixed-pressure run, read
-back from the stored φ and the prepared packing, against the box side of the same shear replayed
-from that packing (``shear_at_pressure``, whose columns carry ``box_length``); and its refusal of
-a constant-volume run."""
+"""``scripts/enthalpy_parts.py --runs``: its refusal of a constant-volume run (the volumes it
+reads are ``jamlab.reproduce.ensembles.row_volumes``, tested in ``tests/test_row_volumes.py``)."""
 
 from __future__ import annotations
 
-import numpy as np
 from tests.script_helpers import exit_code, script_module
 
-from jamlab.runs import Execution, RunDir, Study, open_run, prepared_packing, run_study
-from jamlab.spheres.pressure_shear import shear_at_pressure
-
-
-def test_row_volumes_are_the_replayed_boxes(tmp_path):
-    ep = script_module("enthalpy_parts")
-    study = Study(phi=["jamming"], n=[16], samples=2, dgamma=1e-3, gamma_max=1e-2, seed=4,
-                  pressure=1e-3)
-    run_study(study, tmp_path / "p", Execution(workers=0))
-    volumes = ep.row_volumes(open_run(tmp_path / "p"), 16)
-    rd = RunDir(tmp_path / "p")
-    assert volumes.shape == (2, 11)
-    for row, key in zip(volumes, study.keys(), strict=True):
-        c = shear_at_pressure(prepared_packing(rd.sample_path(key)), 1e-3, pressure=1e-3,
-                              n_steps=10).columns
-        stored = open_run(tmp_path / "p").energy.sel(phi="jamming", N=16,
-                                                     sample=key.index).values
-        # the same trajectory (the enthalpy of every row), so the same boxes
-        np.testing.assert_allclose(c["enthalpy"], stored, rtol=1e-9)
-        np.testing.assert_allclose(row, c["box_length"] ** 3, rtol=1e-12)
+from jamlab.runs import Execution, Study, run_study
 
 
 def test_constant_volume_run_is_refused(tmp_path, monkeypatch, capsys):

@@ -182,6 +182,23 @@ def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:
     return stress / (length[:, None] ** dim)
 
 
+def row_volumes(ds: Any, label: str, n: int) -> np.ndarray | None:
+    """The box volume ``V`` of every row of the finished samples at ``(φ label, N)``,
+    ``(samples, steps+1)``: the particles' volume ``v = L^d φ`` (the box side and packing
+    fraction a sample file keeps, those of the start of its shear) over each row's φ
+    (``phi_step``; at constant volume that is ``L^d`` at every row). ``None`` for a run made
+    before trace format 2 (no ``phi_step``)."""
+    if "phi_step" not in ds:
+        return None
+    done = finished(ds, label, n)
+    sel = {"phi": label, "N": n}
+    dim = int(json.loads(ds.attrs["study"])["dim"])
+    length = np.asarray(ds.box_length.sel(**sel).values)[done]
+    phi_start = np.asarray(ds.phi_actual.sel(**sel).values)[done]
+    phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
+    return (length**dim * phi_start)[:, None] / phi
+
+
 class RunSet:
     """The run directories under ``runs``, each opened (once, on first use) by name."""
 
