@@ -48,8 +48,9 @@ from jamlab.analysis import (
     cutoff_power_law_log_norm,
     cutoff_shape_profile,
     sample_cutoff_power_law,
+    shape_free_interval,
 )
-from jamlab.analysis.cutoff_powerlaw import CHI2_1_95, DEFAULT_STRETCHES
+from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import counted_steps, finished
 from jamlab.runs import open_run
 
@@ -143,22 +144,18 @@ def best_shape(groups: list[np.ndarray], x_min: float,
     """:func:`fit_groups` on each ``a`` of the grid: the ``a`` of the largest ``ℓ`` and that fit
     (``a``, ``fit``; every fit by ``a`` in ``fits``), ``lr_exponential = 2 (ℓ_best − ℓ(a = 1))``
     and the 95 % profile-likelihood
-    interval of ``τ`` with the shape free (``tau_low``, ``tau_high``: the union over the grid of
-    ``τ_a ± σ_a √(3.84 − 2 (ℓ_best − ℓ(a)))``, the rule of
+    interval of ``τ`` with the shape free (``tau_low``, ``tau_high``:
+    :func:`jamlab.analysis.shape_free_interval`, the rule of
     :func:`jamlab.analysis.cutoff_shape_profile`)."""
     fits = {a: fit_groups(groups, x_min, a) for a in stretches}
     a = max(fits, key=lambda s: fits[s]["loglik"])
     best = fits[a]["loglik"]
     lr = 2.0 * (best - fits[1.0]["loglik"]) if 1.0 in fits else math.nan
-    lows, highs = [], []
-    for f in fits.values():
-        room = CHI2_1_95 - 2.0 * (best - f["loglik"])
-        if room >= 0:
-            reach = f["tau_stderr"] * math.sqrt(room) if math.isfinite(f["tau_stderr"]) else 0.0
-            lows.append(f["tau"] - reach)
-            highs.append(f["tau"] + reach)
-    return {"a": a, "fit": fits[a], "fits": fits, "lr_exponential": lr, "tau_low": min(lows),
-            "tau_high": max(highs)}
+    low, high = shape_free_interval([f["tau"] for f in fits.values()],
+                                    [f["tau_stderr"] for f in fits.values()],
+                                    [f["loglik"] for f in fits.values()])
+    return {"a": a, "fit": fits[a], "fits": fits, "lr_exponential": lr, "tau_low": low,
+            "tau_high": high}
 
 
 def compare(groups_by_model: dict[str, list[np.ndarray]], x_min: float) -> list[dict]:

@@ -20,6 +20,7 @@ from jamlab.analysis.cutoff_powerlaw import (
     fit_cutoff_power_law,
     log_upper_gamma,
     sample_cutoff_power_law,
+    shape_free_interval,
 )
 from jamlab.analysis.powerlaw import fit_power_law
 
@@ -243,6 +244,31 @@ def test_shape_profile_tells_a_stretched_cutoff_from_an_exponential_one():
     assert sum(p.tau_low <= tau <= p.tau_high for p in plain) >= 7
     for p in stretched + plain:
         assert p.tau_low <= p.tau_best <= p.tau_high and p.a_low <= p.best <= p.a_high
+
+
+def test_shape_free_interval_is_the_brute_force_profile():
+    # ℓ quadratic in τ at each a: ℓ(τ, a) = ℓ_a − (τ − τ_a)²/(2σ_a²); the interval is the set of
+    # τ whose profile max_a ℓ(τ, a) lies within 3.84/2 of the overall maximum, found here by
+    # scanning τ on a fine grid. The third shape is outside the set (2Δℓ = 5 > 3.84): it must not
+    # widen the interval, although its τ lies far out.
+    taus = np.array([1.40, 1.50, 1.10, 1.55])
+    errs = np.array([0.03, 0.02, 0.01, 0.05])
+    lls = np.array([-100.4, -100.0, -102.5, -101.2])
+    grid = np.linspace(1.0, 1.8, 800_001)
+    prof = np.max(lls[:, None] - (grid[None, :] - taus[:, None]) ** 2 / (2 * errs[:, None] ** 2),
+                  axis=0)
+    inside = grid[2.0 * (lls.max() - prof) <= CHI2_1_95]
+    low, high = shape_free_interval(taus, errs, lls)
+    assert low == pytest.approx(inside.min(), abs=2e-6)
+    assert high == pytest.approx(inside.max(), abs=2e-6)
+    assert low > 1.2  # the excluded shape's τ = 1.10 is not reached
+    # a non-finite error adds the point τ_a itself; bad input is refused
+    assert shape_free_interval([1.3, 2.0], [0.01, math.nan], [-1.0, -1.5]) == pytest.approx(
+        (1.3 - 0.01 * math.sqrt(CHI2_1_95), 2.0))
+    with pytest.raises(ValueError, match="equal"):
+        shape_free_interval([1.0], [0.1, 0.1], [0.0])
+    with pytest.raises(ValueError, match="finite"):
+        shape_free_interval([1.0], [0.1], [math.nan])
 
 
 @pytest.mark.parametrize("x,x_min,grid,match", [

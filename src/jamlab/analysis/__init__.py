@@ -31,6 +31,7 @@ from jamlab.analysis.cutoff_powerlaw import (
     log_upper_gamma,
     log_upper_gamma_array,
     sample_cutoff_power_law,
+    shape_free_interval,
 )
 from jamlab.analysis.finite_size import (
     Collapse,
@@ -75,6 +76,7 @@ __all__ = [
     "log_upper_gamma",
     "log_upper_gamma_array",
     "sample_cutoff_power_law",
+    "shape_free_interval",
     "Collapse",
     "CutoffScaling",
     "collapse",

@@ -41,6 +41,7 @@ __all__ = [
     "log_upper_gamma",
     "log_upper_gamma_array",
     "sample_cutoff_power_law",
+    "shape_free_interval",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -409,6 +410,33 @@ DEFAULT_STRETCHES = (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.6, 0.7, 0.85, 1.0, 
 CHI2_1_95 = 3.841458820694124
 
 
+def shape_free_interval(taus: ArrayLike, tau_stderrs: ArrayLike, logliks: ArrayLike
+                        ) -> tuple[float, float]:
+    """The 95 % profile-likelihood interval of ``τ`` with the cut-off's shape free, from fits at
+    fixed shapes ``a`` (one entry per ``a``: the MLE ``τ_a``, its standard error ``σ_a`` and the
+    maximised log-likelihood ``ℓ(a)``): with ``ℓ`` quadratic in ``τ`` at each ``a``, the union
+    over the ``a`` with ``2 (ℓ_max − ℓ(a)) ≤ 3.84`` of ``τ_a ± σ_a √(3.84 − 2 (ℓ_max − ℓ(a)))``
+    (a non-finite ``σ_a`` reaches no further than ``τ_a``) — the statistical error and the
+    spread the shape leaves open, together. ``ValueError`` for arrays of unequal or zero length
+    or a non-finite ``ℓ``."""
+    t = np.asarray(taus, dtype=np.float64).ravel()
+    se = np.asarray(tau_stderrs, dtype=np.float64).ravel()
+    ll = np.asarray(logliks, dtype=np.float64).ravel()
+    if not (t.size == se.size == ll.size and t.size > 0):
+        raise ValueError(f"need equal non-empty arrays, got sizes {t.size}, {se.size}, {ll.size}")
+    if not np.all(np.isfinite(ll)):
+        raise ValueError("the log-likelihoods must be finite")
+    best = float(ll.max())
+    lows, highs = [], []
+    for tau, err, v in zip(t.tolist(), se.tolist(), ll.tolist(), strict=True):
+        room = CHI2_1_95 - 2.0 * (best - v)
+        if room >= 0:
+            reach = err * math.sqrt(room) if math.isfinite(err) else 0.0
+            lows.append(tau - reach)
+            highs.append(tau + reach)
+    return min(lows), max(highs)
+
+
 @dataclass(frozen=True)
 class CutoffShapeProfile:
     """Result of :func:`cutoff_shape_profile` at the fixed ``x_min`` (``n_tail`` data at or
@@ -480,12 +508,10 @@ def cutoff_shape_profile(x: ArrayLike, x_min: float,
     k = int(np.argmax(ll))
     inside = [i for i in range(len(grid)) if 2.0 * (ll[k] - ll[i]) <= CHI2_1_95]
     lr = 2.0 * (ll[k] - ll[grid.index(1.0)]) if 1.0 in grid else math.nan
-    reach = [ses[i] * math.sqrt(CHI2_1_95 - 2.0 * (ll[k] - ll[i])) if math.isfinite(ses[i])
-             else 0.0 for i in inside]
+    tau_low, tau_high = shape_free_interval(taus, ses, ll)
     return CutoffShapeProfile(
         x_min=float(x_min), n_tail=int(tail.size), stretches=grid, taus=taus, x_cs=x_cs,
         logliks=ll, tau_stderrs=ses, at_bound=tuple(f[3] for f in fits), best=grid[k],
         at_edge=k in (0, len(grid) - 1), tau_best=taus[k], tau_best_stderr=ses[k],
         lr_exponential=lr, a_low=grid[min(inside)], a_high=grid[max(inside)],
-        tau_low=min(taus[i] - r for i, r in zip(inside, reach, strict=True)),
-        tau_high=max(taus[i] + r for i, r in zip(inside, reach, strict=True)))
+        tau_low=tau_low, tau_high=tau_high)
