@@ -112,11 +112,11 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     given_up = ene[:, 0] - ene[np.arange(len(last)), last]
     study = json.loads(ds.attrs.get("study", "{}"))
     pressure = study.get("pressure")
-    if pressure is None or "phi_step" not in ds:
+    vol = row_volumes(ds, "jamming", n)
+    if pressure is None or vol is None:
         zero = np.zeros(given_up.size)
         return work, given_up, zero, zero, zero
     phi = np.asarray(ds.phi_step.sel(**sel).values)[done]
-    vol = row_volumes(ds, "jamming", n)
     rows = np.arange(len(last))
     volume = float(pressure) * (vol[:, 0] - vol[rows, last])
     lost = float(pressure) * np.diff(vol, axis=1)  # p (V_n − V_{n−1})

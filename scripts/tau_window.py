@@ -74,14 +74,13 @@ import numpy as np
 from scipy import stats
 
 from jamlab.analysis import (
-    CHI2_1_95,
     fit_cutoff_power_law,
     fit_cutoff_scaling,
     fit_joint_scaling,
     fit_power_law,
     shape_free_interval,
 )
-from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
+from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf, shape_set
 from jamlab.reproduce.ensembles import finished, jammed_flags, sample_strains
 from jamlab.reproduce.measurements import (
     avalanche_set,
@@ -505,7 +504,8 @@ def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: in
     best, low, high = joint_shape_free(fits)
     edge = (" (an end of the grid: the maximum may lie beyond)"
             if best in (min(fits), max(fits)) else "")
-    inside = [x for x in fits if 2.0 * (fits[best].loglik - fits[x].loglik) <= CHI2_1_95]
+    grid = sorted(fits)
+    inside = [grid[i] for i in shape_set([fits[x].loglik for x in grid])]
     print(f"\nShape free (profile over a, bootstrap σ of each): τ in [{low:.3f}, {high:.3f}] "
           f"(95 %), half-width / 1.96 = {(high - low) / 3.92:.3f}; best a = {best:g}{edge}, "
           f"2Δlog L against a = 1: {2.0 * (fits[best].loglik - fits[1.0].loglik):.2f}; "

@@ -16,14 +16,14 @@ def test_row_volumes_are_the_replayed_boxes(tmp_path):
     study = Study(phi=["jamming"], n=[16], samples=2, dgamma=1e-3, gamma_max=1e-2, seed=4,
                   pressure=1e-3)
     run_study(study, tmp_path / "p", Execution(workers=0))
-    volumes = row_volumes(open_run(tmp_path / "p"), "jamming", 16)
+    ds = open_run(tmp_path / "p")
+    volumes = row_volumes(ds, "jamming", 16)
     rd = RunDir(tmp_path / "p")
     assert volumes.shape == (2, 11)
     for row, key in zip(volumes, study.keys(), strict=True):
         c = shear_at_pressure(prepared_packing(rd.sample_path(key)), 1e-3, pressure=1e-3,
                               n_steps=10).columns
-        stored = open_run(tmp_path / "p").energy.sel(phi="jamming", N=16,
-                                                     sample=key.index).values
+        stored = ds.energy.sel(phi="jamming", N=16, sample=key.index).values
         # the same trajectory (the enthalpy of every row), so the same boxes
         np.testing.assert_allclose(c["enthalpy"], stored, rtol=1e-9)
         np.testing.assert_allclose(row, c["box_length"] ** 3, rtol=1e-12)

@@ -42,6 +42,7 @@ __all__ = [
     "log_upper_gamma_array",
     "sample_cutoff_power_law",
     "shape_free_interval",
+    "shape_set",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -428,13 +429,19 @@ def shape_free_interval(taus: ArrayLike, tau_stderrs: ArrayLike, logliks: ArrayL
         raise ValueError("the log-likelihoods must be finite")
     best = float(ll.max())
     lows, highs = [], []
-    for tau, err, v in zip(t.tolist(), se.tolist(), ll.tolist(), strict=True):
-        room = CHI2_1_95 - 2.0 * (best - v)
-        if room >= 0:
-            reach = err * math.sqrt(room) if math.isfinite(err) else 0.0
-            lows.append(tau - reach)
-            highs.append(tau + reach)
+    for i in shape_set(ll):
+        reach = se[i] * math.sqrt(CHI2_1_95 - 2.0 * (best - ll[i])) if math.isfinite(se[i]) else 0.0
+        lows.append(float(t[i] - reach))
+        highs.append(float(t[i] + reach))
     return min(lows), max(highs)
+
+
+def shape_set(logliks: ArrayLike) -> list[int]:
+    """The indices of the shapes in the 95 % profile set, ``2 (ℓ_max − ℓ(a)) ≤ 3.84``, of fits
+    at fixed shapes ``a`` with maximised log-likelihoods ``logliks``."""
+    ll = np.asarray(logliks, dtype=np.float64).ravel()
+    best = float(ll.max())
+    return [i for i, v in enumerate(ll.tolist()) if 2.0 * (best - v) <= CHI2_1_95]
 
 
 @dataclass(frozen=True)
@@ -506,7 +513,7 @@ def cutoff_shape_profile(x: ArrayLike, x_min: float,
     ll = tuple(-f[2] - tail.size * log_x_min for f in fits)
     ses = tuple(_stderr(f[0], f[1], y, a)[0] for f, a in zip(fits, grid, strict=True))
     k = int(np.argmax(ll))
-    inside = [i for i in range(len(grid)) if 2.0 * (ll[k] - ll[i]) <= CHI2_1_95]
+    inside = shape_set(ll)
     lr = 2.0 * (ll[k] - ll[grid.index(1.0)]) if 1.0 in grid else math.nan
     tau_low, tau_high = shape_free_interval(taus, ses, ll)
     return CutoffShapeProfile(
