@@ -48,6 +48,26 @@ def test_density_integrates_to_one(tau, x_c):
     assert cutoff_power_law_logpdf(0.5 * x_min, tau, x_c, x_min) == -np.inf
 
 
+@pytest.mark.parametrize("tau,x_c,a", [(1.41269, 1e-5, 0.35), (0.8, 1e-6, 2.0)])
+def test_stretched_density_integrates_to_one(tau, x_c, a):
+    x_min = 1e-8
+
+    def f(t):
+        x = x_min * math.exp(t)
+        return math.exp(float(cutoff_power_law_logpdf(x, tau, x_c, x_min, stretch=a))) * x
+
+    total, err = integrate.quad(f, 0.0, math.log(x_c / x_min) + 60.0 / a, limit=800)
+    assert total == pytest.approx(1.0, rel=1e-8)
+    # the cut-off term is (x/x_c)^a: the log-density differs from a = 1's by exactly that
+    x = np.array([2e-8, 3e-6, 4e-5])
+    diff = (cutoff_power_law_logpdf(x, tau, x_c, x_min, stretch=a)
+            - cutoff_power_law_logpdf(x, tau, x_c, x_min))
+    jump = x / x_c - (x / x_c) ** a
+    assert np.allclose(diff - diff[0], jump - jump[0], rtol=1e-12, atol=1e-9)
+    with pytest.raises(ValueError, match="stretch"):
+        cutoff_power_law_logpdf(x, tau, x_c, x_min, stretch=0.0)
+
+
 @pytest.mark.parametrize("tau,x_c,a", [(1.41269, 1e-5, 0.3), (1.1, 1e-7, 0.5), (0.7, 1e-6, 2.0),
                                        (1.5, 3e-6, 1.0)])
 def test_stretched_normaliser_against_quadrature(tau, x_c, a):

@@ -149,13 +149,18 @@ def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float, stretch: flo
             + log_upper_gamma((1.0 - tau) / stretch, (x_min / x_c) ** stretch))
 
 
-def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float) -> FloatArray:
-    """``log p(x)`` of the model (``−inf`` below ``x_min``)."""
+def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float,
+                            stretch: float = 1.0) -> FloatArray:
+    """``log p(x)`` of the model (``−inf`` below ``x_min``); ``stretch = a``: the cut-off
+    ``e^(−(x/x_c)^a)``, ``log p = −τ log x − (x/x_c)^a − log Z``."""
     _check_model(tau, x_c, x_min)
+    if not (math.isfinite(stretch) and stretch > 0):
+        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
     x = np.asarray(x, dtype=np.float64)
-    log_z = cutoff_power_law_log_norm(tau, x_c, x_min)
+    log_z = cutoff_power_law_log_norm(tau, x_c, x_min, stretch)
     with np.errstate(divide="ignore", invalid="ignore"):
-        out = -tau * np.log(x) - x / x_c - log_z
+        cut = x / x_c if stretch == 1.0 else (x / x_c) ** stretch
+        out = -tau * np.log(x) - cut - log_z
     return np.where(x >= x_min, out, -np.inf)
 
 
