@@ -62,8 +62,11 @@ from jamlab.analysis.powerlaw import (
     power_law_pdf,
     sample_power_law,
 )
+from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
 
 __all__ = [
+    "ClusteredShapeTest",
+    "clustered_shape_test",
     "CHI2_1_95",
     "CutoffPowerLawFit",
     "CutoffShapeProfile",
