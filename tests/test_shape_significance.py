@@ -1,0 +1,72 @@
+"""``scripts/shape_significance.py``: its rows are the library's test, the run directories are read
+as the report counts avalanches, too few avalanches give a row that says so, and bad arguments
+exit with code 2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tests.script_helpers import exit_code, script_module
+
+from jamlab.analysis import clustered_shape_test, sample_cutoff_power_law
+
+
+@pytest.fixture(scope="module")
+def ss():
+    return script_module("shape_significance")
+
+
+def test_row_is_the_library_test(ss):
+    rng = np.random.default_rng(0)
+    samples = [sample_cutoff_power_law(40, 1.4, 300.0, 1.0, rng) for _ in range(10)]
+    want = clustered_shape_test(samples, 2.0)
+    cells = [c.strip() for c in ss.row("x", samples, 2.0).strip("|").split("|")]
+    assert len(cells) == 11 and cells[0] == "x"
+    assert int(cells[1]) == want.samples and int(cells[2]) == want.n_tail
+    assert float(cells[6]) == pytest.approx(want.lr, abs=0.006)
+    assert float(cells[7]) == pytest.approx(want.scale, abs=0.006)
+
+
+def test_too_few_avalanches_say_so(ss):
+    assert "need >= 3 samples" in ss.row("x", [np.full(30, 2.0)], 1.0)
+
+
+def test_reads_the_counted_avalanches(ss, small_pressure_run, monkeypatch, capsys):
+    from jamlab.reproduce.ensembles import counted_steps
+    from jamlab.runs import open_run
+
+    ej, counted = counted_steps(open_run(small_pressure_run), "jamming", 16)
+    monkeypatch.setattr("sys.argv", ["shape_significance.py", str(small_pressure_run),
+                                     str(small_pressure_run), "--n", "16",
+                                     "--floor", "1e-300"])
+    ss.main()
+    out = capsys.readouterr().out
+    rows = [r for r in out.splitlines() if r.startswith("| p (N = 16)") or "pooled" in r]
+    assert len(rows) == 3  # each run, then the two pooled
+    # 5 counted avalanches in 3 packings: too few for the test, and the refusal counts them
+    sizes = int(counted.sum())
+    assert sizes < 20
+    assert f"got 3 and {sizes}" in rows[0] and f"got 3 and {sizes}" in rows[1]
+    assert f"got 6 and {2 * sizes}" in rows[2]
+
+
+@pytest.mark.parametrize("argv", [
+    ["a", "b", "--n", "250", "500", "1000", "--floor", "1e-9"],
+    ["a", "--n", "250", "--floor", "0"],
+    ["no-such-run", "--n", "250", "--floor", "1e-9"],
+    ["a", "b", "--n", "250", "--floor", "1e-9", "--profile", "0.5"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--profile", "0"],
+])
+def test_bad_arguments_exit_2(ss, monkeypatch, argv):
+    assert exit_code(ss, argv, monkeypatch) == 2
+
+
+def test_widening_the_set_of_shapes_only_widens_the_interval(ss, capsys):
+    rng = np.random.default_rng(3)
+    by_n = {n: [sample_cutoff_power_law(30, 1.4, 30.0 * n / 250, 1.0, rng, stretch=0.6)
+                for _ in range(8)] for n in (250, 500)}
+    same = ss.widened(by_n, 1.0, [0.5, 2.0], 4, 0.7)  # λ̂ < 1 is not let to narrow it
+    assert same[0] == same[1]
+    (lo, hi), (wlo, whi) = ss.widened(by_n, 1.0, [0.3, 0.5, 0.7, 2.0], 4, 3.0)
+    assert wlo <= lo < hi <= whi
+    assert "2Δlog L / 3.00 ≤ 3.84" in capsys.readouterr().out
