@@ -115,10 +115,9 @@ class _Model:
         self.log_rel = np.log(ns / math.exp(float(np.mean(np.log(ns))))) if self.joint \
             else np.zeros(1)
         self.x = [np.concatenate(g[1]) for g in groups]
-        self.labels = np.concatenate([np.repeat(np.arange(len(g[1])) + off, [a.size for a in g[1]])
-                                      for g, off in zip(groups, np.cumsum(
-                                          [0] + [len(g[1]) for g in groups])[:-1], strict=True)])
-        self.k = int(sum(len(g[1]) for g in groups))
+        counts = [a.size for g in groups for a in g[1]]  # the samples of all groups, in order
+        self.k = len(counts)
+        self.labels = np.repeat(np.arange(self.k), counts)
         top = max(float(x.max()) for x in self.x)
         rows = [(-1.0, 5.0), (math.log(floor) - 40.0, math.log(top) + 12.0)]
         if self.joint:
@@ -159,16 +158,29 @@ class _Model:
                     best = r
         return np.asarray(best.x, dtype=np.float64)
 
-    def information(self, theta: FloatArray
+    def information(self, theta: FloatArray, hessian: bool = True
                     ) -> tuple[FloatArray | None, FloatArray, FloatArray]:
         """``(H⁻¹, J over samples, J over avalanches)`` at ``θ``, the score sums centred on
-        their mean; ``H⁻¹`` is None when ``H`` is not positive definite."""
+        their mean; ``H⁻¹`` is None when ``H`` is not positive definite or not asked for
+        (``hessian=False``: the scores alone)."""
         p = theta.size
         scores = np.empty((self.labels.size, p))
         for j in range(p):
             e = np.zeros(p)
             e[j] = _H_SCORE
             scores[:, j] = (self.terms(theta + e) - self.terms(theta - e)) / (2 * _H_SCORE)
+        inv = self._inverse_hessian(theta) if hessian else None
+        sums = np.zeros((self.k, p))
+        np.add.at(sums, self.labels, scores)
+        sums -= sums.mean(axis=0)
+        scores = scores - scores.mean(axis=0)
+        n = scores.shape[0]
+        return (inv, self.k / (self.k - 1) * sums.T @ sums, n / (n - 1) * scores.T @ scores)
+
+    def _inverse_hessian(self, theta: FloatArray) -> FloatArray | None:
+        """``H⁻¹``, ``H = −∇²ℓ`` at ``θ`` by central differences; None when ``H`` is not
+        positive definite."""
+        p = theta.size
         hess = np.empty((p, p))
         for i in range(p):
             for j in range(p):
@@ -177,13 +189,7 @@ class _Model:
                               - self.nll(theta - ei + ej) + self.nll(theta - ei - ej)) / (
                     4 * _H_HESS**2)
         hess = 0.5 * (hess + hess.T)
-        inv = np.linalg.inv(hess) if np.all(np.linalg.eigvalsh(hess) > 0) else None
-        sums = np.zeros((self.k, p))
-        np.add.at(sums, self.labels, scores)
-        sums -= sums.mean(axis=0)
-        scores = scores - scores.mean(axis=0)
-        n = scores.shape[0]
-        return (inv, self.k / (self.k - 1) * sums.T @ sums, n / (n - 1) * scores.T @ scores)
+        return np.linalg.inv(hess) if np.all(np.linalg.eigvalsh(hess) > 0) else None
 
 
 def _groups(sizes_by_group, floor: float) -> list[tuple[int, list[FloatArray]]]:
@@ -231,7 +237,7 @@ def clustered_shape_test(sizes_by_group: Mapping[int, Sequence[ArrayLike]] | Seq
         sand_f = inv_f @ j_f @ inv_f
         se = [math.sqrt(inv_f[-1, -1]), math.sqrt(sand_f[-1, -1]), math.sqrt(inv_f[0, 0]),
               math.sqrt(sand_f[0, 0])]
-    _, j_samples, j_each = m.information(null)
+    _, j_samples, j_each = m.information(null, hessian=False)
     scale = math.nan
     if np.all(np.linalg.eigvalsh(j_each) > 0):
         inv = np.linalg.inv(j_each)
