@@ -5,9 +5,8 @@ The avalanches of a run are pooled over its whole strain window (``γ`` from 0 t
 run directory (φ label ``jamming`` at ``--n``, finished samples), the window is cut into
 ``--parts`` equal parts of steps, and for each part:
 
-- the stress ratio ``μ = σ_xy/p`` (``σ_xy = Σ/L^d`` with the sample's recorded box side,
-  :func:`jamlab.reproduce.ensembles.intensive_stress` — at fixed pressure the box changes by
-  ≲ 1e-4 relative over a run, far below the errors here; ``p`` the recorded pressure of each
+- the stress ratio ``μ = σ_xy/p`` (``σ_xy = Σ/V`` with each minimum's box volume,
+  :func:`jamlab.reproduce.ensembles.intensive_stress`; ``p`` the recorded pressure of each
   minimum), averaged over the part's minima and then over the samples, ± its standard error over
   the samples;
 - the change of ``φ`` over the part, averaged over the samples (at fixed pressure the box

@@ -1,13 +1,15 @@
 """``jamlab.reproduce.ensembles.row_volumes``: the volume of every row of a fixed-pressure run,
 read back from the stored φ and the prepared packing, against the box side of the same shear
 replayed from that packing (``shear_at_pressure``, whose columns carry ``box_length``); and
-at constant volume the box itself, ``L³`` at every row."""
+at constant volume the box itself, ``L³`` at every row. ``intensive_stress`` divides by those
+volumes: against the replay's ``Σ / L_row³`` at fixed pressure, and bit for bit ``Σ / L³`` of
+the stored box at constant volume."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import row_volumes
+from jamlab.reproduce.ensembles import intensive_stress, row_volumes
 from jamlab.runs import Execution, RunDir, Study, open_run, prepared_packing, run_study
 from jamlab.spheres.pressure_shear import shear_at_pressure
 
@@ -18,9 +20,10 @@ def test_row_volumes_are_the_replayed_boxes(tmp_path):
     run_study(study, tmp_path / "p", Execution(workers=0))
     ds = open_run(tmp_path / "p")
     volumes = row_volumes(ds, "jamming", 16)
+    sigma = intensive_stress(ds, "jamming", 16)
     rd = RunDir(tmp_path / "p")
     assert volumes.shape == (2, 11)
-    for row, key in zip(volumes, study.keys(), strict=True):
+    for row, sig, key in zip(volumes, sigma, study.keys(), strict=True):
         c = shear_at_pressure(prepared_packing(rd.sample_path(key)), 1e-3, pressure=1e-3,
                               n_steps=10).columns
         stored = ds.energy.sel(phi="jamming", N=16, sample=key.index).values
@@ -28,6 +31,7 @@ def test_row_volumes_are_the_replayed_boxes(tmp_path):
         np.testing.assert_allclose(c["enthalpy"], stored, rtol=1e-9)
         np.testing.assert_allclose(row, c["box_length"] ** 3, rtol=1e-12)
         assert np.ptp(row) > 0  # the box did change along the shear
+        np.testing.assert_allclose(sig, c["shear_stress"] / c["box_length"] ** 3, rtol=1e-9)
 
 
 def test_a_constant_volume_run_keeps_its_box(tmp_path):
@@ -38,3 +42,5 @@ def test_a_constant_volume_run_keeps_its_box(tmp_path):
     length = float(ds.box_length.sel(phi="jamming", N=16).values[0])
     assert volumes.shape == (1, 4)
     np.testing.assert_allclose(volumes, length**3, rtol=1e-12)
+    stress = ds.shear_stress.sel(phi="jamming", N=16).values[0]
+    np.testing.assert_array_equal(intensive_stress(ds, "jamming", 16)[0], stress / length**3)

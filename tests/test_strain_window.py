@@ -17,17 +17,18 @@ def small_run(small_pressure_run):
 
 
 def direct(run, parts, floor):
-    """μ, Δφ and the counts per part from the sample files: σ_xy = Σ/L³ (L the sample's recorded
-    box side), S = −ΔE of plastic steps with ΔE < 0 between two jammed minima."""
+    """μ, Δφ and the counts per part from the sample files: σ_xy = Σ/V with each row's volume
+    V = N (π/6)/φ (monodisperse spheres of unit diameter), S = −ΔE of plastic steps with ΔE < 0
+    between two jammed minima."""
     mus, dphis, counts = [], [], np.zeros(parts, dtype=int)
     for f in sorted(run.glob("samples/*/*/sample-*.h5")):
         with h5py.File(f) as h:
             t = {k: h[f"trace/{k}"][:] for k in ("shear_stress", "pressure", "phi",
                                                   "energy_jump", "plastic", "jammed")}
-            length = float(h.attrs["box_length"])
+            n = int(h.attrs["n"])
         steps = t["energy_jump"].size - 1
         edges = np.linspace(0, steps, parts + 1).round().astype(int)
-        mu = t["shear_stress"] / length ** 3 / t["pressure"]
+        mu = t["shear_stress"] * t["phi"] / (n * np.pi / 6) / t["pressure"]
         mus.append([mu[a:b + 1].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
         dphis.append([t["phi"][b] - t["phi"][a] for a, b in zip(edges[:-1], edges[1:],
                                                                  strict=True)])

@@ -116,17 +116,18 @@ def test_follow_on_by_hand(te):
 
 def direct(run, floor):
     """Per-sample counts and the events ≥ floor from the sample files: S = −ΔE of plastic steps
-    with ΔE < 0 between two jammed minima; μ = σ_xy/p with σ_xy = Σ/L³ at the step's start."""
+    with ΔE < 0 between two jammed minima; μ = σ_xy/p at the step's start, σ_xy = Σ/V with the
+    row's volume V = N (π/6)/φ (monodisperse spheres of unit diameter)."""
     counts, events = [], []
     for f in sorted(run.glob("samples/*/*/sample-*.h5")):
         with h5py.File(f) as h:
-            t = {k: h[f"trace/{k}"][:] for k in ("shear_stress", "pressure", "gamma",
+            t = {k: h[f"trace/{k}"][:] for k in ("shear_stress", "pressure", "gamma", "phi",
                                                   "energy_jump", "plastic", "jammed")}
-            length, index = float(h.attrs["box_length"]), int(h.attrs["index"])
+            n, index = int(h.attrs["n"]), int(h.attrs["index"])
         s = -t["energy_jump"][1:]
         hit = t["plastic"][1:] & t["jammed"][:-1] & t["jammed"][1:] & (s > 0) & (s >= floor)
         counts.append(int(hit.sum()))
-        mu = t["shear_stress"] / length**3 / t["pressure"]
+        mu = t["shear_stress"] * t["phi"] / (n * np.pi / 6) / t["pressure"]
         events += [(index, k + 1, t["gamma"][k + 1], s[k], mu[k], t["pressure"][k])
                    for k in np.flatnonzero(hit)]
     return counts, sorted(events, key=lambda e: -e[3])
