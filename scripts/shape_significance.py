@@ -18,6 +18,12 @@ of whole packings each, seed 0), and τ's shape-free 95 % interval
 shapes ``2Δlog L ≤ 3.84`` as in ``tau_window.py --joint-stretch``, and widened for the
 correlation within packings, ``2Δlog L / max(λ̂, 1) ≤ 3.84`` with the joint row's ``λ̂``.
 
+``--replicate N=K …`` (with two ``N`` or more): one more joint row, with every packing of size
+``N`` counted ``K`` times: a projection of what ``K`` times the packings at that size would give
+if the new packings were like the measured ones (the sandwich σ then falls as ``1/√K`` when every
+size is replicated alike; replicating one size also re-weights the sizes, so ``â`` and τ move,
+which shows how much each size pulls the joint fit). A planning aid, not a measurement.
+
     PYTHONPATH=src python scripts/shape_significance.py data/runs/n250-p1e-5-vg \\
         data/runs/n500-p1e-5-vg data/runs/n1000-p1e-5-vg --n 250 500 1000 --floor 1.05e-9 \\
         --profile 0.15 0.2 0.25 0.3 0.35 0.4 0.5 0.6 0.7 0.85 1.25 1.5 2.0
@@ -60,6 +66,26 @@ def result_row(label: str, sizes, floor: float):
             f"{r.tau_se:.3f} / {r.tau_se_robust:.3f} |"), r
 
 
+def replicated(by_n: dict, factors: dict) -> dict:
+    """``by_n`` with the packings of each size ``N`` in ``factors`` repeated ``factors[N]``
+    times (:func:`main`'s ``--replicate``)."""
+    missing = sorted(set(factors) - set(by_n))
+    if missing:
+        raise ValueError(f"--replicate names sizes without runs: {missing}")
+    return {n: list(samples) * factors.get(n, 1) for n, samples in by_n.items()}
+
+
+def parse_factors(items: list[str]) -> dict:
+    """``{N: K}`` from ``["N=K", …]``, K ≥ 1; ``ValueError`` otherwise."""
+    out = {}
+    for item in items:
+        n, sep, k = item.partition("=")
+        if not (sep and n.isdigit() and k.isdigit() and int(k) >= 1):
+            raise ValueError(f"--replicate takes N=K with integers K >= 1, got {item!r}")
+        out[int(n)] = int(k)
+    return out
+
+
 def widened(by_n: dict, floor: float, stretches: list, boot: int, scale: float) -> list:
     """Print τ's shape-free interval of the joint fits at ``stretches`` (and 1), with the set of
     shapes as is and widened by the design effect ``scale`` (module docstring); returns the
@@ -89,7 +115,17 @@ def main() -> None:
     ap.add_argument("--profile", type=float, nargs="+", default=[],
                     help="cut-off shapes a of the joint profile (two N or more)")
     ap.add_argument("--boot", type=int, default=200, help="bootstrap resamples per shape")
+    ap.add_argument("--replicate", nargs="+", default=[], metavar="N=K",
+                    help="a projected joint row with each packing of size N counted K times")
     a = ap.parse_args()
+    try:
+        factors = parse_factors(a.replicate)
+    except ValueError as err:
+        ap.error(str(err))
+    if factors and not set(factors) <= set(a.n):
+        ap.error(f"--replicate names sizes not in --n: {sorted(set(factors) - set(a.n))}")
+    if factors and len(set(a.n)) < 2:
+        ap.error("--replicate needs runs of two N or more")
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
     if not (math.isfinite(a.floor) and a.floor > 0):
@@ -117,6 +153,9 @@ def main() -> None:
     if len(by_n) > 1:
         text, joint = result_row(f"joint, N = {sorted(by_n)}, S* ∝ N^β", by_n, a.floor)
         print(text)
+        if factors:
+            label = ", ".join(f"N = {n} ×{k}" for n, k in sorted(factors.items()))
+            print(row(f"joint, projected: {label}", replicated(by_n, factors), a.floor))
         if a.profile and joint is not None:
             widened(by_n, a.floor, a.profile, a.boot, joint.scale)
 

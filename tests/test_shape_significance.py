@@ -56,6 +56,10 @@ def test_reads_the_counted_avalanches(ss, small_pressure_run, monkeypatch, capsy
     ["no-such-run", "--n", "250", "--floor", "1e-9"],
     ["a", "b", "--n", "250", "--floor", "1e-9", "--profile", "0.5"],
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--profile", "0"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--replicate", "1000=2"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--replicate", "500=0"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--replicate", "500"],
+    ["a", "--n", "250", "--floor", "1e-9", "--replicate", "250=2"],
 ])
 def test_bad_arguments_exit_2(ss, monkeypatch, argv):
     assert exit_code(ss, argv, monkeypatch) == 2
@@ -70,3 +74,36 @@ def test_widening_the_set_of_shapes_only_widens_the_interval(ss, capsys):
     (lo, hi), (wlo, whi) = ss.widened(by_n, 1.0, [0.3, 0.5, 0.7, 2.0], 4, 3.0)
     assert wlo <= lo < hi <= whi
     assert "2Δlog L / 3.00 ≤ 3.84" in capsys.readouterr().out
+
+
+def test_replicating_every_size_alike_scales_the_errors_by_root_k(ss):
+    """Counting every packing K times leaves the estimates and divides both standard errors by
+    √K (the information and the packings' score covariance both grow K-fold), up to the
+    small-sample factors k/(k − 1) of the covariances over the k packings and the n avalanches;
+    the design effect changes by those factors alone. Replicating one size moves the estimate
+    (the sizes are re-weighted)."""
+    rng = np.random.default_rng(5)
+    by_n = {n: [sample_cutoff_power_law(60, 1.4, 30.0 * n / 250, 1.0, rng, stretch=0.6)
+                for _ in range(8)] for n in (250, 500)}
+    one = clustered_shape_test(by_n, 1.0)
+    three = clustered_shape_test(ss.replicated(by_n, {250: 3, 500: 3}), 1.0)
+    # to the optimiser's tolerance (≈ 1e-5 relative)
+    assert three.tau == pytest.approx(one.tau, rel=1e-4)
+    assert three.stretch == pytest.approx(one.stretch, rel=1e-3)
+    k, n = one.samples, one.n_tail
+
+    def small(m):  # the factor m/(m − 1) of the covariance over m units, 3m against m
+        return (3 * m / (3 * m - 1)) / (m / (m - 1))
+
+    assert three.samples == 3 * k and three.n_tail == 3 * n
+    assert three.scale == pytest.approx(one.scale * small(k) / small(n), rel=1e-3)
+    # the errors at â rest on a numerical Hessian there: 5e-3 relative (the k-factor is 2 %)
+    assert three.tau_se_robust == pytest.approx(one.tau_se_robust * np.sqrt(small(k) / 3),
+                                                rel=5e-3)
+    assert three.tau_se == pytest.approx(one.tau_se / np.sqrt(3), rel=5e-3)
+    assert ss.replicated(by_n, {500: 1}) == by_n
+    moved = ss.replicated(by_n, {250: 4})
+    assert len(moved[250]) == 32 and len(moved[500]) == 8
+    assert ss.parse_factors(["250=4", "500=1"]) == {250: 4, 500: 1}
+    with pytest.raises(ValueError, match="without runs"):
+        ss.replicated(by_n, {1000: 2})
