@@ -22,7 +22,8 @@ correlation within packings, ``2Δlog L / max(λ̂, 1) ≤ 3.84`` with the joint
 ``N`` counted ``K`` times: a projection of what ``K`` times the packings at that size would give
 if the new packings were like the measured ones (the sandwich σ then falls as ``1/√K`` when every
 size is replicated alike; replicating one size also re-weights the sizes, so ``â`` and τ move,
-which shows how much each size pulls the joint fit). A planning aid, not a measurement.
+which shows how much each size pulls the joint fit). With ``--profile`` the shape-free intervals
+are printed for the projected set too. A planning aid, not a measurement.
 
     PYTHONPATH=src python scripts/shape_significance.py data/runs/n250-p1e-5-vg \\
         data/runs/n500-p1e-5-vg data/runs/n1000-p1e-5-vg --n 250 500 1000 --floor 1.05e-9 \\
@@ -153,11 +154,17 @@ def main() -> None:
     if len(by_n) > 1:
         text, joint = result_row(f"joint, N = {sorted(by_n)}, S* ∝ N^β", by_n, a.floor)
         print(text)
+        projected = None
         if factors:
             label = ", ".join(f"N = {n} ×{k}" for n, k in sorted(factors.items()))
-            print(row(f"joint, projected: {label}", replicated(by_n, factors), a.floor))
+            text, projected = result_row(f"joint, projected: {label}",
+                                         replicated(by_n, factors), a.floor)
+            print(text)
         if a.profile and joint is not None:
             widened(by_n, a.floor, a.profile, a.boot, joint.scale)
+            if projected is not None:
+                print(f"\nProjected ({label}; the bootstrap resamples the copies as packings):")
+                widened(replicated(by_n, factors), a.floor, a.profile, a.boot, projected.scale)
 
 
 if __name__ == "__main__":

@@ -107,3 +107,31 @@ def test_replicating_every_size_alike_scales_the_errors_by_root_k(ss):
     assert ss.parse_factors(["250=4", "500=1"]) == {250: 4, 500: 1}
     with pytest.raises(ValueError, match="without runs"):
         ss.replicated(by_n, {1000: 2})
+
+
+def test_projected_rows_follow_the_measured_ones(ss, tmp_path, monkeypatch, capsys):
+    """End to end through ``main``: ``--replicate`` adds the projected joint row (the library's
+    test on the replicated packings) and, with ``--profile``, the projected shape-free intervals
+    after the measured ones."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(9)
+    by_n = {n: [sample_cutoff_power_law(40, 1.4, 30.0 * n / 250, 1.0, rng, stretch=0.7)
+                for _ in range(6)] for n in (250, 500)}
+    runs = {}
+    for n in by_n:
+        (tmp_path / str(n)).mkdir()
+        runs[str(tmp_path / str(n))] = n
+    monkeypatch.setattr(ss, "open_run", lambda run: runs[str(run)])
+    monkeypatch.setattr(ss, "avalanche_set",
+                        lambda n, label, size: SimpleNamespace(per_sample=by_n[n]))
+    monkeypatch.setattr("sys.argv", ["shape_significance.py", *runs, "--n", "250", "500",
+                                     "--floor", "1", "--replicate", "500=3",
+                                     "--profile", "0.5", "--boot", "3"])
+    ss.main()
+    out = capsys.readouterr().out
+    projected = [r for r in out.splitlines() if r.startswith("| joint, projected: N = 500 ×3")]
+    want = clustered_shape_test({250: by_n[250], 500: by_n[500] * 3}, 1.0)
+    assert len(projected) == 1 and f"| {want.samples} | {want.n_tail} |" in projected[0]
+    assert out.count("Shape-free τ of the joint fits") == 2
+    assert out.index("Projected (N = 500 ×3") > out.index("Shape-free τ of the joint fits")
