@@ -16,6 +16,12 @@ studies must agree but for the sample count, the checkpoint interval and the pro
 
     PYTHONPATH=src python scripts/compare_runs.py RUN_A RUN_B [--s-min 1.19e-11]
         [--fit-at 1.19e-11 1.11e-10]
+
+``--independent``: two *realisations* of one study, which may differ in the master ``seed`` too
+(``jamlab run --seed``): their samples are other packings, so nothing is compared sample by
+sample; every finished sample of each run is pooled, and the KS tests get a second p-value from
+``--permutations`` exchanges of whole packings between the runs (seed 0): the avalanches of a
+packing are not independent, the packings are.
 """
 
 from __future__ import annotations
@@ -83,6 +89,48 @@ def pair_events(masks: list[np.ndarray], jumps: list[np.ndarray], paired: dict) 
     paired["b only"] += int(np.sum(mb & ~ma))
 
 
+def tally(t: dict[str, np.ndarray], acc: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Add one sample's trace ``t`` (:func:`read`) to the pooled counts ``acc``; returns its
+    avalanche steps (``classify_steps``) and its ``ΔE`` per step."""
+    jammed = t["jammed"].astype(bool)
+    # row 0 of the trace is the start: steps 1..M, minima 0..M
+    jump, plastic = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+    mask = classify_steps(jump, plastic, jammed=jammed)
+    ex = exclusions(jump, jammed, plastic)
+    acc["S"].append(-jump[mask])  # the avalanche sizes (jamlab.analysis.avalanches.avalanche_sizes)
+    acc["steps"] += ex.n_steps
+    acc["plastic"] += int(mask.sum())
+    acc["unjammed"] += int(np.sum(~jammed))
+    acc["excluded"] += ex.n_steps_excluded
+    acc["iterations"].append(t["iterations"])
+    acc["cpu"].append(t["cpu"])
+    return mask, jump
+
+
+def packing_ks(a: list[np.ndarray], b: list[np.ndarray], permutations: int,
+               s_min: float = 0.0) -> tuple[float, float, float]:
+    """``(D, p, p over packings)``: the two-sample KS statistic of the pooled sizes ``≥ s_min`` of
+    the packings ``a`` and ``b`` (lists of per-packing arrays), its p-value for independent
+    avalanches, and the fraction of ``permutations`` random exchanges of whole packings between
+    the two groups (sizes kept) with ``D`` at least as large (``(1 + hits) / (1 + P)``; NaN for
+    ``P = 0``)."""
+    cut = [x[x >= s_min] for x in list(a) + list(b)]
+    k = len(a)
+
+    def stat(order):
+        pa = np.concatenate([cut[i] for i in order[:k]])
+        pb = np.concatenate([cut[i] for i in order[k:]])
+        return ks_2samp(pa, pb).statistic if pa.size and pb.size else 0.0
+
+    obs = ks_2samp(np.concatenate(cut[:k]), np.concatenate(cut[k:]))
+    if permutations <= 0:
+        return float(obs.statistic), float(obs.pvalue), float("nan")
+    rng = np.random.default_rng(0)
+    hits = sum(stat(rng.permutation(len(cut))) >= obs.statistic - 1e-12
+               for _ in range(permutations))
+    return float(obs.statistic), float(obs.pvalue), (1 + hits) / (1 + permutations)
+
+
 def cost(values: list[float], fmt: str) -> str:
     """Mean over the samples and range, ``–`` where a sample does not record it."""
     v = np.asarray(values, dtype=float)
@@ -104,10 +152,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fit-at", type=float, nargs="+", default=[],
                     help="τ with an exponential cut-off fitted at these fixed S_min (ε) in each "
                          "run (asymptotic σ; jamlab.analysis.fit_cutoff_power_law)")
+    ap.add_argument("--independent", action="store_true",
+                    help="two realisations (the seed may differ): pooled, not sample by sample")
+    ap.add_argument("--permutations", type=int, default=1000,
+                    help="with --independent: exchanges of whole packings for the KS p-values")
     args = ap.parse_args(argv)
+    if args.permutations < 0:
+        ap.error(f"--permutations must be >= 0, got {args.permutations}")
     # the sample count and the checkpoint interval do not change a sample (a resumed sample
     # equals the uninterrupted one bit for bit)
-    _, differ = study_differences(ap, (args.a, args.b), NOT_PHYSICS + PROTOCOL)
+    may_differ = NOT_PHYSICS + PROTOCOL + (("seed",) if args.independent else ())
+    _, differ = study_differences(ap, (args.a, args.b), may_differ)
     if differ:
         ap.error(f"the two runs are of different studies ({', '.join(differ)})")
     from jamlab.runs import RunDir
@@ -118,12 +173,20 @@ def main(argv: list[str] | None = None) -> int:
         if values[0] != values[1]:
             print(f"{key}: {values[0]!r} (a), {values[1]!r} (b)")
     sa, sb = samples(args.a), samples(args.b)
-    common = sorted(set(sa) & set(sb))
-    if not common:
-        ap.error("no sample is in both runs")
     pooled = {name: {"S": [], "steps": 0, "plastic": 0, "unjammed": 0, "excluded": 0,
                      "iterations": [], "cpu": []}
               for name in ("a", "b")}
+    if args.independent:
+        if not (sa and sb):
+            ap.error("a run without a finished sample")
+        for name, found in (("a", sa), ("b", sb)):
+            for key in found:
+                tally(read(found[key]), pooled[name])
+        print(f"two realisations: {args.a}: {len(sa)} samples, {args.b}: {len(sb)}")
+        return summary(args, pooled, None)
+    common = sorted(set(sa) & set(sb))
+    if not common:
+        ap.error("no sample is in both runs")
     print(f"{len(common)} samples in both ({args.a}: {len(sa)}, {args.b}: {len(sb)})")
     print("| sample | plastic differ at | jammed differ at | energies equal (rows) | "
           "first row that differs | first unjammed row of a | unjammed a / b |")
@@ -145,29 +208,18 @@ def main(argv: list[str] | None = None) -> int:
               f"{dj.tolist()[:8]}{' …' if len(dj) > 8 else ''} | {same} of {n} | {first} | {unj} | "
               f"{int(np.sum(~ta['jammed'].astype(bool)))} / "
               f"{int(np.sum(~tb['jammed'].astype(bool)))} |")
-        masks, jumps = [], []
-        for name, t in (("a", ta), ("b", tb)):
-            jammed = t["jammed"].astype(bool)
-            # row 0 of the trace is the start: steps 1..M, minima 0..M
-            jump, plastic = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
-            mask = classify_steps(jump, plastic, jammed=jammed)
-            s = -jump[mask]  # the avalanche sizes (jamlab.analysis.avalanches.avalanche_sizes)
-            masks.append(mask)
-            jumps.append(jump)
-            ex = exclusions(jump, jammed, plastic)
-            acc = pooled[name]
-            acc["S"].append(s)
-            acc["steps"] += ex.n_steps
-            acc["plastic"] += len(s)
-            acc["unjammed"] += int(np.sum(~jammed))
-            acc["excluded"] += ex.n_steps_excluded
-            acc["iterations"].append(t["iterations"])
-            acc["cpu"].append(t["cpu"])
-        pair_events(masks, jumps, paired)
+        (ma, ja), (mb, jb) = tally(ta, pooled["a"]), tally(tb, pooled["b"])
+        pair_events([ma, mb], [ja, jb], paired)
     diverged = [f for f in firsts if f[0] is not None]
     at = sum(1 for f, u in diverged if u is not None and f == u)
     print(f"\n{len(diverged)} samples differ; in {at} the first differing row is the first "
           f"unjammed minimum of a")
+    return summary(args, pooled, paired)
+
+
+def summary(args: argparse.Namespace, pooled: dict, paired: dict | None) -> int:
+    """Print the pooled table, the shared events (``paired``; None for two realisations), the KS
+    tests and the fits; returns the exit code."""
     sizes = {k: np.concatenate(v["S"]) for k, v in pooled.items()}
     print()
     print("| run | steps | unjammed minima | excluded steps | avalanches | plastic fraction | "
@@ -179,16 +231,22 @@ def main(argv: list[str] | None = None) -> int:
               f"{acc['plastic']} | {acc['plastic'] / acc['steps']:.4f} | "
               f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} | "
               f"{cost(acc['iterations'], '.0f')} | {cost(acc['cpu'], '.1f')} |")
-    print(f"\nthe same events? avalanches at the same step of the same sample in both runs: "
-          f"{paired['both']}, of which {paired['same size']} of the same size to {SAME_SIZE:g} "
-          f"relative; in a only: {paired['a only']}, in b only: {paired['b only']}")
-    ks = ks_2samp(sizes["a"], sizes["b"])
-    print(f"\ntwo-sample KS on all sizes: D = {ks.statistic:.4f}, p = {ks.pvalue:.3f}")
+    if paired is not None:
+        print(f"\nthe same events? avalanches at the same step of the same sample in both runs: "
+              f"{paired['both']}, of which {paired['same size']} of the same size to "
+              f"{SAME_SIZE:g} relative; in a only: {paired['a only']}, in b only: "
+              f"{paired['b only']}")
+    perms = args.permutations if paired is None else 0
+    extra = f" ({perms} exchanges of whole packings)" if perms else ""
+
+    def ks_text(s_min):
+        d, p, pp = packing_ks(pooled["a"]["S"], pooled["b"]["S"], perms, s_min)
+        return f"D = {d:.4f}, p = {p:.3f}" + (f", over packings p = {pp:.3f}" if perms else "")
+
+    print(f"\ntwo-sample KS on all sizes{extra}: {ks_text(-np.inf)}")
     if args.s_min is not None:
         a, b = sizes["a"][sizes["a"] >= args.s_min], sizes["b"][sizes["b"] >= args.s_min]
-        ks = ks_2samp(a, b)
-        print(f"S ≥ {args.s_min:g}: {len(a)} / {len(b)} avalanches, D = {ks.statistic:.4f}, "
-              f"p = {ks.pvalue:.3f}")
+        print(f"S ≥ {args.s_min:g}: {len(a)} / {len(b)} avalanches, {ks_text(args.s_min)}")
     for x_min in args.fit_at:
         row = []
         for name in ("a", "b"):

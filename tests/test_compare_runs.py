@@ -121,3 +121,52 @@ def test_same_step_other_size_is_counted_apart(tmp_path, capsys):
     # step 1: 5e-4 relative (the same); step 2: 50 % (another minimum)
     assert ("in both runs: 2, of which 1 of the same size to 0.001 relative; in a only: 0, "
             "in b only: 0") in capsys.readouterr().out
+
+
+def test_two_realisations_are_pooled_not_paired(tmp_path, capsys):
+    """Runs of other seeds are refused as a pair and pooled with ``--independent``: the pooled
+    counts are those of the hand-counted fixture, b's three packings included, and nothing is
+    compared sample by sample."""
+    mod = script_module("compare_runs")
+    a0 = trace([-1e-9, 1e-12, -3e-9, -2e-9, 1e-12], [True, False, True, True, False],
+               [True, True, True, True, False, True])
+    a1 = trace([-5e-10, 1e-12, 1e-12, -4e-9, 1e-12], [True, False, False, True, False],
+               [True] * 6)
+    b0 = trace([-1e-9, 1e-12, -3e-9, -2e-9, -6e-9], [True, False, True, True, True], [True] * 6)
+    a = make_run(tmp_path / "a", [a0, a1])
+    b = make_run(tmp_path / "b", [b0, a1, a1], study={**STUDY, "seed": 1, "samples": 3})
+    with pytest.raises(SystemExit) as err:
+        mod.main([str(a), str(b)])
+    assert err.value.code == 2 and "different studies (seed)" in capsys.readouterr().err
+    assert mod.main([str(a), str(b), "--independent", "--permutations", "50"]) == 0
+    out = capsys.readouterr().out
+    assert "two realisations" in out and "2 samples, " in out and ": 3" in out
+    assert "| 10 | 1 | 2 | 4 | 0.4000 |" in out  # as the paired comparison counts a
+    assert "| 15 | 0 | 0 | 8 | 0.5333 |" in out  # b: 6 (as paired) + sample 1 again (2)
+    assert "the same events?" not in out and "| sample |" not in out
+    assert "over packings p = " in out and "50 exchanges of whole packings" in out
+
+
+def test_packing_permutation_ks_of_singletons_is_the_exact_ks():
+    """With one avalanche per packing, exchanging packings is exchanging avalanches: the
+    permutation p is the exact two-sample KS p (``ks_2samp(method="exact")``), to the Monte
+    Carlo error of 4,000 exchanges."""
+    mod = script_module("compare_runs")
+    rng = np.random.default_rng(2)
+    a = [np.array([x]) for x in rng.exponential(1.0, 7)]
+    b = [np.array([x]) for x in rng.exponential(2.5, 6)]
+    from scipy.stats import ks_2samp
+
+    d, p, perm = mod.packing_ks(a, b, 4000)
+    exact = ks_2samp(np.concatenate(a), np.concatenate(b), method="exact")
+    assert d == pytest.approx(exact.statistic)
+    assert 0.01 < exact.pvalue < 0.9  # a case the test can tell
+    assert perm == pytest.approx(exact.pvalue, abs=4 * np.sqrt(exact.pvalue / 4000) + 1e-3)
+    assert np.isnan(mod.packing_ks(a, b, 0)[2])
+
+
+def test_bad_permutation_count_exits_2(runs, capsys):
+    mod = script_module("compare_runs")
+    with pytest.raises(SystemExit) as err:
+        mod.main([str(runs[0]), str(runs[1]), "--independent", "--permutations", "-1"])
+    assert err.value.code == 2
