@@ -157,14 +157,14 @@ def main() -> None:
         projected = None
         if factors:
             label = ", ".join(f"N = {n} ×{k}" for n, k in sorted(factors.items()))
-            text, projected = result_row(f"joint, projected: {label}",
-                                         replicated(by_n, factors), a.floor)
+            copies = replicated(by_n, factors)
+            text, projected = result_row(f"joint, projected: {label}", copies, a.floor)
             print(text)
         if a.profile and joint is not None:
             widened(by_n, a.floor, a.profile, a.boot, joint.scale)
             if projected is not None:
                 print(f"\nProjected ({label}; the bootstrap resamples the copies as packings):")
-                widened(replicated(by_n, factors), a.floor, a.profile, a.boot, projected.scale)
+                widened(copies, a.floor, a.profile, a.boot, projected.scale)
 
 
 if __name__ == "__main__":
