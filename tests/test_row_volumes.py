@@ -3,11 +3,13 @@ read back from the stored φ and the prepared packing, against the box side of t
 replayed from that packing (``shear_at_pressure``, whose columns carry ``box_length``); and
 at constant volume the box itself, ``L³`` at every row. ``intensive_stress`` divides by those
 volumes: against the replay's ``Σ / L_row³`` at fixed pressure, and bit for bit ``Σ / L³`` of
-the stored box at constant volume."""
+the stored box at constant volume; a fixed-pressure run without row φ is refused, not divided
+by the prepared box."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from jamlab.reproduce.ensembles import intensive_stress, row_volumes
 from jamlab.runs import Execution, RunDir, Study, open_run, prepared_packing, run_study
@@ -32,6 +34,11 @@ def test_row_volumes_are_the_replayed_boxes(tmp_path):
         np.testing.assert_allclose(row, c["box_length"] ** 3, rtol=1e-12)
         assert np.ptp(row) > 0  # the box did change along the shear
         np.testing.assert_allclose(sig, c["shear_stress"] / c["box_length"] ** 3, rtol=1e-9)
+    # the same run as one made before trace format 2: no row φ, so no row volumes to divide by
+    old = ds.drop_vars("phi_step")
+    assert row_volumes(old, "jamming", 16) is None
+    with pytest.raises(ValueError, match="phi_step"):
+        intensive_stress(old, "jamming", 16)
 
 
 def test_a_constant_volume_run_keeps_its_box(tmp_path):

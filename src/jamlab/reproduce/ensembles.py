@@ -178,14 +178,18 @@ def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:
     box volume. At constant volume ``V = L^d``, the box a sample file keeps; at fixed pressure
     (a study with ``pressure`` set) the volume of each row, :func:`row_volumes`: the prepared box
     is the packing's before it is brought to the pressure, ``|V/L^d − 1|`` up to 2.0 % at
-    p = 1e-2 and 0.07–0.1 % at p = 1e-4 … 1e-6 in ``data/runs``."""
+    p = 1e-2 and 0.07–0.1 % at p = 1e-4 … 1e-6 in ``data/runs``. A fixed-pressure run made
+    before trace format 2 keeps no row volumes: ``ValueError`` rather than the prepared box."""
     done = finished(ds, label, n)
     stress = np.asarray(ds.shear_stress.sel(phi=label, N=n).values)[done]
     study = json.loads(ds.attrs["study"])
     if study.get("pressure") is not None:
         volume = row_volumes(ds, label, n)
-        if volume is not None:
-            return stress / volume
+        if volume is None:
+            raise ValueError(
+                "a fixed-pressure run without per-row φ (phi_step, trace format 2) keeps no row "
+                "volumes to divide its stress by")
+        return stress / volume
     length = np.asarray(ds.box_length.sel(phi=label, N=n).values)[done]
     return stress / (length[:, None] ** study["dim"])
 
