@@ -25,6 +25,14 @@ size is replicated alike; replicating one size also re-weights the sizes, so ``�
 which shows how much each size pulls the joint fit). With ``--profile`` the shape-free intervals
 are printed for the projected set too. A planning aid, not a measurement.
 
+``--resample N=M …`` (with two ``N`` or more): the same projection without assuming the new
+packings are copies of the measured ones. ``--draws`` times (seed ``--seed``), ``M`` packings of
+size ``N`` are drawn with replacement from the measured packings of that size and added to them,
+and the joint row is fitted again; printed are the median and the 10–90 % range over the draws
+of ``â``, ``τ(â)`` and τ's sandwich σ, and the fraction of draws with σ ≤ ``--target``. The
+spread is what the packing-to-packing variation of the measured ones allows; new packings may
+still differ from all of them.
+
     PYTHONPATH=src python scripts/shape_significance.py data/runs/n250-p1e-5-vg \\
         data/runs/n500-p1e-5-vg data/runs/n1000-p1e-5-vg --n 250 500 1000 --floor 1.05e-9 \\
         --profile 0.15 0.2 0.25 0.3 0.35 0.4 0.5 0.6 0.7 0.85 1.25 1.5 2.0
@@ -76,13 +84,56 @@ def replicated(by_n: dict, factors: dict) -> dict:
     return {n: list(samples) * factors.get(n, 1) for n, samples in by_n.items()}
 
 
-def parse_factors(items: list[str]) -> dict:
-    """``{N: K}`` from ``["N=K", …]``, K ≥ 1; ``ValueError`` otherwise."""
+def resampled(by_n: dict, adds: dict, rng: np.random.Generator) -> dict:
+    """``by_n`` with ``adds[N]`` packings of each size ``N`` in ``adds`` drawn with replacement
+    from its measured packings and appended (:func:`main`'s ``--resample``)."""
+    missing = sorted(set(adds) - set(by_n))
+    if missing:
+        raise ValueError(f"--resample names sizes without runs: {missing}")
+    out = {}
+    for n, samples in by_n.items():
+        picks = rng.integers(0, len(samples), adds.get(n, 0))
+        out[n] = list(samples) + [samples[i] for i in picks]
+    return out
+
+
+def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
+                   target: float) -> list:
+    """Print the ``--resample`` projection (module docstring); returns the results of the
+    draws whose fit succeeded."""
+    rng = np.random.default_rng(seed)
+    results = []
+    for _ in range(draws):
+        try:
+            results.append(clustered_shape_test(resampled(by_n, adds, rng), floor))
+        except ValueError:
+            pass
+    label = ", ".join(f"N = {n} +{m}" for n, m in sorted(adds.items()))
+    print(f"\nProjected by resampling packings ({label}; {draws} draws, seed {seed}; "
+          "median [10 %, 90 %]):")
+    if not results:
+        print("- no draw could be fitted")
+        return results
+
+    def spread(values, digits):
+        q = np.percentile(values, [50, 10, 90])
+        return f"{q[0]:.{digits}f} [{q[1]:.{digits}f}, {q[2]:.{digits}f}]"
+
+    sig = np.array([r.tau_se_robust for r in results])
+    print(f"- {len(results)} of {draws} draws fitted, {results[0].samples} packings each: "
+          f"â {spread([r.stretch for r in results], 2)}, "
+          f"τ(â) {spread([r.tau for r in results], 3)}, σ_τ sandwich {spread(sig, 3)}; "
+          f"σ_τ ≤ {target:g} in {np.mean(sig <= target):.0%} of them")
+    return results
+
+
+def parse_factors(items: list[str], option: str = "--replicate") -> dict:
+    """``{N: K}`` from ``["N=K", …]``, K ≥ 1; ``ValueError`` (naming ``option``) otherwise."""
     out = {}
     for item in items:
         n, sep, k = item.partition("=")
         if not (sep and n.isdigit() and k.isdigit() and int(k) >= 1):
-            raise ValueError(f"--replicate takes N=K with integers K >= 1, got {item!r}")
+            raise ValueError(f"{option} takes N=K with integers K >= 1, got {item!r}")
         out[int(n)] = int(k)
     return out
 
@@ -118,11 +169,21 @@ def main() -> None:
     ap.add_argument("--boot", type=int, default=200, help="bootstrap resamples per shape")
     ap.add_argument("--replicate", nargs="+", default=[], metavar="N=K",
                     help="a projected joint row with each packing of size N counted K times")
+    ap.add_argument("--resample", nargs="+", default=[], metavar="N=M",
+                    help="projected joint rows with M packings of size N drawn from the measured")
+    ap.add_argument("--draws", type=int, default=100, help="draws of --resample")
+    ap.add_argument("--seed", type=int, default=0, help="seed of --resample's draws")
+    ap.add_argument("--target", type=float, default=0.05, help="σ_τ counted by --resample")
     a = ap.parse_args()
     try:
         factors = parse_factors(a.replicate)
+        adds = parse_factors(a.resample, "--resample")
     except ValueError as err:
         ap.error(str(err))
+    if adds and not set(adds) <= set(a.n):
+        ap.error(f"--resample names sizes not in --n: {sorted(set(adds) - set(a.n))}")
+    if adds and (len(set(a.n)) < 2 or a.draws < 1 or not a.target > 0):
+        ap.error("--resample needs runs of two N or more, --draws >= 1 and --target > 0")
     if factors and not set(factors) <= set(a.n):
         ap.error(f"--replicate names sizes not in --n: {sorted(set(factors) - set(a.n))}")
     if factors and len(set(a.n)) < 2:
@@ -160,6 +221,8 @@ def main() -> None:
             copies = replicated(by_n, factors)
             text, projected = result_row(f"joint, projected: {label}", copies, a.floor)
             print(text)
+        if adds:
+            resampled_rows(by_n, adds, a.floor, a.draws, a.seed, a.target)
         if a.profile and joint is not None:
             widened(by_n, a.floor, a.profile, a.boot, joint.scale)
             if projected is not None:

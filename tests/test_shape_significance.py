@@ -60,6 +60,10 @@ def test_reads_the_counted_avalanches(ss, small_pressure_run, monkeypatch, capsy
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--replicate", "500=0"],
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--replicate", "500"],
     ["a", "--n", "250", "--floor", "1e-9", "--replicate", "250=2"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "500=0"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "1000=2"],
+    ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "500=2", "--draws", "0"],
+    ["a", "--n", "250", "--floor", "1e-9", "--resample", "250=2"],
 ])
 def test_bad_arguments_exit_2(ss, monkeypatch, argv):
     assert exit_code(ss, argv, monkeypatch) == 2
@@ -135,3 +139,38 @@ def test_projected_rows_follow_the_measured_ones(ss, tmp_path, monkeypatch, caps
     assert len(projected) == 1 and f"| {want.samples} | {want.n_tail} |" in projected[0]
     assert out.count("Shape-free τ of the joint fits") == 2
     assert out.index("Projected (N = 500 ×3") > out.index("Shape-free τ of the joint fits")
+
+
+def test_resampling_draws_from_the_measured_packings(ss):
+    """``--resample``: the added packings are measured ones of the same size (so when every
+    packing of that size is the same, a draw is the replication exactly), none added leaves
+    the set as is, and the draws are the seed's."""
+    rng = np.random.default_rng(2)
+    by_n = {n: [sample_cutoff_power_law(30, 1.4, 30.0 * n / 250, 1.0, rng) for _ in range(5)]
+            for n in (250, 500)}
+    out = ss.resampled(by_n, {500: 7}, np.random.default_rng(0))
+    assert out[250] == by_n[250] and len(out[500]) == 12 and out[500][:5] == by_n[500]
+    assert all(any(x is y for y in by_n[500]) for x in out[500][5:])
+    again = ss.resampled(by_n, {500: 7}, np.random.default_rng(0))
+    assert [id(x) for x in again[500]] == [id(x) for x in out[500]]
+    assert ss.resampled(by_n, {}, np.random.default_rng(0)) == by_n
+    same = {250: by_n[250], 500: [by_n[500][0]] * 5}
+    drawn = ss.resampled(same, {500: 10}, np.random.default_rng(1))
+    assert drawn == ss.replicated(same, {500: 3})
+    with pytest.raises(ValueError, match="without runs"):
+        ss.resampled(by_n, {1000: 2}, np.random.default_rng(0))
+
+
+def test_resampled_rows_summarise_the_draws(ss, capsys):
+    """The printed medians and ranges are those of the library's test on the drawn sets."""
+    rng = np.random.default_rng(4)
+    by_n = {n: [sample_cutoff_power_law(40, 1.4, 30.0 * n / 250, 1.0, rng, stretch=0.7)
+                for _ in range(6)] for n in (250, 500)}
+    results = ss.resampled_rows(by_n, {500: 4}, 1.0, 5, 3, 1e9)
+    draw = np.random.default_rng(3)
+    want = [clustered_shape_test(ss.resampled(by_n, {500: 4}, draw), 1.0) for _ in range(5)]
+    assert [r.tau for r in results] == [w.tau for w in want]
+    out = capsys.readouterr().out
+    assert "5 of 5 draws fitted, 16 packings each" in out
+    assert f"σ_τ sandwich {np.median([w.tau_se_robust for w in want]):.3f}" in out
+    assert "σ_τ ≤ 1e+09 in 100% of them" in out
