@@ -33,6 +33,11 @@ of ``â``, ``τ(â)`` and τ's sandwich σ, and the fraction of draws with σ �
 spread is what the packing-to-packing variation of the measured ones allows; new packings may
 still differ from all of them.
 
+``--subsets N=K …``: is one run's shape odd among its size's? ``--draws`` random subsets of
+``K`` packings of size ``N`` (without replacement, seed ``--seed``) are fitted alone; printed
+are the median and 10–90 % range of ``â`` and ``τ(â)`` over the subsets, and for each run of
+that size the fraction of subsets whose ``â`` is at least as far from the median as the run's.
+
     PYTHONPATH=src python scripts/shape_significance.py data/runs/n250-p1e-5-vg \\
         data/runs/n500-p1e-5-vg data/runs/n1000-p1e-5-vg --n 250 500 1000 --floor 1.05e-9 \\
         --profile 0.15 0.2 0.25 0.3 0.35 0.4 0.5 0.6 0.7 0.85 1.25 1.5 2.0
@@ -127,6 +132,36 @@ def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
     return results
 
 
+def subset_rows(samples: list, k: int, floor: float, draws: int, seed: int,
+                runs: list) -> list:
+    """Print the ``--subsets`` spread (module docstring) of ``draws`` random ``k``-packing
+    subsets of ``samples``; ``runs`` are ``(name, â)`` of the runs to place in it. Returns the
+    subsets' fitted ``â``."""
+    if not 3 <= k <= len(samples):
+        raise ValueError(f"--subsets needs 3 <= K <= {len(samples)} packings, got {k}")
+    rng = np.random.default_rng(seed)
+    fits = []
+    for _ in range(draws):
+        pick = rng.choice(len(samples), k, replace=False)
+        try:
+            fits.append(clustered_shape_test([samples[i] for i in pick], floor))
+        except ValueError:
+            pass
+    print(f"\nRandom {k}-packing subsets of the {len(samples)} (draws {draws}, seed {seed}; "
+          "median [10 %, 90 %]):")
+    if not fits:
+        print("- no subset could be fitted")
+        return []
+    a = np.array([f.stretch for f in fits])
+    qa, qt = np.percentile(a, [50, 10, 90]), np.percentile([f.tau for f in fits], [50, 10, 90])
+    print(f"- {len(fits)} of {draws} fitted: â {qa[0]:.2f} [{qa[1]:.2f}, {qa[2]:.2f}], "
+          f"τ(â) {qt[0]:.3f} [{qt[1]:.3f}, {qt[2]:.3f}]")
+    for name, value in runs:
+        far = np.mean(np.abs(a - qa[0]) >= abs(value - qa[0]))
+        print(f"- {name}: â {value:.2f}; subsets as far from the median: {far:.0%}")
+    return list(a)
+
+
 def parse_factors(items: list[str], option: str = "--replicate") -> dict:
     """``{N: K}`` from ``["N=K", …]``, K ≥ 1; ``ValueError`` (naming ``option``) otherwise."""
     out = {}
@@ -174,14 +209,19 @@ def main() -> None:
     ap.add_argument("--draws", type=int, default=100, help="draws of --resample")
     ap.add_argument("--seed", type=int, default=0, help="seed of --resample's draws")
     ap.add_argument("--target", type=float, default=0.05, help="σ_τ counted by --resample")
+    ap.add_argument("--subsets", nargs="+", default=[], metavar="N=K",
+                    help="the spread of the shape over random K-packing subsets of size N")
     a = ap.parse_args()
     try:
         factors = parse_factors(a.replicate)
         adds = parse_factors(a.resample, "--resample")
+        subsets = parse_factors(a.subsets, "--subsets")
     except ValueError as err:
         ap.error(str(err))
     if adds and not set(adds) <= set(a.n):
         ap.error(f"--resample names sizes not in --n: {sorted(set(adds) - set(a.n))}")
+    if not set(subsets) <= set(a.n) or (subsets and a.draws < 1):
+        ap.error(f"--subsets takes sizes in --n ({sorted(set(a.n))}) and --draws >= 1")
     if adds and (len(set(a.n)) < 2 or a.draws < 1 or not a.target > 0):
         ap.error("--resample needs runs of two N or more, --draws >= 1 and --target > 0")
     if factors and not set(factors) <= set(a.n):
@@ -205,13 +245,22 @@ def main() -> None:
           "p, χ²₁ | "
           "p, adjusted | σ_τ at â: H⁻¹ / sandwich |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
+    shapes: dict[int, list] = {}
     for run, n in zip(a.runs, sizes_n, strict=True):
         per_sample = list(avalanche_set(open_run(run), "jamming", n).per_sample)
         by_n.setdefault(n, []).extend(per_sample)
-        print(row(f"{run.name} (N = {n})", per_sample, a.floor))
+        text, result = result_row(f"{run.name} (N = {n})", per_sample, a.floor)
+        print(text)
+        if result is not None:
+            shapes.setdefault(n, []).append((run.name, result.stretch))
     for n, samples in by_n.items():
         if sum(1 for m in sizes_n if m == n) > 1:
             print(row(f"N = {n} pooled", samples, a.floor))
+    for n, k in sorted(subsets.items()):
+        try:
+            subset_rows(by_n[n], k, a.floor, a.draws, a.seed, shapes.get(n, []))
+        except ValueError as err:
+            ap.error(str(err))
     if len(by_n) > 1:
         text, joint = result_row(f"joint, N = {sorted(by_n)}, S* ∝ N^β", by_n, a.floor)
         print(text)

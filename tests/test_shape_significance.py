@@ -64,6 +64,8 @@ def test_reads_the_counted_avalanches(ss, small_pressure_run, monkeypatch, capsy
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "1000=2"],
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "500=2", "--draws", "0"],
     ["a", "--n", "250", "--floor", "1e-9", "--resample", "250=2"],
+    ["a", "--n", "250", "--floor", "1e-9", "--subsets", "500=5"],
+    ["a", "--n", "250", "--floor", "1e-9", "--subsets", "250=5", "--draws", "0"],
 ])
 def test_bad_arguments_exit_2(ss, monkeypatch, argv):
     assert exit_code(ss, argv, monkeypatch) == 2
@@ -174,3 +176,20 @@ def test_resampled_rows_summarise_the_draws(ss, capsys):
     assert "5 of 5 draws fitted, 16 packings each" in out
     assert f"σ_τ sandwich {np.median([w.tau_se_robust for w in want]):.3f}" in out
     assert "σ_τ ≤ 1e+09 in 100% of them" in out
+
+
+def test_subsets_are_fitted_alone_and_place_each_run(ss, capsys):
+    """``--subsets``: each draw is the library's test on ``K`` distinct packings chosen by the
+    seed, and a run is placed by how far its ``â`` is from the subsets' median."""
+    rng = np.random.default_rng(6)
+    samples = [sample_cutoff_power_law(40, 1.4, 30.0, 1.0, rng, stretch=0.7) for _ in range(9)]
+    got = ss.subset_rows(samples, 5, 1.0, 4, 2, [("far", 1e6)])
+    draw = np.random.default_rng(2)
+    picks = [draw.choice(9, 5, replace=False) for _ in range(4)]
+    assert all(len(set(p)) == 5 for p in picks)
+    want = [clustered_shape_test([samples[i] for i in p], 1.0).stretch for p in picks]
+    assert got == want
+    out = capsys.readouterr().out
+    assert "4 of 4 fitted" in out and "far: â 1000000.00; subsets as far from the median: 0%" in out
+    with pytest.raises(ValueError, match="3 <= K <= 9"):
+        ss.subset_rows(samples, 10, 1.0, 4, 2, [])
