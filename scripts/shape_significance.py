@@ -33,6 +33,9 @@ of ``â``, ``τ(â)`` and τ's sandwich σ, and the fraction of draws with σ �
 spread is what the packing-to-packing variation of the measured ones allows; new packings may
 still differ from all of them.
 
+``--take K …`` (one per run): read only each run's first ``K`` finished packings (by sample
+index; 0 for all), e.g. to remake a projection from a run that has since grown.
+
 ``--subsets N=K …``: is one run's shape odd among its size's? ``--draws`` random subsets of
 ``K`` packings of size ``N`` (without replacement, seed ``--seed``) are fitted alone; printed
 are the median and 10–90 % range of ``â`` and ``τ(â)`` over the subsets, and for each run of
@@ -209,6 +212,8 @@ def main() -> None:
     ap.add_argument("--draws", type=int, default=100, help="draws of --resample")
     ap.add_argument("--seed", type=int, default=0, help="seed of --resample's draws")
     ap.add_argument("--target", type=float, default=0.05, help="σ_τ counted by --resample")
+    ap.add_argument("--take", type=int, nargs="+", default=[],
+                    help="each run's first K finished packings (one per run; 0 for all)")
     ap.add_argument("--subsets", nargs="+", default=[], metavar="N=K",
                     help="the spread of the shape over random K-packing subsets of size N")
     a = ap.parse_args()
@@ -228,6 +233,8 @@ def main() -> None:
         ap.error(f"--replicate names sizes not in --n: {sorted(set(factors) - set(a.n))}")
     if factors and len(set(a.n)) < 2:
         ap.error("--replicate needs runs of two N or more")
+    if a.take and (len(a.take) != len(a.runs) or min(a.take) < 0):
+        ap.error(f"--take takes one K >= 0 per run ({len(a.runs)}), got {a.take}")
     if len(a.n) not in (1, len(a.runs)):
         ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
     if not (math.isfinite(a.floor) and a.floor > 0):
@@ -246,8 +253,12 @@ def main() -> None:
           "p, adjusted | σ_τ at â: H⁻¹ / sandwich |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     shapes: dict[int, list] = {}
-    for run, n in zip(a.runs, sizes_n, strict=True):
+    for run, n, take in zip(a.runs, sizes_n, a.take or [0] * len(a.runs), strict=True):
         per_sample = list(avalanche_set(open_run(run), "jamming", n).per_sample)
+        if take:
+            if take > len(per_sample):
+                ap.error(f"--take {take} for {run}: it has {len(per_sample)} finished packings")
+            per_sample = per_sample[:take]
         by_n.setdefault(n, []).extend(per_sample)
         text, result = result_row(f"{run.name} (N = {n})", per_sample, a.floor)
         print(text)

@@ -65,6 +65,8 @@ def test_reads_the_counted_avalanches(ss, small_pressure_run, monkeypatch, capsy
     ["a", "b", "--n", "250", "500", "--floor", "1e-9", "--resample", "500=2", "--draws", "0"],
     ["a", "--n", "250", "--floor", "1e-9", "--resample", "250=2"],
     ["a", "--n", "250", "--floor", "1e-9", "--subsets", "500=5"],
+    ["a", "b", "--n", "250", "--floor", "1e-9", "--take", "3"],
+    ["a", "--n", "250", "--floor", "1e-9", "--take", "-1"],
     ["a", "--n", "250", "--floor", "1e-9", "--subsets", "250=5", "--draws", "0"],
 ])
 def test_bad_arguments_exit_2(ss, monkeypatch, argv):
@@ -193,3 +195,28 @@ def test_subsets_are_fitted_alone_and_place_each_run(ss, capsys):
     assert "4 of 4 fitted" in out and "far: â 1000000.00; subsets as far from the median: 0%" in out
     with pytest.raises(ValueError, match="3 <= K <= 9"):
         ss.subset_rows(samples, 10, 1.0, 4, 2, [])
+
+
+def test_take_reads_each_runs_first_packings(ss, tmp_path, monkeypatch, capsys):
+    """``--take``: a run's row (and the pooled one) is the library's test on its first ``K``
+    packings; more than a run has is refused with exit 2."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(8)
+    packings = [sample_cutoff_power_law(40, 1.4, 30.0, 1.0, rng, stretch=0.7) for _ in range(7)]
+    (tmp_path / "r").mkdir()
+    monkeypatch.setattr(ss, "open_run", lambda run: run)
+    monkeypatch.setattr(ss, "avalanche_set",
+                        lambda run, label, size: SimpleNamespace(per_sample=packings))
+    monkeypatch.setattr("sys.argv", ["shape_significance.py", str(tmp_path / "r"),
+                                     str(tmp_path / "r"), "--n", "250", "--floor", "1",
+                                     "--take", "5", "0"])
+    ss.main()
+    rows = [r for r in capsys.readouterr().out.splitlines()
+            if r.startswith(("| r (N", "| N = 250 pooled"))]
+    assert len(rows) == 3
+    assert rows[0] == ss.row("r (N = 250)", packings[:5], 1.0)
+    assert rows[1] == ss.row("r (N = 250)", packings, 1.0)
+    assert rows[2] == ss.row("N = 250 pooled", packings[:5] + packings, 1.0)
+    argv = [str(tmp_path / "r"), "--n", "250", "--floor", "1", "--take", "8"]
+    assert exit_code(ss, argv, monkeypatch) == 2
