@@ -105,6 +105,12 @@ def resampled(by_n: dict, adds: dict, rng: np.random.Generator) -> dict:
     return out
 
 
+def spread(values, digits: int) -> str:
+    """``median [10 %, 90 %]`` of ``values`` to ``digits`` decimals."""
+    q = np.percentile(values, [50, 10, 90])
+    return f"{q[0]:.{digits}f} [{q[1]:.{digits}f}, {q[2]:.{digits}f}]"
+
+
 def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
                    target: float) -> list:
     """Print the ``--resample`` projection (module docstring); returns the results of the
@@ -122,10 +128,6 @@ def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
     if not results:
         print("- no draw could be fitted")
         return results
-
-    def spread(values, digits):
-        q = np.percentile(values, [50, 10, 90])
-        return f"{q[0]:.{digits}f} [{q[1]:.{digits}f}, {q[2]:.{digits}f}]"
 
     sig = np.array([r.tau_se_robust for r in results])
     print(f"- {len(results)} of {draws} draws fitted, {results[0].samples} packings each: "
@@ -156,11 +158,10 @@ def subset_rows(samples: list, k: int, floor: float, draws: int, seed: int,
         print("- no subset could be fitted")
         return []
     a = np.array([f.stretch for f in fits])
-    qa, qt = np.percentile(a, [50, 10, 90]), np.percentile([f.tau for f in fits], [50, 10, 90])
-    print(f"- {len(fits)} of {draws} fitted: â {qa[0]:.2f} [{qa[1]:.2f}, {qa[2]:.2f}], "
-          f"τ(â) {qt[0]:.3f} [{qt[1]:.3f}, {qt[2]:.3f}]")
+    print(f"- {len(fits)} of {draws} fitted: â {spread(a, 2)}, "
+          f"τ(â) {spread([f.tau for f in fits], 3)}")
     for name, value in runs:
-        far = np.mean(np.abs(a - qa[0]) >= abs(value - qa[0]))
+        far = np.mean(np.abs(a - np.median(a)) >= abs(value - np.median(a)))
         print(f"- {name}: â {value:.2f}; subsets as far from the median: {far:.0%}")
     return list(a)
 
