@@ -111,17 +111,24 @@ def spread(values, digits: int) -> str:
     return f"{q[0]:.{digits}f} [{q[1]:.{digits}f}, {q[2]:.{digits}f}]"
 
 
+def fitted(sets, floor: float) -> list:
+    """:func:`clustered_shape_test` of each set of packings in ``sets`` (taken in turn), those
+    whose fit fails left out."""
+    results = []
+    for packings in sets:
+        try:
+            results.append(clustered_shape_test(packings, floor))
+        except ValueError:
+            pass
+    return results
+
+
 def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
                    target: float) -> list:
     """Print the ``--resample`` projection (module docstring); returns the results of the
     draws whose fit succeeded."""
     rng = np.random.default_rng(seed)
-    results = []
-    for _ in range(draws):
-        try:
-            results.append(clustered_shape_test(resampled(by_n, adds, rng), floor))
-        except ValueError:
-            pass
+    results = fitted((resampled(by_n, adds, rng) for _ in range(draws)), floor)
     label = ", ".join(f"N = {n} +{m}" for n, m in sorted(adds.items()))
     print(f"\nProjected by resampling packings ({label}; {draws} draws, seed {seed}; "
           "median [10 %, 90 %]):")
@@ -145,13 +152,8 @@ def subset_rows(samples: list, k: int, floor: float, draws: int, seed: int,
     if not 3 <= k <= len(samples):
         raise ValueError(f"--subsets needs 3 <= K <= {len(samples)} packings, got {k}")
     rng = np.random.default_rng(seed)
-    fits = []
-    for _ in range(draws):
-        pick = rng.choice(len(samples), k, replace=False)
-        try:
-            fits.append(clustered_shape_test([samples[i] for i in pick], floor))
-        except ValueError:
-            pass
+    fits = fitted(([samples[i] for i in rng.choice(len(samples), k, replace=False)]
+                   for _ in range(draws)), floor)
     print(f"\nRandom {k}-packing subsets of the {len(samples)} (draws {draws}, seed {seed}; "
           "median [10 %, 90 %]):")
     if not fits:
@@ -160,8 +162,9 @@ def subset_rows(samples: list, k: int, floor: float, draws: int, seed: int,
     a = np.array([f.stretch for f in fits])
     print(f"- {len(fits)} of {draws} fitted: â {spread(a, 2)}, "
           f"τ(â) {spread([f.tau for f in fits], 3)}")
+    middle = np.median(a)
     for name, value in runs:
-        far = np.mean(np.abs(a - np.median(a)) >= abs(value - np.median(a)))
+        far = np.mean(np.abs(a - middle) >= abs(value - middle))
         print(f"- {name}: â {value:.2f}; subsets as far from the median: {far:.0%}")
     return list(a)
 
@@ -210,8 +213,9 @@ def main() -> None:
                     help="a projected joint row with each packing of size N counted K times")
     ap.add_argument("--resample", nargs="+", default=[], metavar="N=M",
                     help="projected joint rows with M packings of size N drawn from the measured")
-    ap.add_argument("--draws", type=int, default=100, help="draws of --resample")
-    ap.add_argument("--seed", type=int, default=0, help="seed of --resample's draws")
+    ap.add_argument("--draws", type=int, default=100, help="draws of --resample and --subsets")
+    ap.add_argument("--seed", type=int, default=0,
+                    help="seed of the draws of --resample and --subsets")
     ap.add_argument("--target", type=float, default=0.05, help="σ_τ counted by --resample")
     ap.add_argument("--take", type=int, nargs="+", default=[],
                     help="each run's first K finished packings (one per run; 0 for all)")
