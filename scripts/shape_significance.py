@@ -137,10 +137,15 @@ def resampled_rows(by_n: dict, adds: dict, floor: float, draws: int, seed: int,
         return results
 
     sig = np.array([r.tau_se_robust for r in results])
+    known = np.isfinite(sig)
+    sandwich = (f"σ_τ sandwich {spread(sig[known], 3)}" if known.any()
+                else "σ_τ sandwich undefined")
+    if not known.all():  # H not positive definite at â: no error to quote for that draw
+        sandwich += f" ({np.count_nonzero(~known)} draws with H not positive definite at â)"
     print(f"- {len(results)} of {draws} draws fitted, {results[0].samples} packings each: "
           f"â {spread([r.stretch for r in results], 2)}, "
-          f"τ(â) {spread([r.tau for r in results], 3)}, σ_τ sandwich {spread(sig, 3)}; "
-          f"σ_τ ≤ {target:g} in {np.mean(sig <= target):.0%} of them")
+          f"τ(â) {spread([r.tau for r in results], 3)}, {sandwich}; "
+          f"σ_τ ≤ {target:g} in {np.mean(sig <= target):.0%} of them (undefined counted as not)")
     return results
 
 

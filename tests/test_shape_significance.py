@@ -180,6 +180,23 @@ def test_resampled_rows_summarise_the_draws(ss, capsys):
     assert "σ_τ ≤ 1e+09 in 100% of them" in out
 
 
+def test_resampled_rows_leave_out_undefined_errors(ss, monkeypatch, capsys):
+    """A draw whose ``H`` is not positive definite has no sandwich σ (NaN): the spread is that
+    of the other draws, the count of such draws is printed, and they count as not ≤ target."""
+    good = [0.04, 0.06, 0.08]
+    fake = [type("R", (), {"stretch": 0.5, "tau": 1.4, "samples": 7, "tau_se_robust": s})()
+            for s in good + [float("nan")]]
+    monkeypatch.setattr(ss, "fitted", lambda sets, floor: fake)
+    ss.resampled_rows({250: []}, {}, 1.0, 4, 0, 0.05)
+    out = capsys.readouterr().out
+    assert f"σ_τ sandwich {ss.spread(good, 3)} (1 draws with H not positive definite" in out
+    assert "nan" not in out
+    assert "σ_τ ≤ 0.05 in 25% of them" in out
+    monkeypatch.setattr(ss, "fitted", lambda sets, floor: fake[3:])
+    ss.resampled_rows({250: []}, {}, 1.0, 1, 0, 0.05)
+    assert "σ_τ sandwich undefined (1 draws" in capsys.readouterr().out
+
+
 def test_subsets_are_fitted_alone_and_place_each_run(ss, capsys):
     """``--subsets``: each draw is the library's test on ``K`` distinct packings chosen by the
     seed, and a run is placed by how far its ``â`` is from the subsets' median."""
