@@ -256,6 +256,12 @@ def main() -> None:
         if not run.is_dir():
             ap.error(f"no run directory {run}")
     sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
+    read = []  # every run read and its --take checked before anything is printed
+    for run, n, take in zip(a.runs, sizes_n, a.take or [0] * len(a.runs), strict=True):
+        per_sample = list(avalanche_set(open_run(run), "jamming", n).per_sample)
+        if take > len(per_sample):
+            ap.error(f"--take {take} for {run}: it has {len(per_sample)} finished packings")
+        read.append((run, n, per_sample[:take] if take else per_sample))
     by_n: dict[int, list] = {}
     print(f"Cut-off shape test on S ≥ {a.floor:.3g} ε, whole packings as units\n")
     print("| runs | packings | sizes | â | τ(â) | τ(a = 1) | W | λ̂ | "
@@ -263,12 +269,7 @@ def main() -> None:
           "p, adjusted | σ_τ at â: H⁻¹ / sandwich |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     shapes: dict[int, list] = {}
-    for run, n, take in zip(a.runs, sizes_n, a.take or [0] * len(a.runs), strict=True):
-        per_sample = list(avalanche_set(open_run(run), "jamming", n).per_sample)
-        if take:
-            if take > len(per_sample):
-                ap.error(f"--take {take} for {run}: it has {len(per_sample)} finished packings")
-            per_sample = per_sample[:take]
+    for run, n, per_sample in read:
         by_n.setdefault(n, []).extend(per_sample)
         text, result = result_row(f"{run.name} (N = {n})", per_sample, a.floor)
         print(text)

@@ -216,7 +216,7 @@ def test_subsets_are_fitted_alone_and_place_each_run(ss, capsys):
 
 def test_take_reads_each_runs_first_packings(ss, tmp_path, monkeypatch, capsys):
     """``--take``: a run's row (and the pooled one) is the library's test on its first ``K``
-    packings; more than a run has is refused with exit 2."""
+    packings; more than a run has is refused with exit 2, before any row is printed."""
     from types import SimpleNamespace
 
     rng = np.random.default_rng(8)
@@ -235,5 +235,8 @@ def test_take_reads_each_runs_first_packings(ss, tmp_path, monkeypatch, capsys):
     assert rows[0] == ss.row("r (N = 250)", packings[:5], 1.0)
     assert rows[1] == ss.row("r (N = 250)", packings, 1.0)
     assert rows[2] == ss.row("N = 250 pooled", packings[:5] + packings, 1.0)
-    argv = [str(tmp_path / "r"), "--n", "250", "--floor", "1", "--take", "8"]
+    argv = [str(tmp_path / "r"), str(tmp_path / "r"), "--n", "250", "--floor", "1",
+            "--take", "5", "8"]
     assert exit_code(ss, argv, monkeypatch) == 2
+    out = capsys.readouterr()
+    assert "Cut-off" not in out.out and "--take 8" in out.err  # refused before any row
