@@ -29,9 +29,11 @@ are printed for the projected set too. A planning aid, not a measurement.
 packings are copies of the measured ones. ``--draws`` times (seed ``--seed``), ``M`` packings of
 size ``N`` are drawn with replacement from the measured packings of that size and added to them,
 and the joint row is fitted again; printed are the median and the 10–90 % range over the draws
-of ``â``, ``τ(â)`` and τ's sandwich σ, and the fraction of draws with σ ≤ ``--target``. The
-spread is what the packing-to-packing variation of the measured ones allows; new packings may
-still differ from all of them.
+of ``â``, ``τ(â)`` and τ's sandwich σ, and the fraction of draws with σ ≤ ``--target``. A
+draw whose information matrix is not positive definite at ``â`` has no σ: the σ range is over
+the others, their count is printed, and they count as not ≤ ``--target``. The spread is what
+the packing-to-packing variation of the measured ones allows; new packings may still differ
+from all of them.
 
 ``--take K …`` (one per run): read only each run's first ``K`` finished packings (by sample
 index; 0 for all), e.g. to remake a projection from a run that has since grown.
