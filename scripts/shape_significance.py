@@ -177,12 +177,15 @@ def subset_rows(samples: list, k: int, floor: float, draws: int, seed: int,
 
 
 def parse_factors(items: list[str], option: str = "--replicate") -> dict:
-    """``{N: K}`` from ``["N=K", …]``, K ≥ 1; ``ValueError`` (naming ``option``) otherwise."""
+    """``{N: K}`` from ``["N=K", …]``, K ≥ 1, each N once; ``ValueError`` (naming ``option``)
+    otherwise (a repeated N would silently keep only its last K)."""
     out = {}
     for item in items:
         n, sep, k = item.partition("=")
         if not (sep and n.isdigit() and k.isdigit() and int(k) >= 1):
             raise ValueError(f"{option} takes N=K with integers K >= 1, got {item!r}")
+        if int(n) in out:
+            raise ValueError(f"{option} names N = {int(n)} twice")
         out[int(n)] = int(k)
     return out
 

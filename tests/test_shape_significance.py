@@ -113,6 +113,8 @@ def test_replicating_every_size_alike_scales_the_errors_by_root_k(ss):
     moved = ss.replicated(by_n, {250: 4})
     assert len(moved[250]) == 32 and len(moved[500]) == 8
     assert ss.parse_factors(["250=4", "500=1"]) == {250: 4, 500: 1}
+    with pytest.raises(ValueError, match="--subsets names N = 500 twice"):
+        ss.parse_factors(["500=20", "500=40"], "--subsets")
     with pytest.raises(ValueError, match="without runs"):
         ss.replicated(by_n, {1000: 2})
 
