@@ -107,14 +107,14 @@ def tally(t: dict[str, np.ndarray], acc: dict) -> tuple[np.ndarray, np.ndarray]:
     return mask, jump
 
 
-def packing_ks(a: list[np.ndarray], b: list[np.ndarray], permutations: int,
-               s_min: float = 0.0) -> tuple[float, float, float]:
-    """``(D, p, p over packings)``: the two-sample KS statistic of the pooled sizes ``≥ s_min`` of
-    the packings ``a`` and ``b`` (lists of per-packing arrays), its p-value for independent
-    avalanches, and the fraction of ``permutations`` random exchanges of whole packings between
-    the two groups (sizes kept) with ``D`` at least as large (``(1 + hits) / (1 + P)``; NaN for
-    ``P = 0``)."""
-    cut = [x[x >= s_min] for x in list(a) + list(b)]
+def packing_ks(a: list[np.ndarray], b: list[np.ndarray],
+               permutations: int) -> tuple[float, float, float]:
+    """``(D, p, p over packings)``: the two-sample KS statistic of the pooled sizes of the
+    packings ``a`` and ``b`` (lists of per-packing arrays, already cut to the sizes compared),
+    its p-value for independent avalanches, and the fraction of ``permutations`` random
+    exchanges of whole packings between the two groups (sizes kept) with ``D`` at least as large
+    (``(1 + hits) / (1 + P)``; NaN for ``P = 0``)."""
+    cut = list(a) + list(b)
     k = len(a)
 
     def stat(order):
@@ -240,13 +240,16 @@ def summary(args: argparse.Namespace, pooled: dict, paired: dict | None) -> int:
     extra = f" ({perms} exchanges of whole packings)" if perms else ""
 
     def ks_text(s_min):
-        d, p, pp = packing_ks(pooled["a"]["S"], pooled["b"]["S"], perms, s_min)
-        return f"D = {d:.4f}, p = {p:.3f}" + (f", over packings p = {pp:.3f}" if perms else "")
+        """The KS line of the sizes ``≥ s_min``, cut once, with how many each run has."""
+        a, b = ([x[x >= s_min] for x in pooled[k]["S"]] for k in ("a", "b"))
+        d, p, pp = packing_ks(a, b, perms)
+        counts = f"{sum(x.size for x in a)} / {sum(x.size for x in b)} avalanches"
+        return counts, f"D = {d:.4f}, p = {p:.3f}" + (
+            f", over packings p = {pp:.3f}" if perms else "")
 
-    print(f"\ntwo-sample KS on all sizes{extra}: {ks_text(-np.inf)}")
+    print(f"\ntwo-sample KS on all sizes{extra}: {ks_text(-np.inf)[1]}")
     if args.s_min is not None:
-        a, b = sizes["a"][sizes["a"] >= args.s_min], sizes["b"][sizes["b"] >= args.s_min]
-        print(f"S ≥ {args.s_min:g}: {len(a)} / {len(b)} avalanches, {ks_text(args.s_min)}")
+        print(f"S ≥ {args.s_min:g}: " + ", ".join(ks_text(args.s_min)))
     for x_min in args.fit_at:
         row = []
         for name in ("a", "b"):

@@ -68,6 +68,18 @@ def test_counts_against_hand_counts(runs, capsys):
     assert f"{mean_a:.3e}" in out
 
 
+def test_s_min_line_counts_and_tests_the_cut_sizes(runs, capsys):
+    """``--s-min``: the counts and the KS statistic of the sizes at or above it, against the
+    sizes listed by hand (a: 1, 3, 0.5, 4 × 1e-9; b: 1, 3, 2, 6, 0.5, 4 × 1e-9) and scipy."""
+    from scipy.stats import ks_2samp
+
+    mod = script_module("compare_runs")
+    assert mod.main([str(runs[0]), str(runs[1]), "--s-min", "2.5e-9"]) == 0
+    out = capsys.readouterr().out
+    exact = ks_2samp([3e-9, 4e-9], [3e-9, 6e-9, 4e-9])
+    assert f"S ≥ 2.5e-09: 2 / 3 avalanches, D = {exact.statistic:.4f}, " in out
+
+
 def test_different_studies_are_refused(tmp_path, capsys):
     mod = script_module("compare_runs")
     t = trace([-1e-9], [True], [True, True])
