@@ -48,6 +48,8 @@ from jamlab.analysis.finite_size import (
     collapse_quality,
     fit_cutoff_scaling,
     fit_joint_scaling,
+    joint_shape_free,
+    joint_shape_profile,
 )
 from jamlab.analysis.moduli import SlopeFit, fit_log_slope
 from jamlab.analysis.powerlaw import fit_power_law
@@ -390,20 +392,20 @@ STRETCHES = (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.5, 0.7, 1.0, 1.5)
 def profile_stretch(sizes_by_n: dict[int, list[np.ndarray]], floors: dict[int, float]) -> None:
     """The joint fit with the cut-off e^(−(S/S*)^a) on a grid of a (100 resamples each) above
     the given floors: the profile likelihood of a, the τ and β it implies, the grid points inside
-    the 95 % profile interval (log L within 1.92 of the best), and the best a refitted with 500
+    the 95 % profile interval (2Δlog L ≤ 3.84 from the best), and the best a refitted with 500
     resamples and the jackknife."""
     print("\nthe shape of the cut-off, e^(-(S/S*)^a), above 10 × each N's largest threshold "
           "(profile likelihood over a):")
     print("| a | log L − log L(a = 1) | τ | β | S* at N_ref |")
     print("|---|---|---|---|---|")
-    fits = {a: fit_joint_scaling(sizes_by_n, floors, n_boot=100, seed=1, stretch=a)
-            for a in STRETCHES}
+    fits = joint_shape_profile(sizes_by_n, floors, STRETCHES, n_boot=100, seed=1)
     ref = fits[1.0].loglik
     for a, j in fits.items():
         print(f"| {a:g} | {j.loglik - ref:+.2f} | {j.tau:.3f} ± {j.tau_err:.3f} | "
               f"{j.beta:.3f} ± {j.beta_err:.3f} | {j.cutoff_ref:.3g} |")
-    best = max(fits, key=lambda a: fits[a].loglik)
-    inside = [a for a, j in fits.items() if j.loglik >= fits[best].loglik - 1.92]
+    free = joint_shape_free(fits)
+    best = free.best
+    inside = free.inside
     j = fit_joint_scaling(sizes_by_n, floors, n_boot=500, seed=1, stretch=best, jackknife=True)
     print(f"best a on the grid = {best:g} (2 Δlog L against a = 1: "
           f"{2 * (fits[best].loglik - ref):.1f}); inside the 95 % profile interval: "

@@ -12,9 +12,9 @@ adjusted one (``F(1, K − 1)`` of ``W / max(λ̂, 1)``, ``K`` packings), and τ
 ``â`` from the inverse information and from the sandwich over packings.
 
 ``--profile A …`` (with two ``N`` or more): also the joint fits of
-:func:`jamlab.analysis.fit_joint_scaling` at the cut-off shapes ``A`` and 1 (``--boot`` resamples
-of whole packings each, seed 0), and τ's shape-free 95 % interval
-(:func:`jamlab.analysis.shape_free_interval`, bootstrap σ of each shape) twice: with the set of
+:func:`jamlab.analysis.joint_shape_profile` at the cut-off shapes ``A`` and 1 (``--boot``
+resamples of whole packings each, seed 0), and τ's shape-free 95 % interval
+(:func:`jamlab.analysis.joint_shape_free`, bootstrap σ of each shape) twice: with the set of
 shapes ``2Δlog L ≤ 3.84`` as in ``tau_window.py --joint-stretch``, and widened for the
 correlation within packings, ``2Δlog L / max(λ̂, 1) ≤ 3.84`` with the joint row's ``λ̂``.
 
@@ -58,10 +58,9 @@ import numpy as np
 
 from jamlab.analysis import (
     clustered_shape_test,
-    fit_joint_scaling,
-    shape_free_interval,
+    joint_shape_free,
+    joint_shape_profile,
 )
-from jamlab.analysis.cutoff_powerlaw import shape_set
 from jamlab.reproduce.measurements import avalanche_set
 from jamlab.runs import open_run
 
@@ -194,19 +193,16 @@ def widened(by_n: dict, floor: float, stretches: list, boot: int, scale: float) 
     """Print τ's shape-free interval of the joint fits at ``stretches`` (and 1), with the set of
     shapes as is and widened by the design effect ``scale`` (module docstring); returns the
     two intervals."""
-    grid = sorted(set(stretches) | {1.0})
-    fits = [fit_joint_scaling(by_n, floor, n_boot=boot, stretch=x) for x in grid]
-    taus, errs = [f.tau for f in fits], [f.tau_err for f in fits]
-    ll = np.array([f.loglik for f in fits])
+    fits = joint_shape_profile(by_n, floor, stretches, boot)
     print(f"\nShape-free τ of the joint fits (bootstrap σ over packings, {boot} resamples):")
+    grid = sorted(fits)
     out = []
     for lam in (1.0, max(scale, 1.0)):
-        low, high = shape_free_interval(taus, errs, ll / lam)
-        out.append((low, high))
-        inside = shape_set(ll / lam)
-        print(f"- 2Δlog L / {lam:.2f} ≤ 3.84: τ in [{low:.3f}, {high:.3f}] (95 %), half-width / "
-              f"1.96 = {(high - low) / 3.92:.3f}; a from {grid[min(inside)]:g} to "
-              f"{grid[max(inside)]:g} (grid {grid[0]:g} … {grid[-1]:g})")
+        free = joint_shape_free(fits, lam)
+        out.append((free.tau_low, free.tau_high))
+        print(f"- 2Δlog L / {lam:.2f} ≤ 3.84: τ in [{free.tau_low:.3f}, {free.tau_high:.3f}] "
+              f"(95 %), half-width / 1.96 = {(free.tau_high - free.tau_low) / 3.92:.3f}; a from "
+              f"{free.a_low:g} to {free.a_high:g} (grid {grid[0]:g} … {grid[-1]:g})")
     return out
 
 

@@ -40,9 +40,9 @@ avalanches were independent (3.84 at 95 %), the bootstrap interval of β what re
 correlation within a sample. ``--joint-stretch a …``: the joint fit at the first floor with the
 cut-off ``e^(−(S/S*)^a)`` for each ``a``: τ, β and the maximised log-likelihood (its profile over
 ``a``: is the exponential shape the one the data prefer?), and τ's 95 % interval with the shape
-free (:func:`jamlab.analysis.shape_free_interval` over the listed ``a`` and 1, with the
-bootstrap σ of each ``a``). ``--joint-permutations K``: the
-likelihood ratio's p-value at the first floor by a permutation test — whole samples dealt at
+free (:func:`jamlab.analysis.joint_shape_free`: :func:`jamlab.analysis.shape_free_interval`
+over the listed ``a`` and 1, with the bootstrap σ of each ``a``). ``--joint-permutations K``:
+the likelihood ratio's p-value at the first floor by a permutation test — whole samples dealt at
 random to the sizes N, K times — which, unlike the χ²₁ reading, holds with avalanches correlated
 within a sample and samples that differ.
 ``--moments S …`` (runs of different N): the same question without a model of the cut-off. At
@@ -78,9 +78,10 @@ from jamlab.analysis import (
     fit_cutoff_scaling,
     fit_joint_scaling,
     fit_power_law,
-    shape_free_interval,
+    joint_shape_free,
+    joint_shape_profile,
 )
-from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf, shape_set
+from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_cdf
 from jamlab.reproduce.ensembles import finished, jammed_flags, sample_strains
 from jamlab.reproduce.measurements import (
     avalanche_set,
@@ -494,35 +495,19 @@ def stretch_table(per_sample_by_n: dict, floor: float, stretches: list, boot: in
           f"samples, {boot}):\n")
     print("| a | τ | β (95 %) | log L − log L(a = 1) |")
     print("|---|---|---|---|")
-    fits = {x: exponential if x == 1.0
-            else fit_joint_scaling(per_sample_by_n, floor, n_boot=boot, stretch=x)
-            for x in sorted(set(stretches) | {1.0})}
+    fits = joint_shape_profile(per_sample_by_n, floor, stretches, boot, known={1.0: exponential})
     for x, j in fits.items():
         print(f"| {x:g} | {j.tau:.3f} ± {j.tau_err:.3f} | {j.beta:.2f} ± {j.beta_err:.2f} "
               f"([{j.beta_ci95[0]:.2f}, {j.beta_ci95[1]:.2f}]) | "
               f"{j.loglik - fits[1.0].loglik:.2f} |")
-    best, low, high = joint_shape_free(fits)
-    edge = (" (an end of the grid: the maximum may lie beyond)"
-            if best in (min(fits), max(fits)) else "")
-    grid = sorted(fits)
-    inside = [grid[i] for i in shape_set([fits[x].loglik for x in grid])]
-    print(f"\nShape free (profile over a, bootstrap σ of each): τ in [{low:.3f}, {high:.3f}] "
-          f"(95 %), half-width / 1.96 = {(high - low) / 3.92:.3f}; best a = {best:g}{edge}, "
-          f"2Δlog L against a = 1: {2.0 * (fits[best].loglik - fits[1.0].loglik):.2f}; "
-          f"a with 2Δlog L ≤ 3.84: {min(inside):g} – {max(inside):g}")
+    free = joint_shape_free(fits)
+    edge = " (an end of the grid: the maximum may lie beyond)" if free.at_edge else ""
+    print(f"\nShape free (profile over a, bootstrap σ of each): τ in [{free.tau_low:.3f}, "
+          f"{free.tau_high:.3f}] (95 %), half-width / 1.96 = "
+          f"{(free.tau_high - free.tau_low) / 3.92:.3f}; best a = {free.best:g}{edge}, "
+          f"2Δlog L against a = 1: {free.lr_exponential:.2f}; "
+          f"a with 2Δlog L ≤ 3.84: {free.a_low:g} – {free.a_high:g}")
     return fits
-
-
-def joint_shape_free(fits: dict) -> tuple[float, float, float]:
-    """``(best a, τ_low, τ_high)`` of joint fits by cut-off shape ``a`` (``{a: JointScaling}``):
-    the ``a`` of the largest log-likelihood and the 95 % interval of the shared τ with the shape
-    free, :func:`jamlab.analysis.shape_free_interval` with each fit's bootstrap σ (whole
-    samples resampled, so correlated avalanches and unlike packings are in it)."""
-    grid = sorted(fits)
-    best = max(grid, key=lambda x: fits[x].loglik)
-    low, high = shape_free_interval([fits[x].tau for x in grid], [fits[x].tau_err for x in grid],
-                                    [fits[x].loglik for x in grid])
-    return best, low, high
 
 
 def total_strain(ds, n: int) -> float:

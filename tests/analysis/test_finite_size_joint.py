@@ -173,3 +173,50 @@ def test_stretched_cutoff_recovered_and_preferred_by_the_profile():
     assert np.mean(gains) > 2 * np.std(gains, ddof=1) / math.sqrt(trials), gains
     with pytest.raises(ValueError, match="stretch"):
         fit_joint_scaling(ens, fl, n_boot=2, stretch=0.0)
+
+
+def test_shape_profile_and_shape_free_tau_against_a_scan():
+    """``joint_shape_profile`` is ``fit_joint_scaling`` at each shape and at 1, a known fit taken
+    as it is; ``joint_shape_free``'s best shape, profile set and τ interval against a brute-force
+    scan of the profile likelihood in the quadratic model (``ℓ(τ, a) = ℓ_a − (τ − τ_a)²/2σ_a²``,
+    maximised over ``a`` on a fine grid of ``τ``), with the log-likelihoods divided by 1 and 3."""
+    from jamlab.analysis import joint_shape_free, joint_shape_profile
+
+    rng = np.random.default_rng(11)
+    fl = _floors(True)
+    ens = {n: [_draw(rng, fl[n], 5.0 * (n / NS[0]) ** BETA, rng.poisson(3 * n / NS[0]), a=0.5)
+               for _ in range(12)] for n in NS[:3]}
+    known = fit_joint_scaling(ens, fl, n_boot=4, seed=9, stretch=2.0)
+    fits = joint_shape_profile(ens, fl, [0.5, 2.0, 0.3, 0.5], n_boot=4, seed=3,
+                               known={2.0: known})
+    assert list(fits) == [0.3, 0.5, 1.0, 2.0] and fits[2.0] is known
+    for a in (0.3, 0.5, 1.0):
+        alone = fit_joint_scaling(ens, fl, n_boot=4, seed=3, stretch=a)
+        assert (fits[a].tau, fits[a].loglik, fits[a].tau_err) == (
+            alone.tau, alone.loglik, alone.tau_err)
+    lo = min(f.tau - 3.0 * f.tau_err for f in fits.values())
+    hi = max(f.tau + 3.0 * f.tau_err for f in fits.values())
+    grid = np.linspace(lo, hi, 400_001)
+    step = grid[1] - grid[0]
+    previous = None
+    for scale in (1.0, 3.0):
+        free = joint_shape_free(fits, scale)
+        ll = {a: f.loglik / scale for a, f in fits.items()}
+        top = max(ll.values())
+        assert free.best == max(fits, key=lambda a: fits[a].loglik)
+        assert free.inside == tuple(a for a in fits if 2.0 * (top - ll[a]) <= 3.841458820694124)
+        assert free.lr_exponential == 2.0 * (fits[free.best].loglik - fits[1.0].loglik)
+        prof = np.max([ll[a] - (grid - f.tau) ** 2 / (2.0 * f.tau_err**2)
+                       for a, f in fits.items()], axis=0)
+        kept = grid[2.0 * (top - prof) <= 3.841458820694124]
+        assert lo < kept.min() and kept.max() < hi  # the scan reaches past the interval
+        assert free.tau_low == pytest.approx(kept.min(), abs=2 * step)
+        assert free.tau_high == pytest.approx(kept.max(), abs=2 * step)
+        if previous is not None:  # dividing ℓ by λ > 1 only widens
+            assert free.tau_low <= previous.tau_low and free.tau_high >= previous.tau_high
+            assert set(previous.inside) <= set(free.inside)
+        previous = free
+    with pytest.raises(ValueError, match="scale"):
+        joint_shape_free(fits, 0.0)
+    with pytest.raises(ValueError, match="a = 1"):
+        joint_shape_free({a: f for a, f in fits.items() if a != 1.0})

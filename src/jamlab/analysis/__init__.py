@@ -37,11 +37,14 @@ from jamlab.analysis.finite_size import (
     Collapse,
     CutoffScaling,
     JointScaling,
+    JointShapeFree,
     collapse,
     collapse_quality,
     cutoff_size,
     fit_cutoff_scaling,
     fit_joint_scaling,
+    joint_shape_free,
+    joint_shape_profile,
 )
 from jamlab.analysis.histograms import LogHistogram, log_histogram
 from jamlab.analysis.jackknife import jackknife_variance
@@ -88,6 +91,9 @@ __all__ = [
     "fit_cutoff_scaling",
     "JointScaling",
     "fit_joint_scaling",
+    "JointShapeFree",
+    "joint_shape_free",
+    "joint_shape_profile",
     "jackknife_variance",
     "CoarseSteps",
     "coarsen_steps",

@@ -60,7 +60,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
-from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_log_norm
+from jamlab.analysis.cutoff_powerlaw import (
+    cutoff_power_law_log_norm,
+    shape_free_interval,
+    shape_set,
+)
 from jamlab.analysis.histograms import log_histogram
 from jamlab.analysis.jackknife import jackknife_variance
 from jamlab.analysis.powerlaw import mle_tau, power_law_loglik
@@ -69,11 +73,14 @@ __all__ = [
     "Collapse",
     "CutoffScaling",
     "JointScaling",
+    "JointShapeFree",
     "collapse",
     "collapse_quality",
     "cutoff_size",
     "fit_cutoff_scaling",
     "fit_joint_scaling",
+    "joint_shape_free",
+    "joint_shape_profile",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -500,3 +507,74 @@ def fit_joint_scaling(
         tau_err_jack=float(err_jack[0]), beta_err_jack=float(err_jack[2]), leave_one_out=loo,
         stretch=stretch,
     )
+
+
+def joint_shape_profile(
+    sizes_by_n: Mapping[int, Sequence[ArrayLike]],
+    floors: float | Mapping[int, float],
+    stretches: Sequence[float],
+    n_boot: int = 200,
+    seed: int = 0,
+    known: Mapping[float, JointScaling] | None = None,
+) -> dict[float, JointScaling]:
+    """The profile of the cut-off's shape in the joint fit: :func:`fit_joint_scaling` at each
+    ``a`` of ``stretches`` and at ``a = 1`` (the exponential, the reference of every
+    comparison), ``{a: fit}`` in ascending ``a``, each fit with its own ``n_boot`` resamples
+    from ``seed``. ``known``: fits already made, ``{a: fit}``, taken as they are instead of
+    refitted (e.g. the exponential fit of a table printed before). ``ValueError`` as
+    :func:`fit_joint_scaling` (a shape ``≤ 0`` among them)."""
+    known = dict(known or {})
+    return {x: known[x] if x in known
+            else fit_joint_scaling(sizes_by_n, floors, n_boot=n_boot, seed=seed, stretch=x)
+            for x in sorted(set(float(a) for a in stretches) | {1.0})}
+
+
+@dataclass(frozen=True)
+class JointShapeFree:
+    """Result of :func:`joint_shape_free`: ``best``, the ``a`` of the largest log-likelihood on
+    the grid (``at_edge`` when it is an end of the grid: the maximum may lie beyond);
+    ``tau_low``, ``tau_high``, the 95 % interval of the shared ``τ`` with the shape free;
+    ``inside``, the grid's shapes with ``2Δlog L / scale ≤ 3.84`` (ascending; ``a_low``,
+    ``a_high`` its ends); ``lr_exponential = 2 (ℓ(best) − ℓ(a = 1))``, not divided by
+    ``scale``."""
+
+    best: float
+    tau_low: float
+    tau_high: float
+    inside: tuple[float, ...]
+    at_edge: bool
+    lr_exponential: float
+    scale: float
+
+    @property
+    def a_low(self) -> float:
+        """The smallest shape of :attr:`inside`."""
+        return self.inside[0]
+
+    @property
+    def a_high(self) -> float:
+        """The largest shape of :attr:`inside`."""
+        return self.inside[-1]
+
+
+def joint_shape_free(fits: Mapping[float, JointScaling], scale: float = 1.0) -> JointShapeFree:
+    """τ with the cut-off's shape free, from joint fits by shape ``a`` (``{a: JointScaling}``,
+    one of them at ``a = 1``; :func:`joint_shape_profile`):
+    :func:`jamlab.analysis.shape_free_interval` with each fit's bootstrap σ (whole samples
+    resampled, so correlated avalanches and unlike packings are in it) and the log-likelihoods
+    divided by ``scale`` (a design effect ``λ̂``, :mod:`jamlab.analysis.shape_test`: the profile
+    read with packings as the units; ``1``: every avalanche independent). ``ValueError`` for
+    ``scale ≤ 0`` or no fit at ``a = 1``."""
+    if not (math.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale must be finite and > 0, got {scale!r}")
+    if 1.0 not in fits:
+        raise ValueError("the fits need one at a = 1 (the exponential cut-off)")
+    grid = sorted(fits)
+    ll = np.array([fits[x].loglik for x in grid]) / scale
+    low, high = shape_free_interval([fits[x].tau for x in grid],
+                                    [fits[x].tau_err for x in grid], ll)
+    best = max(grid, key=lambda x: fits[x].loglik)
+    return JointShapeFree(
+        best=best, tau_low=low, tau_high=high, inside=tuple(grid[i] for i in shape_set(ll)),
+        at_edge=best in (grid[0], grid[-1]),
+        lr_exponential=2.0 * (fits[best].loglik - fits[1.0].loglik), scale=float(scale))
