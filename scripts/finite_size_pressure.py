@@ -404,11 +404,10 @@ def profile_stretch(sizes_by_n: dict[int, list[np.ndarray]], floors: dict[int, f
         print(f"| {a:g} | {j.loglik - ref:+.2f} | {j.tau:.3f} ± {j.tau_err:.3f} | "
               f"{j.beta:.3f} ± {j.beta_err:.3f} | {j.cutoff_ref:.3g} |")
     free = joint_shape_free(fits)
-    best = free.best
-    inside = free.inside
+    best, inside = free.best, free.inside
     j = fit_joint_scaling(sizes_by_n, floors, n_boot=500, seed=1, stretch=best, jackknife=True)
     print(f"best a on the grid = {best:g} (2 Δlog L against a = 1: "
-          f"{2 * (fits[best].loglik - ref):.1f}); inside the 95 % profile interval: "
+          f"{free.lr_exponential:.1f}); inside the 95 % profile interval: "
           f"a = {', '.join(f'{a:g}' for a in inside)}, where β runs "
           f"{min(fits[a].beta for a in inside):.3f} – {max(fits[a].beta for a in inside):.3f} "
           f"and τ {min(fits[a].tau for a in inside):.3f} – {max(fits[a].tau for a in inside):.3f}")

@@ -76,8 +76,8 @@ def halves(phi_start: np.ndarray, count: np.ndarray) -> tuple[int, int, float]:
     return a, b, float(stats.binomtest(a, a + b, loose.mean()).pvalue)
 
 
-def report(name: str, p: Packings, above: float, largest: int) -> None:
-    """Print one run's (or pool's) lines."""
+def report(name: str, p: Packings, above: float, largest: int) -> dict:
+    """Print one run's (or pool's) lines; returns its :func:`summary`."""
     s = summary(p, above)
     z = (p.phi_start - p.phi_start.mean()) / p.phi_start.std(ddof=1)
     dphi = p.phi_end - p.phi_start
@@ -89,6 +89,7 @@ def report(name: str, p: Packings, above: float, largest: int) -> None:
           f"Spearman ρ of φ₀ with {cells}")
     for i in np.argsort(-s["smax"], kind="stable")[:largest]:
         print(f"    S_max {s['smax'][i]:.3g}: z(φ₀) {z[i]:+.1f}, Δφ {dphi[i]:+.2e}")
+    return s
 
 
 def main() -> None:
@@ -119,8 +120,8 @@ def main() -> None:
             pooled = Packings(np.concatenate([p.phi_start for p in parts]),
                               np.concatenate([p.phi_end for p in parts]),
                               tuple(s for p in parts for s in p.sizes))
-            report(f"pooled, N = {n} ({len(parts)} runs)", pooled, a.above, a.largest)
-            loose, dense, pval = halves(pooled.phi_start, summary(pooled, a.above)["count"])
+            s = report(f"pooled, N = {n} ({len(parts)} runs)", pooled, a.above, a.largest)
+            loose, dense, pval = halves(pooled.phi_start, s["count"])
             print(f"    avalanches ≥ {a.above:.0e}: {loose} in the looser half of the packings by "
                   f"φ₀, {dense} in the denser (binomial p = {pval:.2g})")
 
