@@ -52,7 +52,7 @@ from jamlab.analysis import (
 )
 from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import counted_steps, finished
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 STRETCHES = DEFAULT_STRETCHES
 """The grid of cut-off shapes ``a``: that of :func:`jamlab.analysis.cutoff_shape_profile`."""
@@ -246,9 +246,7 @@ def run_groups(runs: list[Path], ns: list[int], parts: int,
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", required=True,
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap)
     ap.add_argument("--x-min", type=float, required=True, help="the floor of S (ε)")
     ap.add_argument("--parts", type=int, default=4, help="parts of the strain window")
     ap.add_argument("--pool", action="store_true", help="one τ for all the runs")
@@ -259,15 +257,13 @@ def main() -> None:
     ap.add_argument("--skip", type=int, default=0,
                     help="leave out the first SKIP steps of every sample (a loading transient)")
     a = ap.parse_args()
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    ns = sizes_per_run(ap, a)
     if not (math.isfinite(a.x_min) and a.x_min > 0):
         ap.error("--x-min must be finite and > 0")
     if a.parts < 1:
         ap.error("--parts must be >= 1")
     if a.null < 0 or a.skip < 0:
         ap.error("--null and --skip must be >= 0")
-    ns = a.n * len(a.runs) if len(a.n) == 1 else a.n
     sets = [(a.runs, ns)] if a.pool else [([r], [n]) for r, n in zip(a.runs, ns, strict=True)]
     for runs, n in sets:
         try:

@@ -67,10 +67,11 @@ from jamlab.reproduce.ensembles import (
     avalanche_set,
     counted_steps,
     finished,
+    last_rows,
     row_volumes,
     sample_strains,
 )
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 QUANTITIES = ("rate", "mean size", "release")
 
@@ -108,7 +109,7 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     sig = np.asarray(ds.shear_stress.sel(**sel).values)[done]
     ene = np.asarray(ds.energy.sel(**sel).values)[done]
     work = np.nansum(np.diff(gam, axis=1) * sig[:, :-1], axis=1)
-    last = [np.flatnonzero(np.isfinite(row))[-1] for row in ene]
+    last = last_rows(ene)
     given_up = ene[:, 0] - ene[np.arange(len(last)), last]
     study = json.loads(ds.attrs.get("study", "{}"))
     pressure = study.get("pressure")
@@ -318,9 +319,7 @@ def figure(data: list[Run], labels: list, floor: float, boot: int, least: int, p
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", required=True,
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap)
     ap.add_argument("--above", type=float, nargs="+", required=True, help="floors S (ε)")
     ap.add_argument("--boot", type=int, default=1000)
     ap.add_argument("--permutations", type=int, default=999)
@@ -331,15 +330,13 @@ def main() -> None:
     ap.add_argument("--least", type=int, default=20,
                     help="the figure's curves stop where a run has fewer avalanches ≥ S")
     a = ap.parse_args()
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    sizes_n = sizes_per_run(ap, a)
     if any(not x > 0 for x in a.above):
         ap.error("--above needs floors > 0")
     if a.boot < 2 or a.permutations < 0 or a.least < 1:
         ap.error("--boot must be >= 2, --permutations >= 0 and --least >= 1")
     if a.labels is not None and len(a.labels) != len(a.runs):
         ap.error(f"--labels takes one label per run ({len(a.runs)}), got {len(a.labels)}")
-    sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
     rng = np.random.default_rng(a.seed)
     data = []
     for run, n in zip(a.runs, sizes_n, strict=True):

@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -62,7 +61,7 @@ from jamlab.analysis import (
     joint_shape_profile,
 )
 from jamlab.reproduce.measurements import avalanche_set
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 
 def row(label: str, sizes, floor: float) -> str:
@@ -208,9 +207,7 @@ def widened(by_n: dict, floor: float, stretches: list, boot: int, scale: float) 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", required=True,
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap)
     ap.add_argument("--floor", type=float, required=True, help="lower end S of the fits (ε)")
     ap.add_argument("--profile", type=float, nargs="+", default=[],
                     help="cut-off shapes a of the joint profile (two N or more)")
@@ -246,8 +243,7 @@ def main() -> None:
         ap.error("--replicate needs runs of two N or more")
     if a.take and (len(a.take) != len(a.runs) or min(a.take) < 0):
         ap.error(f"--take takes one K >= 0 per run ({len(a.runs)}), got {a.take}")
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    sizes_n = sizes_per_run(ap, a)
     if not (math.isfinite(a.floor) and a.floor > 0):
         ap.error(f"--floor must be finite and > 0, got {a.floor}")
     if a.profile and not (all(x > 0 for x in a.profile) and a.boot >= 2
@@ -256,7 +252,6 @@ def main() -> None:
     for run in a.runs:
         if not run.is_dir():
             ap.error(f"no run directory {run}")
-    sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
     read = []  # every run read and its --take checked before anything is printed
     for run, n, take in zip(a.runs, sizes_n, a.take or [0] * len(a.runs), strict=True):
         per_sample = list(avalanche_set(open_run(run), "jamming", n).per_sample)

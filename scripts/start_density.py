@@ -25,8 +25,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from jamlab.reproduce.ensembles import avalanche_set, finished
-from jamlab.runs import open_run
+from jamlab.reproduce.ensembles import avalanche_set, finished, last_rows
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 
 class Packings(NamedTuple):
@@ -44,7 +44,7 @@ def read_run(run: Path, n: int) -> Packings:
     if "phi_step" not in ds:
         raise ValueError(f"{run}: no per-row φ (phi_step): not a fixed-pressure run of format 2")
     phi = np.asarray(ds.phi_step.sel(phi="jamming", N=n).values)[finished(ds, "jamming", n)]
-    last = np.array([np.flatnonzero(np.isfinite(row))[-1] for row in phi], dtype=np.int64)
+    last = last_rows(phi)
     sizes = avalanche_set(ds, "jamming", n).per_sample
     return Packings(phi[:, 0], phi[np.arange(len(last)), last], tuple(sizes))
 
@@ -94,16 +94,12 @@ def report(name: str, p: Packings, above: float, largest: int) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", required=True,
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap)
     ap.add_argument("--above", type=float, default=1e-6, help="S counted per packing (ε)")
     ap.add_argument("--largest", type=int, default=4, help="packings of the largest S_max listed")
     ap.add_argument("--pool", action="store_true", help="also the runs of one N together")
     a = ap.parse_args()
-    ns = a.n * len(a.runs) if len(a.n) == 1 else a.n
-    if len(ns) != len(a.runs):
-        ap.error(f"--n takes one N or one per run ({len(a.runs)}), got {len(a.n)}")
+    ns = sizes_per_run(ap, a)
     if not a.above > 0 or a.largest < 0:
         ap.error("--above must be > 0 and --largest >= 0")
     try:

@@ -28,14 +28,13 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
 from jamlab.analysis import fit_cutoff_power_law
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 
 def window_parts(ds, n: int, parts: int, floors: list[float]) -> dict:
@@ -128,9 +127,7 @@ def part_differences(first, last) -> tuple[str, str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", default=[500],
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap, default_n=500)
     ap.add_argument("--parts", type=int, default=10)
     ap.add_argument("--above", type=float, nargs="+", default=[1e-10],
                     help="floors of S (ε) for the avalanche counts")
@@ -139,8 +136,7 @@ def main() -> None:
                          "parts of the window")
     ap.add_argument("--fit-parts", type=int, default=2)
     a = ap.parse_args()
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    n_of_run = sizes_per_run(ap, a)
     if a.parts < 1:
         ap.error("--parts must be >= 1")
     if not all(x > 0 for x in a.above):
@@ -149,7 +145,7 @@ def main() -> None:
         ap.error("--fit-at floors must be > 0")
     if a.fit_parts < 1:
         ap.error("--fit-parts must be >= 1")
-    for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
+    for run, n in zip(a.runs, n_of_run, strict=True):
         w = window_parts(open_run(run), n, a.parts, a.above)
         print(f"\n{run} (N = {n}): {w['samples']} finished samples, {w['steps']} steps each; "
               f"{a.parts} parts\n")

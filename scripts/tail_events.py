@@ -44,14 +44,13 @@ large ones where the stress is high, or late in the window?
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 from scipy import stats
 
 from jamlab.analysis import consecutive_events, fit_cutoff_power_law
 from jamlab.reproduce.ensembles import counted_steps, finished, intensive_stress
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 
 LAGS = (1, 2, 3, 5, 10)
 """The lags (in steps) of the pair counts."""
@@ -326,9 +325,7 @@ def mann_whitney(a: np.ndarray, b: np.ndarray) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", default=[500],
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap, default_n=500)
     ap.add_argument("--above", type=float, nargs="+", default=[1e-7],
                     help="floors of S (ε); the events of the highest are listed")
     ap.add_argument("--trials", type=int, default=99999,
@@ -346,8 +343,7 @@ def main() -> None:
     ap.add_argument("--burst-trials", type=int, default=400,
                     help="permutations of the --bursts size test")
     a = ap.parse_args()
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    n_of_run = sizes_per_run(ap, a)
     if not all(x > 0 for x in a.above):
         ap.error("--above floors must be > 0")
     if a.trials < 0 or a.top < 1:
@@ -357,7 +353,7 @@ def main() -> None:
         ap.error("--bursts takes FLOOR > 0, an integer WINDOW >= 1 and X_MIN > 0")
     if a.burst_block < 1 or a.burst_trials < 0:
         ap.error("--burst-block must be >= 1 and --burst-trials >= 0")
-    for run, n in zip(a.runs, a.n * len(a.runs) if len(a.n) == 1 else a.n, strict=True):
+    for run, n in zip(a.runs, n_of_run, strict=True):
         t = run_tail(open_run(run), n, a.above)
         m = len(t["samples"])
         print(f"\n{run} (N = {n}): {m} finished samples\n")

@@ -90,16 +90,14 @@ from jamlab.reproduce.measurements import (
     tau_sigma,
 )
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_run
+from jamlab.runs import add_run_arguments, open_run, sizes_per_run
 from jamlab.spheres.confirm import plastic_threshold
 from jamlab.spheres.pressure_shear import PLASTIC_FLOOR
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", type=Path, nargs="+")
-    ap.add_argument("--n", type=int, nargs="+", default=[500],
-                    help="N of the runs: one for all, or one per run")
+    add_run_arguments(ap, default_n=500)
     ap.add_argument("--scale", default="medium", choices=sorted(SCALES))
     ap.add_argument("--quantiles", type=float, nargs="+",
                     default=[0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
@@ -134,15 +132,13 @@ def main() -> None:
     ap.add_argument("--joint-figure", type=Path, default=None,
                     help="figure of the joint fit at the first floor (with --joint)")
     a = ap.parse_args()
-    if len(a.n) not in (1, len(a.runs)):
-        ap.error(f"--n takes one size or one per run ({len(a.runs)}), got {len(a.n)}")
+    sizes_n = sizes_per_run(ap, a)
     if a.band is not None and not (a.band > 0 and a.band_step > 0 and a.band_min >= 2):
         ap.error("--band and --band-step must be positive, --band-min at least 2")
     if any(not 0 < lo < hi for lo, hi in a.fixed_band):
         ap.error("--fixed-band needs 0 < LO < HI")
     if a.boot < 0:
         ap.error("--boot must be >= 0")
-    sizes_n = a.n * len(a.runs) if len(a.n) == 1 else a.n
     if a.joint and (len(set(sizes_n)) != len(sizes_n) or len(sizes_n) < 2 or a.boot < 2
                     or not all(x > 0 for x in a.joint)):
         ap.error("--joint needs two or more runs of different N, --boot >= 2 and floors > 0")

@@ -173,6 +173,12 @@ def sample_strains(ds: Any, label: str, n: int) -> np.ndarray:
     return np.nanmax(gam, axis=1) - gam[:, 0] if gam.size else np.empty(0)
 
 
+def last_rows(values: np.ndarray) -> np.ndarray:
+    """The index of each sample's last row, the last finite entry of each row of a ``(samples,
+    steps)`` array (rows past a sample's end are NaN; every row needs one finite entry)."""
+    return np.array([np.flatnonzero(np.isfinite(row))[-1] for row in values], dtype=np.int64)
+
+
 def intensive_stress(ds: Any, label: str, n: int) -> np.ndarray:
     """``Σ/V`` of the finished samples, ``(samples, steps+1)``: each row's shear stress over its
     box volume. At constant volume ``V = L^d``, the box a sample file keeps; at fixed pressure

@@ -3,9 +3,11 @@
 - :class:`Study` — the physics parameters (φ values, N values, samples, δγ, γ_max, seed, ...);
 - :func:`sample_seed` — a sample's seed from the master seed and (φ, N, index), nothing else;
 - :func:`run_study` — run or resume a study in a run directory, locally or on Dask;
-- :func:`open_run` — the stored traces as an ``xarray.Dataset`` indexed by φ, N, sample, step.
+- :func:`open_run` — the stored traces as an ``xarray.Dataset`` indexed by φ, N, sample, step;
+- :func:`add_run_arguments`, :func:`sizes_per_run` — the analysis scripts' runs and their ``--n``.
 """
 
+from jamlab.runs.arguments import add_run_arguments, sizes_per_run
 from jamlab.runs.execute import Execution, RunSummary, run_study
 from jamlab.runs.load import open_run, prepared_packing, read_sample
 from jamlab.runs.seeds import sample_seed, sample_seed_sequence
@@ -23,6 +25,7 @@ __all__ = [
     "SampleKey",
     "SampleResult",
     "Study",
+    "add_run_arguments",
     "load_toml",
     "open_run",
     "prepared_packing",
@@ -30,4 +33,5 @@ __all__ = [
     "run_study",
     "sample_seed",
     "sample_seed_sequence",
+    "sizes_per_run",
 ]

@@ -1,0 +1,29 @@
+"""The analysis scripts' shared arguments: run directories and the N of each (``--n``).
+
+Every script in ``scripts/`` that reads finished runs takes them the same way: run directories
+as positional arguments and ``--n`` with one size for all of them or one per run (runs of
+different N side by side). The convention lives here once; scripts cannot import each other.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_run_arguments(parser: argparse.ArgumentParser, *, default_n: int | None = None) -> None:
+    """Add ``runs`` (one or more directories) and ``--n`` (required unless ``default_n``)."""
+    parser.add_argument("runs", type=Path, nargs="+")
+    needed = {"required": True} if default_n is None else {"default": [default_n]}
+    parser.add_argument("--n", type=int, nargs="+",
+                        help="N of the runs: one for all, or one per run", **needed)
+
+
+def sizes_per_run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> list[int]:
+    """One N per run from ``args.n``: the one size repeated, or the sizes as given.
+
+    Any other count is the parser's error (one line, exit code 2)."""
+    runs, sizes = len(args.runs), list(args.n)
+    if len(sizes) not in (1, runs):
+        parser.error(f"--n takes one size or one per run ({runs}), got {len(sizes)}")
+    return sizes * runs if len(sizes) == 1 else sizes
