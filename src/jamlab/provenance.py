@@ -31,8 +31,8 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
-__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "differ", "machine", "machine_key",
-           "provenance_json", "segment", "summary_text"]
+__all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "differ", "here", "machine",
+           "machine_key", "provenance_json", "segment", "summary_text"]
 
 KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "blas_cores", "libc", "python", "numpy",
               "scipy", "numba", "llvmlite", "cvxopt")
@@ -153,10 +153,15 @@ def differ(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return any(a[name] != b[name] for name in KEY_FIELDS if name in a and name in b)
 
 
+def here() -> dict[str, Any]:
+    """This process's host and :func:`machine`."""
+    return {"host": platform.node(), **machine()}
+
+
 def segment(resumed_from: int = -1) -> dict[str, Any]:
     """One invocation's record: the step it resumed from (``-1``: started afresh), the host and
     :func:`machine`."""
-    return {"resumed_from": int(resumed_from), "host": platform.node(), **machine()}
+    return {"resumed_from": int(resumed_from), **here()}
 
 
 def provenance_json() -> str:

@@ -237,3 +237,34 @@ def test_dask_scheduler_gives_the_local_results(tmp_path, dask_cluster):
     assert_same_runs(local, remote)
     failed = sorted(p.relative_to(local) for p in local.rglob("*.failed.json"))
     assert failed == sorted(p.relative_to(remote) for p in remote.rglob("*.failed.json"))
+
+
+def _fails_at_index_1(study, key, seed):
+    from jamlab.runs import SampleFailed
+
+    if key.index == 1:
+        raise SampleFailed("did not converge (test)")
+    from jamlab.runs.tasks import toy_task
+
+    return toy_task(study, key, seed)
+
+
+def test_status_names_failures_and_the_samples_a_retry_finished(tmp_path):
+    from jamlab.provenance import machine
+    from jamlab.runs import Execution, Study, run_study
+
+    study = Study(phi=["jamming"], n=[8], samples=2, dgamma=1e-3, gamma_max=4e-3, task="toy")
+    run = tmp_path / "run"
+    for _ in range(2):  # failed twice
+        run_study(study, run, Execution(workers=0), task=_fails_at_index_1)
+    r = jamlab("status", run, "--failures")
+    assert r.returncode == 0, r.stderr
+    (line,) = [x for x in r.stdout.splitlines() if x.startswith("phi=jamming N=8 sample=1")]
+    assert "(failed 2 times): SampleFailed: did not converge (test) (" in line
+    assert machine()["cpu"] in line
+    run_study(study, run, Execution(workers=0))  # the retry finishes it
+    r = jamlab("status", run)
+    (line,) = [x for x in r.stdout.splitlines() if x.startswith("phi=jamming N=8 sample=1")]
+    assert line.startswith("phi=jamming N=8 sample=1: done on a retry after 2 failure(s); "
+                           "SampleFailed: did not converge (test)")
+    assert not [x for x in r.stdout.splitlines() if x.startswith("phi=jamming N=8 sample=0")]

@@ -11,7 +11,10 @@ VOLATILE_ATTRS = {"seconds", "cpu_seconds", "provenance"}  # provenance: the hos
 
 
 def sample_files(run_dir: Path) -> dict[str, Path]:
-    return {str(p.relative_to(run_dir)): p for p in sorted(run_dir.rglob("sample-*.h5"))}
+    """The finished samples' files (``sample-XXXXX.h5``; not a failure's kept trace,
+    ``sample-XXXXX.failed.h5`` or ``.retried.h5``)."""
+    return {str(p.relative_to(run_dir)): p for p in sorted(run_dir.rglob("sample-*.h5"))
+            if p.name.count(".") == 1}
 
 
 def read_all(path: Path) -> tuple[dict, dict]:

@@ -7,7 +7,18 @@ import h5py
 import numpy as np
 import pytest
 
-from jamlab.runs import Execution, RunDir, RunError, SampleFailed, Study, run_study
+from jamlab.provenance import machine
+from jamlab.runs import (
+    Execution,
+    RunDir,
+    RunError,
+    SampleFailed,
+    SampleFailure,
+    Study,
+    run_study,
+    sample_seed,
+)
+from jamlab.runs.storage import CHECKPOINT_TRACE
 from jamlab.runs.tasks import toy_task
 
 STUDY = Study(phi=["jamming", 0.8], n=[8, 12], samples=3, dgamma=1e-3, gamma_max=5e-3, task="toy")
@@ -78,6 +89,57 @@ def test_failures_are_recorded_and_retried(tmp_path, same_runs):
     assert not list(run.rglob("*.failed.json"))
     run_study(STUDY, tmp_path / "ref", IN_PROCESS)
     same_runs(tmp_path / "ref", run)
+    # ... and each retried sample keeps its failure: what, and on which machine
+    for key in failed:
+        assert rd.retried_path(key).is_file()
+        (past,) = rd.failures(key)
+        expected = "SampleFailed" if key.index == 1 else "ZeroDivisionError"
+        assert past["error_type"] == expected and past["index"] == key.index
+        assert past["machine"]["cpu"] == machine()["cpu"] and past["trace"] is None
+    assert len(list(run.rglob("*.retried.json"))) == n_fail
+
+
+def test_every_failure_and_its_trace_are_kept_until_and_after_a_retry_finishes(tmp_path):
+    """A failure record keeps the earlier failures (oldest first) and a copy of the checkpoint's
+    trace at each failure; a retry that finishes the sample turns the record into
+    ``.retried.json`` and the trace into ``.retried.h5`` (nothing about a failure is erased)."""
+    rd = RunDir.open(tmp_path / "run", STUDY)
+    with rd.lock():
+        rd.start(STUDY)
+    key = STUDY.keys()[0]
+    seed = sample_seed(STUDY.seed, key)
+    saved = rd.checkpoint_dir(key) / CHECKPOINT_TRACE
+    saved.parent.mkdir(parents=True)
+    for n, cpu in enumerate(("cpu A", "cpu B"), start=1):
+        saved.write_bytes(f"trace at failure {n}".encode())
+        rd.write_failure(key, SampleFailure("SampleFailed", f"failure {n}", "tb", 1.0,
+                                            machine={"cpu": cpu}), seed)
+        assert rd.state(key) == "failed"
+        record = rd.read_failure(key)
+        assert record["message"] == f"failure {n}" and record["machine"] == {"cpu": cpu}
+        assert [r["message"] for r in record.get("earlier", [])] == [f"failure {k}"
+                                                                     for k in range(1, n)]
+        assert record["trace"] == rd.failure_trace_path(key).name
+        assert all(r["trace"] is None for r in record.get("earlier", []))  # the copy replaced
+        assert rd.failure_trace_path(key).read_bytes() == f"trace at failure {n}".encode()
+    # a failure with no checkpoint trace names none (the copy of the earlier one stays)
+    saved.unlink()
+    rd.write_failure(key, SampleFailure("ZeroDivisionError", "failure 3", "tb"), seed)
+    assert rd.read_failure(key)["trace"] is None and rd.read_failure(key)["machine"] is None
+    assert [r["message"] for r in rd.failures(key)] == ["failure 1", "failure 2", "failure 3"]
+    rd.write_sample(key, toy_task(STUDY, key, seed), seed, STUDY)
+    assert rd.state(key) == "done"
+    assert not rd.failure_path(key).exists() and not rd.failure_trace_path(key).exists()
+    kept = json.loads(rd.retried_path(key).read_text())["failures"]
+    assert [r["message"] for r in kept] == ["failure 1", "failure 2", "failure 3"]
+    assert all("earlier" not in r for r in kept)
+    # the kept trace is failure 2's (the last with a checkpoint), and only its record names it
+    assert [r["trace"] for r in kept] == [None, "sample-00000.retried.h5", None]
+    assert (rd.retried_path(key).parent / kept[1]["trace"]).read_bytes() == b"trace at failure 2"
+    # a later failure and retry of the same sample add to the kept list
+    rd.write_failure(key, SampleFailure("SampleFailed", "failure 4", "tb"), seed)
+    rd.write_sample(key, toy_task(STUDY, key, seed), seed, STUDY)
+    assert [r["message"] for r in rd.failures(key)] == [f"failure {k}" for k in range(1, 5)]
 
 
 def test_refusals_touch_nothing(tmp_path):

@@ -310,12 +310,24 @@ def register(app: typer.Typer) -> None:
                          else f"at step {step} of {study.n_steps}")
                 console.print(f"checkpoint phi={key.phi_label} N={key.n} sample={key.index}: "
                               f"{where}", markup=False)
+        for key in study.keys():
+            # a finished sample that failed before says so (its failures are kept)
+            if states[key] == "done" and run.retried_path(key).exists():
+                past = run.failures(key)
+                console.print(f"phi={key.phi_label} N={key.n} sample={key.index}: done on a retry "
+                              f"after {len(past)} failure(s); {_failure_text(past[-1])}",
+                              markup=False, soft_wrap=True)
         if failures:
             for key in study.keys():
                 if states[key] == "failed":
-                    info = run.read_failure(key)
-                    console.print(
-                        f"phi={key.phi_label} N={key.n} sample={key.index}: "
-                        f"{info['error_type']}: {info['message']}",
-                        markup=False,
-                    )
+                    past = run.failures(key)
+                    again = f" (failed {len(past)} times)" if len(past) > 1 else ""
+                    console.print(f"phi={key.phi_label} N={key.n} sample={key.index}{again}: "
+                                  f"{_failure_text(past[-1])}", markup=False, soft_wrap=True)
+
+
+def _failure_text(record: dict[str, Any]) -> str:
+    """A failure record in one line: the error, when, and on which CPU if it was recorded."""
+    where = (record.get("machine") or {}).get("cpu")
+    when = record.get("time", "time not recorded") + (f", {where}" if where else "")
+    return f"{record.get('error_type', '?')}: {record.get('message', '')} ({when})"

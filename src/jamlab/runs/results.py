@@ -51,9 +51,12 @@ class SampleResult:
 
 @dataclass
 class SampleFailure:
-    """A failed sample: the error's type and message, the traceback, the worker's wall time."""
+    """A failed sample: the error's type and message, the traceback, the worker's wall time and
+    where it failed (:func:`jamlab.provenance.segment` of the worker's invocation; ``None`` for
+    a failure found after the task, e.g. an invalid result)."""
 
     error_type: str
     message: str
     traceback: str
     seconds: float = 0.0
+    machine: dict[str, Any] | None = None

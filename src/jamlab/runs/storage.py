@@ -6,6 +6,14 @@ Layout (``docs/runs.md``)::
     RUN/run.lock                                         held (flock) by the driving process
     RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.h5      a finished sample
     RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.failed.json   a failed sample's error
+    RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.failed.h5     its checkpoint's trace then
+    RUN/samples/phi=<φ>/N=<N>/sample-<index:05d>.retried.json  the failures of a sample that
+                                                               a retry finished (and .retried.h5)
+
+A failure is never erased: a failure record keeps the earlier failures of the sample
+(``earlier``, oldest first) and where each happened (``machine``); when a retry finishes the
+sample, the record becomes ``.retried.json`` (``failures``, oldest first) and the failure's trace
+``.retried.h5``, so a finished sample says it was retried, on what and why.
 
 Sample file (root of the HDF5 file): group ``trace`` with the 1-D per-step datasets
 (:data:`jamlab.runs.tasks.TRACE_FIELDS`); group ``packing`` with the prepared configuration's
@@ -260,8 +268,19 @@ class RunDir:
             root.rmdir()
 
     def failure_path(self, key: SampleKey) -> Path:
+        return self._beside(key, ".failed.json")
+
+    def failure_trace_path(self, key: SampleKey) -> Path:
+        """The trace of ``key``'s checkpoint when it last failed (module docstring)."""
+        return self._beside(key, ".failed.h5")
+
+    def retried_path(self, key: SampleKey) -> Path:
+        """The failures of a sample that a retry finished (module docstring)."""
+        return self._beside(key, ".retried.json")
+
+    def _beside(self, key: SampleKey, suffix: str) -> Path:
         p = self.sample_path(key)
-        return p.with_name(p.stem + ".failed.json")
+        return p.with_name(p.stem + suffix)
 
     # -- manifest -----------------------------------------------------------------------------
 
@@ -470,30 +489,69 @@ class RunDir:
 
         path = self.sample_path(key)
         atomic_write_hdf5(path, fill, make_parents=True)
-        self.failure_path(key).unlink(missing_ok=True)
+        if self.failure_path(key).exists():
+            # the sample failed before and a retry finished it: its failures are kept, and the
+            # trace of the last one that had a checkpoint (the record owning it names it)
+            past = self.failures(key)
+            trace = self.failure_trace_path(key)
+            if trace.exists():
+                kept = self._beside(key, ".retried.h5")
+                os.replace(trace, kept)
+                owner = max((i for i, r in enumerate(past) if r.get("trace")), default=-1)
+                for i, record in enumerate(past):
+                    record["trace"] = kept.name if i == owner else None
+            write_json(self.retried_path(key), {"failures": past})
+            self.failure_path(key).unlink()
         return path
 
     def write_failure(self, key: SampleKey, failure: SampleFailure, seed: int) -> Path:
-        """Record ``key``'s failure (a sample file, if any, is left alone)."""
+        """Record ``key``'s failure (a sample file, if any, is left alone), with the failures
+        recorded before it (``earlier``) and a copy of its checkpoint's trace, if it has one
+        (``trace``: the copy's file name, else ``None``)."""
         path = self.failure_path(key)
-        write_json(
-            path,
-            {
-                "phi": key.phi_label,
-                "n": key.n,
-                "index": key.index,
-                "seed": str(seed),
-                "error_type": failure.error_type,
-                "message": failure.message,
-                "traceback": failure.traceback,
-                "seconds": failure.seconds,
-                "time": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-            },
-        )
+        earlier = self._open_failures(key)
+        saved = self.checkpoint_dir(key) / CHECKPOINT_TRACE
+        trace = None
+        if saved.is_file():
+            copy = atomic_write(self.failure_trace_path(key),
+                                lambda tmp: shutil.copyfile(saved, tmp), make_parents=True)
+            trace = copy.name
+            for record in earlier:  # their copy, if any, is replaced by this one
+                record["trace"] = None
+        record = {
+            "phi": key.phi_label,
+            "n": key.n,
+            "index": key.index,
+            "seed": str(seed),
+            "error_type": failure.error_type,
+            "message": failure.message,
+            "traceback": failure.traceback,
+            "seconds": failure.seconds,
+            "time": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "machine": failure.machine,
+            "trace": trace,
+        }
+        write_json(path, {**record, "earlier": earlier} if earlier else record)
         return path
 
     def read_failure(self, key: SampleKey) -> dict[str, Any]:
         return json.loads(self.failure_path(key).read_text())
+
+    def failures(self, key: SampleKey) -> list[dict[str, Any]]:
+        """Every failure recorded for ``key``, oldest first: those a retry already finished
+        (``.retried.json``), then the current record's ``earlier`` and the record itself."""
+        found: list[dict[str, Any]] = []
+        if self.retried_path(key).exists():
+            found += json.loads(self.retried_path(key).read_text()).get("failures", [])
+        return found + self._open_failures(key)
+
+    def _open_failures(self, key: SampleKey) -> list[dict[str, Any]]:
+        """The failures since the sample was last finished: the record's ``earlier`` and the
+        record itself, oldest first (none without a record)."""
+        if not self.failure_path(key).exists():
+            return []
+        record = self.read_failure(key)
+        return list(record.pop("earlier", [])) + [record]
 
     def summary(
         self, study: Study, states: Mapping[SampleKey, str] | None = None

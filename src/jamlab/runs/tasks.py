@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from jamlab.provenance import segment
+from jamlab.provenance import here, segment
 from jamlab.runs import physics
 from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study
@@ -116,7 +116,8 @@ def run_sample(
         )
     except Exception as exc:  # noqa: BLE001 - every failure is recorded, none stops the run
         return SampleFailure(
-            type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start
+            type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start,
+            machine=here(),
         )
     result.seconds = result.earlier_seconds + time.perf_counter() - start
     result.cpu_seconds = result.earlier_cpu_seconds + time.thread_time() - cpu_start
