@@ -15,6 +15,7 @@ from jamlab.runs import (
     SampleFailed,
     SampleFailure,
     Study,
+    open_run,
     run_study,
     sample_seed,
 )
@@ -97,6 +98,9 @@ def test_failures_are_recorded_and_retried(tmp_path, same_runs):
         assert past["error_type"] == expected and past["index"] == key.index
         assert past["machine"]["cpu"] == machine()["cpu"] and past["trace"] is None
     assert len(list(run.rglob("*.retried.json"))) == n_fail
+    counts = open_run(run).failures
+    for key in STUDY.keys():
+        assert int(counts.sel(phi=key.phi_label, N=key.n, sample=key.index)) == (key in failed)
 
 
 def test_every_failure_and_its_trace_are_kept_until_and_after_a_retry_finishes(tmp_path):

@@ -18,7 +18,9 @@ Dataset returned by :func:`open_run`:
   (the per-step packing fraction, stored as ``phi`` in the sample; renamed because ``phi`` is a
   dimension here);
 - per-sample variables ``status`` (``"done"``, ``"failed"``, ``"corrupt"``, ``"pending"``),
-  ``seed`` (uint64, the derived seed, known for every sample), ``n_steps`` (0 if missing) and the
+  ``seed`` (uint64, the derived seed, known for every sample), ``n_steps`` (0 if missing),
+  ``failures`` (how many failures the run recorded for the sample: a finished sample with
+  ``failures > 0`` was finished by a retry, ``RunDir.failures``, docs/runs.md) and the
   numeric attributes the task stored (e.g. ``phi_actual``: φ of the prepared packing, φ_J at
   jamming; ``seconds``: the worker's wall time; ``cpu_seconds``: its CPU time), NaN where missing;
 - ``attrs``: the manifest's ``study`` (JSON), ``master_seed``, ``jamlab_version``, ``created``.
@@ -124,6 +126,7 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     status = np.full(shape3, "pending", dtype=object)
     seeds = np.zeros(shape3, dtype=np.uint64)
     n_steps = np.zeros(shape3, dtype=np.int64)
+    failures = np.zeros(shape3, dtype=np.int64)
     traces: dict[tuple[int, int, int], dict[str, np.ndarray]] = {}
     scalars: dict[str, np.ndarray] = {}
     for key in study.keys():
@@ -131,6 +134,7 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
         seeds[idx] = sample_seed(study.seed, key)
         state = run.state(key, study)
         status[idx] = state
+        failures[idx] = len(run.failures(key))
         if state != "done":
             continue
         with h5py.File(run.sample_path(key), "r") as h5:
@@ -157,6 +161,7 @@ def open_run(path: str | os.PathLike, fields: tuple[str, ...] | None = None) -> 
     data_vars["status"] = (dims3, status.astype(str))
     data_vars["seed"] = (dims3, seeds)
     data_vars["n_steps"] = (dims3, n_steps)
+    data_vars["failures"] = (dims3, failures)
     for name, arr in scalars.items():
         data_vars[name] = (dims3, arr)
     coords = {
