@@ -179,3 +179,9 @@ def test_a_saved_failure_is_not_resumed_but_sheared_again_from_the_prepared_pack
     assert again.resumed_from == 0  # from the prepared packing, not the saved trace
     same(again, whole)
     assert failed_steps(read_trace(folder / TRACE), study.force_tol) == 0  # saved anew
+    # a retry interrupted after its first save keeps no times of the failed shear's later saves
+    with h5py.File(folder / TRACE, "r+") as h5:
+        h5["max_force"][7] = 1.0
+    with pytest.raises(Stop):
+        prepare_and_shear(study, key, seed, folder, progress=stop_after(EVERY + 2))
+    assert sorted(json.loads((folder / TIMES).read_text())) == sorted(["prepared", str(EVERY)])

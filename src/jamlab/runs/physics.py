@@ -91,8 +91,9 @@ def prepare_and_shear(
             # a saved trace with a step that did not converge holds the sample's failure (it was
             # recorded as failed): resumed, it would only fail again. The shear is redone from the
             # prepared packing (docs/runs.md: a retried failure); the saves in between are not
-            # resume points (the run's counters at them are not kept)
+            # resume points (the run's counters at them are not kept), nor are their times
             previous = start = None
+            times = {"prepared": times["prepared"]}
         resumed_from = 0 if previous is None else previous.n_steps
         # the times of the last record not beyond the save resumed from
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
