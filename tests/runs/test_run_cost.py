@@ -114,3 +114,47 @@ def test_status_opens_each_sample_file_once(run, monkeypatch):
     assert surveyed == separate and separate[1]  # the census lines are not empty
     for line in separate[1][:2]:
         assert line.strip() in " ".join(result.output.split())
+
+
+def _slow_failure(study, key, seed):
+    """Fails sample 1 of each cell after spending measurable CPU time (a busy loop)."""
+    import time
+
+    from jamlab.runs import SampleFailed
+    from jamlab.runs.tasks import toy_task
+
+    if key.index == 1:
+        end = time.thread_time() + 0.05
+        while time.thread_time() < end:
+            pass
+        raise SampleFailed("did not converge (test)")
+    return toy_task(study, key, seed)
+
+
+def test_failed_attempts_are_counted_with_their_cpu_time(tmp_path):
+    """The failures' CPU time is the records' own (read here from the JSON files), summed per
+    cell over the failed samples and the ones a retry finished; status prints the sum."""
+    import json
+
+    path = tmp_path / "r"
+    run_study(STUDY, path, Execution(workers=0), task=_slow_failure)
+    run_study(STUDY, path, Execution(workers=0), task=_slow_failure)  # failed twice
+    run = RunDir(path)
+    jam = next(k for k in STUDY.keys() if k.phi_label == "jamming" and k.index == 1)
+    run_study(STUDY, path, Execution(workers=0))  # ... then finished by a retry
+    by_hand: dict[str, list[float]] = {"jamming": [], "0.8": []}
+    for f in sorted(path.rglob("sample-*.*.json")):
+        data = json.loads(f.read_text())
+        for record in data.get("failures", []):
+            by_hand[record["phi"]].append(record["cpu_seconds"])
+    assert len(by_hand["jamming"]) == len(by_hand["0.8"]) == 2
+    assert all(x >= 0.05 for x in by_hand["jamming"] + by_hand["0.8"])
+    costs = {c.phi: c for c in cell_costs(run, STUDY)}
+    for phi, seconds in by_hand.items():
+        assert costs[phi].failures == 2
+        assert sorted(costs[phi].failed_seconds) == sorted(seconds)
+    assert run.state(jam) == "done"
+    r = jamlab("status", path)
+    line = next(x for x in r.stdout.splitlines() if x.startswith("cpu phi=jamming N=8"))
+    assert line.endswith(f"; 2 failed attempt(s), {sum(by_hand['jamming']) / 3600:.2f} CPU-h "
+                         "in the 2 that record it")

@@ -94,7 +94,13 @@ def cost_lines(costs: list[Any]) -> list[str]:
             left = f"{c.to_do:.1f} samples' worth left, cost unknown"
         else:
             left = f"left ≈ {c.left / 3600:.2f} CPU-h ({c.to_do:.1f} samples' worth)"
-        lines.append(head + timed + "; " + left)
+        spent = ""
+        if c.failures:
+            timed_failures = (f"{sum(c.failed_seconds) / 3600:.2f} CPU-h in the "
+                              f"{len(c.failed_seconds)} that record it" if c.failed_seconds
+                              else "their CPU time not recorded")
+            spent = f"; {c.failures} failed attempt(s), {timed_failures}"
+        lines.append(head + timed + "; " + left + spent)
     return lines
 
 

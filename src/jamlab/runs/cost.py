@@ -3,10 +3,12 @@
 Per ``(φ, N)`` cell of a study: the CPU seconds every finished sample records (its ``cpu_seconds``
 attribute: preparation and shear, summed over every resume of the sample), and the work left —
 each pending, failed or corrupt sample counts as one sample, less the fraction of its steps a
-checkpoint already holds (``RunDir.checkpoint_step`` / the study's steps). The projection is the
-finished samples' mean times that count: an estimate for the machine the samples were run on,
-with no model of how the cost varies between samples (at p = 1e-6 it varies by ±15 %,
-docs/reproduce.md).
+checkpoint already holds (``RunDir.checkpoint_step`` / the study's steps); and the failures the
+run recorded (``RunDir.failures``: failed samples and those a retry finished) with the CPU
+seconds their failing invocations spent, work that no finished sample's time includes. The
+projection is the finished samples' mean times that count: an estimate for the machine the
+samples were run on, with no model of how the cost varies between samples (at p = 1e-6 it
+varies by ±15 %, docs/reproduce.md).
 """
 
 from __future__ import annotations
@@ -36,6 +38,10 @@ class CellCost:
     """Finished samples, with or without a recorded time."""
     to_do: float
     """Samples' worth of work left: unfinished samples less their checkpoints' steps."""
+    failures: int = 0
+    """Failures recorded for the cell's samples (each failed attempt, retried or not)."""
+    failed_seconds: tuple[float, ...] = ()
+    """CPU seconds of the failed attempts that record them (older records do not)."""
 
     @property
     def mean(self) -> float | None:
@@ -77,7 +83,10 @@ def cell_costs(
     :meth:`RunDir.survey` (then no file is opened again)."""
     cells: dict[tuple[str, int], dict] = {}
     for key, state in (run.scan(study) if states is None else states).items():
-        cell = cells.setdefault((key.phi_label, key.n), {"seconds": [], "done": 0, "to_do": 0.0})
+        cell = cells.setdefault((key.phi_label, key.n),
+                                {"seconds": [], "done": 0, "to_do": 0.0, "failed": []})
+        past = run.failures(key)
+        cell["failed"] += [cpu_seconds_value(r.get("cpu_seconds")) for r in past]
         if state == "done":
             cell["done"] += 1
             seconds = (sample_cpu_seconds(run, key) if attrs is None
@@ -88,6 +97,8 @@ def cell_costs(
         saved = run.checkpoint_step(key) if study.checkpoint_every else None
         cell["to_do"] += 1.0 - (max(saved, 0) / study.n_steps if saved is not None else 0.0)
     return [
-        CellCost(phi=phi, n=n, seconds=tuple(c["seconds"]), done=c["done"], to_do=c["to_do"])
+        CellCost(phi=phi, n=n, seconds=tuple(c["seconds"]), done=c["done"], to_do=c["to_do"],
+                 failures=len(c["failed"]),
+                 failed_seconds=tuple(x for x in c["failed"] if x is not None))
         for (phi, n), c in cells.items()
     ]

@@ -51,12 +51,15 @@ class SampleResult:
 
 @dataclass
 class SampleFailure:
-    """A failed sample: the error's type and message, the traceback, the worker's wall time and
-    where it failed (:func:`jamlab.provenance.segment` of the worker's invocation; ``None`` for
-    a failure found after the task, e.g. an invalid result)."""
+    """A failed sample: the error's type and message, the traceback, the worker's wall and CPU
+    time in the failing invocation (``cpu_seconds``: ``None`` when not measured; a sample
+    resumed from a checkpoint spent more in its earlier invocations) and where it failed (the
+    worker's :func:`jamlab.provenance.here`; ``None`` for a failure found after the task, e.g.
+    an invalid result)."""
 
     error_type: str
     message: str
     traceback: str
     seconds: float = 0.0
     machine: dict[str, Any] | None = None
+    cpu_seconds: float | None = None

@@ -527,6 +527,7 @@ class RunDir:
             "message": failure.message,
             "traceback": failure.traceback,
             "seconds": failure.seconds,
+            "cpu_seconds": failure.cpu_seconds,
             "time": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
             "machine": failure.machine,
             "trace": trace,

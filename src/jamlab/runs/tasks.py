@@ -117,7 +117,7 @@ def run_sample(
     except Exception as exc:  # noqa: BLE001 - every failure is recorded, none stops the run
         return SampleFailure(
             type(exc).__name__, str(exc), traceback.format_exc(), time.perf_counter() - start,
-            machine=here(),
+            machine=here(), cpu_seconds=time.thread_time() - cpu_start,
         )
     result.seconds = result.earlier_seconds + time.perf_counter() - start
     result.cpu_seconds = result.earlier_cpu_seconds + time.thread_time() - cpu_start
