@@ -318,8 +318,7 @@ def register(app: typer.Typer) -> None:
                               f"{where}", markup=False)
         for key in study.keys():
             # a finished sample that failed before says so (its failures are kept)
-            if states[key] == "done" and run.retried_path(key).exists():
-                past = run.failures(key)
+            if states[key] == "done" and (past := run.failures(key)):
                 console.print(f"phi={key.phi_label} N={key.n} sample={key.index}: done on a retry "
                               f"after {len(past)} failure(s); {_failure_text(past[-1])}",
                               markup=False, soft_wrap=True)

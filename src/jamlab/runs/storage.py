@@ -492,15 +492,18 @@ class RunDir:
         if self.failure_path(key).exists():
             # the sample failed before and a retry finished it: its failures are kept, and the
             # trace of the last one that had a checkpoint (the record owning it names it)
+            # (the kept record first, then the trace renamed, then the failure record removed:
+            # an interruption in between leaves the record beside its copy: counted twice by
+            # failures(), never lost)
             past = self.failures(key)
-            trace = self.failure_trace_path(key)
+            trace, kept = self.failure_trace_path(key), self._beside(key, ".retried.h5")
             if trace.exists():
-                kept = self._beside(key, ".retried.h5")
-                os.replace(trace, kept)
                 owner = max((i for i, r in enumerate(past) if r.get("trace")), default=-1)
                 for i, record in enumerate(past):
                     record["trace"] = kept.name if i == owner else None
             write_json(self.retried_path(key), {"failures": past})
+            if trace.exists():
+                os.replace(trace, kept)
             self.failure_path(key).unlink()
         return path
 
