@@ -304,7 +304,8 @@ def register(app: typer.Typer) -> None:
         table.add_row("all", "", *(str(v) for v in totals.values()), style="bold")
         console = Console()
         console.print(table)
-        for line in cost_lines(cell_costs(run, study, states, attrs)):
+        past = {key: run.failures(key) for key in study.keys()}  # read once, used thrice
+        for line in cost_lines(cell_costs(run, study, states, attrs, past)):
             console.print(line, markup=False, soft_wrap=True)
         for line in census_lines(machine_census(run, study, states, attrs=attrs)):
             console.print(line, markup=False, soft_wrap=True)
@@ -318,17 +319,16 @@ def register(app: typer.Typer) -> None:
                               f"{where}", markup=False)
         for key in study.keys():
             # a finished sample that failed before says so (its failures are kept)
-            if states[key] == "done" and (past := run.failures(key)):
+            if states[key] == "done" and past[key]:
                 console.print(f"phi={key.phi_label} N={key.n} sample={key.index}: done on a retry "
-                              f"after {len(past)} failure(s); {_failure_text(past[-1])}",
+                              f"after {len(past[key])} failure(s); {_failure_text(past[key][-1])}",
                               markup=False, soft_wrap=True)
         if failures:
             for key in study.keys():
                 if states[key] == "failed":
-                    past = run.failures(key)
-                    again = f" (failed {len(past)} times)" if len(past) > 1 else ""
+                    again = f" (failed {len(past[key])} times)" if len(past[key]) > 1 else ""
                     console.print(f"phi={key.phi_label} N={key.n} sample={key.index}{again}: "
-                                  f"{_failure_text(past[-1])}", markup=False, soft_wrap=True)
+                                  f"{_failure_text(past[key][-1])}", markup=False, soft_wrap=True)
 
 
 def _failure_text(record: dict[str, Any]) -> str:

@@ -77,15 +77,17 @@ def sample_cpu_seconds(run: RunDir, key: SampleKey) -> float | None:
 def cell_costs(
     run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None,
     attrs: Mapping[SampleKey, Mapping[str, Any]] | None = None,
+    failures: Mapping[SampleKey, list[dict[str, Any]]] | None = None,
 ) -> list[CellCost]:
     """One :class:`CellCost` per ``(φ, N)`` of ``study``, in the study's order; ``states``: a
     :meth:`RunDir.scan` already made; ``attrs``: the finished samples' root attributes from
-    :meth:`RunDir.survey` (then no file is opened again)."""
+    :meth:`RunDir.survey` (then no file is opened again); ``failures``: every sample's
+    :meth:`RunDir.failures`, already read."""
     cells: dict[tuple[str, int], dict] = {}
     for key, state in (run.scan(study) if states is None else states).items():
         cell = cells.setdefault((key.phi_label, key.n),
                                 {"seconds": [], "done": 0, "to_do": 0.0, "failed": []})
-        past = run.failures(key)
+        past = run.failures(key) if failures is None else failures[key]
         cell["failed"] += [cpu_seconds_value(r.get("cpu_seconds")) for r in past]
         if state == "done":
             cell["done"] += 1

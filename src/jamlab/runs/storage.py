@@ -491,9 +491,9 @@ class RunDir:
         atomic_write_hdf5(path, fill, make_parents=True)
         if self.failure_path(key).exists():
             # the sample failed before and a retry finished it: its failures are kept, and the
-            # trace of the last one that had a checkpoint (the record owning it names it)
-            # (the kept record first, then the trace renamed, then the failure record removed:
-            # an interruption in between leaves the record beside its copy: counted twice by
+            # trace of the last one that had a checkpoint (the record owning it names it). The
+            # kept record is written first, then the trace renamed, then the record removed: an
+            # interruption in between leaves the record beside its copy (counted twice by
             # failures(), never lost)
             past = self.failures(key)
             trace, kept = self.failure_trace_path(key), self._beside(key, ".retried.h5")
