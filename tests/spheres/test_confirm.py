@@ -414,8 +414,15 @@ def test_candidates_that_surely_released_enough_are_jumps_without_the_confirmati
     # the full confirmation called each of them a jump, and the band did not redo them
     assert full.confirmed[sure].all() and not band.confirmed[sure].any()
     np.testing.assert_array_equal(band["plastic"], full["plastic"])
-    # a candidate Newton continued is a kink under either setting
-    assert not band["plastic"][band.continued].any()
+    # a candidate Newton continued is a kink, unless it surely released more than the band
+    # (then plastic: "Jumps Newton continued through"); with every candidate confirmed
+    # (confirm_below=inf) nothing is sure, and a continued candidate is a kink
+    cont_sure = np.concatenate([[False], (least > 5.0 * max(thr, dg**2)) & (np.abs(res) > thr)
+                                & jammed & band.continued[1:]])
+    assert band.attrs["n_candidates_continued_sure"] == cont_sure.sum()
+    np.testing.assert_array_equal(band["plastic"][band.continued], cont_sure[band.continued])
+    assert not full["plastic"][full.continued].any()
+    assert full.attrs["n_candidates_continued_sure"] == 0
     # the candidates not redone cost no confirmation iterations
     assert band["iterations"][sure].sum() < full["iterations"][sure].sum()
     with pytest.raises(ValueError, match="confirm_below must be >= 1"):

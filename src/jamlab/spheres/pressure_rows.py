@@ -35,7 +35,10 @@ the run's final threshold, or an unjammed end), (``confirm="located"``) those de
 jump by :func:`~jamlab.spheres.confirm.jump_located`, without a second whole chain, and
 (``defer_confirmation``) those not redone because they released for certain more than
 ``confirm_below · max(threshold, δγ²)`` (a jump:
-:func:`~jamlab.spheres.confirm.released_at_least`)."""
+:func:`~jamlab.spheres.confirm.released_at_least`). Beside them (computed on the whole run, not
+counted as it goes) ``n_candidates_continued_sure``: candidates Newton continued that are flagged
+plastic all the same, having released that much for certain (``docs/aqs.md``, "Jumps Newton
+continued through"; traces without it were made by code that called every one of them a kink)."""
 
 
 def minimizer_attribute(minimizer: str) -> str:
@@ -184,10 +187,10 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
     cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
     threshold, plastic, sure = plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
                                                   confirm_below)
+    # a candidate Newton continued is never redone, but one that released for certain more than
+    # confirm_below units is a jump all the same (docs/aqs.md, "Jumps Newton continued through")
+    continued_sure = sure & np.asarray(continued[: sure.size], dtype=bool) & (confirm_substeps > 1)
     if confirm_substeps > 1:
-        if confirm != "chain":
-            # a candidate Newton continued is a kink and never redone: not one to spare
-            sure &= ~np.asarray(continued[: sure.size], dtype=bool)
         plastic &= confirmed | sure
     cols["plastic"] = plastic
     attrs = {
@@ -210,6 +213,7 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
         "confirm_deferred": int(bool(defer_confirmation)),
         "confirm_below": float(confirm_below),
         **{k: int(v) for k, v in counts.items()},
+        "n_candidates_continued_sure": int(continued_sure.sum()),
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
         # the Newton relaxer's counters, over the whole run (a resumed one starts from its trace's)

@@ -44,6 +44,9 @@ plastic_floor · δγ²)`` (``σ`` the robust noise of ``r_n`` over the run's ja
 minimum's contact network — the branch continued through the step, no FIRE — is a kink and is not
 redone (a jump leaves the linear-response basin of the branch, where Newton fails and FIRE carries
 the event); measured against redoing every candidate (``confirm="chain"``) in ``docs/aqs.md``.
+Unless it released for certain more than ``confirm_below`` units (below): Newton does sometimes
+cross a small event inside the step and land in the post-event minimum, and such a step is a jump
+(measured, ``docs/aqs.md``, "Jumps Newton continued through").
 ``confirm="located"`` (the default) redoes the same candidates, but decides each first on the one
 piece where the branch of the start ends, located by Newton-only probes, without carrying the
 event by FIRE a second time (:func:`jamlab.spheres.confirm.jump_located`; the whole chain only

@@ -1,0 +1,54 @@
+"""A step the Newton relaxer continued can still be a jump (``docs/aqs.md``, "Jumps Newton
+continued through").
+
+The fixture is a minimum of a finished study (``tests/data/continued/README.md``): three steps
+after it the Newton relaxer solves the step's every inner problem from the previous minimum's
+contact network (no FIRE), which the ``continued``/``located`` rules took to mean a kink, yet the
+step crosses an instability and lands in its post-event minimum. The independent verdict is the
+chain's: the same run with every candidate redone in 16 pieces (``confirm="chain"``,
+``confirm_below=inf``), which finds one piece keeping most of the step's residual.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jamlab.spheres.io import read_packing
+from jamlab.spheres.pressure_shear import shear_at_pressure
+
+FIXTURE = Path(__file__).resolve().parents[1] / "data" / "continued" / "n250-p1e-3-step976.h5"
+STEP = 3  # the step 976 → 979 of the study is the third after the fixture's minimum
+
+
+@pytest.fixture(scope="module")
+def runs():
+    start = read_packing(FIXTURE)
+    kw = dict(pressure=1e-3, n_steps=5)
+    return {
+        "default": shear_at_pressure(start, 1e-5, **kw),
+        # deferred (the default): redone after the last step, so the rows are the same
+        "chain": shear_at_pressure(start, 1e-5, confirm="chain", confirm_below=math.inf, **kw),
+    }
+
+
+def test_a_jump_newton_continued_through_is_plastic(runs):
+    default, chain = runs["default"], runs["chain"]
+    for k in ("enthalpy", "shear_stress", "box_length", "jammed"):
+        np.testing.assert_array_equal(default[k], chain[k])
+    h, s, g = default["enthalpy"], default["shear_stress"], default["gamma"]
+    r = np.diff(h) - np.diff(g) * s[:-1] - 0.5 * np.diff(g) * np.diff(s)
+    # the step is a candidate Newton continued (no FIRE), between jammed minima
+    assert default.continued[STEP] and default["iterations"][STEP] == 0
+    assert abs(r[STEP - 1]) > 100 * default.attrs["plastic_threshold"]
+    assert default["jammed"][STEP - 1] and default["jammed"][STEP]
+    # redone in 16 pieces it is a jump (the chain's verdict, computed independently of the
+    # released-enthalpy bound that flags it in the default run)
+    assert chain.confirmed[STEP]
+    assert chain["plastic"][STEP] and default["plastic"][STEP]
+    assert default.attrs["n_candidates_continued_sure"] == 1
+    # every flag of the default run is the chain's
+    np.testing.assert_array_equal(default["plastic"], chain["plastic"])
