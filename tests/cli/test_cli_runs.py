@@ -268,3 +268,31 @@ def test_status_names_failures_and_the_samples_a_retry_finished(tmp_path):
     assert line.startswith("phi=jamming N=8 sample=1: done on a retry after 2 failure(s); "
                            "SampleFailed: did not converge (test)")
     assert not [x for x in r.stdout.splitlines() if x.startswith("phi=jamming N=8 sample=0")]
+
+
+def test_status_says_which_rule_made_the_plastic_flags(tmp_path):
+    # the committed N = 250, p = 1e-4 study was made before the rule that flags jumps the
+    # Newton relaxer continued through: its samples lack the attribute that rule writes
+    committed = Path(__file__).resolve().parents[2] / "data" / "runs" / "n250-p1e-4-vg"
+    with h5py.File(sorted(committed.glob("samples/*/*/sample-*.h5"))[0], "r") as h5:
+        assert "shear_n_candidates_continued_sure" not in h5.attrs
+    r = jamlab("status", committed)
+    assert r.returncode == 0, r.stderr
+    assert "plastic flags: 40 of 40 finished samples by the rule before 2026-12-02" in r.stdout
+    # a fixed-pressure run made now records how many such jumps it flagged; status sums them
+    out = tmp_path / "fp"
+    r = jamlab("run", "--phi", "jamming", "--n", 16, "--samples", 2, "--dgamma", 5e-3,
+               "--gamma-max", 0.05, "--seed", 4, "--pressure", 1e-2, "--out", out,
+               "--workers", 1)
+    assert r.returncode == 0, r.stderr
+    added = 0
+    for path in sample_files(out):
+        with h5py.File(out / path, "r") as h5:
+            added += int(h5.attrs["shear_n_candidates_continued_sure"])
+    r = jamlab("status", out)
+    assert f"plastic flags: the current rule; {added} candidate(s)" in r.stdout
+    assert "by the rule before" not in r.stdout
+    # constant volume has no such rule
+    r = jamlab("run", *STUDY_ARGS, "--samples", 1, "--out", tmp_path / "cv", "--workers", 1)
+    assert r.returncode == 0, r.stderr
+    assert "plastic flags" not in jamlab("status", tmp_path / "cv").stdout

@@ -286,12 +286,13 @@ def register(app: typer.Typer) -> None:
 
         from jamlab.runs import RunDir
         from jamlab.runs.cost import cell_costs
+        from jamlab.runs.flag_rule import CONTINUED_SURE, flag_rule_lines
         from jamlab.runs.origin import census_lines, machine_census
 
         run = RunDir(run_dir)
         study = run.study()
         # one pass over the sample files, each opened once: the table, the costs, the machines
-        states, attrs = run.survey(study, ("cpu_seconds", "provenance"))
+        states, attrs = run.survey(study, ("cpu_seconds", "provenance", CONTINUED_SURE))
         counts = run.summary(study, states)
         table = Table(title=f"{run_dir}  (seed {study.seed}, {study.samples} samples per cell)")
         for column in ("phi", "N", "done", "failed", "corrupt", "pending"):
@@ -308,6 +309,8 @@ def register(app: typer.Typer) -> None:
         for line in cost_lines(cell_costs(run, study, states, attrs, past)):
             console.print(line, markup=False, soft_wrap=True)
         for line in census_lines(machine_census(run, study, states, attrs=attrs)):
+            console.print(line, markup=False, soft_wrap=True)
+        for line in flag_rule_lines(study, attrs):
             console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
             for key in study.keys():
