@@ -22,14 +22,23 @@ of steps ``δγ/m``): the pieces' ``−ΔH`` and flags, the sum against the sing
 chain end's enthalpy against the single step's. A jump keeps ≈ ``r_n`` in one piece; a kink
 spreads ``≲ r_n/m`` over them.
 
+``reflag RUN --out DIR [--samples I …]``: each sample replayed whole with the current code and
+its run's options, the replay's flags by the current rule and by the rule before 2026-12-03
+(without the steps flagged for the residual their chain's largest piece held when redone in four,
+``jamlab.spheres.confirm.residual_held``), one ``.npz`` per sample; ``reflag-compare DIR …``: the
+avalanches and the fitted τ of both on the same rows.
+
     PYTHONPATH=src python scripts/continued_jumps.py scan data/runs/n500-p1e-3-vg --units 5
     PYTHONPATH=src python scripts/continued_jumps.py probe \\
         data/runs/n500-p1e-3-vg/samples/phi=jamming/N=500/sample-00009.h5 886 --substeps 16 64
+    PYTHONPATH=src python scripts/continued_jumps.py reflag data/runs/n500-p1e-3-vg --out DIR
+    PYTHONPATH=src python scripts/continued_jumps.py reflag-compare DIR
 """
 
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
 import h5py
@@ -175,6 +184,98 @@ def probe(sample: Path, steps: list[int], substeps: list[int]) -> None:
                   f"H(chain end) − H(single step) {float(c.energy[-1]) - h_single:.3e}")
 
 
+def reflag(run: Path, samples: list[int] | None, out: Path) -> None:
+    """Each sample of ``run`` replayed whole with the current code and its run's options: the
+    replay's rows against the stored ones (equal, or the largest relative difference of the
+    enthalpy: another machine), its flags against the stored ones, and the replay's time. One
+    ``.npz`` per sample in ``out`` (stored and new flags, the chain's ``confirmed`` and ``held``,
+    ``ΔH``, ``jammed``, the threshold, the time), read by ``reflag-compare``."""
+    study = RunDir(run).study()
+    out.mkdir(parents=True, exist_ok=True)
+    files = sorted(run.glob("samples/*/*/sample-*[0-9].h5"))
+    for sample in files:
+        index = int(sample.stem.split("-")[1])
+        if samples is not None and index not in samples:
+            continue
+        target = out / f"{run.name}-{sample.stem}.npz"
+        if target.exists():
+            continue
+        stored, threshold = columns(sample)
+        t0 = time.process_time()  # CPU time: a shared machine's load does not enter
+        res = shear_at_pressure(prepared_packing(sample), study.dgamma,
+                                n_steps=stored["energy"].size - 1,
+                                save_every=study.checkpoint_every or None, **options(study))
+        seconds = time.process_time() - t0
+        mine = np.asarray(res.columns["enthalpy"])
+        gap = float(np.max(np.abs(mine - stored["energy"]) / np.abs(stored["energy"])))
+        held = res.held if getattr(res, "held", None) is not None else np.zeros(mine.size)
+        new = np.asarray(res.columns["plastic"], dtype=bool)
+        c = res.columns
+        _, _, sure = plastic_threshold(c["enthalpy_jump"], c["stress_jump"], c["gamma"],
+                                       c["jammed"], study.dgamma, PLASTIC_FLOOR, CONFIRM_BELOW)
+        # the replay's flags by the rule before 2026-12-03: without the steps flagged for the
+        # residual their largest piece held (pressure_rows.run_result's by_held)
+        by_held = new & ~res.confirmed & ~sure & (held > res.threshold)
+        # and those the rule before 2026-12-02 did not flag either (a candidate Newton continued)
+        continued_sure = new & sure & res.continued
+        np.savez(target, stored=stored["plastic"], new=new, by_held=by_held,
+                 continued_sure=continued_sure,
+                 confirmed=res.confirmed, held=held, energy_jump=stored["energy_jump"],
+                 new_energy_jump=c["enthalpy_jump"], jammed=stored["jammed"],
+                 new_jammed=c["jammed"], threshold=res.threshold, stored_threshold=threshold,
+                 seconds=seconds, gap=gap)
+        added = np.flatnonzero(new & ~stored["plastic"])
+        lost = np.flatnonzero(~new & stored["plastic"])
+        print(f"{sample.name}: {seconds:.1f} s; enthalpy {'equal' if gap == 0 else f'{gap:.1e}'}"
+              f"; flags {int(stored['plastic'].sum())} → {int(new.sum())}, added "
+              f"{added.tolist()}, lost {lost.tolist()}", flush=True)
+
+
+def reflag_compare(outs: list[Path], n_boot: int) -> None:
+    """The sizes of the replays saved by ``reflag`` (the report's rule) with the flags of the rule
+    before 2026-12-03 and with the current ones, on the replay's own rows (a replay that parted
+    from the stored trace — another machine — is compared with itself), the exponential cut-off
+    fit at the first's window for both; and, for the replays equal to their stored rows to
+    ``1e-12`` relative, whether the rules before give the stored flags (the studies' flags are
+    those of the rule before 2026-12-02: without the candidates Newton continued that surely
+    released more than ``confirm_below`` units either)."""
+    old, new, seconds, gaps, added, same, differ = [], [], [], [], [], 0, []
+    for f in sorted(p for d in outs for p in d.glob("*.npz")):
+        z = np.load(f)
+        dh = z["new_energy_jump"][1:]
+        before = z["new"] & ~z["by_held"]
+        old.append(-dh[classify_steps(dh, before[1:], jammed=z["new_jammed"])])
+        new.append(-dh[classify_steps(dh, z["new"][1:], jammed=z["new_jammed"])])
+        seconds.append(float(z["seconds"]))
+        gaps.append(float(z["gap"]))
+        if float(z["gap"]) <= 1e-12:
+            same += 1
+            if not np.array_equal(before & ~z["continued_sure"], z["stored"]):
+                differ.append(f.stem)
+        for n in np.flatnonzero(z["by_held"]):
+            added.append((f.stem, int(n), float(-z["new_energy_jump"][n]), float(z["held"][n]),
+                          float(z["threshold"])))
+    old_s, new_s = np.concatenate(old), np.concatenate(new)
+    print(f"{len(seconds)} samples, {np.mean(seconds):.1f} s per replay; {same} replays equal to "
+          f"the stored rows to 1e-12 (largest relative difference of any {max(gaps):.1e}), of "
+          f"which {len(differ)} with flags of the rules before unlike the stored ones {differ}; "
+          f"{old_s.size} → {new_s.size} avalanches ({len(added)} steps added)")
+    held_units = np.array([h / t for *_, h, t in added]) if added else np.zeros(0)
+    if added:
+        sizes = np.array([s for _, _, s, _, _ in added])
+        print(f"  added steps: −ΔH {np.min(sizes):.2e}–{np.max(sizes):.2e} (median "
+              f"{np.median(sizes):.2e}); held residual {np.min(held_units):.1f}–"
+              f"{np.max(held_units):.1f} thresholds (median {np.median(held_units):.1f})")
+    ks = stats.ks_2samp(old_s, new_s)
+    fit_old = fit_cutoff_power_law(old_s, n_boot=n_boot)
+    fit_new = fit_cutoff_power_law(new_s, fit_old.x_min, n_boot=n_boot)
+    print(f"  KS D = {ks.statistic:.4f}, p = {ks.pvalue:.3f}; ⟨S⟩ {old_s.mean():.4e} → "
+          f"{new_s.mean():.4e}; sizes above S_min = {fit_old.x_min:.2e}: {fit_old.n_tail} → "
+          f"{fit_new.n_tail}")
+    for name, f in (("stored flags", fit_old), ("new flags", fit_new)):
+        print(f"  {name}: τ = {f.tau:.4f} ± {f.tau_stderr:.4f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="mode", required=True)
@@ -189,8 +290,19 @@ def main() -> None:
     p.add_argument("sample", type=Path)
     p.add_argument("steps", type=int, nargs="+")
     p.add_argument("--substeps", type=int, nargs="+", default=[16, 64])
+    f = sub.add_parser("reflag")
+    f.add_argument("run", type=Path)
+    f.add_argument("--samples", type=int, nargs="+")
+    f.add_argument("--out", type=Path, required=True)
+    g = sub.add_parser("reflag-compare")
+    g.add_argument("outs", type=Path, nargs="+")
+    g.add_argument("--n-boot", type=int, default=200)
     a = ap.parse_args()
-    if a.mode == "scan":
+    if a.mode == "reflag":
+        reflag(a.run, a.samples, a.out)
+    elif a.mode == "reflag-compare":
+        reflag_compare(a.outs, a.n_boot)
+    elif a.mode == "scan":
         scan(a.runs, a.confirm_below)
     elif a.mode == "compare":
         compare(a.runs, a.confirm_below, a.n_boot)

@@ -285,13 +285,23 @@ def test_status_says_which_rule_made_the_plastic_flags(tmp_path):
                "--gamma-max", 0.05, "--seed", 4, "--pressure", 1e-2, "--out", out,
                "--workers", 1)
     assert r.returncode == 0, r.stderr
-    added = 0
+    added = held = 0
     for path in sample_files(out):
         with h5py.File(out / path, "r") as h5:
             added += int(h5.attrs["shear_n_candidates_continued_sure"])
+            held += int(h5.attrs["shear_n_candidates_held"])
     r = jamlab("status", out)
-    assert f"plastic flags: the current rule; {added} candidate(s)" in r.stdout
+    assert (f"plastic flags: the current rule; {added} candidate(s) the Newton relaxer continued "
+            f"flagged plastic for the enthalpy they surely released, {held} whose residual a "
+            "piece held when redone smaller") in " ".join(r.stdout.split())
     assert "by the rule before" not in r.stdout
+    # a sample made by the rule of 2026-12-02 (no shear_n_candidates_held) is named as such
+    first = out / sorted(sample_files(out))[0]
+    with h5py.File(first, "a") as h5:
+        del h5.attrs["shear_n_candidates_held"]
+    r = jamlab("status", out)
+    assert "plastic flags: 1 of 2 finished samples by the rule before 2026-12-03" in r.stdout
+    assert "the current rule" not in r.stdout
     # constant volume has no such rule
     r = jamlab("run", *STUDY_ARGS, "--samples", 1, "--out", tmp_path / "cv", "--workers", 1)
     assert r.returncode == 0, r.stderr

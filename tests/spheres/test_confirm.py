@@ -88,7 +88,8 @@ def test_a_jump_is_found_in_its_piece_and_the_chain_stops_there(where):
 
 
 def test_a_jump_smaller_than_a_quarter_of_the_residual_is_a_kink():
-    # the rule: one piece must keep more than |r|/4; a small jump on a strong kink does not
+    # the rule: one piece must keep more than |r|/4; a small jump on a strong kink does not (the
+    # chain's largest piece redone smaller finds it: test_confirm_held.py)
     h, x0 = 1e-2, 0.1
     b = Branch(g=1.0, g2=3.0, kink=x0 + 0.5 * h, jump=x0 + 0.1 * h, drop=1e-7)
     r = residual_of_step(b, x0, h)

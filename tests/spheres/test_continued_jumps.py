@@ -52,3 +52,35 @@ def test_a_jump_newton_continued_through_is_plastic(runs):
     assert default.attrs["n_candidates_continued_sure"] == 1
     # every flag of the default run is the chain's
     np.testing.assert_array_equal(default["plastic"], chain["plastic"])
+
+
+SMALL = Path(__file__).resolve().parents[1] / "data" / "continued" / "n500-p1e-3-step101.h5"
+
+
+def largest_piece_residual(start, pieces: int) -> float:
+    """The step ``δγ = 1e-5`` from ``start`` redone as a fixed-pressure run of ``pieces`` steps
+    of ``δγ/pieces``: the largest ``|trapezoid residual|`` of its pieces."""
+    c = shear_at_pressure(start, 1e-5 / pieces, pressure=1e-3, n_steps=pieces).columns
+    h, s, g = c["enthalpy"], c["shear_stress"], c["gamma"]
+    return float(np.max(np.abs(np.diff(h) - np.diff(g) * s[:-1] - 0.5 * np.diff(g) * np.diff(s))))
+
+
+def test_a_small_jump_under_a_large_stress_drop_is_plastic():
+    # tests/data/continued/README.md: the first step from the fixture releases ≈ 1.5e-10 ε in
+    # one piece, a quarter of its residual; the chain's share called it a kink
+    start = read_packing(SMALL)
+    run = shear_at_pressure(start, 1e-5, pressure=1e-3, n_steps=30)
+    h, s, g = run["enthalpy"], run["shear_stress"], run["gamma"]
+    r1 = h[1] - h[0] - 1e-5 * s[0] - 0.5 * (g[1] - g[0]) * (s[1] - s[0])
+    assert run["jammed"][0] and run["jammed"][1]
+    assert abs(r1) > 10 * run.attrs["plastic_threshold"]
+    # independent of the chain's code: the step redone as runs of 16 and 64 pieces; one piece
+    # keeps the same residual at both lengths (a kink's would fall 4–16-fold), under |r|/4
+    at16, at64 = largest_piece_residual(start, 16), largest_piece_residual(start, 64)
+    assert at16 < 0.25 * abs(r1) and 0.9 < at64 / at16 < 1.2
+    assert at64 > run.attrs["plastic_threshold"]
+    # the chain calls it a kink; its largest piece redone in four holds ≈ the 64-piece residual
+    assert not run.confirmed[1]
+    assert run.held[1] == pytest.approx(at64, rel=0.05)
+    assert run["plastic"][1]
+    assert run.attrs["n_candidates_held"] >= 1

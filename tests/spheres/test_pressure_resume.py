@@ -4,6 +4,7 @@ uninterrupted run in every column (bit for bit), through the library and through
 
 from __future__ import annotations
 
+import h5py
 import numpy as np
 import pytest
 
@@ -11,7 +12,7 @@ from cli_helpers import jamlab, one_line_error
 from jamlab.spheres import jam
 from jamlab.spheres.aqs import resume_configuration, shear
 from jamlab.spheres.io import write_packing
-from jamlab.spheres.trace import FIXED_PRESSURE_COLUMNS, read_trace
+from jamlab.spheres.trace import FIXED_PRESSURE_COLUMNS, FIXED_PRESSURE_OPTIONAL, read_trace
 
 P, DG, STEPS, EVERY = 1e-3, 1e-4, 60, 20
 
@@ -31,10 +32,11 @@ def _same(a, b) -> None:
     for name in ("gamma", "energy", "shear_stress", "pressure", "z", "z_nr", "max_force",
                  "iterations", "energy_jump", "stress_jump", "plastic", "jammed", "phi"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
-    for name in FIXED_PRESSURE_COLUMNS:
+    for name in FIXED_PRESSURE_COLUMNS + FIXED_PRESSURE_OPTIONAL:
         np.testing.assert_array_equal(a.fixed_pressure[name], b.fixed_pressure[name],
                                       err_msg=name)
-    for key in ("n_plastic", "n_candidates", "n_candidates_continued", "confirm",
+    for key in ("n_plastic", "n_candidates", "n_candidates_continued", "n_candidates_held",
+                "confirm",
                 "plastic_threshold", "n_steps", "gamma_max", "input_box_length", "save_every"):
         assert a.attrs[key] == b.attrs[key], key
 
@@ -57,6 +59,29 @@ def test_resumed_run_equals_the_uninterrupted_one(start, tmp_path):
     _same(whole.trace, resumed.trace)
     _same(read_trace(tmp_path / "a.h5"), read_trace(tmp_path / "b.h5"))
     np.testing.assert_array_equal(whole.packing.positions, resumed.packing.positions)
+
+
+def test_a_trace_made_before_the_held_column_resumes(start, tmp_path):
+    # a checkpoint written before 2026-12-03 has no fixed_pressure/held: it reads, and resumes
+    # with zeros there (its candidates were judged by the rule before); the rows are the same
+    def stop(n, total):
+        if n == EVERY + 3:
+            raise Interrupt
+
+    with pytest.raises(Interrupt):
+        shear(start, DG, n_steps=STEPS, pressure=P, out=tmp_path / "b.h5", save_every=EVERY,
+              progress=stop)
+    with h5py.File(tmp_path / "b.h5", "a") as h5:
+        del h5["fixed_pressure/held"]
+    partial = read_trace(tmp_path / "b.h5")
+    assert "held" not in partial.fixed_pressure
+    resumed = shear(resume_configuration(tmp_path / "b.h5", partial), DG, n_steps=STEPS,
+                    pressure=P, previous=partial, out=tmp_path / "b.h5", save_every=EVERY)
+    whole = shear(start, DG, n_steps=STEPS, pressure=P, save_every=EVERY,
+                  out=tmp_path / "a.h5")
+    np.testing.assert_array_equal(resumed.trace.energy, whole.trace.energy)
+    held = resumed.trace.fixed_pressure["held"]
+    assert held.shape == whole.trace.energy.shape and not np.any(held[: EVERY + 1])
 
 
 def test_cli_resume_at_fixed_pressure(start, tmp_path):

@@ -286,13 +286,13 @@ def register(app: typer.Typer) -> None:
 
         from jamlab.runs import RunDir
         from jamlab.runs.cost import cell_costs
-        from jamlab.runs.flag_rule import CONTINUED_SURE, flag_rule_lines
+        from jamlab.runs.flag_rule import FLAG_RULE_ATTRS, flag_rule_lines
         from jamlab.runs.origin import census_lines, machine_census
 
         run = RunDir(run_dir)
         study = run.study()
         # one pass over the sample files, each opened once: the table, the costs, the machines
-        states, attrs = run.survey(study, ("cpu_seconds", "provenance", CONTINUED_SURE))
+        states, attrs = run.survey(study, ("cpu_seconds", "provenance", *FLAG_RULE_ATTRS))
         counts = run.summary(study, states)
         table = Table(title=f"{run_dir}  (seed {study.seed}, {study.samples} samples per cell)")
         for column in ("phi", "N", "done", "failed", "corrupt", "pending"):

@@ -40,20 +40,37 @@ sees that where the end's branch reaches back to the located piece; :func:`jump_
 the single step's end ``v_end``, compares it with the chain's end (without it, the chain called
 such a step a kink: measured in ``docs/aqs.md``, e.g. a step of N = 1000, p = 1e-4 whose
 residual was 70 times the run's plastic threshold, its chain's largest piece 7 % of it).
+
+The share is of ``|r|``, and in a step with a large stress drop ``D`` most of ``r = −S −
+D δγ (½ − a)`` is the drop's term, which the piece holding the event keeps only ``1/k`` of: a jump
+of a few thresholds there keeps less than a quarter of ``r``. So where the chain finds no jump,
+its largest piece (:class:`LargestPiece`, seen by :func:`jump_in_chain` and :func:`jump_located`)
+is redone in ``HELD_SUBPIECES`` sub-pieces (:func:`residual_held`): a jump keeps its residual in
+one of them (it holds as the pieces shrink), a kink at most ``1/HELD_SUBPIECES`` of it; the caller
+flags the step when the held residual exceeds the run's threshold (``docs/aqs.md``, "The chain's
+share misses small jumps").
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from jamlab.analysis.avalanches import branch_residual, jammed_steps, noise_floor
 from jamlab.spheres.potential import Packing
 
-__all__ = ["Advance", "Probe", "jump_in_chain", "jump_located", "plastic_threshold",
-           "released_at_least", "trapezoid_residual"]
+__all__ = ["HELD_SHARE", "HELD_SUBPIECES", "Advance", "LargestPiece", "Probe", "jump_in_chain",
+           "jump_located", "plastic_threshold", "released_at_least", "residual_held",
+           "trapezoid_residual"]
+
+HELD_SUBPIECES = 4
+"""Sub-pieces :func:`residual_held` redoes a chain's largest piece in."""
+HELD_SHARE = 0.5
+"""The share of the piece's residual one sub-piece must keep to be a jump (a kink keeps at most
+``1/HELD_SUBPIECES``: a margin of 2)."""
 
 Advance = Callable[[Packing, float], tuple[Packing, float, float, int]]
 Probe = Callable[[Packing, float], "tuple[Packing, float, float] | None"]
@@ -65,31 +82,52 @@ def trapezoid_residual(v0: float, s0: float, v1: float, s1: float, step: float) 
     return v1 - v0 - step * s0 - 0.5 * step * (s1 - s0)
 
 
+@dataclass
+class LargestPiece:
+    """The piece of a chain that kept the largest ``|residual|`` so far (none: ``residual`` 0):
+    its start minimum, ``V`` and ``Σ`` there, its length — what :func:`residual_held` redoes."""
+
+    residual: float = 0.0
+    start: Packing | None = None
+    v: float = math.nan
+    s: float = math.nan
+    length: float = math.nan
+
+    def see(self, residual: float, start: Packing, v: float, s: float, length: float) -> None:
+        if abs(residual) > abs(self.residual):
+            self.residual, self.start, self.v, self.s, self.length = residual, start, v, s, length
+
+
 def jump_in_chain(
     advance: Advance, start: Packing, v0: float, s0: float, step: float, r_step: float, k: int,
-    share: float = 0.25, v_end: float | None = None,
+    share: float = 0.25, v_end: float | None = None, largest: LargestPiece | None = None,
 ) -> tuple[bool, int]:
     """The step from ``start`` (at potential ``v0``, stress ``s0``) redone in ``k`` pieces one
     after the other: True as soon as one keeps more than ``share · |r_step|`` (the rest are not
     computed); when none does, True if the single step's own end minimum (potential ``v_end``,
     if given) lies lower than the chain's end by more than that bound — the single step left
     the branches quasi-static driving follows, into a lower minimum: a jump, as in
-    :func:`jump_located` —, else False; and the inner iterations spent."""
+    :func:`jump_located` —, else False; and the inner iterations spent. ``largest`` (if given)
+    sees every piece computed."""
     cur, v, s = start, v0, s0
     iterations = 0
     bound = share * abs(r_step)
     for _ in range(k):
-        cur, v2, s2, its = advance(cur, step / k)
+        nxt, v2, s2, its = advance(cur, step / k)
         iterations += its
-        if abs(trapezoid_residual(v, s, v2, s2, step / k)) > bound:
+        r = trapezoid_residual(v, s, v2, s2, step / k)
+        if largest is not None:
+            largest.see(r, cur, v, s, step / k)
+        if abs(r) > bound:
             return True, iterations
-        v, s = v2, s2
+        cur, v, s = nxt, v2, s2
     return v_end is not None and v - v_end > bound, iterations
 
 
 def jump_located(
     probe: Probe, advance: Advance, start: Packing, v0: float, s0: float, end: Packing,
     v1: float, s1: float, step: float, r_step: float, k: int, share: float = 0.25,
+    largest: LargestPiece | None = None,
 ) -> tuple[bool | None, int]:
     """Is the step from ``start`` (``v0``, ``s0``) to the minimum ``end`` (``v1``, ``s1``) a jump,
     decided on the piece of length ``step/k`` where the branch of ``start`` ends (module
@@ -117,7 +155,7 @@ def jump_located(
     small event (Newton from ``start`` converging to a post-event minimum close by), so a piece
     below the bound does not prove that no other piece keeps more; a piece above it is a drop
     of more than the bound between two minima ``step/k`` apart, which is the chain's
-    criterion."""
+    criterion. ``largest`` (if given) sees the pieces ``advance`` computed."""
     h = step / k
     lo, hi = 0, k
     lo_min, lo_state = start, (v0, s0)
@@ -137,7 +175,10 @@ def jump_located(
     # after it (Newton may fail short of the branch's end, e.g. on a rearrangement below the
     # bound, with the jump further on), then those before it
     cur, v, s, _ = advance(lo_min, h)
-    if abs(trapezoid_residual(*lo_state, v, s, h)) > bound:
+    r = trapezoid_residual(*lo_state, v, s, h)
+    if largest is not None:
+        largest.see(r, lo_min, *lo_state, h)
+    if abs(r) > bound:
         return True, 1
     calls = [1]
 
@@ -145,12 +186,41 @@ def jump_located(
         calls[0] += 1
         return advance(packing, dh)
 
-    jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share, v1)
+    jump, _ = jump_in_chain(counted, cur, v, s, (k - hi) * h, r_step, k - hi, share, v1,
+                            largest)
     if not jump and lo > 0:
         # the pieces before lo, which the probes crossed without proving them smooth; with
         # them every piece of the chain has run: the verdict is final
-        jump, _ = jump_in_chain(counted, start, v0, s0, lo * h, r_step, lo, share)
+        jump, _ = jump_in_chain(counted, start, v0, s0, lo * h, r_step, lo, share,
+                                largest=largest)
     return jump, calls[0]
+
+
+def residual_held(advance: Advance, piece: LargestPiece, m: int = HELD_SUBPIECES,
+                  hold: float = HELD_SHARE) -> tuple[float, int]:
+    """The largest piece of a chain that found no jump, redone in ``m`` sub-pieces one after the
+    other: the first sub-piece's ``|residual|`` that keeps more than ``hold · |piece residual|``
+    (the residual holds as the pieces shrink: a jump), else 0.0 (it falls: a kink keeps at most
+    ``1/m`` of it, typically ``1/m²``; module docstring); and the inner iterations spent.
+
+    Why: the chain's share is of ``|r_n|``, and in a step with a large stress drop most of
+    ``r_n`` is the drop's ``D δγ (½ − a)`` (:func:`released_at_least`), which the piece holding
+    the event keeps only ``1/k`` of: a jump of a few thresholds there keeps less than a quarter
+    of ``r_n`` and the chain calls it a kink (``docs/aqs.md``, "The chain's share misses small
+    jumps"). The caller flags the step when the held residual exceeds the run's threshold."""
+    if piece.start is None or piece.residual == 0.0:
+        return 0.0, 0
+    cur, v, s = piece.start, piece.v, piece.s
+    bound = hold * abs(piece.residual)
+    iterations = 0
+    for _ in range(m):
+        cur, v2, s2, its = advance(cur, piece.length / m)
+        iterations += its
+        r = abs(trapezoid_residual(v, s, v2, s2, piece.length / m))
+        if r > bound:
+            return r, iterations
+        v, s = v2, s2
+    return 0.0, iterations
 
 
 def plastic_threshold(hj: np.ndarray, sj: np.ndarray, g: np.ndarray, jammed: np.ndarray,

@@ -66,6 +66,7 @@ class PressureShearResult:
     time: float = 0.0
     confirmed: np.ndarray | None = None  # per row: a redone candidate step confirmed as a jump
     continued: np.ndarray | None = None  # per row: every inner problem of the step was Newton's
+    held: np.ndarray | None = None  # per row: the residual a kink-called candidate's piece held
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
@@ -103,6 +104,7 @@ class PressureShearResult:
                 "converged": c["converged"],
                 "confirmed": (np.zeros(c["gamma"].shape, dtype=bool) if self.confirmed is None
                               else self.confirmed),
+                "held": np.zeros(c["gamma"].shape) if self.held is None else self.held,
             },
         )
 
@@ -152,8 +154,10 @@ def append_row(rows: dict[str, list], gamma: float, row: dict) -> None:
         rows[k].append(v)
 
 
-def resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np.ndarray, int]:
-    """The rows, confirmations and candidate counts of a fixed-pressure trace being continued."""
+def resumed_rows(previous: Trace,
+                 names: list[str]) -> tuple[dict[str, list], np.ndarray, np.ndarray, dict]:
+    """The rows, confirmations, held residuals (zero in a trace made before them) and candidate
+    counts of a fixed-pressure trace being continued."""
     fp = previous.fixed_pressure
     if fp is None or previous.jammed is None or previous.phi is None:
         raise ValueError("the trace has no fixed-pressure columns (group fixed_pressure): it was "
@@ -169,10 +173,12 @@ def resumed_rows(previous: Trace, names: list[str]) -> tuple[dict[str, list], np
     rows = {k: source[k].tolist() for k in names}
     kept = (*CANDIDATE_COUNTS, SADDLE_COUNT, RETRY_COUNT, POLISH_COUNT)
     counts = {k: int(previous.attrs.get(k, 0)) for k in kept}
-    return rows, np.asarray(fp["confirmed"], dtype=bool), counts
+    held = fp.get("held")
+    held = np.zeros(len(rows["gamma"])) if held is None else np.asarray(held, dtype=np.float64)
+    return rows, np.asarray(fp["confirmed"], dtype=bool), held, counts
 
 
-def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
+def run_result(rows, confirmed, held, continued, cur, counts, t0, dgamma, total, gamma0, pressure,
                ptol, ftol, plastic_floor, confirm_substeps, confirm, packing, minimizer, relaxer,
                defer_confirmation, confirm_below, volume_guess) -> PressureShearResult:
     """The run so far as a :class:`PressureShearResult` (plastic flags judged on these rows)."""
@@ -183,6 +189,7 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
             dtype = np.bool_
         cols[k] = np.asarray(v, dtype=dtype)
     confirmed = np.array(confirmed[: cols["gamma"].size], dtype=bool)
+    held = np.array(held[: cols["gamma"].size], dtype=np.float64)
     g, hj, sj, jammed = row_jumps(rows)
     cols["enthalpy_jump"], cols["stress_jump"] = hj, sj
     threshold, plastic, sure = plastic_threshold(hj, sj, g, jammed, dgamma, plastic_floor,
@@ -190,8 +197,12 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
     # a candidate Newton continued is never redone, but one that released for certain more than
     # confirm_below units is a jump all the same (docs/aqs.md, "Jumps Newton continued through")
     continued_sure = sure & np.asarray(continued[: sure.size], dtype=bool) & (confirm_substeps > 1)
+    # a candidate the chain called a kink whose largest piece held its residual in a sub-piece
+    # above the threshold is a jump (confirm.residual_held; docs/aqs.md, "The chain's share
+    # misses small jumps")
+    by_held = plastic & ~confirmed & ~sure & (held > threshold) & (confirm_substeps > 1)
     if confirm_substeps > 1:
-        plastic &= confirmed | sure
+        plastic &= confirmed | sure | by_held
     cols["plastic"] = plastic
     attrs = {
         "protocol": "fixed-pressure",
@@ -214,6 +225,7 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
         "confirm_below": float(confirm_below),
         **{k: int(v) for k, v in counts.items()},
         "n_candidates_continued_sure": int(continued_sure.sum()),
+        "n_candidates_held": int(by_held.sum()),
         "n_unjammed": int(np.count_nonzero(~cols["jammed"])),
         "n_not_converged": int(np.count_nonzero(~cols["converged"])),
         # the Newton relaxer's counters, over the whole run (a resumed one starts from its trace's)
@@ -226,5 +238,6 @@ def run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma
         threshold=float(threshold),
         time=time.perf_counter() - t0,
         confirmed=confirmed,
+        held=held,
         continued=np.array(continued[: cols["gamma"].size], dtype=bool),
     )

@@ -51,7 +51,13 @@ cross a small event inside the step and land in the post-event minimum, and such
 piece where the branch of the start ends, located by Newton-only probes, without carrying the
 event by FIRE a second time (:func:`jamlab.spheres.confirm.jump_located`; the whole chain only
 where that piece keeps less than the bound); it also flags the single step that lands lower than
-quasi-static driving reaches. Both measured in ``docs/aqs.md``. By default the redoing is
+quasi-static driving reaches. Both measured in ``docs/aqs.md``. Where the chain finds no piece
+above the bound, its largest piece (if above ``½ plastic_floor · δγ²``) is redone in four
+(:func:`jamlab.spheres.confirm.residual_held`): a jump's residual holds as the pieces shrink, a
+kink's falls, and the step is plastic when one sub-piece held more than half the piece's residual
+and more than the run's threshold — a small jump in a step whose residual is mostly its stress
+drop keeps under a quarter of ``r_n`` (``docs/aqs.md``, "The chain's share misses small
+jumps"). By default the redoing is
 deferred (``defer_confirmation``): once the run's threshold is known, a kept candidate is redone
 only if ``|r_n|`` passes it between two jammed minima (the others cannot be plastic: at N = 1000,
 p = 1e-4, δγ = 1e-5 two thirds of them) and it did not release for certain more than
@@ -80,8 +86,10 @@ from jamlab.spheres.barostat import (
     polish_recorded,
 )
 from jamlab.spheres.confirm import (
+    LargestPiece,
     jump_in_chain,
     jump_located,
+    residual_held,
     trapezoid_residual,
 )
 from jamlab.spheres.fire import FireParameters
@@ -255,6 +263,7 @@ def shear_at_pressure(
     t0 = time.perf_counter()
     names = [k for k in PRESSURE_COLUMNS if k not in ("enthalpy_jump", "stress_jump", "plastic")]
     confirmed = np.zeros(total + 1, dtype=bool)
+    held = np.zeros(total + 1)  # per row: the residual a kink-called candidate's piece held
     continued = np.zeros(total + 1, dtype=bool)
     pending: list = []  # candidates kept: (row, start minimum, slope, step, r, end minimum)
     if previous is None:
@@ -269,12 +278,13 @@ def shear_at_pressure(
         if observer is not None:
             observer(0, cur)
     else:
-        rows, confirmed_before, counts = resumed_rows(previous, names)
+        rows, confirmed_before, held_before, counts = resumed_rows(previous, names)
         gamma0 = rows["gamma"][0]
         first = len(rows["gamma"])
         if first > total:
             raise ValueError(f"nothing to do: the trace already has {first - 1} >= {total} steps")
         confirmed[:first] = confirmed_before
+        held[:first] = held_before
         cur = packing
     for n in range(first, total + 1):
         target = gamma0 + n * dgamma
@@ -311,7 +321,8 @@ def shear_at_pressure(
         cur = res.packing
         append_row(rows, target, row)
         if pending and not defer_confirmation:
-            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps, confirm, counts)
+            _confirm(pending, rows, confirmed, held, pressure, kw, confirm_substeps, confirm,
+                     counts, plastic_floor)
         if observer is not None:
             observer(n, cur)
         if progress is not None:
@@ -320,13 +331,15 @@ def shear_at_pressure(
             # a restart point: every kept candidate is redone now (a resumed run starts without
             # them), then the solver state (stored factor, slope) is dropped, as a run resumed
             # from this checkpoint starts without it
-            _confirm(pending, rows, confirmed, pressure, kw, confirm_substeps, confirm, counts)
+            _confirm(pending, rows, confirmed, held, pressure, kw, confirm_substeps, confirm,
+                     counts, plastic_floor)
             slope = None
             if relaxer is not None:
                 relaxer.reset()
             if on_save is not None:
-                on_save(n, run_result(rows, confirmed[: n + 1], continued[: n + 1], cur,
-                                      counts, t0, dgamma, total, gamma0, pressure, ptol, ftol,
+                on_save(n, run_result(rows, confirmed[: n + 1], held[: n + 1],
+                                      continued[: n + 1], cur, counts, t0, dgamma, total,
+                                      gamma0, pressure, ptol, ftol,
                                       plastic_floor, confirm_substeps, confirm, packing,
                                       minimizer, relaxer, defer_confirmation, confirm_below,
                                       volume_guess))
@@ -337,38 +350,48 @@ def shear_at_pressure(
         can, sure = can_be_plastic(rows, dgamma, plastic_floor, confirm_below)
         counts["n_candidates_below_threshold"] += sum(not can[n] for n, *_ in pending)
         counts["n_candidates_sure"] += sum(bool(sure[n]) for n, *_ in pending)
-        _confirm([c for c in pending if can[c[0]] and not sure[c[0]]], rows, confirmed,
-                 pressure, kw, confirm_substeps, confirm, counts)
-    return run_result(rows, confirmed, continued, cur, counts, t0, dgamma, total, gamma0,
+        _confirm([c for c in pending if can[c[0]] and not sure[c[0]]], rows, confirmed, held,
+                 pressure, kw, confirm_substeps, confirm, counts, plastic_floor)
+    return run_result(rows, confirmed, held, continued, cur, counts, t0, dgamma, total, gamma0,
                       pressure, ptol, ftol, plastic_floor, confirm_substeps, confirm, packing,
                       minimizer, relaxer, defer_confirmation, confirm_below, volume_guess)
 
 
-def _confirm(pending: list, rows: dict, confirmed: np.ndarray, pressure: float, kw: dict,
-             k: int, confirm: str, counts: dict) -> None:
+def _confirm(pending: list, rows: dict, confirmed: np.ndarray, held: np.ndarray,
+             pressure: float, kw: dict, k: int, confirm: str, counts: dict,
+             plastic_floor: float) -> None:
     """Redo each kept candidate ``(n, start minimum, slope, step, r, end minimum)`` in ``k``
     pieces (:func:`jump_in_chain`; with ``confirm="located"`` and the Newton relaxer first
-    :func:`jump_located`): its verdict into ``confirmed[n]``, the iterations spent
-    added to row ``n``; empties ``pending``."""
+    :func:`jump_located`): its verdict into ``confirmed[n]``; where the chain found no jump and
+    its largest piece kept more than half the candidates' floor ``½ plastic_floor · δγ²``, that
+    piece redone in sub-pieces (:func:`residual_held`) and the residual it holds into
+    ``held[n]`` (:func:`~jamlab.spheres.pressure_rows.run_result` flags it when above the run's
+    threshold); the iterations spent added to row ``n``; empties ``pending``."""
     relaxer = kw.get("relax")
     for n, start, slope, step, r, end in pending:
         # rows n − 1 and n are the start's and the end's own H and Σ (record_row evaluated them; r_n
         # was computed from them)
         v0, s0 = rows["enthalpy"][n - 1], rows["shear_stress"][n - 1]
+        largest = LargestPiece()
+        jump = None
         if confirm == "located" and isinstance(relaxer, NewtonRelaxer):
             spent: list[int] = []
             jump, _ = jump_located(
                 _probe(pressure, kw, slope, relaxer, spent),
                 _counted(_advance(pressure, kw, slope), spent), start, v0, s0, end,
-                rows["enthalpy"][n], rows["shear_stress"][n], step, r, k)
+                rows["enthalpy"][n], rows["shear_stress"][n], step, r, k, largest=largest)
             rows["iterations"][n] += sum(spent)
             if jump is not None:  # (False: the chain's pieces ran inside, none kept the bound)
                 confirmed[n] = jump
                 counts["n_candidates_located"] += int(jump)
-                continue
-        confirmed[n], extra = jump_in_chain(
-            _advance(pressure, kw, slope), start, v0, s0, step, r, k, v_end=rows["enthalpy"][n])
-        rows["iterations"][n] += extra
+        if jump is None:
+            confirmed[n], extra = jump_in_chain(
+                _advance(pressure, kw, slope), start, v0, s0, step, r, k,
+                v_end=rows["enthalpy"][n], largest=largest)
+            rows["iterations"][n] += extra
+        if not confirmed[n] and abs(largest.residual) > 0.5 * plastic_floor * step**2:
+            held[n], extra = residual_held(_advance(pressure, kw, slope), largest)
+            rows["iterations"][n] += extra
     pending.clear()
 
 

@@ -35,7 +35,9 @@ one row per plastic step with its anatomy and the displacement field in CSR form
 Optional group ``fixed_pressure`` (fixed-pressure runs, :attr:`Trace.fixed_pressure`): the
 per-row columns of that protocol that the columns above do not hold — ``energy`` (``E``; the
 trace's ``energy`` is ``H`` there), ``box_length``, ``volume_steps``, ``converged`` and
-``confirmed`` (the plastic-flag confirmation of each step), one value per row. With them (and the
+``confirmed`` (the plastic-flag confirmation of each step) and, from 2026-12-03, ``held`` (the
+residual a candidate's piece held when redone smaller: ``jamlab.spheres.confirm.residual_held``),
+one value per row. With them (and the
 configuration group) a fixed-pressure run resumes bit for bit.
 """
 
@@ -53,6 +55,7 @@ from jamlab.files import atomic_write_hdf5
 
 __all__ = [
     "FIXED_PRESSURE_COLUMNS",
+    "FIXED_PRESSURE_OPTIONAL",
     "OPTIONAL_COLUMNS",
     "Trace",
     "TRACE_COLUMNS",
@@ -88,8 +91,12 @@ FIXED_PRESSURE_COLUMNS: tuple[str, ...] = (
     "energy", "box_length", "volume_steps", "converged", "confirmed",
 )
 """Columns of the optional group ``fixed_pressure`` (module docstring)."""
+FIXED_PRESSURE_OPTIONAL: tuple[str, ...] = ("held",)
+"""Columns of the group ``fixed_pressure`` that traces made before them lack (absent: ``None``
+in :attr:`Trace.fixed_pressure`)."""
 _FIXED_PRESSURE_DTYPES = {"energy": np.float64, "box_length": np.float64,
-                          "volume_steps": np.int64, "converged": np.bool_, "confirmed": np.bool_}
+                          "volume_steps": np.int64, "converged": np.bool_, "confirmed": np.bool_,
+                          "held": np.float64}
 
 
 def jump_columns(gamma, energy, stress) -> tuple[np.ndarray, np.ndarray]:
@@ -152,8 +159,10 @@ class Trace:
             object.__setattr__(self, "avalanches", dict(self.avalanches))
         if self.fixed_pressure is not None:
             group = {}
-            for key in FIXED_PRESSURE_COLUMNS:
-                if key not in self.fixed_pressure:
+            for key in FIXED_PRESSURE_COLUMNS + FIXED_PRESSURE_OPTIONAL:
+                if self.fixed_pressure.get(key) is None:
+                    if key in FIXED_PRESSURE_OPTIONAL:
+                        continue
                     raise ValueError(f"fixed_pressure lacks the column {key}")
                 arr = np.array(self.fixed_pressure[key], dtype=_FIXED_PRESSURE_DTYPES[key])
                 if arr.shape != (n,):
@@ -333,8 +342,10 @@ def read_trace(path: str | os.PathLike) -> Trace:
         group = h5.get("fixed_pressure")
         if isinstance(group, h5py.Group):
             fixed_pressure = {}
-            for key in FIXED_PRESSURE_COLUMNS:
+            for key in FIXED_PRESSURE_COLUMNS + FIXED_PRESSURE_OPTIONAL:
                 item = group.get(key)
+                if item is None and key in FIXED_PRESSURE_OPTIONAL:
+                    continue
                 if not (isinstance(item, h5py.Dataset) and item.dtype.kind in "fiub"):
                     raise ValueError(f"not a jamlab AQS trace (fixed_pressure/{key}): {path}")
                 fixed_pressure[key] = item[()]
