@@ -17,7 +17,8 @@ seconds per sample put in place of the benchmark-based estimate for the studies 
 any finished run directories instead, e.g. an ensemble of ``jamlab run`` at another N;
 ``--n N ...`` restricts the report to those sizes of each study (the scale pools its N);
 ``--pool`` pools the ``--dirs`` of one study (same pressure, δγ, γ_max, φ; e.g. ``jamlab run``
-ensembles at N = 250 and 500) into one estimate, as the scale pools its N;
+ensembles at N = 250 and 500) into one estimate, as the scale pools its N (one N from two
+``--dirs`` only as two realisations: studies with different master seeds);
 ``--figure-dir DIR`` draws the report's τ(p) figure of the fixed-pressure studies reported.
 """
 
@@ -44,11 +45,12 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
     fixed pressure and at jamming also the fit with an exponential cut-off) of run directories
     ``runs`` (``(run dataset, study)`` pairs of one protocol, their sizes pooled as the report
-    pools a study's N); ``n_only``: only these sizes (default all). Returns the τ estimate,
-    with the cut-off fits where the report makes them; ValueError when no size is left or one
-    N comes from two directories."""
+    pools a study's N); ``n_only``: only these sizes (default all). One N may come from two
+    directories only as two realisations (studies with different master seeds). Returns the τ
+    estimate, with the cut-off fits where the report makes them; ValueError when no size is
+    left or one N comes from two directories of one master seed."""
     study = runs[0][1]
-    pairs, done_all, seconds, cpu = [], [], [], []
+    pairs, seeds, done_all, seconds, cpu = [], [], [], [], []
     for ds, st in runs:
         n_values = list(st.n) if not n_only else [n for n in st.n if n in n_only]
         sel = {"N": n_values}
@@ -59,12 +61,18 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
             c = np.asarray(ds.cpu_seconds.sel(sel).values)[done]
             cpu.append(c[np.isfinite(c)])
         pairs += [(ds, n) for n in n_values]
+        seeds += [int(st.seed)] * len(n_values)
     n_list = [n for _, n in pairs]
     if not n_list:
         raise ValueError(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
-    if len(set(n_list)) < len(n_list):
-        raise ValueError(f"{name}: N = {n_list}: one size in two run directories, not "
-                         "pooled (their samples may share seeds)")
+    # one N from two directories only as two realisations (different master seeds: their
+    # samples' seeds differ, jamlab.runs.seeds); with one seed they may be the same samples
+    seeds_of: dict[int, list[int]] = {}
+    for n, seed in zip(n_list, seeds, strict=True):
+        seeds_of.setdefault(n, []).append(seed)
+    if any(len(set(s)) < len(s) for s in seeds_of.values()):
+        raise ValueError(f"{name}: N = {n_list}: one size in two run directories of one "
+                         "master seed, not pooled (their samples may share seeds)")
     done = np.concatenate(done_all)
     seconds = np.concatenate(seconds)
     cpu = np.concatenate(cpu) if cpu else np.empty(0)
@@ -124,7 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pool", action="store_true",
                     help="with --dirs: pool the directories of one study (the same fixed "
                     "pressure or constant volume, δγ, γ_max and φ) into one estimate, as the "
-                    "scale pools its N (one N per directory)")
+                    "scale pools its N (one N per directory, or per realisation: another "
+                    "master seed)")
     ap.add_argument("--n", type=int, nargs="+", default=None,
                     help="report only these N of each study (default: all its N, pooled)")
     ap.add_argument("--n-boot", type=int, default=None,

@@ -68,7 +68,7 @@ def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
     assert (f"projected for all 4 samples of this study: {4 * cpu.mean() / 3600:.2f} h of one "
             "core (from the mean CPU time)") in out
     # one N twice is refused (the directories may share seeds)
-    with pytest.raises(ValueError, match="one size in two run directories"):
+    with pytest.raises(ValueError, match="one size in two run directories of one master seed"):
         mf.analyse([runs[0], runs[0]], SCALES["medium"], "twice")
     with pytest.raises(SystemExit) as err:  # and from the command line, with exit code 2
         mf.main(["--dirs", str(two_runs[0]), str(two_runs[0]), "--pool"])
@@ -93,3 +93,22 @@ def test_the_script_runs_as_a_program():
     out = subprocess.run([sys.executable, str(SCRIPTS / "medium_fraction.py"), "--help"],
                          capture_output=True, text=True, check=True).stdout
     assert "--pool" in out and "--figure-dir" in out
+
+
+def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
+    """One N from two directories with different master seeds (two realisations: other
+    packings) is pooled; the avalanches are those of both, recounted with h5py."""
+    from jamlab.reproduce.scales import SCALES
+    from jamlab.runs import Execution, Study, open_run, run_study
+
+    other = tmp_path / "n16-s4"
+    run_study(Study(phi=["jamming"], n=[16], samples=2, dgamma=1e-3, gamma_max=0.1, seed=4,
+                    pressure=1e-3), other, Execution(workers=0))
+    dirs = [two_runs[0], other]
+    runs = [(ds, Study.from_dict(json.loads(ds.attrs["study"]))) for ds in map(open_run, dirs)]
+    assert runs[0][1].seed != runs[1][1].seed
+    est = mf.analyse(runs, SCALES["medium"], "two realisations")
+    want = np.concatenate([_recount(p) for p in dirs])
+    assert want.size > 0 and est.n_avalanches == want.size
+    assert est.samples == sum(len(_finished(p)) for p in dirs)
+    assert mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0"]) == 0
