@@ -67,10 +67,7 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
         raise ValueError(f"{name}: none of N = {n_only} in the study (N = {list(study.n)})")
     # one N from two directories only as two realisations (different master seeds: their
     # samples' seeds differ, jamlab.runs.seeds); with one seed they may be the same samples
-    seeds_of: dict[int, list[int]] = {}
-    for n, seed in zip(n_list, seeds, strict=True):
-        seeds_of.setdefault(n, []).append(seed)
-    if any(len(set(s)) < len(s) for s in seeds_of.values()):
+    if len(set(zip(n_list, seeds, strict=True))) < len(n_list):
         raise ValueError(f"{name}: N = {n_list}: one size in two run directories of one "
                          "master seed, not pooled (their samples may share seeds)")
     done = np.concatenate(done_all)
@@ -178,6 +175,12 @@ def main(argv: list[str] | None = None) -> int:
                      "with --pool")
         for members in groups.values():
             name = " + ".join(str(path) for _, _, path in members)
+            ns = [n for _, st, _ in members for n in st.n if not args.n or n in args.n]
+            if args.figure_dir is not None and len(set(ns)) < len(ns):
+                # (the estimate's per-N histograms and fits are keyed by N: one realisation
+                # of a repeated N would stand for both in the figure)
+                ap.error(f"{name}: one N in two directories (two realisations) is pooled in "
+                         "the fits but not drawn per N: no --figure-dir")
             try:
                 est = analyse([(ds, st) for ds, st, _ in members], scale, name, args.n)
             except ValueError as err:

@@ -112,3 +112,8 @@ def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     assert want.size > 0 and est.n_avalanches == want.size
     assert est.samples == sum(len(_finished(p)) for p in dirs)
     assert mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0"]) == 0
+    # its figure is refused (the per-N panels are keyed by N), with exit code 2
+    with pytest.raises(SystemExit) as err:
+        mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0", "--figure-dir",
+                 str(tmp_path / "fig")])
+    assert err.value.code == 2 and not (tmp_path / "fig").exists()
