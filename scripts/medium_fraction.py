@@ -40,6 +40,11 @@ from jamlab.reproduce.table import coarse_text, converged_text, shape_text
 from jamlab.runs import Execution, Study, open_run, run_study
 
 
+def selected_n(study: Study, n_only: list[int] | None) -> list[int]:
+    """The sizes of ``study`` that ``n_only`` selects (all of them when it is empty or None)."""
+    return list(study.n) if not n_only else [n for n in study.n if n in n_only]
+
+
 def analyse(runs: list[tuple[Any, Study]], scale, name: str,
             n_only: list[int] | None = None) -> Any:
     """Print the worker time per finished sample and the report's τ fits (the scale's rule; at
@@ -52,7 +57,7 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
     study = runs[0][1]
     pairs, seeds, done_all, seconds, cpu = [], [], [], [], []
     for ds, st in runs:
-        n_values = list(st.n) if not n_only else [n for n in st.n if n in n_only]
+        n_values = selected_n(st, n_only)
         sel = {"N": n_values}
         done = ds.status.sel(sel).values == "done"
         done_all.append(done.ravel())
@@ -175,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
                      "with --pool")
         for members in groups.values():
             name = " + ".join(str(path) for _, _, path in members)
-            ns = [n for _, st, _ in members for n in st.n if not args.n or n in args.n]
+            ns = [n for _, st, _ in members for n in selected_n(st, args.n)]
             if args.figure_dir is not None and len(set(ns)) < len(ns):
                 # (the estimate's per-N histograms and fits are keyed by N: one realisation
                 # of a repeated N would stand for both in the figure)
