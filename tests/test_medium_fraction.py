@@ -97,7 +97,8 @@ def test_the_script_runs_as_a_program():
 
 def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     """One N from two directories with different master seeds (two realisations: other
-    packings) is pooled; the avalanches are those of both, recounted with h5py."""
+    packings) is pooled; the avalanches are those of both, recounted with h5py, in the pooled
+    fits and in the N's own histogram and cut-off fit."""
     from jamlab.reproduce.scales import SCALES
     from jamlab.runs import Execution, Study, open_run, run_study
 
@@ -112,8 +113,30 @@ def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     assert want.size > 0 and est.n_avalanches == want.size
     assert est.samples == sum(len(_finished(p)) for p in dirs)
     assert mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0"]) == 0
-    # its figure is refused (the per-N panels are keyed by N), with exit code 2
-    with pytest.raises(SystemExit) as err:
-        mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0", "--figure-dir",
-                 str(tmp_path / "fig")])
-    assert err.value.code == 2 and not (tmp_path / "fig").exists()
+    # one N's histogram holds both realisations (sizes and steps), not the last one's
+    steps = sum(h5py.File(f, "r")["trace/energy_jump"].size - 1
+                for p in dirs for f in _finished(p))
+    assert list(est.per_n) == [16] and est.per_n[16].counts.sum() == want.size
+    assert est.per_n[16].n_total == est.steps == steps
+    # with a second N, each N's cut-off fit in the pooled window holds all its sizes: N = 16
+    # both realisations, N = 24 its one; and the figure (the per-N panel) is drawn
+    three = dirs + [two_runs[1]]
+    runs3 = [(ds, Study.from_dict(json.loads(ds.attrs["study"]))) for ds in map(open_run, three)]
+    est3 = mf.analyse(runs3, SCALES["medium"], "two N, one twice")
+    assert list(est3.per_n) == [16, 24]
+    assert est3.per_n[16].counts.sum() == want.size
+    assert est3.per_n[24].counts.sum() == _recount(two_runs[1]).size
+    cut = est3.cutoff
+    if cut is not None:
+        from jamlab.analysis import fit_cutoff_power_law
+
+        for n, sizes in ((16, want), (24, _recount(two_runs[1]))):
+            got = est3.cutoff_per_n[n]
+            if np.count_nonzero(sizes >= cut.x_min) < 10:
+                assert got is None
+            else:
+                ref = fit_cutoff_power_law(sizes, cut.x_min)
+                assert got.tau == pytest.approx(ref.tau, rel=1e-12) and got.n_tail == ref.n_tail
+    assert mf.main(["--dirs", *map(str, three), "--pool", "--n-boot", "0", "--figure-dir",
+                    str(tmp_path / "fig")]) == 0
+    assert (tmp_path / "fig" / "tau_pressure.png").stat().st_size > 0

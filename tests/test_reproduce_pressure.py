@@ -156,24 +156,34 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         path = tau_pressure({1e-3: est}, tmp_path)
         assert path is not None and path.stat().st_size > 0
         assert tau_pressure({}, tmp_path) is None
-        # each N alone: one N has no per-N fits; with two sources, each fitted in the pooled
-        # fit's window (here the same run twice: the fit of these sizes at the pooled x_min of
-        # the doubled sizes), and the figure's second panel
+        # each N alone: one N has no per-N fits, and two sources of one N (here the same run
+        # twice, as two realisations of N = 16 would be) are one N: their sizes pooled in the
+        # fits and in the N's histogram (sizes and steps doubled), no per-N panel. The per-N
+        # fits of two N with a repeated one: tests/test_medium_fraction.py. The figure's
+        # second panel from given per-N fits.
+        from jamlab.analysis import log_histogram
         from jamlab.reproduce.figures import tau_pressure_per_n
-        from jamlab.reproduce.measurements import with_cutoff
+        from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 
         assert est.cutoff_per_n is None and tau_pressure_per_n({1e-3: est}) == {}
-        two_sources = with_cutoff(est, [(ds, 16), (ds, 16)], scale)
+        twice = tau_estimate("jamming", [(ds, 16), (ds, 16)], scale)
+        assert list(twice.per_n) == [16] and twice.steps == 2 * steps
+        assert twice.n_avalanches == 2 * sizes.size
+        if sizes.size:
+            h = log_histogram(np.concatenate([sizes, sizes]), scale.bins_per_decade,
+                              n_total=2 * steps)
+            assert twice.per_n[16].n_total == 2 * steps
+            assert twice.per_n[16].counts.sum() == 2 * sizes.size
+            assert np.array_equal(twice.per_n[16].counts, h.counts)
+            assert np.array_equal(twice.per_n[16].edges, h.edges)
+            np.testing.assert_allclose(twice.per_n[16].density, h.density, rtol=1e-12)
+        two_sources = with_cutoff(twice, [(ds, 16), (ds, 16)], scale)
         doubled = fit_cutoff_power_law(np.concatenate([sizes, sizes]), min_tail=10,
                                        max_candidates=20)
         assert two_sources.cutoff.x_min == doubled.x_min
-        if np.count_nonzero(sizes >= doubled.x_min) >= 10:
-            alone = fit_cutoff_power_law(sizes, doubled.x_min)
-            assert two_sources.cutoff_per_n[16].tau == alone.tau
-            assert two_sources.cutoff_per_n[16].x_min == doubled.x_min
-        else:
-            assert two_sources.cutoff_per_n[16] is None
-            alone = fit_cutoff_power_law(sizes, float(np.min(sizes)))
+        assert two_sources.cutoff.tau == doubled.tau
+        assert two_sources.cutoff_per_n is None
+        alone = fit_cutoff_power_law(sizes, float(np.min(sizes)))
         per_n = tau_pressure_per_n({1e-3: replace(est, cutoff_per_n={16: alone, 32: None}),
                                     1e-4: replace(est, cutoff_per_n={32: alone})})
         assert list(per_n) == [f"N = {n} alone, the pooled KS window (± asymptotic σ)"

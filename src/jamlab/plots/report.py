@@ -303,7 +303,8 @@ def plot_tau_against_pressure(
     of ``panels`` (sharing the τ axis), one series per fit: ``fits[label] = (τ, lower end,
     upper end)`` per pressure (NaN: no fit there), drawn as points with bars, offset a little
     in ``p`` so that the bars do not hide each other; ``references[label] = (value, σ)`` as
-    horizontal lines in every panel (a band of ± σ where ``σ > 0``)."""
+    horizontal lines in every panel (a band of ± σ where ``σ > 0``); the ``p`` axis runs half
+    a decade beyond the pressures on each side."""
     p = np.asarray(pressures, dtype=np.float64)
     fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.8), sharey=True,
                              squeeze=False)
@@ -322,6 +323,8 @@ def plot_tau_against_pressure(
                         fmt="os^Dv<>"[i % 7], color=f"C{i}", capsize=3, ms=5, lw=1.2,
                         label=label)
         ax.set_xscale("log")
+        if p.size:  # half a decade beyond the pressures: one pressure alone is not a sliver
+            ax.set_xlim(p.min() / 10 ** 0.5, p.max() * 10 ** 0.5)
         ax.set_xlabel("pressure p (ε/σ³)")
         ax.set_title(title, fontsize=10)
         ax.legend(fontsize=7, loc="best")

@@ -147,7 +147,8 @@ def interval_note(fit: Any) -> str:
 @dataclass(frozen=True)
 class TauEstimate:
     """τ at one φ label: the fit (None with too few sizes) and its σ, the counts it rests on, and
-    the size histograms per N and pooled (``P(S)`` per AQS step)."""
+    the size histograms per N (the sources of one N pooled) and of all (``P(S)`` per AQS
+    step)."""
 
     label: str
     fit: Any
@@ -168,7 +169,7 @@ class TauEstimate:
     cutoff_shape: Any = None  # the profile over the cut-off's shape at the cut-off fit's x_min
     cutoff_coarse: Any = None  # the cut-off fit at COARSE_K δγ (steps paired), at the same x_min
     cutoff_converged: Any = None  # ConvergedWindow: the cut-off fit from the δγ-converged floor
-    cutoff_per_n: dict[int, Any] | None = None  # each N alone in the cut-off fit's window
+    cutoff_per_n: dict[int, Any] | None = None  # each N (its sources pooled) in that window
 
     @property
     def exclusion_text(self) -> str:
@@ -188,14 +189,22 @@ def pressure_summary(p: np.ndarray) -> tuple[float, float, float] | None:
     return float(q50), float(q10), float(q90)
 
 
+def _by_n(ns: list[int], arrays: list[np.ndarray]) -> dict[int, np.ndarray]:
+    """``arrays`` (one per source, ``ns`` their sizes N) concatenated per N, in the order of
+    first appearance: the sources of one N (two realisations of it) pooled."""
+    out: dict[int, list[np.ndarray]] = {}
+    for n, a in zip(ns, arrays, strict=True):
+        out.setdefault(n, []).append(np.asarray(a))
+    return {n: np.concatenate(v) for n, v in out.items()}
+
+
 def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
     """:class:`TauEstimate` of the avalanches at φ label ``label`` pooled over ``sources``
     (``(run dataset, N)`` pairs), by the module rule."""
     from jamlab.analysis import log_histogram
 
-    all_sizes, all_p, minima_p, steps, samples = [], [], [], 0, 0
+    all_sizes, all_p, minima_p, all_steps, steps, samples = [], [], [], [], 0, 0
     known, n_st, n_av = True, 0, 0
-    per_n = {}
     for ds, n in sources:
         a = avalanche_set(ds, label, n)
         s, st, sa = a.sizes, a.steps, a.samples
@@ -206,9 +215,13 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
         n_st += a.n_steps_excluded
         n_av += a.n_avalanches_excluded
         steps += st
+        all_steps.append(np.array([st]))
         samples += sa
-        if s.size:
-            per_n[n] = log_histogram(s, scale.bins_per_decade, n_total=max(st, 1))
+    # the histogram of each N pools the sources of that N (two realisations of one N: both)
+    ns = [n for _, n in sources]
+    steps_of = _by_n(ns, all_steps)
+    per_n = {n: log_histogram(s, scale.bins_per_decade, n_total=max(int(steps_of[n].sum()), 1))
+             for n, s in _by_n(ns, all_sizes).items() if s.size}
     sizes = np.concatenate(all_sizes) if all_sizes else np.empty(0)
     p_av = np.concatenate(all_p) if all_p else np.empty(0)
     pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
@@ -225,9 +238,10 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     with an exponential cut-off (:func:`fit_tau_cutoff`), the profile over the cut-off's shape
     at that fit's ``x_min`` (:func:`cutoff_shape`), the same fit at ``COARSE_K δγ``
     (:func:`cutoff_coarse`) and from the lowest floor where the two agree
-    (:func:`converged_window`); with more than one source, the cut-off fit of each N alone in
-    the pooled fit's window (``cutoff_per_n``: a fit per N, no bootstrap, None with fewer than
-    10 sizes there) — one window for all N, since the local τ rises with ``x_min``."""
+    (:func:`converged_window`); with more than one N, the cut-off fit of each N alone in the
+    pooled fit's window (``cutoff_per_n``: a fit per N of the sizes of all its sources, no
+    bootstrap, None with fewer than 10 sizes there) — one window for all N, since the local τ
+    rises with ``x_min``."""
     sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
     pooled = np.concatenate(sizes) if sizes else np.empty(0)
     cut = fit_tau_cutoff(pooled, scale)
@@ -235,8 +249,9 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     conv = None if cut is None else converged_window(
         pooled, two, cut.x_min, min_tail=max(scale.min_tail, 10), n_boot=scale.n_boot,
         seed=scale.seed)
-    per_n = None if cut is None or len(sources) < 2 else {
-        n: _fit_from(s, cut.x_min) for (_, n), s in zip(sources, sizes, strict=True)}
+    pooled_n = _by_n([n for _, n in sources], sizes)
+    per_n = None if cut is None or len(pooled_n) < 2 else {
+        n: _fit_from(s, cut.x_min) for n, s in pooled_n.items()}
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
                    cutoff_shape=cutoff_shape(pooled, cut),
                    cutoff_coarse=None if cut is None else _fit_from(two, cut.x_min),
