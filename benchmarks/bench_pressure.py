@@ -41,6 +41,14 @@ from jamlab.spheres.packing import jam  # noqa: E402
 from jamlab.spheres.pressure_shear import shear_at_pressure  # noqa: E402
 
 
+def to_pressure(packing, p: float):
+    """The cached packings' last preparation step: one fixed-pressure FIRE step (δγ = 1e-6)
+    that brings a jammed ``packing`` to ``p``; its minimum, and whether that minimum is
+    converged and jammed."""
+    first = shear_at_pressure(packing, 1e-6, pressure=p, n_steps=1, minimizer="fire")
+    return first.packing, bool(first.columns["converged"].all() and first.columns["jammed"].all())
+
+
 def start(n: int, p: float, seed: int, cache: Path):
     f = cache / f"jam_n{n}_p{p:g}_s{seed}.pkl"
     if f.is_file():
@@ -53,10 +61,9 @@ def start(n: int, p: float, seed: int, cache: Path):
     # `jamlab run` (jam at 1e-7, then the barostat): benchmarks/bench_preparation.py. Kept, so
     # that the cached packings, and the results measured on them, stay the same.
     r = jam(n, 3, seed=seed, p_target=min(p, 1e-4))
-    first = shear_at_pressure(r.packing, 1e-6, pressure=p, n_steps=1, minimizer="fire")
-    if not (first.columns["converged"].all() and first.columns["jammed"].all()):
+    pk, ok = to_pressure(r.packing, p)
+    if not ok:
         raise SystemExit(f"N={n} seed={seed}: no jammed minimum at p={p:g}")
-    pk = first.packing
     cache.mkdir(parents=True, exist_ok=True)
     f.write_bytes(pickle.dumps(pk))
     print(f"  (jam N={n} p={p:g} seed={seed}: {time.process_time() - t:.0f} CPU s)", flush=True)
