@@ -17,8 +17,13 @@ def load_by_path(path: Path, key: str) -> ModuleType:
     if key not in sys.modules:
         spec = importlib.util.spec_from_file_location(key, path)
         module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        # registered before it runs (importlib's recipe): a dataclass in it looks its module up
         sys.modules[key] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[key]
+            raise
     return sys.modules[key]
 
 

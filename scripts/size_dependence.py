@@ -1,0 +1,165 @@
+"""Does τ depend on N in one window? Two sizes of a fixed-pressure study, with packings as units.
+
+The τ(p) figure's right panel fits each N alone with an exponential cut-off in the window of the
+pooled fit (``TauEstimate.cutoff_per_n``), with the asymptotic σ, which counts every avalanche as
+independent. This script asks whether the two sizes' τ differ there, with whole packings as the
+independent units. The run directories (``jamlab run`` studies at fixed pressure, one N each;
+several realisations of one N are pooled) are grouped by pressure; each pressure needs exactly
+two sizes. For each pressure it prints:
+
+- the window: the lower end ``x_min`` of the report's cut-off fit of all the avalanches pooled
+  (``jamlab.reproduce.measurements.fit_tau_cutoff``, the ``medium`` scale's rule: KS-chosen);
+- per N: packings, sizes in the window, τ with an exponential cut-off at that ``x_min``
+  (``fit_cutoff_power_law``) and its asymptotic σ;
+- the difference ``Δτ = τ(larger N) − τ(smaller N)``, in units of the asymptotic σ, and of the
+  σ of ``--boot`` resamples that draw each size's packings with replacement (seed ``--seed``);
+  the fraction of resamples with ``Δτ ≤ 0``;
+- over all pressures: ``Σ z²`` (its χ² p on one degree of freedom per pressure) and ``Σ z / √k``
+  (its two-sided normal p), of the bootstrap z.
+
+Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
+from the real data; the resamples refit τ in it (they do not choose their own window).
+
+    PYTHONPATH=src python scripts/size_dependence.py data/runs/n500-p1e-6-vg \\
+        data/runs/n500-p1e-6-vg-s1 data/runs/n1000-p1e-6-vg
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+from jamlab.analysis import fit_cutoff_power_law
+from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
+from jamlab.reproduce.scales import SCALES
+from jamlab.runs import Study, open_run
+
+
+@dataclass(frozen=True)
+class SizeDifference:
+    """τ of two sizes at one window, and their difference with two errors."""
+
+    x_min: float
+    n: tuple[int, int]
+    packings: tuple[int, int]
+    tails: tuple[int, int]
+    tau: tuple[float, float]
+    sigma: tuple[float, float]  # asymptotic (avalanches independent)
+    boot_sigma: float  # of Δτ, packings resampled
+    fraction_not_above: float  # of the resamples with Δτ ≤ 0
+
+    @property
+    def delta(self) -> float:
+        """``τ(larger N) − τ(smaller N)``."""
+        return self.tau[1] - self.tau[0]
+
+    @property
+    def z_asymptotic(self) -> float:
+        return self.delta / math.hypot(*self.sigma)
+
+    @property
+    def z_boot(self) -> float:
+        return self.delta / self.boot_sigma
+
+
+def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int,
+                    seed: int = 0) -> SizeDifference:
+    """:class:`SizeDifference` of ``groups`` (``{N: per-packing size arrays}``, two sizes) at
+    the fixed lower end ``x_min``; ``boot`` resamples of each size's packings (with
+    replacement, ``numpy.random.default_rng(seed)``). ValueError without two sizes, with
+    ``boot < 2``, or where a size has fewer than 10 sizes at or above ``x_min``."""
+    if len(groups) != 2:
+        raise ValueError(f"need two sizes N, got {sorted(groups)}")
+    if boot < 2:
+        raise ValueError(f"--boot must be >= 2, got {boot}")
+    ns = sorted(groups)
+    packs = [[np.asarray(a, dtype=np.float64) for a in groups[n]] for n in ns]
+    for n, p in zip(ns, packs, strict=True):
+        tail = int(sum(np.count_nonzero(a >= x_min) for a in p))
+        if tail < 10:
+            raise ValueError(f"N = {n}: {tail} sizes at or above {x_min:.3g}, fewer than 10")
+    fits = [fit_cutoff_power_law(np.concatenate(p), x_min) for p in packs]
+    rng = np.random.default_rng(seed)
+    deltas = np.empty(boot)
+    for b in range(boot):
+        taus = []
+        for p in packs:
+            pick = rng.integers(0, len(p), len(p))
+            s = np.concatenate([p[i] for i in pick])
+            # (a resample with fewer than 10 sizes in the window has no fit: τ = NaN, dropped)
+            taus.append(fit_cutoff_power_law(s, x_min).tau
+                        if np.count_nonzero(s >= x_min) >= 10 else math.nan)
+        deltas[b] = taus[1] - taus[0]
+    deltas = deltas[np.isfinite(deltas)]
+    return SizeDifference(
+        x_min=float(x_min), n=(ns[0], ns[1]), packings=(len(packs[0]), len(packs[1])),
+        tails=(fits[0].n_tail, fits[1].n_tail), tau=(fits[0].tau, fits[1].tau),
+        sigma=(fits[0].tau_stderr, fits[1].tau_stderr),
+        boot_sigma=float(np.std(deltas, ddof=1)),
+        fraction_not_above=float(np.mean(deltas <= 0)))
+
+
+def combined(zs: list[float]) -> tuple[float, float, float, float]:
+    """``(Σ z², its χ²_k p, Σ z/√k, its two-sided normal p)`` of ``k`` z-scores."""
+    z = np.asarray(zs, dtype=np.float64)
+    chi2 = float(np.sum(z * z))
+    s = float(z.sum() / math.sqrt(z.size))
+    return chi2, float(stats.chi2.sf(chi2, z.size)), s, float(2 * stats.norm.sf(abs(s)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+", help="fixed-pressure run directories, one N each")
+    ap.add_argument("--boot", type=int, default=2000, help="packing resamples per pressure")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    if args.boot < 2:
+        ap.error(f"--boot must be >= 2, got {args.boot}")
+    by_p: dict[float, dict[int, list[np.ndarray]]] = {}
+    for path in args.runs:
+        try:
+            ds = open_run(path)
+        except (OSError, ValueError) as err:
+            ap.error(f"{path}: not a run directory ({err})")
+        study = Study.from_dict(json.loads(ds.attrs["study"]))
+        if study.pressure is None or len(study.n) != 1:
+            ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
+                     f"N = {list(study.n)})")
+        n = int(study.n[0])
+        by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(
+            avalanche_set(ds, "jamming", n).per_sample)
+    scale = replace(SCALES["medium"], n_boot=0)
+    print(f"| p | window x_min (ε) | N: packings, sizes, τ ± asymptotic σ | | Δτ | z (asymptotic) "
+          f"| σ of Δτ, {args.boot} packing resamples | z | resamples with Δτ ≤ 0 |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    zs = []
+    for p in sorted(by_p, reverse=True):
+        groups = by_p[p]
+        if len(groups) != 2:
+            ap.error(f"p = {p:g}: need two sizes N, got {sorted(groups)}")
+        cut = fit_tau_cutoff(np.concatenate([np.concatenate(g) for g in groups.values()]), scale)
+        if cut is None:
+            ap.error(f"p = {p:g}: too few avalanches for the pooled cut-off fit")
+        try:
+            r = size_difference(groups, cut.x_min, args.boot, args.seed)
+        except ValueError as err:
+            ap.error(f"p = {p:g}: {err}")
+        zs.append(r.z_boot)
+        per_n = " | ".join(f"{n}: {k}, {t}, {tau:.3f} ± {s:.3f}" for n, k, t, tau, s in zip(
+            r.n, r.packings, r.tails, r.tau, r.sigma, strict=True))
+        print(f"| {p:g} | {r.x_min:.3g} | {per_n} | {r.delta:+.3f} | {r.z_asymptotic:+.2f} | "
+              f"{r.boot_sigma:.3f} | {r.z_boot:+.2f} | {r.fraction_not_above:.3f} |")
+    chi2, p_chi2, s, p_s = combined(zs)
+    print(f"\nover {len(zs)} pressure(s), bootstrap z: Σ z² = {chi2:.2f} (χ²_{len(zs)} p = "
+          f"{p_chi2:.2f}); Σ z/√k = {s:+.2f} (two-sided p = {p_s:.2f})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
