@@ -1,6 +1,5 @@
-"""``scripts/size_dependence.py``: τ of two sizes in one window, with packings as units —
-checked on sizes drawn from known laws (independent avalanches, a shift of τ, packings that
-differ), and its refusals (exit code 2) on real run directories."""
+"""``scripts/size_dependence.py`` on real run directories: its size counts against an h5py
+recount, and its refusals (exit code 2). The statistics: tests/analysis/test_size_difference.py."""
 
 from __future__ import annotations
 
@@ -10,80 +9,10 @@ import pytest
 
 from script_helpers import script_module
 
-X_MIN = 1.0
-
 
 @pytest.fixture(scope="module")
 def sd():
     return script_module("size_dependence")
-
-
-def _draw(rng, tau: float, s_c: float, m: int) -> np.ndarray:
-    """``m`` sizes of ``S^−τ e^(−S/S_c)`` on ``S ≥ X_MIN`` (Pareto draws thinned by the cut-off)."""
-    out = np.empty(0)
-    while out.size < m:
-        s = X_MIN * (1 - rng.random(4 * m)) ** (-1 / (tau - 1))
-        out = np.concatenate([out, s[rng.random(s.size) < np.exp(-(s - X_MIN) / s_c)]])
-    return out[:m]
-
-
-def _packings(rng, taus, s_c: float, m: int) -> list[np.ndarray]:
-    return [_draw(rng, t, s_c, m) for t in taus]
-
-
-def test_independent_avalanches_give_the_asymptotic_error(sd):
-    """Every avalanche independent (one law for all packings): the packing bootstrap's σ of Δτ
-    is the asymptotic one, and the two sizes' τ are the law's."""
-    rng = np.random.default_rng(1)
-    groups = {500: _packings(rng, [1.5] * 40, 50.0, 60),
-              1000: _packings(rng, [1.5] * 20, 100.0, 120)}
-    r = sd.size_difference(groups, X_MIN, boot=400, seed=0)
-    assert r.n == (500, 1000) and r.packings == (40, 20) and r.tails == (2400, 2400)
-    assert abs(r.tau[0] - 1.5) < 4 * r.sigma[0] and abs(r.tau[1] - 1.5) < 4 * r.sigma[1]
-    assert 0.8 < r.boot_sigma / np.hypot(*r.sigma) < 1.25
-    assert abs(r.z_boot) < 4 and 0.0 < r.fraction_not_above < 1.0
-    assert r.delta == r.tau[1] - r.tau[0]
-
-
-def test_a_shift_of_tau_is_found(sd):
-    rng = np.random.default_rng(2)
-    groups = {250: _packings(rng, [1.3] * 30, 200.0, 100),
-              500: _packings(rng, [1.7] * 30, 200.0, 100)}
-    r = sd.size_difference(groups, X_MIN, boot=200, seed=0)
-    assert abs(r.delta - 0.4) < 4 * r.boot_sigma and r.z_boot > 5
-    assert r.fraction_not_above == 0.0
-
-
-def test_packings_that_differ_widen_the_error(sd):
-    """Each packing with its own τ (spread 0.25): the avalanches of one packing are not
-    independent draws of the pooled law, and resampling packings shows it."""
-    rng = np.random.default_rng(3)
-    groups = {n: _packings(rng, rng.normal(1.6, 0.25, 20).clip(1.15, None), 100.0, 150)
-              for n in (500, 1000)}
-    r = sd.size_difference(groups, X_MIN, boot=300, seed=0)
-    assert r.boot_sigma > 1.5 * np.hypot(*r.sigma)
-
-
-def test_the_combined_scores_are_the_normal_and_chi2_ones(sd):
-    chi2, p_chi2, s, p_s = sd.combined([1.0, -1.0, 2.0])
-    assert chi2 == pytest.approx(6.0) and s == pytest.approx(2.0 / np.sqrt(3.0))
-    # χ²_3 survival at 6 and the two-sided normal p at 2/√3, by their closed forms
-    from math import erfc, exp, pi, sqrt
-
-    assert p_chi2 == pytest.approx(erfc(sqrt(3.0)) + sqrt(2 * 6.0 / pi) * exp(-3.0), rel=1e-12)
-    assert p_s == pytest.approx(erfc(2.0 / np.sqrt(3.0) / sqrt(2.0)), rel=1e-12)
-
-
-def test_bad_groups_are_refused(sd):
-    rng = np.random.default_rng(4)
-    one = {500: _packings(rng, [1.5] * 3, 10.0, 20)}
-    with pytest.raises(ValueError, match="need two sizes"):
-        sd.size_difference(one, X_MIN, boot=10)
-    two = {**one, 1000: [np.array([0.5, 0.7])]}
-    with pytest.raises(ValueError, match="N = 1000: 0 sizes at or above"):
-        sd.size_difference(two, X_MIN, boot=10)
-    with pytest.raises(ValueError, match="--boot must be >= 2"):
-        sd.size_difference({**one, 1000: one[500]}, X_MIN, boot=1)
 
 
 @pytest.fixture(scope="module")

@@ -66,10 +66,14 @@ from jamlab.analysis.powerlaw import (
     sample_power_law,
 )
 from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
+from jamlab.analysis.size_difference import SizeDifference, combined_scores, size_difference
 
 __all__ = [
     "ClusteredShapeTest",
     "clustered_shape_test",
+    "SizeDifference",
+    "combined_scores",
+    "size_difference",
     "CHI2_1_95",
     "CutoffPowerLawFit",
     "CutoffShapeProfile",
