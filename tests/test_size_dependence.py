@@ -29,16 +29,18 @@ def runs(tmp_path_factory):
     return out
 
 
+def _recount_file(f) -> np.ndarray:
+    """Avalanche sizes −ΔH of one sample file (plastic, ΔH < 0, both minima jammed), h5py."""
+    with h5py.File(f, "r") as h5:
+        de, pl = h5["trace/energy_jump"][1:], h5["trace/plastic"][1:].astype(bool)
+        jm = h5["trace/jammed"][()]
+    return -de[pl & (de < 0) & jm[:-1] & jm[1:]]
+
+
 def _recount(path) -> np.ndarray:
-    """Avalanche sizes −ΔH (plastic steps with ΔH < 0 between jammed minima) of a run, read
-    with h5py."""
-    sizes = [np.empty(0)]
-    for f in sorted(path.glob("samples/*/*/*.h5")):
-        with h5py.File(f, "r") as h5:
-            de, pl = h5["trace/energy_jump"][1:], h5["trace/plastic"][1:].astype(bool)
-            jm = h5["trace/jammed"][()]
-        sizes.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
-    return np.concatenate(sizes)
+    """Avalanche sizes of every sample file of a run (:func:`_recount_file`)."""
+    return np.concatenate([np.empty(0)] + [_recount_file(f) for f in
+                                           sorted(path.glob("samples/*/*/*.h5"))])
 
 
 def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
@@ -72,3 +74,37 @@ def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
         s = _recount(runs[n])
         assert k == len(list(runs[n].glob("samples/*/*/*.h5")))
         assert np.count_nonzero(s >= x_min * 1.001) <= tail <= np.count_nonzero(s >= x_min * 0.999)
+
+
+def test_the_report_rows_difference_is_the_packings(runs):
+    """``with_cutoff`` of two sizes carries τ(24) − τ(16) in its window with the packings
+    resampled, from the packings recounted here with h5py; its report row is judged against 0;
+    without a bootstrap none is made."""
+    from dataclasses import replace
+
+    from jamlab.analysis import size_difference
+    from jamlab.reproduce.measurements import tau_estimate, with_cutoff
+    from jamlab.reproduce.scales import SCALES
+    from jamlab.reproduce.table import pressure_tau_rows
+    from jamlab.runs import open_run
+
+    scale = replace(SCALES["medium"], n_boot=50)
+    sources = [(open_run(runs[n]), n) for n in (16, 24)]
+    est = with_cutoff(tau_estimate("jamming", sources, scale), sources, scale)
+    per_file = {n: [_recount_file(f) for f in sorted(runs[n].glob("samples/*/*/*.h5"))]
+                for n in (16, 24)}
+    cut = est.cutoff
+    assert cut is not None
+    got = est.size_difference
+    if min(np.count_nonzero(np.concatenate(v) >= cut.x_min) for v in per_file.values()) < 10:
+        assert got is None  # (another machine's trajectories may leave too few in the window)
+        return
+    want = size_difference(per_file, cut.x_min, 50, scale.seed)
+    assert got.n == (16, 24) and got.packings == want.packings and got.tails == want.tails
+    assert got.tau == pytest.approx(want.tau) and got.boot_sigma == pytest.approx(want.boot_sigma)
+    row = pressure_tau_rows({1e-3: est})[-1]
+    assert row.quantity.startswith("τ(N = 24) − τ(N = 16) at fixed pressure p = 0.001")
+    assert row.value == got.delta and row.error == got.boot_sigma
+    assert row.verdicts[0].startswith("no size dependence: ")
+    none = with_cutoff(est, sources, replace(scale, n_boot=0))
+    assert none.size_difference is None and len(pressure_tau_rows({1e-3: none})) == 3

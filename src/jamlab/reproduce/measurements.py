@@ -170,6 +170,7 @@ class TauEstimate:
     cutoff_coarse: Any = None  # the cut-off fit at COARSE_K δγ (steps paired), at the same x_min
     cutoff_converged: Any = None  # ConvergedWindow: the cut-off fit from the δγ-converged floor
     cutoff_per_n: dict[int, Any] | None = None  # each N (its sources pooled) in that window
+    size_difference: Any = None  # SizeDifference of the smallest and largest N in that window
 
     @property
     def exclusion_text(self) -> str:
@@ -241,8 +242,11 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     (:func:`converged_window`); with more than one N, the cut-off fit of each N alone in the
     pooled fit's window (``cutoff_per_n``: a fit per N of the sizes of all its sources, no
     bootstrap, None with fewer than 10 sizes there) — one window for all N, since the local τ
-    rises with ``x_min``."""
-    sizes = [avalanche_set(ds, est.label, n).sizes for ds, n in sources]
+    rises with ``x_min`` — and the difference of τ between the largest and the smallest N there
+    with whole packings resampled (``size_difference``: :func:`jamlab.analysis.size_difference`,
+    ``scale.n_boot`` resamples; None with ``n_boot < 2`` or fewer than 10 sizes of an N there)."""
+    sets = [avalanche_set(ds, est.label, n) for ds, n in sources]
+    sizes = [a.sizes for a in sets]
     pooled = np.concatenate(sizes) if sizes else np.empty(0)
     cut = fit_tau_cutoff(pooled, scale)
     two = None if cut is None else coarse_sizes(est.label, sources)
@@ -252,10 +256,21 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     pooled_n = _by_n([n for _, n in sources], sizes)
     per_n = None if cut is None or len(pooled_n) < 2 else {
         n: _fit_from(s, cut.x_min) for n, s in pooled_n.items()}
+    diff = None
+    if per_n is not None and scale.n_boot >= 2:
+        from jamlab.analysis import size_difference
+
+        ends = (min(pooled_n), max(pooled_n))
+        packings = {n: [x for (_, m), a in zip(sources, sets, strict=True) if m == n
+                        for x in a.per_sample] for n in ends}
+        try:
+            diff = size_difference(packings, cut.x_min, scale.n_boot, scale.seed)
+        except ValueError:  # an N with fewer than 10 sizes in the window: no difference
+            diff = None
     return replace(est, cutoff=cut, cutoff_sigma=tau_sigma(cut), cutoff_made=True,
                    cutoff_shape=cutoff_shape(pooled, cut),
                    cutoff_coarse=None if cut is None else _fit_from(two, cut.x_min),
-                   cutoff_converged=conv, cutoff_per_n=per_n)
+                   cutoff_converged=conv, cutoff_per_n=per_n, size_difference=diff)
 
 
 #: The strain step of the report's convergence check, in units of the run's ``δγ``.
