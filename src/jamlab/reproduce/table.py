@@ -349,6 +349,7 @@ def tau_data(estimates: dict[str, TauEstimate]) -> dict[str, Any]:
             n_tail=f.n_tail, n_avalanches=e.n_avalanches)
         if e.cutoff_made:
             data[f"tau_{label}_cutoff"] = cutoff_data(e)
+            data[f"tau_{label}_size_difference"] = size_difference_data(e.size_difference)
     data["avalanche_counts"] = {k: e.n_avalanches for k, e in estimates.items()}
     data["exclusions"] = {
         k: dict(jammed_known=e.jammed_known, n_steps=e.steps,
