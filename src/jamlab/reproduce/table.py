@@ -37,6 +37,7 @@ from jamlab.reproduce.measurements import (
     sigma_from_ci95,
 )
 from jamlab.reproduce.scales import SCALES, Scale
+from jamlab.reproduce.size_table import size_difference_data, size_difference_row
 from jamlab.reproduce.theory_checks import TheoryChecks
 
 __all__ = [
@@ -268,25 +269,6 @@ def pressure_tau_rows(estimates: dict[float, TauEstimate]) -> list[Row]:
     return rows
 
 
-def size_difference_row(where: str, d: Any) -> Row:
-    """τ(largest N) − τ(smallest N) ``where`` (e.g. "at fixed pressure p = 0.001"), each alone
-    in the cut-off fit's window, σ from resampled packings
-    (:func:`jamlab.analysis.size_difference`), against 0."""
-    (n0, n1), (t0, t1), (s0, s1) = d.n, d.tau, d.sigma
-    return Row(
-        quantity=(f"τ(N = {n1}) − τ(N = {n0}) {where}, each alone in the exponential cut-off "
-                  "fit's window (packings resampled)"),
-        reference_text="0 if τ does not depend on N in one window",
-        value=d.delta, error=d.boot_sigma,
-        value_text=(f"{d.delta:+.3f} ± {d.boot_sigma:.3f} ({t1:.3f} ± {s1:.3f} against "
-                    f"{t0:.3f} ± {s0:.3f}, asymptotic σ; x_min = {d.x_min:.3g} ε; "
-                    f"{d.fraction_not_above:.0%} of the resamples ≤ 0)"),
-        samples=(f"N = {n0}: {d.packings[0]} packings, {d.tails[0]} sizes in the window; "
-                 f"N = {n1}: {d.packings[1]} packings, {d.tails[1]} sizes"),
-        comparisons=(Comparison("no size dependence", 0.0),),
-    )
-
-
 def cutoff_fit_text(fit: Any, sigma: float) -> str:
     """A fit with an exponential cut-off: ``τ ± σ (95% CI, x_min, S_c, tail)``, or ``n/a``."""
     if fit is None:
@@ -307,14 +289,6 @@ def pressure_tau_data(estimates: dict[float, TauEstimate]) -> dict[str, Any]:
             fit_pressures=e.fit_pressures, cutoff=cutoff_data(e),
             size_difference=size_difference_data(e.size_difference))
     return {"tau_pressure": out} if out else {}
-
-
-def size_difference_data(d: Any) -> dict[str, Any] | None:
-    """The numbers of a :class:`jamlab.analysis.SizeDifference` (None without one)."""
-    return None if d is None else dict(
-        n=list(d.n), packings=list(d.packings), n_tail=list(d.tails), tau=list(d.tau),
-        tau_stderr=list(d.sigma), x_min=d.x_min, delta=d.delta, delta_sigma_boot=d.boot_sigma,
-        fraction_not_above=d.fraction_not_above)
 
 
 def cutoff_data(e: TauEstimate) -> dict[str, Any] | None:
