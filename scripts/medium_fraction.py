@@ -25,7 +25,6 @@ ensembles at N = 250 and 500) into one estimate, as the scale pools its N (one N
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
 from dataclasses import replace
@@ -37,7 +36,7 @@ import numpy as np
 from jamlab.reproduce.measurements import tau_estimate, with_cutoff
 from jamlab.reproduce.scales import SCALES, studies
 from jamlab.reproduce.table import coarse_text, converged_text, shape_text
-from jamlab.runs import Execution, Study, open_run, run_study
+from jamlab.runs import Execution, Study, open_run, open_study, run_study
 
 
 def selected_n(study: Study, n_only: list[int] | None) -> list[int]:
@@ -172,11 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.dirs:
         groups: dict[tuple, list[tuple[Any, Study, Path]]] = {}
         for path in args.dirs:
-            try:
-                ds = open_run(path)
-            except (OSError, ValueError) as err:
-                ap.error(f"{path}: not a run directory ({err})")
-            study = Study.from_dict(json.loads(ds.attrs["study"]))
+            ds, study = open_study(ap, path)
             key = ((study.pressure, study.dgamma, study.gamma_max, study.phi) if args.pool
                    else (path,))
             groups.setdefault(key, []).append((ds, study, path))

@@ -27,7 +27,6 @@ from the real data; the resamples refit τ in it (they do not choose their own w
 from __future__ import annotations
 
 import argparse
-import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -36,7 +35,7 @@ import numpy as np
 from jamlab.analysis import combined_scores, size_difference
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import Study, open_run
+from jamlab.runs import open_study
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,11 +48,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--boot must be >= 2, got {args.boot}")
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
     for path in args.runs:
-        try:
-            ds = open_run(path)
-        except (OSError, ValueError) as err:
-            ap.error(f"{path}: not a run directory ({err})")
-        study = Study.from_dict(json.loads(ds.attrs["study"]))
+        ds, study = open_study(ap, path)
         if study.pressure is None or len(study.n) != 1:
             ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
                      f"N = {list(study.n)})")

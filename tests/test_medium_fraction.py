@@ -3,15 +3,13 @@ pooled into one estimate (counts recounted here with h5py), refusals with exit c
 
 from __future__ import annotations
 
-import glob
 import json
-from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 
 from script_helpers import SCRIPTS, script_module
+from trace_recount import finished_samples, recount, step_count
 
 
 @pytest.fixture(scope="module")
@@ -33,22 +31,6 @@ def two_runs(tmp_path_factory):
     return out
 
 
-def _finished(path: Path) -> list[str]:
-    return sorted(glob.glob(str(path / "samples" / "*" / "*" / "*.h5")))
-
-
-def _recount(path: Path) -> np.ndarray:
-    """Avalanche sizes −ΔH of plastic steps between jammed minima, read with h5py."""
-    sizes = []
-    for f in _finished(path):
-        with h5py.File(f, "r") as h5:
-            de = h5["trace/energy_jump"][1:]
-            pl = h5["trace/plastic"][1:].astype(bool)
-            jm = h5["trace/jammed"][()]
-        sizes.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
-    return np.concatenate(sizes)
-
-
 def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
     from jamlab.reproduce.scales import SCALES
     from jamlab.runs import Study, open_run
@@ -56,9 +38,10 @@ def test_pooled_directories_hold_the_avalanches_of_both(mf, two_runs, capsys):
     runs = [(ds, Study.from_dict(json.loads(ds.attrs["study"])))
             for ds in map(open_run, two_runs)]
     est = mf.analyse(runs, SCALES["medium"], "pooled")
-    want = np.concatenate([_recount(p) for p in two_runs])
+    want = np.concatenate([recount(p) for p in two_runs])
     assert want.size > 0
-    done = sum(len(_finished(p)) for p in two_runs)  # (a preparation may fail: N = 24, seed 3)
+    # (a preparation may fail: N = 24, seed 3)
+    done = sum(len(finished_samples(p)) for p in two_runs)
     assert est.n_avalanches == want.size and est.samples == done >= 2
     out = capsys.readouterr().out
     assert f"N = [16, 24], {done} of 4 samples finished" in out
@@ -109,13 +92,12 @@ def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     runs = [(ds, Study.from_dict(json.loads(ds.attrs["study"]))) for ds in map(open_run, dirs)]
     assert runs[0][1].seed != runs[1][1].seed
     est = mf.analyse(runs, SCALES["medium"], "two realisations")
-    want = np.concatenate([_recount(p) for p in dirs])
+    want = np.concatenate([recount(p) for p in dirs])
     assert want.size > 0 and est.n_avalanches == want.size
-    assert est.samples == sum(len(_finished(p)) for p in dirs)
+    assert est.samples == sum(len(finished_samples(p)) for p in dirs)
     assert mf.main(["--dirs", *map(str, dirs), "--pool", "--n-boot", "0"]) == 0
     # one N's histogram holds both realisations (sizes and steps), not the last one's
-    steps = sum(h5py.File(f, "r")["trace/energy_jump"].size - 1
-                for p in dirs for f in _finished(p))
+    steps = sum(step_count(p) for p in dirs)
     assert list(est.per_n) == [16] and est.per_n[16].counts.sum() == want.size
     assert est.per_n[16].n_total == est.steps == steps
     # with a second N, each N's cut-off fit in the pooled window holds all its sizes: N = 16
@@ -125,12 +107,12 @@ def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     est3 = mf.analyse(runs3, SCALES["medium"], "two N, one twice")
     assert list(est3.per_n) == [16, 24]
     assert est3.per_n[16].counts.sum() == want.size
-    assert est3.per_n[24].counts.sum() == _recount(two_runs[1]).size
+    assert est3.per_n[24].counts.sum() == recount(two_runs[1]).size
     cut = est3.cutoff
     if cut is not None:
         from jamlab.analysis import fit_cutoff_power_law
 
-        for n, sizes in ((16, want), (24, _recount(two_runs[1]))):
+        for n, sizes in ((16, want), (24, recount(two_runs[1]))):
             got = est3.cutoff_per_n[n]
             if np.count_nonzero(sizes >= cut.x_min) < 10:
                 assert got is None

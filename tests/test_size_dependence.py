@@ -3,11 +3,11 @@ recount, and its refusals (exit code 2). The statistics: tests/analysis/test_siz
 
 from __future__ import annotations
 
-import h5py
 import numpy as np
 import pytest
 
 from script_helpers import script_module
+from trace_recount import finished_samples, recount, recount_sample
 
 
 @pytest.fixture(scope="module")
@@ -29,20 +29,6 @@ def runs(tmp_path_factory):
     return out
 
 
-def _recount_file(f) -> np.ndarray:
-    """Avalanche sizes −ΔH of one sample file (plastic, ΔH < 0, both minima jammed), h5py."""
-    with h5py.File(f, "r") as h5:
-        de, pl = h5["trace/energy_jump"][1:], h5["trace/plastic"][1:].astype(bool)
-        jm = h5["trace/jammed"][()]
-    return -de[pl & (de < 0) & jm[:-1] & jm[1:]]
-
-
-def _recount(path) -> np.ndarray:
-    """Avalanche sizes of every sample file of a run (:func:`_recount_file`)."""
-    return np.concatenate([np.empty(0)] + [_recount_file(f) for f in
-                                           sorted(path.glob("samples/*/*/*.h5"))])
-
-
 def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
     # exit code 2, one line: not a run directory; one size only
     for argv in ([str(tmp_path)], [str(runs[16])], [str(runs[16]), str(runs[24]), "--boot", "1"]):
@@ -56,7 +42,7 @@ def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
 
     counts = [sum(a.size for a in avalanche_set(open_run(runs[n]), "jamming", n).per_sample)
               for n in (16, 24)]
-    assert counts == [_recount(runs[16]).size, _recount(runs[24]).size]
+    assert counts == [recount(runs[16]).size, recount(runs[24]).size]
     try:
         code = sd.main([str(runs[16]), str(runs[24]), "--boot", "20"])
     except SystemExit as err:  # too few avalanches in the window at this tiny size
@@ -71,8 +57,8 @@ def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
     x_min = float(cells[1])  # (printed to 3 digits: the counts are compared away from it)
     for cell, n in zip(cells[2:4], (16, 24), strict=True):
         k, tail = (int(v) for v in cell.split(":")[1].split(",")[:2])
-        s = _recount(runs[n])
-        assert k == len(list(runs[n].glob("samples/*/*/*.h5")))
+        s = recount(runs[n])
+        assert k == len(finished_samples(runs[n]))
         assert np.count_nonzero(s >= x_min * 1.001) <= tail <= np.count_nonzero(s >= x_min * 0.999)
 
 
@@ -91,7 +77,7 @@ def test_the_report_rows_difference_is_the_packings(runs):
     scale = replace(SCALES["medium"], n_boot=50)
     sources = [(open_run(runs[n]), n) for n in (16, 24)]
     est = with_cutoff(tau_estimate("jamming", sources, scale), sources, scale)
-    per_file = {n: [_recount_file(f) for f in sorted(runs[n].glob("samples/*/*/*.h5"))]
+    per_file = {n: [recount_sample(f) for f in finished_samples(runs[n])]
                 for n in (16, 24)}
     cut = est.cutoff
     assert cut is not None

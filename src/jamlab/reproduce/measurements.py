@@ -190,13 +190,18 @@ def pressure_summary(p: np.ndarray) -> tuple[float, float, float] | None:
     return float(q50), float(q10), float(q90)
 
 
+def _group_by_n(ns: list[int], items: list[Any]) -> dict[int, list[Any]]:
+    """``items`` (one per source, ``ns`` their sizes N) listed per N, in the order of first
+    appearance: the sources of one N (two realisations of it) together."""
+    out: dict[int, list[Any]] = {}
+    for n, x in zip(ns, items, strict=True):
+        out.setdefault(n, []).append(x)
+    return out
+
+
 def _by_n(ns: list[int], arrays: list[np.ndarray]) -> dict[int, np.ndarray]:
-    """``arrays`` (one per source, ``ns`` their sizes N) concatenated per N, in the order of
-    first appearance: the sources of one N (two realisations of it) pooled."""
-    out: dict[int, list[np.ndarray]] = {}
-    for n, a in zip(ns, arrays, strict=True):
-        out.setdefault(n, []).append(np.asarray(a))
-    return {n: np.concatenate(v) for n, v in out.items()}
+    """``arrays`` (one per source) concatenated per N (:func:`_group_by_n`)."""
+    return {n: np.concatenate(v) for n, v in _group_by_n(ns, arrays).items()}
 
 
 def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> TauEstimate:
@@ -204,7 +209,8 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
     (``(run dataset, N)`` pairs), by the module rule."""
     from jamlab.analysis import log_histogram
 
-    all_sizes, all_p, minima_p, all_steps, steps, samples = [], [], [], [], 0, 0
+    all_sizes, all_p, minima_p, steps, samples = [], [], [], 0, 0
+    steps_of: dict[int, int] = {}  # AQS steps per N, its sources summed
     known, n_st, n_av = True, 0, 0
     for ds, n in sources:
         a = avalanche_set(ds, label, n)
@@ -216,13 +222,11 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
         n_st += a.n_steps_excluded
         n_av += a.n_avalanches_excluded
         steps += st
-        all_steps.append(np.array([st]))
+        steps_of[n] = steps_of.get(n, 0) + st
         samples += sa
     # the histogram of each N pools the sources of that N (two realisations of one N: both)
-    ns = [n for _, n in sources]
-    steps_of = _by_n(ns, all_steps)
-    per_n = {n: log_histogram(s, scale.bins_per_decade, n_total=max(int(steps_of[n].sum()), 1))
-             for n, s in _by_n(ns, all_sizes).items() if s.size}
+    per_n = {n: log_histogram(s, scale.bins_per_decade, n_total=max(steps_of[n], 1))
+             for n, s in _by_n([n for _, n in sources], all_sizes).items() if s.size}
     sizes = np.concatenate(all_sizes) if all_sizes else np.empty(0)
     p_av = np.concatenate(all_p) if all_p else np.empty(0)
     pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
@@ -253,7 +257,8 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
     conv = None if cut is None else converged_window(
         pooled, two, cut.x_min, min_tail=max(scale.min_tail, 10), n_boot=scale.n_boot,
         seed=scale.seed)
-    pooled_n = _by_n([n for _, n in sources], sizes)
+    sets_of = _group_by_n([n for _, n in sources], sets)
+    pooled_n = {n: np.concatenate([a.sizes for a in v]) for n, v in sets_of.items()}
     per_n = None if cut is None or len(pooled_n) < 2 else {
         n: _fit_from(s, cut.x_min) for n, s in pooled_n.items()}
     diff = None
@@ -261,8 +266,7 @@ def with_cutoff(est: TauEstimate, sources: list[tuple[Any, int]], scale: Scale) 
         from jamlab.analysis import size_difference
 
         ends = (min(pooled_n), max(pooled_n))
-        packings = {n: [x for (_, m), a in zip(sources, sets, strict=True) if m == n
-                        for x in a.per_sample] for n in ends}
+        packings = {n: [x for a in sets_of[n] for x in a.per_sample] for n in ends}
         try:
             diff = size_difference(packings, cut.x_min, scale.n_boot, scale.seed)
         except ValueError:  # an N with fewer than 10 sizes in the window: no difference

@@ -8,7 +8,9 @@ different N side by side). The convention lives here once; scripts cannot import
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
+from typing import Any
 
 
 def add_run_arguments(parser: argparse.ArgumentParser, *, default_n: int | None = None) -> None:
@@ -27,3 +29,17 @@ def sizes_per_run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
     if len(sizes) not in (1, runs):
         parser.error(f"--n takes one size or one per run ({runs}), got {len(sizes)}")
     return sizes * runs if len(sizes) == 1 else sizes
+
+
+def open_study(parser: argparse.ArgumentParser, path: Path) -> tuple[Any, Any]:
+    """The run directory ``path`` opened (:func:`jamlab.runs.open_run`) and its
+    :class:`jamlab.runs.Study`; where it is not a run directory, the parser's error (one line,
+    exit code 2)."""
+    from jamlab.runs.load import open_run
+    from jamlab.runs.study import Study
+
+    try:
+        ds = open_run(path)
+    except (OSError, ValueError) as err:
+        parser.error(f"{path}: not a run directory ({err})")
+    return ds, Study.from_dict(json.loads(ds.attrs["study"]))
