@@ -306,7 +306,7 @@ def plot_tau_against_pressure(
     horizontal lines in every panel (a band of ± σ where ``σ > 0``); the ``p`` axis runs half
     a decade beyond the pressures on each side."""
     p = np.asarray(pressures, dtype=np.float64)
-    fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 4.8), sharey=True,
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.2 * len(panels), 5.6), sharey=True,
                              squeeze=False)
     for ax, (title, fits) in zip(axes[0], panels, strict=True):
         for i, (label, (value, σ)) in enumerate(references.items()):
@@ -327,7 +327,9 @@ def plot_tau_against_pressure(
             ax.set_xlim(p.min() / 10 ** 0.5, p.max() * 10 ** 0.5)
         ax.set_xlabel("pressure p (ε/σ³)")
         ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=7, loc="best")
+        # below the panel: the reference lines and the bars span the whole axes, so no corner
+        # inside is free (a legend there hid part of a bar)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     axes[0][0].set_ylabel("avalanche exponent τ")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
