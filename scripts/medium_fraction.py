@@ -117,7 +117,7 @@ def analyse(runs: list[tuple[Any, Study]], scale, name: str,
               + (converged_text(est.cutoff_converged) or "n/a"))
         d = est.size_difference
         if d is not None:  # (two N or more, with a bootstrap: the report's size-difference row)
-            print(f"tau(N = {d.n[1]}) - tau(N = {d.n[0]}) in that window, packings resampled "
+            print(f"tau(N = {d.n[-1]}) - tau(N = {d.n[0]}) in that window, packings resampled "
                   f"({scale.n_boot}): {d.delta:+.3f} ± {d.boot_sigma:.3f} "
                   f"(z = {d.z_boot:+.2f}; asymptotic σ: z = {d.z_asymptotic:+.2f})")
     return est

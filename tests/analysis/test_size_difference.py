@@ -58,6 +58,34 @@ def test_packings_that_differ_widen_the_error():
     assert r.boot_sigma > 1.5 * np.hypot(*r.sigma)
 
 
+def test_two_sizes_give_the_slope_of_their_difference():
+    """With two sizes the slope dτ/d ln N is Δτ / ln(N₁/N₀), its resampled σ is Δτ's over the
+    same ratio, and the two z are one."""
+    rng = np.random.default_rng(6)
+    groups = {500: _packings(rng, [1.5] * 10, 50.0, 60), 1000: _packings(rng, [1.6] * 10, 90.0, 60)}
+    r = size_difference(groups, X_MIN, boot=30, seed=0)
+    assert r.slope == pytest.approx(r.delta / np.log(2.0), rel=1e-12)
+    assert r.slope_sigma == pytest.approx(r.boot_sigma / np.log(2.0), rel=1e-12)
+    assert r.z_slope == pytest.approx(r.z_boot, rel=1e-12)
+
+
+def test_three_sizes_a_slope_in_log_n_is_found():
+    """τ = 1.3, 1.5, 1.7 at N = 250, 500, 1000 (a slope 0.2 / ln 2 in ln N) is found within its
+    resampled σ and told from 0; the slope is numpy's least-squares line through the three
+    fits; Δτ is the largest N's against the smallest's. One τ at every N: no slope found."""
+    rng = np.random.default_rng(7)
+    ns = (250, 500, 1000)
+    taus = dict(zip(ns, (1.3, 1.5, 1.7), strict=True))
+    groups = {n: _packings(rng, [taus[n]] * 15, 100.0, 80) for n in ns}
+    r = size_difference(groups, X_MIN, boot=60, seed=0)
+    assert r.n == ns and len(r.tau) == len(r.sigma) == len(r.tails) == 3
+    assert r.slope == pytest.approx(np.polyfit(np.log(ns), r.tau, 1)[0], rel=1e-10)
+    assert abs(r.slope - 0.2 / np.log(2.0)) < 4 * r.slope_sigma and r.z_slope > 5
+    assert r.delta == r.tau[2] - r.tau[0]
+    flat = {n: _packings(rng, [1.5] * 15, 100.0, 80) for n in ns}
+    assert abs(size_difference(flat, X_MIN, boot=60, seed=0).z_slope) < 4
+
+
 def test_the_combined_scores_are_the_normal_and_chi2_ones():
     chi2, p_chi2, s, p_s = combined_scores([1.0, -1.0, 2.0])
     assert chi2 == pytest.approx(6.0) and s == pytest.approx(2.0 / np.sqrt(3.0))
@@ -71,7 +99,7 @@ def test_the_combined_scores_are_the_normal_and_chi2_ones():
 def test_bad_groups_are_refused():
     rng = np.random.default_rng(4)
     one = {500: _packings(rng, [1.5] * 3, 10.0, 20)}
-    with pytest.raises(ValueError, match="need two sizes"):
+    with pytest.raises(ValueError, match="need two sizes N or more"):
         size_difference(one, X_MIN, boot=10)
     two = {**one, 1000: [np.array([0.5, 0.7])]}
     with pytest.raises(ValueError, match="N = 1000: 0 sizes at or above"):

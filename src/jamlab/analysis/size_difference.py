@@ -1,11 +1,12 @@
-"""τ of two system sizes in one fixed window, with whole packings as the independent units.
+"""τ of two or more system sizes in one fixed window, with whole packings as the independent units.
 
 The avalanches of one packing are correlated (they share its contact network and history), so
 the asymptotic σ of a fit, which counts every avalanche as independent, can understate the error
 of a difference between two sizes. :func:`size_difference` fits each size alone with an
 exponential cut-off at one fixed lower end ``x_min`` (:func:`fit_cutoff_power_law`) and takes the
-σ of ``Δτ = τ(larger N) − τ(smaller N)`` from resamples that draw each size's packings with
-replacement; :func:`combined_scores` combines the z-scores of several pressures. Used by
+σ of ``Δτ = τ(largest N) − τ(smallest N)``, and of the least-squares slope ``dτ/d ln N`` through
+all the sizes, from resamples that draw each size's packings with replacement;
+:func:`combined_scores` combines the z-scores of several pressures. Used by
 ``scripts/size_dependence.py`` (docs/reproduce.md, "Does τ depend on N in one window?").
 """
 
@@ -24,39 +25,56 @@ __all__ = ["SizeDifference", "combined_scores", "size_difference"]
 
 @dataclass(frozen=True)
 class SizeDifference:
-    """τ of two sizes at one window, and their difference with two errors."""
+    """τ of two or more sizes (ascending N) at one window; the difference of the largest and the
+    smallest with two errors, and the slope ``dτ/d ln N`` through all of them with one."""
 
     x_min: float
-    n: tuple[int, int]
-    packings: tuple[int, int]
-    tails: tuple[int, int]
-    tau: tuple[float, float]
-    sigma: tuple[float, float]  # asymptotic (avalanches independent)
+    n: tuple[int, ...]
+    packings: tuple[int, ...]
+    tails: tuple[int, ...]
+    tau: tuple[float, ...]
+    sigma: tuple[float, ...]  # asymptotic (avalanches independent)
     boot_sigma: float  # of Δτ, packings resampled
     fraction_not_above: float  # of the resamples with Δτ ≤ 0
+    slope: float  # least-squares dτ/d ln N, every size weighted alike
+    slope_sigma: float  # of the slope, the same resamples
 
     @property
     def delta(self) -> float:
-        """``τ(larger N) − τ(smaller N)``."""
-        return self.tau[1] - self.tau[0]
+        """``τ(largest N) − τ(smallest N)``."""
+        return self.tau[-1] - self.tau[0]
 
     @property
     def z_asymptotic(self) -> float:
-        return self.delta / math.hypot(*self.sigma)
+        return self.delta / math.hypot(self.sigma[0], self.sigma[-1])
 
     @property
     def z_boot(self) -> float:
         return self.delta / self.boot_sigma
 
+    @property
+    def z_slope(self) -> float:
+        """The slope in units of its resampled σ (with two sizes, :attr:`z_boot` up to
+        rounding: the slope is then ``Δτ / ln(N₁/N₀)``)."""
+        return self.slope / self.slope_sigma
+
+
+def _slope(log_n: np.ndarray, tau: np.ndarray) -> float:
+    """Least-squares slope of ``tau`` on ``log_n`` (equal weights)."""
+    x = log_n - log_n.mean()
+    return float(np.dot(x, tau - tau.mean()) / np.dot(x, x))
+
 
 def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int,
                     seed: int = 0) -> SizeDifference:
-    """:class:`SizeDifference` of ``groups`` (``{N: per-packing size arrays}``, two sizes) at
-    the fixed lower end ``x_min``; ``boot`` resamples of each size's packings (with
-    replacement, ``numpy.random.default_rng(seed)``). ValueError without two sizes, with
-    ``boot < 2``, or where a size has fewer than 10 sizes at or above ``x_min``."""
-    if len(groups) != 2:
-        raise ValueError(f"need two sizes N, got {sorted(groups)}")
+    """:class:`SizeDifference` of ``groups`` (``{N: per-packing size arrays}``, two sizes or
+    more) at the fixed lower end ``x_min``; ``boot`` resamples of each size's packings (with
+    replacement, ``numpy.random.default_rng(seed)``, the sizes in ascending N, so that two sizes
+    draw what they drew before the slope was added). A resample in which a size has fewer than
+    10 sizes in the window is dropped. ValueError with fewer than two sizes, with ``boot < 2``,
+    or where a size has fewer than 10 sizes at or above ``x_min``."""
+    if len(groups) < 2:
+        raise ValueError(f"need two sizes N or more, got {sorted(groups)}")
     if boot < 2:
         raise ValueError(f"boot must be >= 2, got {boot}")
     ns = sorted(groups)
@@ -66,24 +84,27 @@ def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int
         if tail < 10:
             raise ValueError(f"N = {n}: {tail} sizes at or above {x_min:.3g}, fewer than 10")
     fits = [fit_cutoff_power_law(np.concatenate(p), x_min) for p in packs]
+    log_n = np.log(np.asarray(ns, dtype=np.float64))
     rng = np.random.default_rng(seed)
-    deltas = np.empty(boot)
+    taus = np.empty((boot, len(ns)))
     for b in range(boot):
-        taus = []
-        for p in packs:
+        for k, p in enumerate(packs):
             pick = rng.integers(0, len(p), len(p))
             s = np.concatenate([p[i] for i in pick])
             # (a resample with fewer than 10 sizes in the window has no fit: τ = NaN, dropped)
-            taus.append(fit_cutoff_power_law(s, x_min).tau
-                        if np.count_nonzero(s >= x_min) >= 10 else math.nan)
-        deltas[b] = taus[1] - taus[0]
-    deltas = deltas[np.isfinite(deltas)]
+            taus[b, k] = (fit_cutoff_power_law(s, x_min).tau
+                          if np.count_nonzero(s >= x_min) >= 10 else math.nan)
+    taus = taus[np.all(np.isfinite(taus), axis=1)]
+    deltas = taus[:, -1] - taus[:, 0]
+    slopes = np.array([_slope(log_n, t) for t in taus])
+    tau = np.array([f.tau for f in fits])
     return SizeDifference(
-        x_min=float(x_min), n=(ns[0], ns[1]), packings=(len(packs[0]), len(packs[1])),
-        tails=(fits[0].n_tail, fits[1].n_tail), tau=(fits[0].tau, fits[1].tau),
-        sigma=(fits[0].tau_stderr, fits[1].tau_stderr),
+        x_min=float(x_min), n=tuple(ns), packings=tuple(len(p) for p in packs),
+        tails=tuple(f.n_tail for f in fits), tau=tuple(float(t) for t in tau),
+        sigma=tuple(f.tau_stderr for f in fits),
         boot_sigma=float(np.std(deltas, ddof=1)),
-        fraction_not_above=float(np.mean(deltas <= 0)))
+        fraction_not_above=float(np.mean(deltas <= 0)),
+        slope=_slope(log_n, tau), slope_sigma=float(np.std(slopes, ddof=1)))
 
 
 def combined_scores(zs: list[float]) -> tuple[float, float, float, float]:

@@ -18,7 +18,7 @@ def size_difference_row(where: str, d: Any) -> Row:
     """τ(largest N) − τ(smallest N) ``where`` (e.g. "at fixed pressure p = 0.001"), each alone
     in the cut-off fit's window, σ from resampled packings
     (:func:`jamlab.analysis.size_difference`), against 0."""
-    (n0, n1), (t0, t1), (s0, s1) = d.n, d.tau, d.sigma
+    n0, n1, t0, t1, s0, s1 = d.n[0], d.n[-1], d.tau[0], d.tau[-1], d.sigma[0], d.sigma[-1]
     return Row(
         quantity=(f"τ(N = {n1}) − τ(N = {n0}) {where}, each alone in the exponential cut-off "
                   "fit's window (packings resampled)"),
@@ -28,7 +28,7 @@ def size_difference_row(where: str, d: Any) -> Row:
                     f"{t0:.3f} ± {s0:.3f}, asymptotic σ; x_min = {d.x_min:.3g} ε; "
                     f"{d.fraction_not_above:.0%} of the resamples ≤ 0)"),
         samples=(f"N = {n0}: {d.packings[0]} packings, {d.tails[0]} sizes in the window; "
-                 f"N = {n1}: {d.packings[1]} packings, {d.tails[1]} sizes"),
+                 f"N = {n1}: {d.packings[-1]} packings, {d.tails[-1]} sizes"),
         comparisons=(Comparison("no size dependence", 0.0),),
     )
 
