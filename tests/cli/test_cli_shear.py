@@ -176,3 +176,29 @@ def test_floppy_option_is_recorded_and_checked(start, tmp_path):
         r = jamlab("shear", str(path), "--dgamma", "1e-5", "--gamma-max", "3e-5", "--out",
                    str(tmp_path / "other.h5"), *extra)
         assert words in one_line_error(r)
+
+
+@pytest.mark.parametrize("bad", ["dgamma", "garbage input"])
+def test_refused_force_rerun_keeps_the_earlier_run(start, tmp_path, bad):
+    """`shear --force` refused for a bad argument or an unreadable input changes nothing on disk:
+    the earlier run's trace, its .last.h5 and every snapshot in w.configs/ stay as they were."""
+    path, _ = start
+    out = tmp_path / "w.h5"
+    first = jamlab("shear", path, "--dgamma", "1e-3", "--gamma-max", "5e-3", "--save-every", "2",
+                   "--out", out)  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    files = [out, tmp_path / "w.last.h5", *sorted((tmp_path / "w.configs").iterdir())]
+    assert len(files) == 5
+    before = {f: f.read_bytes() for f in files}
+    if bad == "dgamma":
+        args, needle = (path, "--dgamma", "1", "--gamma-max", "3e-3"), "--dgamma"
+    else:
+        garbage = tmp_path / "garbage.h5"
+        garbage.write_bytes(b"not hdf5 at all")
+        args, needle = (garbage, "--dgamma", "1e-3", "--gamma-max", "3e-3"), "not an HDF5 file"
+    assert needle in one_line_error(jamlab("shear", *args, "--out", out, "--force"))
+    assert sorted(tmp_path.glob("w*")) == sorted([out, tmp_path / "w.last.h5",
+                                                  tmp_path / "w.configs"])
+    assert sorted((tmp_path / "w.configs").iterdir()) == files[2:]
+    assert {f: f.read_bytes() for f in files} == before
+    assert jamlab("export", out, "--out", tmp_path / "m.xyz").returncode == 0

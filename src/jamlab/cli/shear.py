@@ -266,6 +266,7 @@ def register(app: typer.Typer) -> None:
             raise FileNotFoundError(f"no such configuration file: {config}")
         last, snapshots = checkpoint_paths(out)
         outputs = {"--out": out, "--plot": plot}
+        stale: list[Path] = []
         if resume:
             check_outputs(outputs, {"configuration": config}, force=force, continued=("--out",),
                           figures=("--plot",))
@@ -285,10 +286,6 @@ def register(app: typer.Typer) -> None:
             if stale and not force:
                 raise ValueError(f"{snapshots} holds {len(stale)} snapshot(s) of an earlier "
                                  "run; give --force to remove them")
-            for path in stale:
-                path.unlink()
-            if stale and not any(snapshots.iterdir()):
-                snapshots.rmdir()
         previous = None
         if resume:
             if not out.is_file():
@@ -314,6 +311,12 @@ def register(app: typer.Typer) -> None:
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, packing.strain, names=("--dgamma", "--gamma-max")
             )
+        # only now, with every argument checked and the input read, does --force remove the
+        # earlier run's snapshots: a refused command changes nothing on disk
+        for path in stale:
+            path.unlink()
+        if stale and not any(snapshots.iterdir()):
+            snapshots.rmdir()
         result = shear(
             packing,
             dgamma,
