@@ -8,8 +8,8 @@ message naming the parameter. The bounds (``docs/formats.md``, "Limits"):
 
 - seeds: integers in ``[0, 2^64 − 1]`` (what ``numpy.random.default_rng`` and the 64-bit HDF5
   attributes hold);
-- packing fractions: ``0 < φ < 1``; dimension ``d ≥ 2`` with a box side ``L > 2`` (twice the
-  cut-off) at the requested ``(N, d, φ)``;
+- packing fractions: ``0 < φ < 1``; dimension ``2 ≤ d ≤ MAX_DIM`` with a box side ``L > 2``
+  (twice the cut-off) at the requested ``(N, d, φ)``;
 - strains: finite, ``|γ| ≤ MAX_STRAIN``; an AQS run: ``0 < δγ < γ_max``, at most ``MAX_STEPS``
   steps, and ``δγ`` resolved by float64 at the run's largest strain (``δγ ≥ STRAIN_RESOLUTION ·
   max(1, |γ_0| + γ_max)``), so that every step really changes the strain.
@@ -31,7 +31,9 @@ __all__ = [
     "VOLUME_GUESS_BEFORE",
     "floppy",
     "volume_guess",
+    "MAX_DIM",
     "integer",
+    "dimension",
     "number",
     "positive",
     "seed",
@@ -46,6 +48,12 @@ SEED_MAX = 2**64 - 1
 
 MAX_STEPS = 10_000_000
 """Largest number of AQS steps of one run (the trace is held in memory: ~1 GB at this size)."""
+
+MAX_DIM = 64
+"""Largest space dimension ``d``. The ball volume ``v_d(1/2)`` is ~1.7e-39 at ``d = 64`` (it
+underflows to 0 at ``d = 340`` and ``Γ(d/2 + 1)`` overflows at ``d = 342``); a box of side
+``L > 2`` (twice the cut-off) at any ``φ`` already needs astronomically many spheres far below
+the cap, so it only turns absurd values into a one-line error."""
 
 MAX_STRAIN = 1e6
 """Largest accumulated strain ``|γ|`` of a configuration or a run."""
@@ -137,6 +145,11 @@ def integer(
     if (minimum is not None and as_int < minimum) or (maximum is not None and as_int > maximum):
         raise _reject(name, what, as_int)
     return as_int
+
+
+def dimension(name: str, value: Any) -> int:
+    """A space dimension: an integer in ``[2, MAX_DIM]``."""
+    return integer(name, value, minimum=2, maximum=MAX_DIM)
 
 
 def number(
@@ -249,7 +262,7 @@ def box_fits(n: int, dim: int, phi: float, sizes: str = "mono") -> None:
     from jamlab.spheres.state import box_length_for_diameters, check_box_side, size_distribution
 
     n = integer("N", n, minimum=2)
-    dim = integer("dim", dim, minimum=2)
+    dim = dimension("dim", dim)
     phi = packing_fraction("phi", phi)
     diam = size_distribution(n, sizes)
     # Packing's own rule; positions are irrelevant to it

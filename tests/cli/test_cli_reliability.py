@@ -147,6 +147,51 @@ def test_positions_stored_as_a_group_is_one_line(tmp_path):
     assert digest(bad) == before
 
 
+@pytest.mark.parametrize("link", ["soft", "external"])
+def test_a_dangling_link_is_one_line(good, tmp_path, link):
+    """A dataset that is a soft link to nothing or an external link to a missing file: h5py lists
+    it but raises KeyError on access; the readers call the file damaged."""
+    target = h5py.SoftLink("/nothere") if link == "soft" else h5py.ExternalLink("no.h5", "/x")
+    bad = copy(good, tmp_path / "d.h5")
+    with h5py.File(bad, "a") as h5:
+        for key in ("summary", "summary_key"):
+            h5.attrs.pop(key, None)
+        del h5["positions"]
+        h5["positions"] = target
+    before = digest(bad)
+    for args in (("inspect", bad), ("shear", bad, *SHEAR, "--out", tmp_path / "t.h5")):
+        line = one_line_error(jamlab(*args))
+        assert "damaged file" in line and "positions" in line
+    assert digest(bad) == before and not (tmp_path / "t.h5").exists()
+
+
+def test_a_trace_column_as_a_dangling_link_is_one_line(good, checkpointed, tmp_path):
+    for name in ("w.h5", "w.last.h5"):
+        copy(checkpointed / name, tmp_path / name)
+    with h5py.File(tmp_path / "w.h5", "a") as h5:
+        del h5["gamma"]
+        h5["gamma"] = h5py.SoftLink("/nothere")
+    before = digest(tmp_path / "w.h5")
+    line = one_line_error(jamlab("shear", good, "--dgamma", "1e-3", "--gamma-max", "0.04",
+                                 "--out", tmp_path / "w.h5", "--resume"))  # fmt: skip
+    assert "damaged file" in line and "gamma" in line
+    assert digest(tmp_path / "w.h5") == before
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("random-packing", "--n", 32, "--phi", 0.5),
+        ("prepare", "--n", 32, "--phi", 0.8, "--quiet"),
+        ("run", "--n", 32, "--phi", 0.8, "--samples", 1, "--dgamma", 1e-3, "--gamma-max", 3e-3),
+    ],
+)
+def test_absurd_dim_is_one_line(tmp_path, args):
+    out = tmp_path / "o"
+    line = one_line_error(jamlab(*args, "--dim", 1_000_000, "--out", out))
+    assert "dim must be an integer in [2, 64]" in line and not out.exists()
+
+
 @pytest.mark.parametrize(
     "args",
     [

@@ -88,7 +88,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.spheres.state import parse_sizes
 
         validation.integer("--n", n, minimum=2)
-        validation.integer("--dim", dim, minimum=2)
+        validation.dimension("--dim", dim)
         validation.seed("--seed", seed)
         validation.positive("--ftol", ftol)
         at_jamming = phi.strip().lower() == "jamming"

@@ -104,7 +104,7 @@ def register(app: typer.Typer) -> None:
         out: Annotated[Path, typer.Option("--out", help="Output configuration file (HDF5).")],
         n: Annotated[int, typer.Option("--n", help="Number of spheres (>= 2).")],
         phi: Annotated[float, typer.Option("--phi", help="Packing fraction N v_d(1/2)/L^d (> 0).")],
-        dim: Annotated[int, typer.Option("--dim", help="Dimension (>= 2).")] = 3,
+        dim: Annotated[int, typer.Option("--dim", help="Dimension (2 to 64).")] = 3,
         seed: Annotated[int, typer.Option("--seed", help="Seed of numpy.random.default_rng.")] = 0,
         force: Force = False,
     ) -> None:
@@ -113,7 +113,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.spheres.io import write_packing
 
         validation.integer("--n", n, minimum=2)
-        validation.integer("--dim", dim, minimum=2)
+        validation.dimension("--dim", dim)
         validation.seed("--seed", seed)
         validation.packing_fraction("--phi", phi)
         check_outputs({"--out": out}, force=force)

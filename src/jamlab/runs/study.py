@@ -106,7 +106,7 @@ class Study:
     - ``dgamma``, ``gamma_max``: AQS strain step and final strain, ``0 < dgamma < gamma_max``,
       at most :data:`jamlab.validation.MAX_STEPS` steps.
     - ``seed``: master seed (integer in ``[0, 2^64 − 1]``); see :mod:`jamlab.runs.seeds`.
-    - ``dim``: space dimension (``>= 2``).
+    - ``dim``: space dimension, ``2 .. 64`` (:data:`jamlab.validation.MAX_DIM`).
     - ``p_target``: target pressure of the jamming protocol (``φ = "jamming"`` only).
     - ``force_tol``: FIRE convergence, largest per-particle force ``|F_i|`` (SPEC §3).
     - ``sizes``: diameters, ``"mono"``, ``"bidisperse"`` or ``"polydisperse[:w]"`` (SPEC §5,
@@ -170,7 +170,7 @@ class Study:
 
         object.__setattr__(self, "samples", _int("samples", self.samples, minimum=1))
         object.__setattr__(self, "seed", validation.seed("seed", self.seed))
-        object.__setattr__(self, "dim", _int("dim", self.dim, minimum=2))
+        object.__setattr__(self, "dim", validation.dimension("dim", self.dim))
         if self.task == "aqs":  # an over-jammed preparation below jamming fails every sample
             for p in phis:
                 if not isinstance(p, str):

@@ -31,6 +31,7 @@ from jamlab import validation
 from jamlab.files import atomic_write_hdf5
 from jamlab.spheres.box import Box
 from jamlab.spheres.state import Packing
+from jamlab.spheres.trace import check_links
 
 __all__ = ["write_packing", "read_packing", "read_lammps_positions"]
 
@@ -83,6 +84,7 @@ def read_packing(path: str | os.PathLike) -> Packing:
     except OSError:
         raise ValueError(f"not an HDF5 file: {path}") from None
     with h5:
+        check_links(h5, path)
         missing = [k for k in ("box_length", "strain", "dim") if k not in h5.attrs]
         if "positions" not in h5 or missing:
             what = ", ".join((["positions"] if "positions" not in h5 else []) + missing)

@@ -275,6 +275,18 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
     return atomic_write_hdf5(path, fill)
 
 
+def check_links(group: h5py.Group, path: str | os.PathLike) -> None:
+    """``ValueError`` ("damaged file") if a member of ``group`` is a link that resolves to nothing:
+    a soft link to a missing path or an external link to a missing file or object. h5py lists
+    such a member (``name in group`` is true) but raises ``KeyError`` when it is opened."""
+    dangling = [name for name in group if group.get(name) is None]
+    if dangling:
+        where = group.name.rstrip("/") + "/"
+        names = ", ".join(where + name for name in dangling)
+        raise ValueError(f"damaged file {path}: {names} is a link to nothing "
+                         "(a dangling soft or external link)")
+
+
 def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
     """The configuration stored with the trace by :func:`write_trace` (``positions``,
     ``diameters`` (absent in older files), ``alpha``, ``box_length``, ``strain``, ``seed``,
@@ -312,6 +324,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
     except OSError:
         raise ValueError(f"not an HDF5 file: {path}") from None
     with h5:
+        check_links(h5, path)
         missing = [name for name in TRACE_COLUMNS if name not in h5]
         if missing:
             raise ValueError(f"not a jamlab AQS trace (missing {', '.join(missing)}): {path}")
@@ -334,6 +347,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
         avalanches = None
         group = h5.get("avalanches")
         if isinstance(group, h5py.Group):
+            check_links(group, path)
             avalanches = {k: group[k][()] for k in group if isinstance(group[k], h5py.Dataset)}
             avalanches["attrs"] = {
                 k: (v.item() if isinstance(v, np.generic) else v) for k, v in group.attrs.items()
@@ -341,6 +355,7 @@ def read_trace(path: str | os.PathLike) -> Trace:
         fixed_pressure = None
         group = h5.get("fixed_pressure")
         if isinstance(group, h5py.Group):
+            check_links(group, path)
             fixed_pressure = {}
             for key in FIXED_PRESSURE_COLUMNS + FIXED_PRESSURE_OPTIONAL:
                 item = group.get(key)
