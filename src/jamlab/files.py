@@ -11,7 +11,9 @@ a reader sees either no file or a whole one, and an interrupted write leaves at 
 ``.NAME.XXXX.tmp`` file. The file gets the mode ``0o666 & ~umask`` (like ``open(path, "w")``),
 not ``mkstemp``'s ``0o600``. :func:`atomic_write_hdf5` builds an HDF5 file in memory and writes its
 bytes the same way, so that a full disk is an ``OSError`` (``ENOSPC``) from a plain ``write``,
-never an error inside the HDF5 library.
+never an error inside the HDF5 library. :func:`atomic_write_text` and :func:`atomic_savefig` do
+the same for text (reports, CSV) and matplotlib figures (drawn in the format of the suffix).
+An ``OSError`` of a failed write names the destination, not the temporary file.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ __all__ = [
     "atomic_write",
     "atomic_write_bytes",
     "atomic_write_hdf5",
+    "atomic_write_text",
+    "atomic_savefig",
     "check_distinct_inputs",
     "check_outputs",
     "fsync_dir",
@@ -188,9 +192,11 @@ def atomic_write(
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.remove(tmp)
+        if isinstance(exc, OSError) and exc.filename in (None, tmp):
+            exc.filename = str(path)  # the message names the file, not a temporary one
         raise
     fsync_dir(directory)
     return path
@@ -217,3 +223,19 @@ def atomic_write_hdf5(
     with h5py.File(buffer, "w") as h5:
         fill(h5)
     return atomic_write_bytes(path, buffer.getvalue(), make_parents=make_parents)
+
+
+def atomic_write_text(
+    path: PathLike, text: str, *, encoding: str = "utf-8", make_parents: bool = False
+) -> Path:
+    """Write ``text`` to ``path`` atomically (see :func:`atomic_write`)."""
+    return atomic_write_bytes(path, text.encode(encoding), make_parents=make_parents)
+
+
+def atomic_savefig(fig: Any, path: PathLike, **kwargs: Any) -> Path:
+    """``fig.savefig`` into ``path`` atomically (see :func:`atomic_write`), in the format its
+    suffix names (``.pdf``, ``.svg``, ``.png``, ``.jpg`` …; ``format=`` overrides): a failed
+    write leaves the earlier file whole."""
+    path = Path(path)
+    kwargs.setdefault("format", path.suffix.lower().lstrip(".") or "png")
+    return atomic_write(path, lambda tmp: fig.savefig(tmp, **kwargs))

@@ -33,6 +33,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from jamlab.files import atomic_write_text
+
 __all__ = [
     "AGREEMENT_SIGMAS",
     "Comparison",
@@ -313,8 +315,8 @@ def write_report(
         raise FileNotFoundError(f"figure file(s) missing in {out}: {', '.join(missing)}")
     paths = {"markdown": out / "report.md", "html": out / "index.html",
              "json": out / "results.json"}
-    paths["markdown"].write_text(markdown(rows, figures, meta), encoding="utf-8")
-    paths["html"].write_text(html_page(rows, figures, meta), encoding="utf-8")
+    atomic_write_text(paths["markdown"], markdown(rows, figures, meta))
+    atomic_write_text(paths["html"], html_page(rows, figures, meta))
     payload = {
         "title": meta.title,
         "scale": meta.scale,
@@ -325,5 +327,5 @@ def write_report(
         "figures": [asdict(f) for f in figures],
         "data": extra or {},
     }
-    paths["json"].write_text(json.dumps(json_safe(payload), indent=1), encoding="utf-8")
+    atomic_write_text(paths["json"], json.dumps(json_safe(payload), indent=1))
     return paths

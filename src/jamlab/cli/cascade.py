@@ -51,7 +51,7 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from jamlab import validation
-        from jamlab.files import check_outputs
+        from jamlab.files import atomic_write, check_outputs
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
         from jamlab.theory.cascade import sample_cascade_jumps, sample_cascade_tree, validate_levels
         from jamlab.theory.exact import exact_jump_R
@@ -111,8 +111,9 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"figure: {out}")
         if csv is not None:
             data = np.column_stack([r.dE, r.dU, r.dSigma, r.q_jump, r.n_states])
-            np.savetxt(csv, data, delimiter=",", header="dE,dU,dSigma,q_jump,n_states",
-                       comments="", fmt="%.17g")
+            atomic_write(csv, lambda tmp: np.savetxt(
+                tmp, data, delimiter=",", header="dE,dU,dSigma,q_jump,n_states", comments="",
+                fmt="%.17g"))
             typer.echo(f"samples: {csv}")
         if tree is not None:
             t = sample_cascade_tree(qa, ya, dgamma, seed)

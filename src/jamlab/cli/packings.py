@@ -177,7 +177,7 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from jamlab import validation
-        from jamlab.files import check_outputs
+        from jamlab.files import atomic_write, check_outputs
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.compression import compression_schedule
         from jamlab.spheres.io import read_packing
@@ -221,14 +221,14 @@ def register(app: typer.Typer) -> None:
         fits = plot_coordination(curve, out)
         if csv is not None:
             cols = curve.as_columns()
-            np.savetxt(
-                csv,
+            atomic_write(csv, lambda tmp: np.savetxt(
+                tmp,
                 np.column_stack(list(cols.values())),
                 delimiter=",",
                 header=",".join(cols),
                 comments="",
                 fmt="%.17g",
-            )
+            ))
         series = {
             "z_nr - 2d": curve.z_nr - 2 * curve.dim,
             "z_nr - z_iso": curve.z_nr - curve.z_iso,

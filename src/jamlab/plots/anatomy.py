@@ -12,6 +12,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
 
+from jamlab.files import atomic_savefig  # noqa: E402
+
 
 def avalanche_figure(
     positions: np.ndarray,
@@ -82,5 +84,5 @@ def avalanche_figure(
                  f"(max |u| = {umax:.3g})", fontsize=9)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=150)
+        atomic_savefig(fig, path, dpi=150)
     return fig

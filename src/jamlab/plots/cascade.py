@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from jamlab.files import atomic_savefig  # noqa: E402
 from jamlab.theory.cascade import CascadeJumps, CascadeTree  # noqa: E402
 
 TheoryR = Callable[[np.ndarray], np.ndarray]
@@ -78,7 +79,7 @@ def jump_histograms_figure(
         fig.suptitle(title)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
+        atomic_savefig(fig, path, dpi=120)
         plt.close(fig)
     return fig
 
@@ -138,6 +139,6 @@ def cascade_tree_figure(tree: CascadeTree, path: str | Path | None = None) -> pl
                  fontsize=10)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
+        atomic_savefig(fig, path, dpi=120)
         plt.close(fig)
     return fig

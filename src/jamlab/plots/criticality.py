@@ -18,6 +18,7 @@ from jamlab.analysis.criticality import (
     finite_size_cutoff,
     smallest_per_packing,
 )
+from jamlab.files import atomic_savefig
 
 __all__ = ["plot_distributions", "plot_local_exponents", "plot_finite_size"]
 
@@ -149,7 +150,7 @@ def plot_distributions(
         top.legend(fontsize=7)
         bottom.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=90)
+    atomic_savefig(fig, out, dpi=90)
     plt.close(fig)
 
 
@@ -189,7 +190,7 @@ def plot_local_exponents(
         ax.set_ylim(-0.6, 1.2)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=90)
+    atomic_savefig(fig, out, dpi=90)
     plt.close(fig)
 
 
@@ -242,5 +243,5 @@ def plot_finite_size(
         ax.set_xticks(ns, [str(n) for n in ns])
         ax.xaxis.set_minor_formatter(plt.NullFormatter())
     fig.tight_layout()
-    fig.savefig(out, dpi=90)
+    atomic_savefig(fig, out, dpi=90)
     plt.close(fig)

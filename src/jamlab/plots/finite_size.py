@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from jamlab.files import atomic_savefig
+
 __all__ = ["plot_finite_size_scaling"]
 
 
@@ -66,5 +68,5 @@ def plot_finite_size_scaling(
         bottom.set_title(f"collapse RMS {co.quality:.3f} decades", fontsize=9)
         bottom.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out, dpi=90)
+    atomic_savefig(fig, out, dpi=90)
     plt.close(fig)

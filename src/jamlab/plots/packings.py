@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 
+from jamlab.files import atomic_savefig
 from jamlab.spheres.packing import CoordinationCurve, fit_power_law
 
 __all__ = ["plot_coordination"]
@@ -61,6 +62,6 @@ def plot_coordination(
     ax2.set_title("(b) scaling above jamming (shaded: fit range)")
     ax2.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    atomic_savefig(fig, out, dpi=120)
     plt.close(fig)
     return fits

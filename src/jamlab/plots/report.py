@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
 from jamlab.analysis import LogHistogram, ModulusMoments, PowerLawFit, SlopeFit  # noqa: E402
+from jamlab.files import atomic_savefig  # noqa: E402
 
 __all__ = [
     "PHI_TITLES",
@@ -127,7 +128,7 @@ def plot_avalanche_histograms(
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -155,7 +156,7 @@ def plot_stress_strain(
     if title:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -182,7 +183,7 @@ def plot_one_trace(
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -225,7 +226,7 @@ def plot_moduli(
         ax2.legend(fontsize=7)
     fig.suptitle("\n".join(textwrap.wrap(how, 150)), fontsize=9)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -261,7 +262,7 @@ def plot_jump_distributions_two_panels(
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -288,7 +289,7 @@ def plot_no_jump_probability(
     ax.set_title("\n".join(textwrap.wrap(title, 80)), fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)
 
 
@@ -332,5 +333,5 @@ def plot_tau_against_pressure(
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     axes[0][0].set_ylabel("avalanche exponent τ")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    atomic_savefig(fig, out, dpi=110)
     plt.close(fig)

@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from jamlab.files import atomic_savefig  # noqa: E402
 from jamlab.spheres.trace import Trace  # noqa: E402
 
 
@@ -38,6 +39,6 @@ def stress_strain_figure(trace: Trace, path: str | Path | None = None) -> plt.Fi
     )
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
+        atomic_savefig(fig, path, dpi=120)
         plt.close(fig)
     return fig

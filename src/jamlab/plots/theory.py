@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from jamlab.files import atomic_savefig, atomic_write_text
+
 # ---------------------------------------------------------------------------------------------
 # theory: the mean-field jump distribution (paper Fig. 3)
 
@@ -101,14 +103,14 @@ def plot_jump_distributions(
     ax.legend(fontsize=8)
     ax.grid(True, which="major", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    atomic_savefig(fig, out, dpi=120)
     plt.close(fig)
     if csv is not None:
-        with open(csv, "w", encoding="utf-8") as fh:
-            fh.write("dgamma,abs_dE,pdf,cdf\n")
-            for dg, t in table.items():
-                for e, p, c in zip(t["abs_dE"], t["pdf"], t["cdf"], strict=True):
-                    fh.write(f"{float(dg)!r},{float(e)!r},{float(p)!r},{float(c)!r}\n")
+        lines = ["dgamma,abs_dE,pdf,cdf\n"]
+        for dg, t in table.items():
+            for e, p, c in zip(t["abs_dE"], t["pdf"], t["cdf"], strict=True):
+                lines.append(f"{float(dg)!r},{float(e)!r},{float(p)!r},{float(c)!r}\n")
+        atomic_write_text(csv, "".join(lines))
     return table
 
 
@@ -209,6 +211,6 @@ def plot_jump_distributions_exact(
         tops = [float(np.max(t["pdf_exact"])) for t in tab.values()]
         ax.set_ylim(1e-4, 10 * max(tops))
     fig.tight_layout()
-    fig.savefig(out, dpi=120)
+    atomic_savefig(fig, out, dpi=120)
     plt.close(fig)
     return tables
