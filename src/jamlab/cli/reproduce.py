@@ -45,6 +45,11 @@ def reproduce_command(
         float, typer.Option("--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (paper: 2).")
     ] = 2.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")] = False,
+    force: Annotated[
+        bool,
+        typer.Option("--force", help="Replace report files in --out that an earlier "
+                     "`jamlab reproduce` did not write (its own are always updated)."),
+    ] = False,
 ) -> None:
     """Run (or resume) the ensembles of a scale, make every figure and write the report with the
     table quantity | paper | ours ± uncertainty | samples | verdict."""
@@ -61,7 +66,7 @@ def reproduce_command(
         chosen = with_pair_law(chosen, sizes, alpha)
     execution = Execution(workers=workers, scheduler=scheduler)
     log = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    result = reproduce(chosen, out, runs=runs, execution=execution, log=log)
+    result = reproduce(chosen, out, runs=runs, execution=execution, log=log, force=force)
     failed = sum(r["failed"] for r in result.data.get("runs", {}).values())
     typer.echo(f"wrote {result.paths['html']} and {result.paths['markdown']} "
                f"in {result.seconds:.0f} s ({len(result.rows)} rows, "

@@ -1,6 +1,7 @@
 """The report's figures: typed results drawn with :mod:`jamlab.plots`, their titles and captions.
 
-Each ``fig*`` function writes one PNG into ``figdir`` and returns its path (None when the result
+Each ``fig*`` function writes one figure into ``figdir`` (a PNG, or the format ``ext`` names:
+``".pdf"``, ``".svg"`` …) and returns its path (None when the result
 has nothing to draw); the drawing itself is in :mod:`jamlab.plots.report`,
 :mod:`jamlab.plots.packings`, :mod:`jamlab.plots.cascade` and :mod:`jamlab.plots.theory`.
 """
@@ -66,69 +67,69 @@ FIG3_EXACT_DGAMMAS = (1e-2, 1e-3)
 """The strain steps of the exact-law panel (the exact law costs seconds per δγ)."""
 
 
-def fig1(r: CoordinationResult, figdir: Path) -> Path | None:
+def fig1(r: CoordinationResult, figdir: Path, ext: str = ".png") -> Path | None:
     """Coordination and pressure of the first packing against ``φ − φ_J``."""
     from jamlab.plots.packings import plot_coordination
 
     if not r.curves:
         return None
-    path = figdir / "fig1_coordination.png"
+    path = figdir / f"fig1_coordination{ext}"
     plot_coordination(r.curves[0], path)
     return path
 
 
-def fig2(scale: Scale, figdir: Path) -> Path:
+def fig2(scale: Scale, figdir: Path, ext: str = ".png") -> Path:
     """A 6-level cascade at δγ = 0.3 (seed ``seed + 2``)."""
     from jamlab.plots.cascade import cascade_tree_figure
     from jamlab.theory import ParisiFunction, sample_cascade_tree
 
-    path = figdir / "fig2_cascade_tree.png"
+    path = figdir / f"fig2_cascade_tree{ext}"
     q6, y6 = ParisiFunction.linear(*LINEAR_Y).discretise(6)
     cascade_tree_figure(sample_cascade_tree(q6, y6, 0.3, seed=scale.seed + 2), path)
     return path
 
 
-def fig3(figdir: Path) -> Path:
+def fig3(figdir: Path, ext: str = ".png") -> Path:
     """The printed jump distribution at jamming (μ_J) and in the UNSAT phase (μ = 1/2)."""
     from jamlab.plots.report import plot_jump_distributions_two_panels
     from jamlab.plots.theory import jump_distribution_table
     from jamlab.theory import mu_jamming
 
-    path = figdir / "fig3_theory.png"
+    path = figdir / f"fig3_theory{ext}"
     plot_jump_distributions_two_panels(
         [(mu_jamming(), jump_distribution_table(mu_jamming(), FIG3_DGAMMAS, n_points=150)),
          (0.5, jump_distribution_table(0.5, FIG3_DGAMMAS, n_points=150))], path)
     return path
 
 
-def fig3_exact(figdir: Path) -> Path:
+def fig3_exact(figdir: Path, ext: str = ".png") -> Path:
     """Fig. 3 with jamlab's exact law beside the printed formula (same ``y``, cut-off 1 − 1e-5)."""
     from jamlab.plots.theory import plot_jump_distributions_exact
     from jamlab.theory import mu_jamming
 
-    path = figdir / "fig3_exact.png"
+    path = figdir / f"fig3_exact{ext}"
     plot_jump_distributions_exact((mu_jamming(), 0.5), FIG3_EXACT_DGAMMAS, path, n_points=60)
     return path
 
 
-def fig4(t: OneTrace | None, scale: Scale, figdir: Path) -> Path | None:
+def fig4(t: OneTrace | None, scale: Scale, figdir: Path, ext: str = ".png") -> Path | None:
     """Energy and stress against strain of one jammed sample."""
     from jamlab.plots.report import plot_one_trace
 
     if t is None:
         return None
-    path = figdir / "fig4_one_jammed_sample.png"
+    path = figdir / f"fig4_one_jammed_sample{ext}"
     plot_one_trace(t.gamma, t.energy_per_particle, t.stress, t.plastic, path,
                    title=f"one sample at jamming: N = {t.n}, sample {t.sample}, "
                          f"φ_J = {t.phi_j:.4f}, δγ = {scale.dgamma:g}")
     return path
 
 
-def fig5(estimates: dict[str, TauEstimate], scale: Scale, figdir: Path) -> Path:
+def fig5(estimates: dict[str, TauEstimate], scale: Scale, figdir: Path, ext: str = ".png") -> Path:
     """Avalanche size histograms per N and pooled, with the fits and the theory's τ."""
     from jamlab.plots.report import plot_avalanche_histograms
 
-    path = figdir / "fig5_avalanches.png"
+    path = figdir / f"fig5_avalanches{ext}"
     order = ["0.75", "0.8", "jamming"]
     plot_avalanche_histograms({k: estimates[k].per_n for k in order},
                               {k: estimates[k].pooled for k in order},
@@ -190,7 +191,8 @@ def tau_pressure_title(estimates: dict[float, TauEstimate]) -> str:
     return f"fixed-pressure AQS, N = {' + '.join(names)}" + (" pooled" if len(names) > 1 else "")
 
 
-def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Path | None:
+def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path,
+                 ext: str = ".png") -> Path | None:
     """τ(p) of the report's fixed-pressure rows against τ_J, the paper's constant-volume fit
     and τ_UNSAT (None without fixed-pressure studies)."""
     from jamlab.paper import PAPER_TAU
@@ -208,25 +210,25 @@ def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path) -> Pa
     per_n = tau_pressure_per_n(estimates)
     if per_n:
         panels.append(("each N alone, exponential cut-off in the pooled window", per_n))
-    path = figdir / "tau_pressure.png"
+    path = figdir / f"tau_pressure{ext}"
     plot_tau_against_pressure(ps, panels, refs, path)
     return path
 
 
-def fig6(s: StressStrain | None, scale: Scale, figdir: Path) -> Path | None:
+def fig6(s: StressStrain | None, scale: Scale, figdir: Path, ext: str = ".png") -> Path | None:
     """Mean stress–strain curve with its spread and one sample."""
     from jamlab.plots.report import plot_stress_strain
 
     if s is None:
         return None
-    path = figdir / "fig6_stress_strain.png"
+    path = figdir / f"fig6_stress_strain{ext}"
     plot_stress_strain(s.gamma, s.stress, path, example=0,
                        title=f"φ = {scale.stress_phi:g}, N = {scale.stress_n}, "
                              f"δγ = {scale.stress_dgamma:g}")
     return path
 
 
-def fig7(r: ModuliResult, scale: Scale, figdir: Path) -> Path:
+def fig7(r: ModuliResult, scale: Scale, figdir: Path, ext: str = ".png") -> Path:
     """⟨μ_1⟩ and ⟨μ_1²⟩ against δγ with the slope fits."""
     from jamlab.plots.report import plot_moduli
 
@@ -234,16 +236,16 @@ def fig7(r: ModuliResult, scale: Scale, figdir: Path) -> Path:
            f"Σ(γ+mδγ₀) − Σ(γ), δγ₀ = {scale.dgamma:g}, lags m = "
            f"{', '.join(map(str, scale.moduli_lags))}); no separate runs. Error bars: standard "
            "error over samples.")
-    path = figdir / "fig7_moduli.png"
+    path = figdir / f"fig7_moduli{ext}"
     plot_moduli(r.moments, r.slopes, path, how)
     return path
 
 
-def theory_vs_cascade(th: TheoryChecks, figdir: Path) -> Path:
+def theory_vs_cascade(th: TheoryChecks, figdir: Path, ext: str = ".png") -> Path:
     """P(no jump) of the printed formula, its first order, the exact recursion, the sampler."""
     from jamlab.plots.report import plot_no_jump_probability
 
-    path = figdir / "theory_vs_cascade.png"
+    path = figdir / f"theory_vs_cascade{ext}"
     rr = th.rows
     plot_no_jump_probability(
         np.array(th.fine_dgamma), np.array(th.fine_printed), np.array(th.fine_first_order),
@@ -254,25 +256,25 @@ def theory_vs_cascade(th: TheoryChecks, figdir: Path) -> Path:
     return path
 
 
-def criticality(r: PackingCriticality, figdir: Path) -> Path | None:
+def criticality(r: PackingCriticality, figdir: Path, ext: str = ".png") -> Path | None:
     """``P(f)``, ``g(h)`` and their CDFs per N of the jamming ensemble's initial packings, with
     the pooled fits (:func:`jamlab.plots.criticality.plot_distributions`)."""
     from jamlab.plots.criticality import plot_distributions
 
     if not r.observables:
         return None
-    path = figdir / "criticality.png"
+    path = figdir / f"criticality{ext}"
     plot_distributions(r.observables, {k: f for k, f in r.fits.items() if f is not None}, path)
     return path
 
 
-def finite_size(r: FiniteSizeResult, figdir: Path) -> Path | None:
+def finite_size(r: FiniteSizeResult, figdir: Path, ext: str = ".png") -> Path | None:
     """``⟨S⟩``, ``S_c`` against N and the collapse, per φ label."""
     from jamlab.plots.finite_size import plot_finite_size_scaling
 
     if all(v is None for v in r.scaling.values()):
         return None
-    path = figdir / "finite_size.png"
+    path = figdir / f"finite_size{ext}"
     titles = {"jamming": "at jamming", "0.75": "φ = 0.75", "0.8": "φ = 0.80"}
     plot_finite_size_scaling(r.scaling, r.collapse, titles, path)
     return path

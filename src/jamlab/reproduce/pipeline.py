@@ -9,6 +9,7 @@ as figures (:data:`FIGURE_PART` says which part each figure needs).
 
 from __future__ import annotations
 
+import json
 import os
 import time
 from collections.abc import Callable
@@ -16,6 +17,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from jamlab.files import atomic_write_text
 from jamlab.report import Figure, ReportMeta, Row, write_report
 from jamlab.reproduce import criticality_table, figures, table
 from jamlab.reproduce.coordination import coordination
@@ -32,7 +34,8 @@ from jamlab.reproduce.measurements import (
 from jamlab.reproduce.scales import Scale, get_scale, studies
 from jamlab.reproduce.theory_checks import theory_checks
 
-__all__ = ["FIGURE_PART", "PARTS", "Part", "ReproduceResult", "make_figure", "reproduce"]
+__all__ = ["FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES", "ReproduceResult",
+           "check_report_directory", "make_figure", "reproduce"]
 
 TITLE = "jamlab: reproduction of Franz & Spigler, Mean-field avalanches in jammed spheres"
 
@@ -126,18 +129,18 @@ FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
 """Which part makes which figure."""
 
 _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
-    "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir),
-    "fig2": lambda c: figures.fig2(c.scale, c.figdir),
-    "fig3": lambda c: figures.fig3(c.figdir),
-    "fig3_exact": lambda c: figures.fig3_exact(c.figdir),
-    "fig4": lambda c: figures.fig4(c.result("trace"), c.scale, c.figdir),
-    "fig5": lambda c: figures.fig5(c.result("avalanches"), c.scale, c.figdir),
-    "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir),
-    "fig7": lambda c: figures.fig7(c.result("moduli"), c.scale, c.figdir),
-    "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir),
-    "criticality": lambda c: figures.criticality(c.result("criticality")[0], c.figdir),
-    "finite_size": lambda c: figures.finite_size(c.result("finite_size"), c.figdir),
-    "tau_pressure": lambda c: figures.tau_pressure(c.result("pressure_tau"), c.figdir),
+    "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir, c.ext),
+    "fig2": lambda c: figures.fig2(c.scale, c.figdir, c.ext),
+    "fig3": lambda c: figures.fig3(c.figdir, c.ext),
+    "fig3_exact": lambda c: figures.fig3_exact(c.figdir, c.ext),
+    "fig4": lambda c: figures.fig4(c.result("trace"), c.scale, c.figdir, c.ext),
+    "fig5": lambda c: figures.fig5(c.result("avalanches"), c.scale, c.figdir, c.ext),
+    "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir, c.ext),
+    "fig7": lambda c: figures.fig7(c.result("moduli"), c.scale, c.figdir, c.ext),
+    "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir, c.ext),
+    "criticality": lambda c: figures.criticality(c.result("criticality")[0], c.figdir, c.ext),
+    "finite_size": lambda c: figures.finite_size(c.result("finite_size"), c.figdir, c.ext),
+    "tau_pressure": lambda c: figures.tau_pressure(c.result("pressure_tau"), c.figdir, c.ext),
 }
 
 
@@ -204,6 +207,43 @@ def _check_writable(path: Path) -> None:
         raise ValueError(f"output directory {path} is not writable")
 
 
+MARKER = ".jamlab-reproduce.json"
+"""The file :func:`reproduce` writes into its report directory before anything else: the report
+files beside it are its own, and a later call may replace them."""
+
+REPORT_FILES = ("index.html", "report.md", "results.json", "report.json")
+"""The files of a report directory (besides ``figures/*``) that :func:`reproduce` replaces."""
+
+
+def _own_report(out: Path) -> bool:
+    """Whether the report files in ``out`` are those of an earlier :func:`reproduce`: it holds
+    :data:`MARKER`, or (a report written before the marker existed) a ``results.json`` with
+    reproduce's title."""
+    if (out / MARKER).is_file():
+        return True
+    try:
+        payload = json.loads((out / "results.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(payload, dict) and payload.get("title") == TITLE
+
+
+def check_report_directory(out: str | os.PathLike, *, force: bool = False) -> None:
+    """``ValueError`` (one line) if ``out`` holds report files (:data:`REPORT_FILES` or
+    ``figures/*``) that :func:`reproduce` did not write, unless ``force``. Checked before
+    anything runs; an earlier report of :func:`reproduce` is replaced (that is how it resumes)."""
+    out = Path(out)
+    if force or not out.is_dir() or _own_report(out):
+        return
+    found = [name for name in REPORT_FILES if (out / name).exists()]
+    figdir = out / "figures"
+    if figdir.is_dir() and any(figdir.iterdir()):
+        found.append("figures/")
+    if found:
+        raise ValueError(f"{out} holds {', '.join(found)} not written by jamlab reproduce; "
+                         "give --force to replace them")
+
+
 def reproduce(
     scale: Scale | str,
     out: str | os.PathLike,
@@ -211,6 +251,7 @@ def reproduce(
     runs: str | os.PathLike | None = None,
     execution: Any = None,
     log: Callable[[str], None] | None = None,
+    force: bool = False,
 ) -> ReproduceResult:
     """Run (or resume) the ensembles of ``scale`` and write the report into ``out``.
 
@@ -233,6 +274,9 @@ def reproduce(
         Where the samples run (default: all local cores).
     log : callable, optional
         Called with one progress message at a time (default: silent).
+    force : bool
+        Replace report files in ``out`` that an earlier call did not write (default: refuse,
+        :func:`check_report_directory`).
 
     Returns
     -------
@@ -244,8 +288,8 @@ def reproduce(
     Raises
     ------
     ValueError
-        For an unknown scale or an output directory that cannot be written, before running
-        anything.
+        For an unknown scale, an output directory that cannot be written or that holds report
+        files of something else (without ``force``), before running anything.
 
     Examples
     --------
@@ -269,9 +313,11 @@ def reproduce(
     scale = get_scale(scale)
     log = log or (lambda msg: None)
     out = Path(out)
+    check_report_directory(out, force=force)
     _check_writable(out)
     runs_dir = Path(runs) if runs is not None else out / "runs"
     _check_writable(runs_dir)
+    atomic_write_text(out / MARKER, json.dumps({"written_by": "jamlab reproduce"}) + "\n")
     figdir = out / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
 
@@ -308,7 +354,9 @@ def make_figure(
 ) -> Path:
     """Make one figure of the report (``fig1`` … ``fig7``, ``theory_vs_cascade``) from existing
     run directories under ``runs`` (those of ``jamlab reproduce``; nothing is run except the
-    coordination curve and the theory, which need no ensemble) and copy it to ``out_file``.
+    coordination curve and the theory, which need no ensemble) and write it to ``out_file``,
+    drawn in the format its suffix names (``.png``, ``.pdf``, ``.svg``, ``.jpg`` …; another
+    suffix is a ``ValueError`` before any work), atomically.
 
     ``work`` keeps the intermediate files (default: a temporary directory); the coordination
     curves are cached in ``work/data``.
@@ -316,6 +364,9 @@ def make_figure(
     import shutil
     import tempfile
 
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from jamlab.files import atomic_write
     from jamlab.runs import RunDir
 
     if name not in FIGURE_PART:
@@ -339,12 +390,19 @@ def make_figure(
     out_file = Path(out_file)
     if not out_file.parent.is_dir():
         raise FileNotFoundError(f"output directory does not exist: {out_file.parent}")
+    ext = out_file.suffix.lower()
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    if ext.lstrip(".") not in kinds:
+        raise ValueError(f"{out_file}: a figure needs one of the suffixes "
+                         f"{', '.join('.' + k for k in sorted(kinds))}")
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(work) if work is not None else Path(tmp)
         figdir = base / "figures"
         figdir.mkdir(parents=True, exist_ok=True)
-        path = _DRAW[name](_Analysis(scale, runs, base, figdir, lambda msg: None))
+        analysis = _Analysis(scale, runs, base, figdir, lambda msg: None)
+        analysis.ext = ext
+        path = _DRAW[name](analysis)
         if path is None:
             raise ValueError(f"no data for {name} in {runs} (no finished samples)")
-        shutil.copyfile(path, out_file)
+        atomic_write(out_file, lambda part: shutil.copyfile(path, part))
     return out_file
