@@ -234,3 +234,52 @@ def test_options_that_do_not_apply_are_refused(tmp_path, capsys, args, message):
     assert run([*args, "--out", out]) == 2
     assert message in error_line(capsys)
     assert not out.exists()
+
+
+# -- atomic writes: a failed write leaves the earlier figure / CSV whole -------------------------
+
+
+def test_a_failed_figure_write_leaves_the_earlier_file_whole(tmp_path, capsys, monkeypatch):
+    import errno
+    import os
+
+    from matplotlib.figure import Figure
+
+    png, csv = tmp_path / "t.png", tmp_path / "t.csv"
+    assert run(["theory", "--out", png, "--csv", csv, "--points", "5"]) == 0
+    before = {p.name: digest(p) for p in (png, csv)}
+    real = Figure.savefig
+
+    def truncated(self, fname, **kwargs):  # writes part of the file, then the disk is full
+        real(self, fname, **kwargs)
+        with open(fname, "r+b") as fh:
+            fh.truncate(100)
+        raise OSError(errno.EFBIG, os.strerror(errno.EFBIG))
+
+    monkeypatch.setattr(Figure, "savefig", truncated)
+    assert run(["theory", "--out", png, "--csv", csv, "--points", "5", "--force"]) == 2
+    assert f"cannot write {png}: File too large" in error_line(capsys)
+    assert {p.name: digest(p) for p in (png, csv)} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv", "t.png"]  # no .tmp left
+
+
+def test_a_file_size_limit_leaves_the_earlier_csv_and_figure_whole(tmp_path):
+    """The real thing: ``ulimit -f`` (RLIMIT_FSIZE) makes the write fail with EFBIG midway."""
+    import resource
+    import subprocess
+    import sys
+
+    png, csv = tmp_path / "c.png", tmp_path / "c.csv"
+    args = [sys.executable, "-m", "jamlab", "cascade", "--q", "0.2,0.5", "--y", "1,2", "--n",
+            "3000", "--out", str(png), "--csv", str(csv), "--force"]
+    assert subprocess.run(args, capture_output=True).returncode == 0
+    before = {p.name: digest(p) for p in (png, csv)}
+    assert csv.stat().st_size > 20_000 and png.stat().st_size > 20_000
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    r = subprocess.run(args, capture_output=True, text=True, preexec_fn=limit)
+    assert r.returncode == 2 and "File too large" in r.stderr and "c.png" in r.stderr, r.stderr
+    assert {p.name: digest(p) for p in (png, csv)} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.csv", "c.png"]
