@@ -119,6 +119,19 @@ def test_shear_replaces_a_run_with_its_snapshots_only_with_force(packing08, tmp_
     assert "1 frame(s), AQS steps 2..2" in capsys.readouterr().out
 
 
+def test_export_never_writes_over_the_saved_configurations_it_reads(packing08, tmp_path, capsys):
+    out = tmp_path / "w.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
+                "--save-every", "2"]) == 0  # fmt: skip
+    saved = [tmp_path / "w.last.h5", *sorted((tmp_path / "w.configs").glob("step_*.h5"))]
+    before = {p: digest(p) for p in saved}
+    (tmp_path / "link.h5").symlink_to(saved[1])
+    for target in (*saved, tmp_path / "link.h5"):
+        assert run(["export", out, "--out", target, "--format", "extxyz", "--force"]) == 2
+        assert "is the same file as the" in error_line(capsys)
+    assert {p: digest(p) for p in saved} == before
+
+
 def test_export_refuses_a_movie_with_missing_or_foreign_frames(packing08, tmp_path, capsys):
     out = tmp_path / "tr.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",

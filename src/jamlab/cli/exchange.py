@@ -54,7 +54,8 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"
             )
-        check_outputs({"--out": out}, {"input": source}, force=force)
+        # a trace's saved configurations (X.last.h5, X.configs/step_*.h5) are inputs too
+        check_outputs({"--out": out}, {"input": source, **ex.saved_files(source)}, force=force)
         frames = _pick(ex.frames_of(source), frame, str(source))
         try:
             ex.export_frames(frames, fmt, out)

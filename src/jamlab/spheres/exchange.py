@@ -161,6 +161,21 @@ def frames_of(path: str | os.PathLike) -> list[Frame]:
     return frames
 
 
+def saved_files(path: str | os.PathLike) -> dict[str, Path]:
+    """``{description: file}`` of the files :func:`frames_of` reads beside the AQS trace ``path``
+    (``{}`` for a configuration): its saved configurations and ``<stem>.last.h5`` (read for its
+    step even where a snapshot has that step), inputs that an export must not write over."""
+    from jamlab.spheres.aqs.checkpoint import checkpoint_paths, saved_configurations
+
+    path = Path(path)
+    if _h5_format(path) != "jamlab-aqs-trace":
+        return {}
+    files = {f"step-{step} configuration": f
+             for step, f in saved_configurations(path, read_trace(path)).items()}
+    last = checkpoint_paths(path)[0]
+    return files | ({"last configuration": last} if last.is_file() else {})
+
+
 def export_frames(frames: list[Frame], fmt: str, out: str | os.PathLike) -> Path:
     """Write ``frames`` to ``out`` in ``fmt`` (one of :data:`EXPORT_FORMATS`), atomically."""
     if fmt == "gsd":
