@@ -9,8 +9,10 @@ another scale."""
 from __future__ import annotations
 
 import hashlib
+import json
 
 import h5py
+import numpy as np
 import pytest
 
 from jamlab.cli import main
@@ -130,6 +132,21 @@ def test_export_never_writes_over_the_saved_configurations_it_reads(packing08, t
         assert run(["export", out, "--out", target, "--format", "extxyz", "--force"]) == 2
         assert "is the same file as the" in error_line(capsys)
     assert {p: digest(p) for p in saved} == before
+
+
+def test_import_never_writes_over_the_meta_json_it_reads(packing08, tmp_path, capsys):
+    with h5py.File(packing08, "r") as h5:
+        positions, length = h5["positions"][()], float(h5.attrs["box_length"])
+    np.savetxt(tmp_path / "pos.txt", positions)
+    meta = tmp_path / "meta.json"
+    meta.write_text(json.dumps({"box_length": length}))
+    before = digest(meta)
+    for command in ("import", "import-xyz"):  # one rule, one implementation
+        assert run([command, tmp_path / "pos.txt", "--out", meta, "--force"]) == 2
+        assert "is the same file as the meta.json" in error_line(capsys)
+    assert digest(meta) == before
+    # beside it, a new output is written as before
+    assert run(["import", tmp_path / "pos.txt", "--out", tmp_path / "p.h5"]) == 0
 
 
 def test_export_refuses_a_movie_with_missing_or_foreign_frames(packing08, tmp_path, capsys):

@@ -100,12 +100,14 @@ def register(app: typer.Typer) -> None:
 
         from jamlab.cli import UserError
         from jamlab.spheres import exchange as ex
-        from jamlab.spheres.io import read_packing, write_packing
+        from jamlab.spheres.io import positions_meta, read_packing, write_packing
 
         fmt = fmt or ex.format_from_suffix(source)
         if box_length is not None and not box_length > 0:
             raise ValueError(f"--box-length must be > 0, got {box_length}")
-        check_outputs({"--out": out}, {"input": source}, force=force)
+        # text positions read the meta.json beside them (as import-xyz)
+        meta = positions_meta(source, box_length) if fmt == "positions" else None
+        check_outputs({"--out": out}, {"input": source, "meta.json": meta}, force=force)
         try:
             packings = ex.read_frames(source, fmt, box_length=box_length, strain=strain)
         except ImportError as exc:

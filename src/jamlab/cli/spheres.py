@@ -139,14 +139,14 @@ def register(app: typer.Typer) -> None:
         force: Force = False,
     ) -> None:
         from jamlab.files import check_outputs
-        from jamlab.spheres.io import read_lammps_positions, write_packing
+        from jamlab.spheres.io import positions_meta, read_lammps_positions, write_packing
 
         if box_length is not None:
             validation.positive("--box-length", box_length)
         validation.strain("--strain", strain)
         if not positions.is_file():
             raise FileNotFoundError(f"no such positions file: {positions}")
-        meta = positions.parent / "meta.json" if box_length is None else None
+        meta = positions_meta(positions, box_length)
         check_outputs(
             {"--out": out}, {"positions file": positions, "meta.json": meta}, force=force
         )

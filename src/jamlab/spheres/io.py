@@ -130,6 +130,12 @@ def read_packing(path: str | os.PathLike) -> Packing:
     return packing
 
 
+def positions_meta(path: str | os.PathLike, box_length: float | None = None) -> Path | None:
+    """The ``meta.json`` that :func:`read_lammps_positions` reads for ``path`` (the one beside
+    it when ``box_length`` is not given), else ``None``: an input no output may replace."""
+    return Path(path).parent / "meta.json" if box_length is None else None
+
+
 def read_lammps_positions(
     path: str | os.PathLike, box_length: float | None = None, strain: float = 0.0
 ) -> Packing:
@@ -142,8 +148,8 @@ def read_lammps_positions(
         raise FileNotFoundError(f"no such positions file: {path}")
     strain = validation.strain("strain", strain)
     seed = None
-    if box_length is None:
-        meta = path.parent / "meta.json"
+    meta = positions_meta(path, box_length)
+    if meta is not None:
         if not meta.is_file():
             raise ValueError(f"box length not given and no meta.json beside {path}")
         try:
