@@ -77,13 +77,23 @@ the sample and the checkpoint folders. :mod:`jamlab.runs.storage` takes its name
 module must not import the run machinery: every command imports it)."""
 
 
+def _spellings(path: PathLike) -> list[Path]:
+    """``path`` as written (absolute) and with every symbolic link resolved: a guard checks both,
+    so neither a symlinked directory nor one that is itself a link elsewhere slips through."""
+    spelled, real = Path(os.path.abspath(path)), Path(os.path.realpath(path))
+    return [spelled] if spelled == real else [spelled, real]
+
+
 def run_directory_of(path: PathLike) -> Path | None:
     """The jamlab run directory (one holding a manifest) that ``path`` is a member of — an entry
-    of :data:`RUN_MEMBERS` or a file below one — or ``None``."""
-    path = Path(os.path.abspath(path))
-    for parent in path.parents:
-        if (parent / RUN_MEMBERS[0]).is_file():
-            return parent if path.relative_to(parent).parts[0] in RUN_MEMBERS else None
+    of :data:`RUN_MEMBERS` or a file below one — or ``None``; through any spelling of ``path``
+    (symbolic links are resolved, and the path as written is checked too)."""
+    for spelled in _spellings(path):
+        for parent in spelled.parents:
+            if (parent / RUN_MEMBERS[0]).is_file():
+                if spelled.relative_to(parent).parts[0] in RUN_MEMBERS:
+                    return parent
+                break
     return None
 
 

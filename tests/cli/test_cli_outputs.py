@@ -92,6 +92,26 @@ def test_a_run_directory_file_is_refused_even_with_force(tmp_path, capsys):
     assert run(["figure", "fig3", "--out", runs / "jamming" / "fig3.png"]) == 0
 
 
+def toy_run(directory) -> None:
+    assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--task", "toy", "--out", directory, "--workers", "0",
+                "--quiet"]) == 0  # fmt: skip
+
+
+def test_a_run_directory_file_through_a_symlinked_directory_is_refused(tmp_path, capsys):
+    toy_run(tmp_path / "rd")
+    sample = next((tmp_path / "rd" / "samples").rglob("sample-*.h5"))
+    cell = tmp_path / "cell"
+    cell.symlink_to(sample.parent, target_is_directory=True)
+    before = digest(sample)
+    for target in (cell / sample.name, cell / ".." / sample.parent.name / "new.h5"):
+        assert run(["random-packing", "--n", "8", "--phi", "0.3", "--out", target,
+                    "--force"]) == 2  # fmt: skip
+        assert "is a file of the run directory" in error_line(capsys)
+    assert digest(sample) == before
+    assert sorted(p.name for p in sample.parent.iterdir()) == [sample.name]
+
+
 def test_figure_suffix_is_checked_before_the_work(packing08, tmp_path, capsys):
     out = tmp_path / "t.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.02",
