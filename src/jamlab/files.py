@@ -4,6 +4,7 @@ shared by every writer in jamlab (packings, traces, run directories).
 :func:`check_outputs` refuses, before any computation, an output path that is an existing
 directory, sits in a missing or unwritable directory, or is the same file as an input (also
 through a symbolic or hard link) or as another output; and an input inside an output directory.
+:func:`check_new_run_directory` refuses a run directory or report inside an existing run directory.
 
 :func:`atomic_write` writes a file under a temporary name in its final directory, fsync's it,
 renames it over the destination with ``os.replace`` (atomic on POSIX) and fsync's the directory:
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import tempfile
 from collections.abc import Callable, Mapping
@@ -33,8 +35,10 @@ __all__ = [
     "atomic_write_text",
     "atomic_savefig",
     "check_distinct_inputs",
+    "check_new_run_directory",
     "check_outputs",
     "fsync_dir",
+    "RUN_FORMAT",
     "RUN_MEMBERS",
     "run_directory_of",
 ]
@@ -71,6 +75,9 @@ def _inside(path: Path, directory: Path) -> bool:
     return real == root or real.startswith(root.rstrip(os.sep) + os.sep)
 
 
+RUN_FORMAT = "jamlab-run"
+"""The ``format`` of a run directory's manifest (:mod:`jamlab.runs.storage` takes it from here)."""
+
 RUN_MEMBERS = ("manifest.json", "run.lock", "samples", "checkpoints")
 """The entries of a jamlab run directory that only ``jamlab run`` writes: its manifest, its lock,
 the sample and the checkpoint folders. :mod:`jamlab.runs.storage` takes its names from here (this
@@ -95,6 +102,27 @@ def run_directory_of(path: PathLike) -> Path | None:
                     return parent
                 break
     return None
+
+
+def _is_run_directory(directory: Path) -> bool:
+    try:
+        manifest = json.loads((directory / RUN_MEMBERS[0]).read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(manifest, dict) and manifest.get("format") == RUN_FORMAT
+
+
+def check_new_run_directory(name: str, path: PathLike, *, itself: bool = False) -> None:
+    """``ValueError`` (one line) if the directory ``path`` lies inside an existing jamlab run
+    directory (an ancestor with a jamlab run manifest), through any spelling of it; with
+    ``itself`` also if ``path`` is one. ``jamlab run`` and ``jamlab reproduce`` make no run
+    directory, report or anything else inside another run's directory."""
+    for spelled in _spellings(path):
+        for parent in (spelled, *spelled.parents) if itself else spelled.parents:
+            if _is_run_directory(parent):
+                where = "is" if parent == spelled else "lies in"
+                raise ValueError(f"{name} {path} {where} the run directory {parent}; "
+                                 "only that run's own jamlab run writes there")
 
 
 def check_distinct_inputs(paths: list[PathLike], what: str = "input") -> None:

@@ -112,6 +112,28 @@ def test_a_run_directory_file_through_a_symlinked_directory_is_refused(tmp_path,
     assert sorted(p.name for p in sample.parent.iterdir()) == [sample.name]
 
 
+def test_no_run_directory_or_report_inside_a_run_directory(tmp_path, capsys):
+    rd = tmp_path / "rd"
+    toy_run(rd)
+    before = {p: digest(p) for p in rd.rglob("*") if p.is_file()}
+    (tmp_path / "cell").symlink_to(rd / "samples", target_is_directory=True)
+    for inner in (rd / "samples" / "newrun", rd / "newrun", tmp_path / "cell" / "newrun"):
+        toy_run_args = ["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                        "--gamma-max", "2e-3", "--task", "toy", "--workers", "0", "--quiet"]
+        assert run([*toy_run_args, "--out", inner]) == 2
+        assert f"lies in the run directory {rd}" in error_line(capsys)
+    for args in (["--out", rd / "samples" / "x"], ["--out", rd],
+                 ["--out", tmp_path / "rep", "--runs", rd / "x"]):
+        assert run(["reproduce", "--scale", "tiny", *args, "--workers", "0", "-q"]) == 2
+        assert f"the run directory {rd}" in error_line(capsys)
+    assert {p: digest(p) for p in rd.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "rep").exists()
+    # the run directory itself is resumed as before
+    toy_run(rd)
+    assert {p: digest(p) for p in before if p.name != "run.lock"} == {
+        p: h for p, h in before.items() if p.name != "run.lock"}
+
+
 def test_figure_suffix_is_checked_before_the_work(packing08, tmp_path, capsys):
     out = tmp_path / "t.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.02",

@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from jamlab.files import atomic_write_text
+from jamlab.files import atomic_write_text, check_new_run_directory
 from jamlab.report import Figure, ReportMeta, Row, write_report
 from jamlab.reproduce import criticality_table, figures, table
 from jamlab.reproduce.coordination import coordination
@@ -288,8 +288,9 @@ def reproduce(
     Raises
     ------
     ValueError
-        For an unknown scale, an output directory that cannot be written or that holds report
-        files of something else (without ``force``), before running anything.
+        For an unknown scale, an output directory that cannot be written, that holds report
+        files of something else (without ``force``), or that is or lies inside a run directory
+        (likewise ``runs``), before running anything.
 
     Examples
     --------
@@ -314,8 +315,11 @@ def reproduce(
     log = log or (lambda msg: None)
     out = Path(out)
     check_report_directory(out, force=force)
-    _check_writable(out)
     runs_dir = Path(runs) if runs is not None else out / "runs"
+    # a report, and the runs' parent, never go into a run directory (nothing written yet)
+    check_new_run_directory("report directory", out, itself=True)
+    check_new_run_directory("runs directory", runs_dir, itself=True)
+    _check_writable(out)
     _check_writable(runs_dir)
     atomic_write_text(out / MARKER, json.dumps({"written_by": "jamlab reproduce"}) + "\n")
     figdir = out / "figures"

@@ -52,7 +52,13 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab.files import RUN_MEMBERS, atomic_write, atomic_write_hdf5
+from jamlab.files import (
+    RUN_FORMAT,
+    RUN_MEMBERS,
+    atomic_write,
+    atomic_write_hdf5,
+    check_new_run_directory,
+)
 from jamlab.runs.results import TRACE_FIELDS, SampleFailure, SampleResult
 from jamlab.runs.study import SampleKey, Study, phi_label
 
@@ -71,7 +77,6 @@ __all__ = [
 MANIFEST, LOCK, SAMPLES, CHECKPOINTS = RUN_MEMBERS
 CHECKPOINT_PREPARED = "prepared.h5"  # in a sample's checkpoint folder (jamlab.runs.physics)
 CHECKPOINT_TRACE = "trace.h5"
-RUN_FORMAT = "jamlab-run"
 SAMPLE_FORMAT = "jamlab-sample"
 FORMAT_VERSION = 1
 SEED_RULE = (
@@ -316,6 +321,7 @@ class RunDir:
         is written by :meth:`start`, under :meth:`lock`."""
         run = cls(path)
         p = run.path
+        check_new_run_directory("run directory", p)
         if p.exists() and not p.is_dir():
             raise RunError(f"output path exists and is not a directory: {p}")
         if run.manifest_path.exists():
