@@ -57,9 +57,9 @@ class _Analysis:
     (computed once, on first use)."""
 
     def __init__(self, scale: Scale, runs: Path, out: Path, figdir: Path,
-                 log: Callable[[str], None]) -> None:
-        self.scale, self.runs, self.out, self.figdir, self.log = (
-            scale, RunSet(runs), out, figdir, log)
+                 log: Callable[[str], None], ext: str = ".png") -> None:
+        self.scale, self.runs, self.out, self.figdir, self.log, self.ext = (
+            scale, RunSet(runs), out, figdir, log, ext)
         self._results: dict[str, Any] = {}
 
     def result(self, part: str) -> Any:
@@ -403,8 +403,7 @@ def make_figure(
         base = Path(work) if work is not None else Path(tmp)
         figdir = base / "figures"
         figdir.mkdir(parents=True, exist_ok=True)
-        analysis = _Analysis(scale, runs, base, figdir, lambda msg: None)
-        analysis.ext = ext
+        analysis = _Analysis(scale, runs, base, figdir, lambda msg: None, ext)
         path = _DRAW[name](analysis)
         if path is None:
             raise ValueError(f"no data for {name} in {runs} (no finished samples)")
