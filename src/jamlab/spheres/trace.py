@@ -279,7 +279,10 @@ def check_links(group: h5py.Group, path: str | os.PathLike) -> None:
     """``ValueError`` ("damaged file") if a member of ``group`` is a link that resolves to nothing:
     a soft link to a missing path or an external link to a missing file or object. h5py lists
     such a member (``name in group`` is true) but raises ``KeyError`` when it is opened."""
-    dangling = [name for name in group if group.get(name) is None]
+    # only links can dangle: hard members are not opened (reading a file stays as cheap)
+    links = [name for name in group
+             if isinstance(group.get(name, getlink=True), h5py.SoftLink | h5py.ExternalLink)]
+    dangling = [name for name in links if group.get(name) is None]
     if dangling:
         where = group.name.rstrip("/") + "/"
         names = ", ".join(where + name for name in dangling)
