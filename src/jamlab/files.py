@@ -35,6 +35,7 @@ __all__ = [
     "atomic_write_text",
     "atomic_savefig",
     "check_distinct_inputs",
+    "check_links",
     "check_new_run_directory",
     "check_outputs",
     "fsync_dir",
@@ -277,3 +278,21 @@ def atomic_savefig(fig: Any, path: PathLike, **kwargs: Any) -> Path:
     path = Path(path)
     kwargs.setdefault("format", path.suffix.lower().lstrip(".") or "png")
     return atomic_write(path, lambda tmp: fig.savefig(tmp, **kwargs))
+
+
+def check_links(group: Any, path: PathLike) -> None:
+    """``ValueError`` ("damaged file") if a member of the open HDF5 group ``group`` (of the file
+    ``path``) is a link that resolves to nothing: a soft link to a missing path or an external
+    link to a missing file or object. h5py lists such a member (``name in group`` is true) but
+    raises ``KeyError`` when it is opened, and ``group.get(name)`` returns ``None``. Only the
+    members that are links are resolved (no dataset is opened): a read stays as cheap."""
+    import h5py
+
+    links = [name for name in group
+             if isinstance(group.get(name, getlink=True), h5py.SoftLink | h5py.ExternalLink)]
+    dangling = [name for name in links if group.get(name) is None]
+    if dangling:
+        where = group.name.rstrip("/") + "/"
+        names = ", ".join(where + name for name in dangling)
+        raise ValueError(f"damaged file {path}: {names} is a link to nothing "
+                         "(a dangling soft or external link)")

@@ -28,10 +28,9 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab.files import atomic_write_hdf5
+from jamlab.files import atomic_write_hdf5, check_links
 from jamlab.spheres.box import Box
 from jamlab.spheres.state import Packing
-from jamlab.spheres.trace import check_links
 
 __all__ = ["write_packing", "read_packing", "read_lammps_positions"]
 

@@ -51,7 +51,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from jamlab.files import atomic_write_hdf5
+from jamlab.files import atomic_write_hdf5, check_links
 
 __all__ = [
     "FIXED_PRESSURE_COLUMNS",
@@ -273,21 +273,6 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
         h5.attrs["format_version"] = FORMAT_VERSION
 
     return atomic_write_hdf5(path, fill)
-
-
-def check_links(group: h5py.Group, path: str | os.PathLike) -> None:
-    """``ValueError`` ("damaged file") if a member of ``group`` is a link that resolves to nothing:
-    a soft link to a missing path or an external link to a missing file or object. h5py lists
-    such a member (``name in group`` is true) but raises ``KeyError`` when it is opened."""
-    # only links can dangle: hard members are not opened (reading a file stays as cheap)
-    links = [name for name in group
-             if isinstance(group.get(name, getlink=True), h5py.SoftLink | h5py.ExternalLink)]
-    dangling = [name for name in links if group.get(name) is None]
-    if dangling:
-        where = group.name.rstrip("/") + "/"
-        names = ", ".join(where + name for name in dangling)
-        raise ValueError(f"damaged file {path}: {names} is a link to nothing "
-                         "(a dangling soft or external link)")
 
 
 def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
