@@ -178,6 +178,27 @@ def test_a_trace_column_as_a_dangling_link_is_one_line(good, checkpointed, tmp_p
     assert digest(tmp_path / "w.h5") == before
 
 
+@pytest.mark.parametrize("link", ["soft", "external"])
+def test_a_dangling_link_in_the_traces_configuration_is_one_line(good, checkpointed, tmp_path,
+                                                                   link):
+    """The configuration a trace carries for --resume, its diameters a dangling link: h5py's
+    ``group.get`` returns None for it, and the run went on with diameters of 1 (exit 0)."""
+    for name in ("w.h5", "w.last.h5"):
+        copy(checkpointed / name, tmp_path / name)
+    shutil.copytree(checkpointed / "w.configs", tmp_path / "w.configs")
+    with h5py.File(tmp_path / "w.h5", "a") as h5:
+        del h5["configuration/diameters"]
+        h5["configuration/diameters"] = (h5py.SoftLink("/nothere") if link == "soft"
+                                         else h5py.ExternalLink("no.h5", "/x"))
+    files = sorted(p for p in tmp_path.rglob("*") if p.is_file())
+    before = [digest(p) for p in files]
+    line = one_line_error(jamlab("shear", good, "--dgamma", "1e-3", "--gamma-max", "0.04",
+                                 "--out", tmp_path / "w.h5", "--resume"))  # fmt: skip
+    assert "damaged file" in line and "w.h5" in line and "/configuration/diameters" in line
+    assert sorted(p for p in tmp_path.rglob("*") if p.is_file()) == files
+    assert [digest(p) for p in files] == before
+
+
 @pytest.mark.parametrize(
     "args",
     [

@@ -109,6 +109,22 @@ def test_without_checkpoint_every_nothing_is_written_and_the_sample_is_unchanged
     same(given, plain)
 
 
+def test_a_checkpoint_with_a_dangling_link_is_replaced(case, tmp_path):
+    """The trace's stored configuration with its diameters a dangling link: a damaged checkpoint
+    (removed, the sample starts afresh), not one without diameters resumed with D = 1."""
+    import h5py
+
+    study, key, seed, whole = case
+    folder = tmp_path / "ck"
+    with pytest.raises(Stop):
+        prepare_and_shear(study, key, seed, folder, progress=stop_after(7))
+    with h5py.File(folder / TRACE, "a") as h5:
+        del h5["configuration/diameters"]
+        h5["configuration/diameters"] = h5py.SoftLink("/nothere")
+    redone = prepare_and_shear(study, key, seed, folder)
+    assert redone.resumed_from == -1
+    same(redone, whole)
+
 def test_study_field():
     base = Study(**STUDIES["constant-volume"])
     assert base.checkpoint_every == 0 and "checkpoint_every" not in base.to_dict()

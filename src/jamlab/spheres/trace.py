@@ -278,12 +278,16 @@ def write_trace(path: str | os.PathLike, trace: Trace, configuration: Any = None
 def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
     """The configuration stored with the trace by :func:`write_trace` (``positions``,
     ``diameters`` (absent in older files), ``alpha``, ``box_length``, ``strain``, ``seed``,
-    ``step``), or ``None`` if the file has none."""
+    ``step``), or ``None`` if the file has none. A dangling link there is a damaged file
+    (:func:`jamlab.files.check_links`), not an absent member: ``group.get`` would return ``None``
+    for it, and a resumed run would go on with diameters of 1."""
     try:
         with h5py.File(path, "r") as h5:
+            check_links(h5, path)
             group = h5.get("configuration")
             if not isinstance(group, h5py.Group):
                 return None
+            check_links(group, path)
             positions = group.get("positions")
             if not isinstance(positions, h5py.Dataset) or positions.dtype.kind != "f":
                 raise ValueError(f"damaged configuration group in {path}")
