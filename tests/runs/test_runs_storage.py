@@ -65,6 +65,26 @@ def test_resume_redoes_corrupt_partial_and_leftover_files(tmp_path, same_runs):
     same_runs(ref, run)
 
 
+@pytest.mark.parametrize("member", ["trace/gamma", "packing"])
+def test_a_sample_with_a_dangling_link_is_damaged(tmp_path, member):
+    """A member of a sample file that is a soft link to nothing: the run counts the sample
+    corrupt (redone on resume), and the sample readers call the file damaged instead of raising
+    h5py's KeyError (read_sample took a dangling ``packing`` group for none at all)."""
+    from jamlab.runs import prepared_packing, read_sample
+
+    study = Study(phi=[0.8], n=[8], samples=1, dgamma=1e-3, gamma_max=2e-3, task="toy")
+    run_study(study, tmp_path / "run", IN_PROCESS)
+    rd = RunDir(tmp_path / "run")
+    key = study.keys()[0]
+    path = rd.sample_path(key)
+    with h5py.File(path, "a") as h5:
+        del h5[member]
+        h5[member] = h5py.SoftLink("/nothere")
+    assert rd.state(key, study) == "corrupt"
+    for read in (read_sample, prepared_packing):
+        with pytest.raises(ValueError, match=f"damaged file {path}: /{member} is a link to"):
+            read(path)
+
 def _flaky(study, key, seed):
     if key.index == 1:
         raise SampleFailed("minimisation did not converge (test)")

@@ -38,6 +38,7 @@ import h5py
 import numpy as np
 import xarray as xr
 
+from jamlab.files import check_links
 from jamlab.runs.results import OPTIONAL_TRACE_FIELDS, TRACE_FIELDS
 from jamlab.runs.seeds import sample_seed
 from jamlab.runs.storage import RunDir
@@ -49,8 +50,10 @@ _SKIP_ATTRS = {"format", "format_version", "phi", "n", "index", "seed", "master_
 
 
 def read_sample(path: str | os.PathLike) -> dict[str, Any]:
-    """One sample file as ``{"attrs": {...}, "trace": {name: array}, "packing": {...}}``."""
+    """One sample file as ``{"attrs": {...}, "trace": {name: array}, "packing": {...}}``;
+    ``ValueError`` ("damaged file") for a dangling link among them (:func:`_check_sample_links`)."""
     with h5py.File(path, "r") as h5:
+        _check_sample_links(h5, path)
         return {
             "attrs": {k: _plain(v) for k, v in h5.attrs.items()},
             "trace": {k: h5["trace"][k][()] for k in h5["trace"]},
@@ -70,11 +73,24 @@ def prepared_packing(path: str | os.PathLike, gamma: float = 0.0) -> Any:
     path = Path(path)
     study = RunDir(path.parents[3]).study()
     with h5py.File(path, "r") as h5:
+        _check_sample_links(h5, path)
         pos = h5["packing/positions"][()]
         dia = h5["packing/diameters"][()] if "diameters" in h5["packing"] else None
         length = float(h5.attrs["box_length"])
     return Packing(pos, Box(length, pos.shape[1], float(gamma)), diameters=dia,
                    alpha=study.alpha)
+
+
+def _check_sample_links(h5: h5py.File, path: str | os.PathLike) -> None:
+    """:func:`jamlab.files.check_links` on the groups a sample reader reads (the root, ``trace``
+    and ``packing``): a dangling link is a damaged file, not h5py's ``KeyError`` (nor, through
+    ``h5.get``, a member taken for absent). :func:`open_run` reads only samples that
+    ``RunDir.state`` found whole, which opened every member: a damaged one is ``"corrupt"``."""
+    check_links(h5, path)
+    for name in ("trace", "packing"):
+        group = h5.get(name)
+        if isinstance(group, h5py.Group):
+            check_links(group, path)
 
 
 def _plain(value: Any) -> Any:
