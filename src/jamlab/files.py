@@ -143,6 +143,7 @@ def check_outputs(
     inputs: Mapping[str, PathLike | None] | None = None,
     *,
     directories: Mapping[str, PathLike | None] | None = None,
+    read_directories: Mapping[str, PathLike | None] | None = None,
     force: bool = False,
     continued: tuple[str, ...] = (),
     figures: tuple[str, ...] = (),
@@ -159,12 +160,15 @@ def check_outputs(
 
     ``outputs``: ``{description: file to be written}``; ``inputs``: ``{description: file that is
     read}``; ``directories``: ``{description: directory that will be written into}`` (an input
-    inside it is refused). ``None`` values are skipped. Descriptions appear in the message, e.g.
+    inside it is refused); ``read_directories``: ``{description: directory whose files are
+    read}`` (an output inside it is refused, even with ``force``: a new file there would be read
+    or removed with them). ``None`` values are skipped. Descriptions appear in the message, e.g.
     ``{"--out": path}``.
     """
     inputs = {k: Path(v) for k, v in (inputs or {}).items() if v is not None}
     files = {k: Path(v) for k, v in outputs.items() if v is not None}
     dirs = {k: Path(v) for k, v in (directories or {}).items() if v is not None}
+    read_dirs = {k: Path(v) for k, v in (read_directories or {}).items() if v is not None}
     seen: dict[tuple[Any, ...], str] = {}
     for name, path in files.items():
         if path.is_dir():
@@ -181,6 +185,10 @@ def check_outputs(
                     f"{name} {path} is the same file as the {in_name} {in_path}; "
                     "writing it would destroy the input"
                 )
+        for in_name, directory in read_dirs.items():
+            if _inside(path, directory):
+                raise ValueError(f"{name} {path} lies in the {in_name} {directory}, which is "
+                                 "read as input; write it elsewhere")
         if ident in seen:
             raise ValueError(f"{name} {path} is the same file as {seen[ident]}")
         seen[ident] = f"{name} {path}"

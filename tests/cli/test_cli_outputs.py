@@ -191,6 +191,36 @@ def test_import_never_writes_over_the_meta_json_it_reads(packing08, tmp_path, ca
     assert run(["import", tmp_path / "pos.txt", "--out", tmp_path / "p.h5"]) == 0
 
 
+def test_export_writes_nothing_into_the_snapshot_folder_it_reads(packing08, tmp_path, capsys,
+                                                                 monkeypatch):
+    """A new file in w.configs/ would be read (or removed by shear --force) with the snapshots:
+    refused, through any spelling of the folder; the trace is read once."""
+    from jamlab.spheres import exchange
+
+    out = tmp_path / "w.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
+                "--save-every", "2"]) == 0  # fmt: skip
+    configs = tmp_path / "w.configs"
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    (tmp_path / "link").symlink_to(configs, target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    for target in (configs / "new.xyz", "w.configs/new.gsd", tmp_path / "link" / "new.xyz",
+                   tmp_path / "sub" / ".." / "w.configs" / "new.xyz"):
+        (tmp_path / "sub").mkdir(exist_ok=True)
+        for force in ([], ["--force"]):
+            assert run(["export", out, "--out", target, "--format", "extxyz", *force]) == 2
+            assert f"lies in the snapshot folder {configs}, which is read" in error_line(capsys)
+    assert sorted(p.name for p in configs.iterdir()) == ["step_00000002.h5", "step_00000004.h5",
+                                                         "step_00000005.h5"]  # fmt: skip
+    assert {p: digest(p) for p in before} == before
+    reads = []
+    real = exchange.read_trace
+    monkeypatch.setattr(exchange, "read_trace", lambda p: reads.append(p) or real(p))
+    assert run(["export", out, "--out", tmp_path / "m.xyz"]) == 0
+    assert "3 frame(s), AQS steps 2..5" in capsys.readouterr().out
+    assert len(reads) == 1
+
+
 def test_export_refuses_a_movie_with_missing_or_foreign_frames(packing08, tmp_path, capsys):
     out = tmp_path / "tr.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",

@@ -54,8 +54,11 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"
             )
-        # a trace's saved configurations (X.last.h5, X.configs/step_*.h5) are inputs too
-        check_outputs({"--out": out}, {"input": source, **ex.saved_files(source)}, force=force)
+        # a trace's saved configurations (X.last.h5, X.configs/step_*.h5) are inputs too, and
+        # nothing is written into its snapshot folder X.configs/
+        saved, folder = ex.saved_files(source)
+        check_outputs({"--out": out}, {"input": source, **saved},
+                      read_directories={"snapshot folder": folder}, force=force)
         frames = _pick(ex.frames_of(source), frame, str(source))
         try:
             ex.export_frames(frames, fmt, out)

@@ -161,19 +161,20 @@ def frames_of(path: str | os.PathLike) -> list[Frame]:
     return frames
 
 
-def saved_files(path: str | os.PathLike) -> dict[str, Path]:
-    """``{description: file}`` of the files :func:`frames_of` reads beside the AQS trace ``path``
-    (``{}`` for a configuration): its saved configurations and ``<stem>.last.h5`` (read for its
-    step even where a snapshot has that step), inputs that an export must not write over."""
-    from jamlab.spheres.aqs.checkpoint import checkpoint_paths, saved_configurations
+def saved_files(path: str | os.PathLike) -> tuple[dict[str, Path], Path | None]:
+    """``({description: file}, folder)``: the files :func:`frames_of` reads beside the AQS trace
+    ``path`` (``<stem>.last.h5`` and the ``step_*.h5`` of its snapshot folder, listed, not opened:
+    :func:`frames_of` reads them) and that folder; ``({}, None)`` for a configuration. An export
+    writes over none of them and nothing into the folder (a foreign file would be read, or removed
+    by ``shear --force``, with the snapshots)."""
+    from jamlab.spheres.aqs.checkpoint import checkpoint_paths
 
     path = Path(path)
     if _h5_format(path) != "jamlab-aqs-trace":
-        return {}
-    files = {f"step-{step} configuration": f
-             for step, f in saved_configurations(path, read_trace(path)).items()}
-    last = checkpoint_paths(path)[0]
-    return files | ({"last configuration": last} if last.is_file() else {})
+        return {}, None
+    last, snapshots = checkpoint_paths(path)
+    files = {f"saved configuration {f.name}": f for f in sorted(snapshots.glob("step_*.h5"))}
+    return files | ({"last configuration": last} if last.is_file() else {}), snapshots
 
 
 def export_frames(frames: list[Frame], fmt: str, out: str | os.PathLike) -> Path:
