@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -9,7 +11,7 @@ import pytest
 import jamlab.spheres as sp
 from cli_helpers import jamlab, one_line_error
 from jamlab.spheres.fire import minimize
-from jamlab.spheres.io import write_packing
+from jamlab.spheres.io import read_packing, write_packing
 from jamlab.spheres.trace import OPTIONAL_COLUMNS, TRACE_COLUMNS, read_trace
 
 
@@ -202,3 +204,129 @@ def test_refused_force_rerun_keeps_the_earlier_run(start, tmp_path, bad):
     assert sorted((tmp_path / "w.configs").iterdir()) == files[2:]
     assert {f: f.read_bytes() for f in files} == before
     assert jamlab("export", out, "--out", tmp_path / "m.xyz").returncode == 0
+
+
+# `jamlab shear ARGS` in a subprocess that dies (os._exit: no clean-up, as SIGKILL) or fails at
+# one point of a run replacing an earlier one; argv[1] names the point
+_DIE_AT = r"""
+import os, sys
+import jamlab.spheres.aqs.checkpoint as checkpoint
+import jamlab.spheres.aqs.driver as driver
+import jamlab.spheres.io as io
+from jamlab.cli import main
+
+where, real_replace, real_write = sys.argv[1], os.replace, io.write_packing
+moved = []
+
+def die(*args, **kwargs):
+    os._exit(9)
+
+def replace(src, dst):  # dies after moving one old snapshot aside
+    if "step_" in str(src) and ".replacing" in str(dst):
+        if moved:
+            os._exit(9)
+        moved.append(src)
+    real_replace(src, dst)
+
+def write_packing(path, *args, **kwargs):  # dies writing <stem>.last.h5, after the trace
+    if str(path).endswith(".last.h5"):
+        os._exit(9)
+    return real_write(path, *args, **kwargs)
+
+def disk_full(*args, **kwargs):
+    raise OSError(28, "No space left on device")
+
+if where == "before the first save":
+    driver.save_checkpoint = die
+elif where == "moving the old snapshots":
+    os.replace = replace
+elif where == "after the new snapshot":
+    checkpoint.write_trace = die
+elif where == "after the new trace":
+    io.write_packing = write_packing
+elif where == "disk full at the trace":
+    checkpoint.write_trace = disk_full
+main(["shear", *sys.argv[2:]])
+"""
+
+_FIRST = ("--dgamma", "1e-3", "--gamma-max", "5e-3", "--save-every", "2")
+# the new run: other strains, its only save at step 4 (a name the earlier run's snapshots use)
+_SECOND = ("--dgamma", "5e-4", "--gamma-max", "2e-3", "--save-every", "4", "--force")
+
+
+def _files(directory):
+    """``{path: bytes}`` of the files below ``directory``, hidden ones left out."""
+    return {p.relative_to(directory): p.read_bytes() for p in directory.rglob("*")
+            if p.is_file() and not any(part.startswith(".") for part in p.parts)}
+
+
+def _hidden(directory):
+    return sorted(p.name for p in directory.iterdir() if p.name.startswith("."))
+
+
+@pytest.mark.parametrize("where", ["before the first save", "moving the old snapshots",
+                                   "after the new snapshot", "disk full at the trace",
+                                   "after the new trace"])
+def test_force_rerun_killed_before_its_first_save_keeps_the_earlier_run(start, tmp_path, where):
+    """A `shear --force` over an earlier run killed (or failing) at any point before its trace
+    replaced w.h5 leaves the earlier run whole — w.h5, w.last.h5 and every snapshot
+    byte-identical — once the next `jamlab shear` to w.h5 (here a refused one) has run; killed
+    after, the new run's files replace the earlier ones and nothing of those is left."""
+    import subprocess
+    import sys
+
+    path, _ = start
+    rundir = tmp_path / "run"
+    rundir.mkdir()
+    out = rundir / "w.h5"
+    assert jamlab("shear", path, *_FIRST, "--out", out).returncode == 0
+    before = _files(rundir)
+    assert sorted(map(str, before)) == ["w.configs/step_00000002.h5", "w.configs/step_00000004.h5",
+                                        "w.configs/step_00000005.h5", "w.h5", "w.last.h5"]
+    killed = subprocess.run([sys.executable, "-c", _DIE_AT, where, path, *_SECOND, "--out", out],
+                            capture_output=True, text=True, timeout=600)
+    assert killed.returncode == (2 if where == "disk full at the trace" else 9), killed.stderr
+    if where == "disk full at the trace":  # a failure is undone by the command itself
+        assert "No space left on device" in one_line_error(killed)
+        assert _files(rundir) == before and _hidden(rundir) == []
+    elif where == "before the first save":  # nothing moved yet: the earlier run is whole
+        assert _files(rundir) == before and _hidden(rundir) == [".w.h5.replacing"]
+        assert jamlab("export", out, "--out", tmp_path / "m0.xyz").returncode == 0
+    elif where != "after the new trace":
+        # the old snapshots are (partly) aside: export says so instead of mixing two runs
+        error = one_line_error(jamlab("export", out, "--out", tmp_path / "m0.xyz"))
+        assert "was killed at its first save" in error
+    refused = jamlab("shear", path, "--dgamma", "1", "--gamma-max", "3e-3", "--out", out,
+                     "--force")
+    assert refused.returncode == 2 and "--dgamma" in refused.stderr.splitlines()[-1]
+    assert _hidden(rundir) == []
+    if where != "after the new trace":
+        assert _files(rundir) == before
+        assert jamlab("export", out, "--out", tmp_path / "m.xyz").returncode == 0
+        return
+    # the new trace had replaced w.h5: only the new run's files, w.last.h5 its last minimum
+    after = _files(rundir)
+    assert sorted(map(str, after)) == ["w.configs/step_00000004.h5", "w.h5", "w.last.h5"]
+    assert after[Path("w.h5")] != before[Path("w.h5")]
+    trace = read_trace(out)
+    assert trace.n_steps == 4 and trace.attrs["dgamma"] == 5e-4
+    last, snap = (read_packing(rundir / f) for f in ("w.last.h5", "w.configs/step_00000004.h5"))
+    assert last.strain == snap.strain == float(trace.gamma[-1])
+    np.testing.assert_array_equal(last.positions, snap.positions)
+    r = jamlab("export", out, "--out", tmp_path / "m.xyz")
+    assert r.returncode == 0 and "1 frame(s), AQS steps 4..4" in r.stdout, r.stderr
+
+
+def test_force_rerun_leaves_only_the_new_runs_files(start, tmp_path):
+    path, _ = start
+    rundir = tmp_path / "run"
+    rundir.mkdir()
+    out = rundir / "w.h5"
+    assert jamlab("shear", path, *_FIRST, "--out", out).returncode == 0
+    r = jamlab("shear", path, *_SECOND, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert sorted(str(p.relative_to(rundir)) for p in rundir.rglob("*")) == [
+        "w.configs", "w.configs/step_00000004.h5", "w.h5", "w.last.h5"]
+    assert read_trace(out).attrs["dgamma"] == 5e-4
+    r = jamlab("export", out, "--out", tmp_path / "m.xyz")
+    assert r.returncode == 0 and "1 frame(s), AQS steps 4..4" in r.stdout, r.stderr

@@ -54,6 +54,12 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"
             )
+        from jamlab.spheres.aqs.checkpoint import replacement_pending
+
+        if replacement_pending(source):  # some snapshots may be another run's, or aside
+            raise ValueError(f"{source}: a shear --force replacing this run was killed at its "
+                             f"first save; any jamlab shear ... --out {source} finishes or undoes "
+                             "the replacement")
         # a trace's saved configurations (X.last.h5, X.configs/step_*.h5) are inputs too, and
         # nothing is written into its snapshot folder X.configs/
         saved, folder = ex.saved_files(source)

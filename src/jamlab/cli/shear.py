@@ -231,6 +231,7 @@ def register(app: typer.Typer) -> None:
             resume_configuration,
             shear,
         )
+        from jamlab.spheres.aqs.checkpoint import begin_replacement, recover_replacement
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
@@ -264,6 +265,10 @@ def register(app: typer.Typer) -> None:
             validation.integer("--save-every", save_every, minimum=1)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
+        # a replacement of an earlier run killed inside the new run's first save: finished first
+        recovered = recover_replacement(out)
+        if recovered is not None:
+            typer.echo(f"jamlab: note: {recovered}", err=True)
         last, snapshots = checkpoint_paths(out)
         outputs = {"--out": out, "--plot": plot}
         stale: list[Path] = []
@@ -311,31 +316,34 @@ def register(app: typer.Typer) -> None:
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, packing.strain, names=("--dgamma", "--gamma-max")
             )
-        # only now, with every argument checked and the input read, does --force remove the
-        # earlier run's snapshots: a refused command changes nothing on disk
-        for path in stale:
-            path.unlink()
-        if stale and not any(snapshots.iterdir()):
-            snapshots.rmdir()
-        result = shear(
-            packing,
-            dgamma,
-            n_steps=n_steps,
-            minimizer=minimizer,
-            ftol=ftol,
-            save_every=save_every,
-            out=out,
-            previous=previous,
-            source=str(config),
-            keep_avalanches=keep_avalanches,
-            avalanche_threshold=avalanche_threshold,
-            pressure=pressure,
-            ptol=ptol,
-            confirm=confirm,
-            confirm_below=confirm_below,
-            volume_guess=volume_guess,
-            params=None if pressure is not None else AQSParameters(floppy=floppy),
-        )
+        # only now, with every argument checked and the input read, is the earlier run's
+        # replacement armed; it happens at the new run's first save (spheres.aqs.checkpoint):
+        # until the new trace replaces --out, the earlier run stays whole with its snapshots
+        if not resume and (stale or out.exists() or last.exists()):
+            begin_replacement(out)
+        try:
+            result = shear(
+                packing,
+                dgamma,
+                n_steps=n_steps,
+                minimizer=minimizer,
+                ftol=ftol,
+                save_every=save_every,
+                out=out,
+                previous=previous,
+                source=str(config),
+                keep_avalanches=keep_avalanches,
+                avalanche_threshold=avalanche_threshold,
+                pressure=pressure,
+                ptol=ptol,
+                confirm=confirm,
+                confirm_below=confirm_below,
+                volume_guess=volume_guess,
+                params=None if pressure is not None else AQSParameters(floppy=floppy),
+            )
+        except BaseException:
+            recover_replacement(out)  # failed before its first save: the earlier run is kept
+            raise
         tr = result.trace
         protocol = minimizer if pressure is None else f"fixed p={pressure:g}"
         unjammed = "" if tr.jammed is None else f"{int((~tr.jammed).sum())} unjammed minima, "

@@ -1,11 +1,24 @@
 """Checkpoints of an AQS run: where the configurations go, how the run is saved
 (:func:`save_checkpoint`), the configuration a resumed run starts from
 (:func:`resume_configuration`) and every configuration a run saved
-(:func:`saved_configurations`)."""
+(:func:`saved_configurations`).
+
+A new run to the ``out`` of an earlier one (``jamlab shear --force``) replaces that run's files
+at its own first save, not before (:func:`begin_replacement`): until then the earlier trace,
+``<stem>.last.h5`` and every ``<stem>.configs/step_*.h5`` stay where they are. The first save
+moves the old snapshots into the hidden sibling folder ``.<name>.replacing`` (which records the
+old trace's identity), writes the new snapshot, renames the new trace over ``out`` (the one
+atomic commit), writes ``<stem>.last.h5`` and removes the folder. A run killed inside that
+window leaves the folder behind, and :func:`recover_replacement` (first thing of every
+``jamlab shear`` to that ``out``) finishes it: the old snapshots go back if ``out`` is still the
+old trace, else they are deleted."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import shutil
 from pathlib import Path
 
 from jamlab.spheres.potential import Packing
@@ -28,6 +41,10 @@ def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
     from jamlab.spheres.io import write_packing
 
     last, snapshots = checkpoint_paths(out)
+    aside = replacement_path(out)
+    replacing = (aside / _OLD).is_file()  # the first save of a run replacing an earlier one
+    if replacing:
+        _move_aside(snapshots, aside)
     if snapshot:
         snapshots.mkdir(exist_ok=True)
         write_packing(snapshots / f"step_{step:08d}.h5", packing, aqs_step=int(step))
@@ -36,6 +53,106 @@ def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
     # written after it for the user (a convenience copy, never needed to resume)
     write_trace(out, trace, configuration=packing)
     write_packing(last, packing, aqs_step=int(step))
+    if replacing:
+        shutil.rmtree(aside)  # the new run's files now replace the earlier run's
+
+
+_OLD, _HELD, _MOVED = "old.json", "configs", "moved"
+"""In ``.<name>.replacing``: the old trace's identity, the old snapshots, and the flag that all
+of them are there (from then on a ``step_*.h5`` in ``<stem>.configs`` is the new run's)."""
+
+
+def replacement_path(out: str | Path) -> Path:
+    """``.<name>.replacing`` beside ``out``: where a run replacing an earlier run's files keeps
+    them until its first save (module docstring)."""
+    out = Path(out)
+    return out.with_name(f".{out.name}.replacing")
+
+
+def _identity(path: Path) -> list[int] | None:
+    # device and inode: the new trace is written under another name while the old one exists and
+    # renamed over it, so it never has the old inode; a touch or read does not change them
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return None
+    return [st.st_dev, st.st_ino]
+
+
+def begin_replacement(out: str | Path) -> None:
+    """Make the next :func:`save_checkpoint` to ``out`` replace the earlier run's files there
+    (its trace, ``<stem>.last.h5``, its ``step_*.h5`` snapshots): record which files they are in
+    :func:`replacement_path`. Nothing is moved or deleted here; call
+    :func:`recover_replacement` first (a leftover of a killed run) and after a failed run."""
+    from jamlab.files import atomic_write_text
+
+    out = Path(out)
+    last = checkpoint_paths(out)[0]
+    aside = replacement_path(out)
+    aside.mkdir()
+    record = {"trace": _identity(out), "last": _identity(last)}
+    atomic_write_text(aside / _OLD, json.dumps(record))
+
+
+def _move_aside(snapshots: Path, aside: Path) -> None:
+    from jamlab.files import fsync_dir
+
+    held = aside / _HELD
+    held.mkdir(exist_ok=True)
+    if snapshots.is_dir():
+        for f in sorted(snapshots.glob("step_*.h5")):
+            os.replace(f, held / f.name)
+        if not any(snapshots.iterdir()):
+            snapshots.rmdir()
+    fsync_dir(held)
+    (aside / _MOVED).touch()
+    fsync_dir(aside)
+
+
+def replacement_pending(out: str | Path) -> bool:
+    """Whether the earlier run's snapshots at ``out`` are (maybe partly) moved aside by a
+    replacing run that has not committed its trace yet, or was killed doing so."""
+    return (replacement_path(out) / _HELD).is_dir()
+
+
+def recover_replacement(out: str | Path) -> str | None:
+    """Finish a replacement of the run at ``out`` that did not complete (a run killed or failed
+    between :func:`begin_replacement` and the end of its first save): if ``out`` is still the
+    earlier trace, its snapshots go back into ``<stem>.configs`` (any ``step_*.h5`` of the new
+    run there is deleted: it belongs to no trace); if the new trace replaced it, the earlier
+    snapshots are deleted and a ``<stem>.last.h5`` still the earlier run's (or missing) is
+    written from the new trace. Returns what was done (``None``: nothing to do). Safe to
+    repeat if killed."""
+    from jamlab.spheres.io import write_packing
+    from jamlab.spheres.trace import read_trace
+
+    out = Path(out)
+    aside = replacement_path(out)
+    if not aside.is_dir():
+        return None
+    last, snapshots = checkpoint_paths(out)
+    held = aside / _HELD
+    try:
+        old = json.loads((aside / _OLD).read_text())
+    except FileNotFoundError:  # killed inside begin_replacement: nothing was moved
+        old = {"trace": _identity(out), "last": None}
+    if _identity(out) == old["trace"] or not out.is_file():
+        if held.is_dir():
+            if (aside / _MOVED).exists():
+                for f in snapshots.glob("step_*.h5"):
+                    f.unlink()  # the new run's, written before its trace replaced out
+                (aside / _MOVED).unlink()
+            for f in sorted(held.iterdir()):
+                snapshots.mkdir(exist_ok=True)
+                os.replace(f, snapshots / f.name)
+        done = f"the earlier run in {out} is kept whole (an interrupted replacement undone)"
+    else:
+        if _identity(last) in (None, old["last"]):  # not yet written by the new run
+            trace = read_trace(out)
+            write_packing(last, resume_configuration(out, trace), aqs_step=trace.n_steps)
+        done = f"{out} is the new run's (the earlier run's leftover files removed)"
+    shutil.rmtree(aside)
+    return done
 
 
 def resume_configuration(out: str | Path, previous: Trace) -> Packing:
