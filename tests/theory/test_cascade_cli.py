@@ -36,3 +36,33 @@ def test_cascade_command_bad_input_is_one_line_exit_2(tmp_path):
         assert r.returncode == 2, (args, r.stderr)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), r.stderr
+
+
+def test_cascade_levels_are_bounded(tmp_path):
+    """--k is at most 4096 (MAX_LEVELS): above, one short line and exit 2 at once. Before, 1e18
+    levels ended in a MemoryError traceback and 1e6 levels in a 'line' listing every y; at 4096
+    the check lets the levels through, and the sampler's float64 overflow is named in one short
+    line (without the 4096 values, and without numpy's overflow warnings before it)."""
+    for k, needle in (("4097", "--k"), ("1000000", "--k"), (str(10**18), "--k"),
+                      ("4096", "cascade constants overflow float64 for these 4096 levels"),
+                      ("1", "cascade constants overflow float64 for these 1 levels")):
+        # (k = 1 with q_max = 1 and a huge dgamma: the same overflow from T, one line too)
+        args = ("--q-max", "1", "--dgamma", "1e200") if k == "1" else ("--q-max", "0.9")
+        r = run("--linear", "2.5", *args, "--k", k, "--n", "10", "--out", str(tmp_path / "x.png"))
+        assert r.returncode == 2, (k, r.stderr[:500])
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), r.stderr[:500]
+        assert needle in lines[0] and len(lines[0]) < 200, lines[0][:500]
+        if needle == "--k":
+            assert "[1, 4096]" in lines[0]
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_sampler_levels_are_bounded():
+    from jamlab.theory import ParisiFunction, sample_cascade_jumps
+    from jamlab.theory.cascade import MAX_LEVELS
+
+    assert MAX_LEVELS == 4096  # the bound docs/theory-vs-cascade.md gives
+    with pytest.raises(ValueError, match="1 <= k <= 4096"):
+        sample_cascade_jumps(ParisiFunction.linear(2.5, 0.0, 0.9), dgamma=0.1, n=1, seed=1,
+                             k=10**18)

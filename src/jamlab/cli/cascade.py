@@ -36,7 +36,8 @@ def register(app: typer.Typer) -> None:
             "default 1)."
         ),
         k: int = typer.Option(
-            None, "--k", help="Levels when discretising --linear or --power-law (default 16)."
+            None, "--k", help="Levels when discretising --linear or --power-law (default 16, "
+            "at most 4096)."
         ),
         dgamma: float = typer.Option(0.1, "--dgamma", help="Strain step δγ."),
         n: int = typer.Option(100_000, "--n", help="Number of samples."),
@@ -53,7 +54,12 @@ def register(app: typer.Typer) -> None:
         from jamlab import validation
         from jamlab.files import atomic_write, check_outputs
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
-        from jamlab.theory.cascade import sample_cascade_jumps, sample_cascade_tree, validate_levels
+        from jamlab.theory.cascade import (
+            MAX_LEVELS,
+            sample_cascade_jumps,
+            sample_cascade_tree,
+            validate_levels,
+        )
         from jamlab.theory.exact import exact_jump_R
         from jamlab.theory.jumps import jump_distribution
         from jamlab.theory.parisi import ParisiFunction
@@ -69,7 +75,9 @@ def register(app: typer.Typer) -> None:
         amplitude = 1.0 if amplitude is None else amplitude
         y0 = 0.0 if y0 is None else y0
         q_max = 1.0 if q_max is None else q_max
-        k = validation.integer("--k", 16 if k is None else k, minimum=1)
+        # beyond MAX_LEVELS the sampler's constants overflow; the discretisation alone would take
+        # memory and time without end
+        k = validation.integer("--k", 16 if k is None else k, minimum=1, maximum=MAX_LEVELS)
         check_outputs({"--out": out, "--csv": csv, "--tree": tree}, force=force,
                       figures=("--out", "--tree"))
         given = [x is not None for x in (q, linear, power_law)]

@@ -57,6 +57,17 @@ __all__ = [
 #: per-sample bound on the number of nodes materialised (a safety net, never reached in practice)
 MAX_NODES = 50_000_000
 
+MAX_LEVELS = 4096
+"""Most levels ``k`` a ``ParisiFunction`` is discretised into for the sampler (``jamlab cascade
+--k``). The sampler's constants ``log c_i`` grow faster than ``k`` (a ``Γ(1 − r_i)`` with
+``1 − r_i = O(1/k)`` per level; ×2.2–2.4 per doubling of ``k``), so they overflow float64
+(``log c > 709``) at ``k = 512`` for ``y = 2.5q`` (``q_max = 0.9``) and at ``k = 1024`` for
+``power_law(μ_J)`` (``q_max = 1`` or ``0.9999``) and ``y = 5 + 100q`` (``q_max = 0.999``),
+at ``δγ = 1e-3`` and ``0.1`` alike; the exact recursion is converged to ``5e-4`` at
+``k = 512`` (``docs/theory-vs-cascade.md``, §4). ``4096`` is 4× the most levels any of them
+represents; it refuses at once a ``k`` whose discretisation alone would take memory and time
+without end."""
+
 
 @dataclass(frozen=True)
 class CascadeJumps:
@@ -126,8 +137,8 @@ def _levels_from(q: Any, y: Any, k: int | None) -> tuple[np.ndarray, np.ndarray]
     if hasattr(q, "discretise"):
         if y is not None:
             raise ValueError("pass either a ParisiFunction (with k=) or arrays q and y, not both")
-        if k is None or int(k) < 1:
-            raise ValueError(f"a ParisiFunction needs k >= 1 levels, got k={k!r}")
+        if k is None or not 1 <= int(k) <= MAX_LEVELS:
+            raise ValueError(f"a ParisiFunction needs 1 <= k <= {MAX_LEVELS} levels, got k={k!r}")
         qd, yd = q.discretise(int(k))
         return validate_levels(qd, yd)
     if y is None:
@@ -147,16 +158,19 @@ def cascade_constants(q: Any, y: Any, dgamma: float) -> dict[str, np.ndarray]:
     d = abs(float(dgamma))
     v = np.diff(np.append(qa, 1.0))
     b = ya * d * np.sqrt(v)
-    T = 0.5 + np.exp(0.5 * b * b + log_ndtr(b))
+    with np.errstate(over="ignore"):  # an overflow is the one-line ValueError below
+        T = 0.5 + np.exp(0.5 * b * b + log_ndtr(b))
     k = ya.size
     logc = np.empty(k)
     logc[-1] = np.log(T[-1])
     for i in range(k - 2, -1, -1):
         r = ya[i] / ya[i + 1]
         logc[i] = np.log(T[i]) + r * (logc[i + 1] - np.log(ya[i + 1])) + gammaln(1.0 - r)
-    c = np.exp(logc)
+    with np.errstate(over="ignore", invalid="ignore"):
+        c = np.exp(logc)
     if not np.all(np.isfinite(c)) or np.any(c <= 0):
-        raise ValueError(f"cascade constants overflow for y={ya.tolist()}, dgamma={dgamma!r}")
+        raise ValueError(f"cascade constants overflow float64 for these {k} levels (y from "
+                         f"{ya[0]:.6g} to {ya[-1]:.6g}) at dgamma={dgamma!r}: use fewer levels")
     return {"v": v, "sd": np.sqrt(v), "T": T, "c": c}
 
 
