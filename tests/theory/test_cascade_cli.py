@@ -66,3 +66,46 @@ def test_sampler_levels_are_bounded():
     with pytest.raises(ValueError, match="1 <= k <= 4096"):
         sample_cascade_jumps(ParisiFunction.linear(2.5, 0.0, 0.9), dgamma=0.1, n=1, seed=1,
                              k=10**18)
+
+
+def test_cascade_strain_beyond_the_sampler_is_one_line_at_once(tmp_path, monkeypatch):
+    """--dgamma 30 with one level (q = 0, y = 1): a sample would draw ~e^450 states. Before, the
+    sampler drew 5e7 nodes (~15 s) and ended in a RuntimeError traceback, exit 1; now
+    check_representable refuses it up front (the kernel is not called) in one line, exit 2."""
+    r = run("--q", "0", "--y", "1", "--dgamma", "30", "--n", "10", "--out",
+            str(tmp_path / "x.png"))
+    assert r.returncode == 2, r.stderr[-2000:]
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("jamlab: error: dgamma=30.0 is too large"), \
+        r.stderr[-2000:]
+    assert "5e+07 nodes" in lines[0] and "smaller |dgamma|" in lines[0]
+    assert not (tmp_path / "x.png").exists()
+
+    from jamlab.theory import cascade
+
+    def never(*args):
+        raise AssertionError("the sampler ran")
+
+    monkeypatch.setattr(cascade._k, "sample_batch", never)
+    with pytest.raises(ValueError, match="too large for these levels"):
+        cascade.sample_cascade_jumps([0.0], [1.0], 30.0, 1, seed=1)
+    with pytest.raises(ValueError, match="too large for these levels"):
+        cascade.sample_cascade_jumps([0.0], [1.0], -7.2, 1, seed=1)  # the bound's edge (doc)
+    cascade.check_representable([0.0], [1.0], 7.1)  # not refused
+    # two levels: refused where the product over the levels is below MAX_MISS
+    with pytest.raises(ValueError, match="k=2, y up to 1.5"):
+        cascade.check_representable([0.0, 0.5], [0.5, 1.5], 10.0)
+
+
+def test_a_sample_reaching_the_node_limit_is_one_line(monkeypatch):
+    """A strain the up-front bound lets through but whose sample reaches MAX_NODES (here lowered
+    to 200 so that it happens at once) is a one-line ValueError naming dgamma and the limit,
+    not the kernel's RuntimeError."""
+    from jamlab.theory import cascade
+
+    monkeypatch.setattr(cascade, "MAX_NODES", 200)
+    with pytest.raises(ValueError) as e:
+        cascade.sample_cascade_jumps([0.0, 0.5], [0.5, 1.5], 3.0, 200, seed=1)
+    msg = str(e.value)
+    assert "\n" not in msg and "more than 2e+02 nodes" in msg and "dgamma=3.0" in msg, msg
+    assert "smaller |dgamma|" in msg

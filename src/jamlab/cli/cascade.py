@@ -39,7 +39,10 @@ def register(app: typer.Typer) -> None:
             None, "--k", help="Levels when discretising --linear or --power-law (default 16, "
             "at most 4096)."
         ),
-        dgamma: float = typer.Option(0.1, "--dgamma", help="Strain step δγ."),
+        dgamma: float = typer.Option(
+            0.1, "--dgamma", help="Strain step δγ (bounded by the sampler's 5e7 nodes per sample: "
+            "docs/theory-vs-cascade.md §3)."
+        ),
         n: int = typer.Option(100_000, "--n", help="Number of samples."),
         seed: int = typer.Option(1, "--seed", help="Random seed (explicit, reproducible)."),
         out: str = typer.Option("cascade.png", "--out", help="Histogram figure (PNG)."),

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.special import gammaln, log_ndtr
+from scipy.special import gammainc, gammaln, log_ndtr
 
 from jamlab.theory import _cascade_kernels as _k
 
@@ -51,11 +51,17 @@ __all__ = [
     "sample_cascade_jumps",
     "sample_cascade_tree",
     "brute_force_cascade_jumps",
+    "check_representable",
     "validate_levels",
 ]
 
-#: per-sample bound on the number of nodes materialised (a safety net, never reached in practice)
 MAX_NODES = 50_000_000
+"""Most nodes one sample may materialise (its work arrays then take several GB). Reaching it is a
+one-line ValueError; :func:`sample_cascade_jumps` refuses up front a strain at which one sample
+would reach it with probability ``> 1 - MAX_MISS`` (:func:`check_representable`)."""
+
+MAX_MISS = 1e-3
+"""The up-front refusal's bound on the probability that one sample stays below ``MAX_NODES``."""
 
 MAX_LEVELS = 4096
 """Most levels ``k`` a ``ParisiFunction`` is discretised into for the sampler (``jamlab cascade
@@ -174,6 +180,37 @@ def cascade_constants(q: Any, y: Any, dgamma: float) -> dict[str, np.ndarray]:
     return {"v": v, "sd": np.sqrt(v), "T": T, "c": c}
 
 
+def check_representable(q: Any, y: Any, dgamma: float) -> None:
+    r"""Refuse levels and a strain at which one sample exceeds :data:`MAX_NODES` (ValueError).
+
+    Let ``g`` be the old ground state and ``n_i`` its level-``i`` ancestor. The other children of
+    ``n_i`` whose subtree minimum of the bound ``A`` lies below ``U(g)`` are all drawn (the search
+    stops at ``max(U*, V*) >= U(g)``), each a node of its own. Their number is Poisson with mean
+    ``W_i (R_i e^{y_i d S_i} - 1) >= W_i (R_i - 1)``: ``R_i = c_i(δγ)/c_i(0)``, ``S_i >= 0`` the
+    sum of the positive stress increments above ``n_i``, and ``W_i = (c_i(0)/y_i) e^{y_i m_g}``
+    (``m_g`` the position of ``g``'s branch below ``n_i``) is ``Gamma(a_i, 1)``,
+    ``a_i = 1 - y_{i-1}/y_i`` (``a_1 = 1``), independently for each ``i``. So one sample stays
+    below ``M = MAX_NODES`` nodes with probability at most ``Π_i P(W_i < 2M/(R_i - 1))`` (plus
+    Poisson tails ``< k e^{-M/4}``); refused when that is below :data:`MAX_MISS`. One level:
+    ``R_1 = T_1 ≈ e^{(y d)²(1-q)/2}`` (``q = 0, y = 1``: refused from ``|δγ| = 7.2``).
+    """
+    qa, ya = validate_levels(q, y)
+    dg = _check_dgamma(dgamma)
+    log_r = np.log(cascade_constants(qa, ya, dg)["c"]) - np.log(
+        cascade_constants(qa, ya, 0.0)["c"])
+    a = 1.0 - np.concatenate(([0.0], ya[:-1] / ya[1:]))
+    grows = log_r > 1e-12
+    # 2M / (R - 1), 0 when R - 1 overflows
+    t = 2.0 * MAX_NODES / np.expm1(np.minimum(log_r[grows], 709.0))
+    with np.errstate(divide="ignore"):
+        log_p = float(np.sum(np.log(gammainc(a[grows], t))))
+    if log_p < np.log(MAX_MISS):
+        raise ValueError(
+            f"dgamma={dgamma!r} is too large for these levels (k={qa.size}, y up to "
+            f"{ya[-1]:.4g}): one sample would need more than {MAX_NODES:.0e} nodes, the "
+            "sampler's limit; use a smaller |dgamma|")
+
+
 def _check_dgamma(dgamma: Any) -> float:
     try:
         dg = float(dgamma)
@@ -243,10 +280,19 @@ def sample_cascade_jumps(
     if isinstance(n, bool) or int(n) != n or int(n) < 1:
         raise ValueError(f"n must be a positive integer, got {n!r}")
     n = int(n)
+    check_representable(qa, ya, dg)
     cst = cascade_constants(qa, ya, dg)
-    out = _k.sample_batch(
-        ya, cst["sd"], cst["T"], cst["c"], abs(dg), n, _kernel_seed(seed), MAX_NODES
-    )
+    try:
+        out = _k.sample_batch(
+            ya, cst["sd"], cst["T"], cst["c"], abs(dg), n, _kernel_seed(seed), MAX_NODES
+        )
+    except RuntimeError as e:  # the kernel's node limit; its samples are lost with it
+        if "max_nodes" not in str(e):
+            raise
+        raise ValueError(
+            f"a cascade sample needed more than {MAX_NODES:.0e} nodes (the sampler's limit) at "
+            f"dgamma={dgamma!r} with {qa.size} levels (y up to {ya[-1]:.4g}): use a smaller "
+            "|dgamma| (or fewer levels, a lower y)") from None
     du = out[:, _k.OUT_DU].copy()
     ds = out[:, _k.OUT_DS].copy()
     if dg < 0:
