@@ -187,6 +187,31 @@ def test_tree_holds_the_plain_samplers_ground_states(q, y, dg):
     assert jumps >= 5
 
 
+def test_tree_at_the_node_limit_says_so_or_refuses():
+    """sample_cascade_tree draws at most TREE_MAX_NODES nodes; it used to stop there silently,
+    marking as ground states whatever it had found. Now (two levels, δγ = 3): seed 2 settles both
+    ground states but stops inside the 1.5 window: ``truncated``, and the window it holds is
+    complete (a tree asked for a slightly narrower one is a prefix of it, untruncated, with the
+    same ground states); seed 34 stops before its ground states are settled: ValueError."""
+    from jamlab.theory.cascade import TREE_MAX_NODES
+
+    q, y = [0.0, 0.5], [0.5, 1.5]
+    t = sample_cascade_tree(q, y, 3.0, seed=2)
+    assert t.parent.size == TREE_MAX_NODES and t.truncated
+    assert t.window == 1.5 and 0.0 < t.complete_window < 1.5
+    inner = sample_cascade_tree(q, y, 3.0, seed=2, window=0.99 * t.complete_window)
+    assert not inner.truncated and inner.complete_window == inner.window
+    m = inner.parent.size
+    assert m < TREE_MAX_NODES
+    for name in ("parent", "level", "U", "Sigma"):
+        np.testing.assert_array_equal(getattr(t, name)[:m], getattr(inner, name))
+    assert (inner.old_gs, inner.new_gs) == (t.old_gs, t.new_gs)
+    whole = sample_cascade_tree(q, y, 3.0, seed=0)
+    assert not whole.truncated and whole.complete_window == 1.5
+    with pytest.raises(ValueError, match="more than 65534 nodes to settle its two ground states"):
+        sample_cascade_tree(q, y, 3.0, seed=34)
+
+
 @pytest.mark.parametrize(
     "kwargs,match",
     [

@@ -109,3 +109,25 @@ def test_a_sample_reaching_the_node_limit_is_one_line(monkeypatch):
     msg = str(e.value)
     assert "\n" not in msg and "more than 2e+02 nodes" in msg and "dgamma=3.0" in msg, msg
     assert "smaller |dgamma|" in msg
+
+
+def test_cascade_tree_at_the_node_limit(tmp_path):
+    """--tree draws at most 65534 nodes. It used to stop there without a word (exit 0). Now a
+    tree that stops inside its window is drawn with a one-line stderr note giving the window it
+    holds (and the title says so); one that stops before its ground states are settled is one
+    line, exit 2, and nothing is written (the tree is sampled before any output)."""
+    common = ("--q", "0,0.5", "--y", "0.5,1.5", "--dgamma", "3", "--n", "1")
+    out, csv, tree = tmp_path / "c.png", tmp_path / "c.csv", tmp_path / "t.png"
+    r = run(*common, "--seed", "2", "--out", str(out), "--csv", str(csv), "--tree", str(tree))
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert tree.stat().st_size > 0 and f"tree: {tree}" in r.stdout
+    notes = [ln for ln in r.stderr.splitlines() if ln.startswith("jamlab: note:")]
+    assert len(notes) == 1, r.stderr[-2000:]
+    assert "stopped at 65534 nodes" in notes[0] and "not 1.5" in notes[0], notes[0]
+    out.unlink(), csv.unlink(), tree.unlink()
+    r = run(*common, "--seed", "34", "--out", str(out), "--csv", str(csv), "--tree", str(tree))
+    assert r.returncode == 2, r.stderr[-2000:]
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("jamlab: error: the cascade tree needs more "
+                                                   "than 65534 nodes"), r.stderr[-2000:]
+    assert not out.exists() and not csv.exists() and not tree.exists()

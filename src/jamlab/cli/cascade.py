@@ -47,7 +47,11 @@ def register(app: typer.Typer) -> None:
         seed: int = typer.Option(1, "--seed", help="Random seed (explicit, reproducible)."),
         out: str = typer.Option("cascade.png", "--out", help="Histogram figure (PNG)."),
         csv: str = typer.Option(None, "--csv", help="Write the samples as CSV."),
-        tree: str = typer.Option(None, "--tree", help="Also draw one sampled cascade (PNG)."),
+        tree: str = typer.Option(
+            None, "--tree", help="Also draw one sampled cascade (PNG): the first sample's, with "
+            "the states within 1.5 of its ground states, at most 65534 nodes (a narrower window "
+            "is noted on stderr and in the title; unsettled ground states are an error)."
+        ),
         force: Force = False,
     ) -> None:
         """Sample jumps of the k-level cascade (SPEC §2) at strain δγ; histogram |ΔE| (log bins)
@@ -59,6 +63,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.plots.cascade import cascade_tree_figure, jump_histograms_figure
         from jamlab.theory.cascade import (
             MAX_LEVELS,
+            TREE_MAX_NODES,
             sample_cascade_jumps,
             sample_cascade_tree,
             validate_levels,
@@ -105,6 +110,8 @@ def register(app: typer.Typer) -> None:
         if n < 1 or n > 100_000_000:
             raise ValueError(f"--n must be in [1, 1e8], got {n}")
         r = sample_cascade_jumps(qa, ya, dgamma, n, seed)
+        # before anything is written: a tree whose ground states are not settled is an error
+        t = None if tree is None else sample_cascade_tree(qa, ya, dgamma, seed)
         printed = jump_distribution(parisi, dgamma)
 
         def exact(x: np.ndarray) -> np.ndarray:
@@ -126,7 +133,10 @@ def register(app: typer.Typer) -> None:
                 tmp, data, delimiter=",", header="dE,dU,dSigma,q_jump,n_states", comments="",
                 fmt="%.17g"))
             typer.echo(f"samples: {csv}")
-        if tree is not None:
-            t = sample_cascade_tree(qa, ya, dgamma, seed)
+        if t is not None:
             cascade_tree_figure(t, tree)
+            if t.truncated:
+                typer.echo(f"jamlab: note: the tree stopped at {TREE_MAX_NODES} nodes: it holds "
+                           f"the states within {t.complete_window:.3g} of the ground states, not "
+                           f"{t.window:g} (the figure's title says so)", err=True)
             typer.echo(f"tree: {tree}")

@@ -135,8 +135,10 @@ def cascade_tree_figure(tree: CascadeTree, path: str | Path | None = None) -> pl
     ax.set_yticklabels([f"q={v:.2f}" for v in tree.q] + ["states"])
     ax.set_xticks([])
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=2, fontsize=8)
-    ax.set_title(f"Derrida–Ruelle cascade, k={tree.q.size} (states near the ground states)",
-                 fontsize=10)
+    near = f"states within {tree.complete_window:.3g} of the ground states"
+    if tree.truncated:
+        near = f"truncated at {n} nodes: {near}, not {tree.window:g}"
+    ax.set_title(f"Derrida–Ruelle cascade, k={tree.q.size} ({near})", fontsize=10)
     fig.tight_layout()
     if path is not None:
         atomic_savefig(fig, path, dpi=120)

@@ -80,15 +80,17 @@ def _search(
     max_nodes: int,
     extra: float,
     truncate: bool,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int, float]:
     """The best-first search, run for ``n`` independent samples (the one implementation).
 
     Returns the ``(n, 5)`` per-sample output (see :func:`sample_batch`) and, of the last sample,
-    the tree it materialised: parent, level, U, Σ of every node (views of the work arrays) and the
-    indices of the old and new ground states. A sample stops once the heap top is
+    the tree it materialised: parent, level, U, Σ of every node (views of the work arrays), the
+    indices of the old and new ground states, and the bound ``reach`` below which it holds every
+    node (keys are popped in increasing order). A sample stops once the heap top is
     ``>= max(U*, V*) + extra`` (``extra = 0``: the exact stopping rule; ``extra > 0`` also draws
-    every state whose bound ``A`` lies below the threshold, for pictures). Reaching ``max_nodes``
-    nodes raises, or with ``truncate`` ends the sample there (the tree is then incomplete).
+    every state whose bound ``A`` lies below the threshold, for pictures); then ``reach`` is that
+    threshold. Reaching ``max_nodes`` nodes raises, or with ``truncate`` ends the sample there:
+    ``reach`` is then the heap top, below the threshold (the caller tells the cases apart).
     """
     np.random.seed(seed)
     k = y.shape[0]
@@ -112,6 +114,7 @@ def _search(
     nn = 1
     iu = -1
     iv = -1
+    reach = np.inf
     for t in range(n):
         nn = 1
         par[0] = -1
@@ -132,11 +135,14 @@ def _search(
         iu = -1
         iv = -1
         nstates = 0
+        reach = np.inf
         while hn > 0:
             if hkey[0] >= stop:
+                reach = stop
                 break
             if nn >= max_nodes:
                 if truncate:
+                    reach = hkey[0]
                     break
                 raise RuntimeError("cascade sampler exceeded max_nodes")
             p = hpar[0]
@@ -251,10 +257,10 @@ def _search(
             out[t, OUT_LEVEL] = -1
         out[t, OUT_NSTATES] = nstates
         out[t, OUT_NNODES] = nn
-    return out, par[:nn], lev[:nn], nu[:nn], ns[:nn], iu, iv
+    return out, par[:nn], lev[:nn], nu[:nn], ns[:nn], iu, iv, reach
 
 
-#: node limit of :func:`sample_tree` (a picture never gets near it)
+#: node limit of :func:`sample_tree` (a picture of more nodes is unreadable anyway)
 TREE_MAX_NODES = (1 << 16) - 2
 
 
@@ -286,13 +292,16 @@ def sample_tree(
     d: float,
     seed: int,
     extra: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int, float]:
     """One sample, keeping every node whose subtree bound is below ``max(U*, V*) + extra``.
 
-    Returns parent, level, U, Σ arrays of all materialised nodes, and the indices of the old and
-    new ground states. Used for drawing a cascade; exact for all states below the threshold. The
-    same search as :func:`sample_batch` (``n = 1``, same seed): with ``extra = 0`` it draws exactly
-    the nodes that sample does. Stops silently after :data:`TREE_MAX_NODES` nodes.
+    Returns parent, level, U, Σ arrays of all materialised nodes, the indices of the old and new
+    ground states (``-1`` when none was drawn) and ``reach``: every node whose bound lies below it
+    is held. Used for drawing a cascade; exact for all states below the threshold. The same search
+    as :func:`sample_batch` (``n = 1``, same seed): with ``extra = 0`` it draws exactly the nodes
+    that sample does. Stops after :data:`TREE_MAX_NODES` nodes: then ``reach`` is below
+    ``max(U*, V*) + extra``, and below ``max(U*, V*)`` when the ground states are not settled.
     """
-    _, par, lev, nu, ns, iu, iv = _search(y, sd, T, c, d, 1, seed, TREE_MAX_NODES, extra, True)
-    return par.copy(), lev.copy(), nu.copy(), ns.copy(), int(iu), int(iv)
+    _, par, lev, nu, ns, iu, iv, reach = _search(y, sd, T, c, d, 1, seed, TREE_MAX_NODES, extra,
+                                                 True)
+    return par.copy(), lev.copy(), nu.copy(), ns.copy(), int(iu), int(iv), float(reach)

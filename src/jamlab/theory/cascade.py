@@ -324,7 +324,9 @@ class CascadeTree:
 
     ``parent[j]`` (``-1`` for the root), ``level[j]`` (1 = root, ``k + 1`` = state), absolute
     energy ``U`` and stress ``Sigma``; ``old_gs``, ``new_gs`` index the minimisers of ``U`` and of
-    ``U - dgamma Σ``.
+    ``U - dgamma Σ``. ``window`` is the window asked for, ``complete_window`` the one the tree
+    holds: every state whose ``min(U, U - |δγ|Σ)`` lies within it of ``max(U*, V*)``. They differ
+    only when the tree stopped at :data:`TREE_MAX_NODES` nodes (``truncated``).
     """
 
     parent: np.ndarray
@@ -336,6 +338,19 @@ class CascadeTree:
     q: np.ndarray
     y: np.ndarray
     dgamma: float
+    window: float
+    complete_window: float
+
+    @property
+    def truncated(self) -> bool:
+        """True when the tree holds fewer states than ``window`` asked for (node limit)."""
+        return self.complete_window < self.window
+
+
+TREE_MAX_NODES = _k.TREE_MAX_NODES
+"""Most nodes :func:`sample_cascade_tree` draws (65534). A tree that reaches it before both ground
+states are settled is refused (ValueError); one that reaches it while drawing the window around
+them is returned with ``truncated`` set and the window it does hold."""
 
 
 def sample_cascade_tree(
@@ -351,18 +366,29 @@ def sample_cascade_tree(
     larger of the two ground-state values (plus their ancestors); for pictures.
 
     The same search as :func:`sample_cascade_jumps`: for a given ``seed`` it draws the cascade of
-    that function's first sample (``window=0`` gives exactly the nodes that sample drew)."""
+    that function's first sample (``window=0`` gives exactly the nodes that sample drew). At most
+    :data:`TREE_MAX_NODES` nodes: the window may then be narrower than asked
+    (``CascadeTree.truncated``, ``complete_window``); a sample that needs more nodes than that to
+    settle its two ground states is a ValueError."""
     qa, ya = _levels_from(q, y, k)
     dg = _check_dgamma(dgamma)
     if not np.isfinite(window) or window < 0:
         raise ValueError(f"window must be >= 0, got {window!r}")
     cst = cascade_constants(qa, ya, dg)
-    par, lev, u, s, iu, iv = _k.sample_tree(
-        ya, cst["sd"], cst["T"], cst["c"], abs(dg), _kernel_seed(seed), float(window)
+    d = abs(dg)
+    par, lev, u, s, iu, iv, reach = _k.sample_tree(
+        ya, cst["sd"], cst["T"], cst["c"], d, _kernel_seed(seed), float(window)
     )
+    settled = iu >= 0 and reach >= max(u[iu], u[iv] - d * s[iv])
+    if not settled:
+        raise ValueError(
+            f"the cascade tree needs more than {TREE_MAX_NODES} nodes to settle its two ground "
+            f"states at dgamma={dgamma!r} (k={qa.size}, seed={seed!r}): use a smaller |dgamma| "
+            "or another seed")
+    drawn = min(float(window), reach - max(u[iu], u[iv] - d * s[iv]))
     if dg < 0:
         s = -s
-    return CascadeTree(par, lev, u, s, int(iu), int(iv), qa, ya, dg)
+    return CascadeTree(par, lev, u, s, int(iu), int(iv), qa, ya, dg, float(window), drawn)
 
 
 def brute_force_cascade_jumps(
