@@ -159,11 +159,12 @@ def check_outputs(
     here, not after the computation).
 
     ``outputs``: ``{description: file to be written}``; ``inputs``: ``{description: file that is
-    read}``; ``directories``: ``{description: directory that will be written into}`` (an input
-    inside it is refused); ``read_directories``: ``{description: directory whose files are
-    read}`` (an output inside it is refused, even with ``force``: a new file there would be read
-    or removed with them). ``None`` values are skipped. Descriptions appear in the message, e.g.
-    ``{"--out": path}``.
+    read}`` (one that does not exist yet is refused as an output too: its reader would take a file
+    written there for it); ``directories``: ``{description: directory that will be written
+    into}`` (an input inside it is refused); ``read_directories``: ``{description: directory
+    whose files are read}`` (an output inside it is refused, even with ``force``: a new file there
+    would be read or removed with them). ``None`` values are skipped. Descriptions appear in the
+    message, e.g. ``{"--out": path}``.
     """
     inputs = {k: Path(v) for k, v in (inputs or {}).items() if v is not None}
     files = {k: Path(v) for k, v in outputs.items() if v is not None}
@@ -181,6 +182,9 @@ def check_outputs(
         ident = _identity(path)
         for in_name, in_path in inputs.items():
             if _identity(in_path) == ident:
+                if not os.path.lexists(in_path):  # a file the input's reader looks for
+                    raise ValueError(f"{name} {path} is the {in_name} {in_path} (absent now, "
+                                     "read as input once it exists); write it elsewhere")
                 raise ValueError(
                     f"{name} {path} is the same file as the {in_name} {in_path}; "
                     "writing it would destroy the input"

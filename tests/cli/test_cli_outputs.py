@@ -176,6 +176,30 @@ def test_export_never_writes_over_the_saved_configurations_it_reads(packing08, t
     assert {p: digest(p) for p in saved} == before
 
 
+def test_export_never_writes_the_traces_last_configuration_even_when_it_is_missing(
+        packing08, tmp_path, capsys, monkeypatch):
+    """``--out w.last.h5`` of the trace w.h5 was refused only when w.last.h5 existed; when it
+    was missing, export wrote it, and shear --resume and the next export read it as the run's
+    last configuration. Refused now in any spelling, with or without --force, nothing written."""
+    out = tmp_path / "w.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.03",
+                "--save-every", "1"]) == 0  # fmt: skip
+    last = tmp_path / "w.last.h5"
+    last.unlink()  # the trace holds its configuration, the snapshots are the export's frames
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path)
+    for target in (last, "w.last.h5", tmp_path / "sub" / ".." / "w.last.h5"):
+        for force in ([], ["--force"]):
+            assert run(["export", out, "--out", target, "--format", "extxyz", *force]) == 2
+            line = error_line(capsys)
+            assert f"is the last configuration {last} (absent now, read as input" in line, line
+    assert not last.exists()
+    assert {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert run(["export", out, "--out", tmp_path / "w.xyz"]) == 0  # elsewhere: as before
+    assert "3 frame(s), AQS steps 1..3" in capsys.readouterr().out
+
+
 def test_import_never_writes_over_the_meta_json_it_reads(packing08, tmp_path, capsys):
     with h5py.File(packing08, "r") as h5:
         positions, length = h5["positions"][()], float(h5.attrs["box_length"])

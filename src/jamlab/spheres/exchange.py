@@ -166,7 +166,9 @@ def saved_files(path: str | os.PathLike) -> tuple[dict[str, Path], Path | None]:
     ``path`` (``<stem>.last.h5`` and the ``step_*.h5`` of its snapshot folder, listed, not opened:
     :func:`frames_of` reads them) and that folder; ``({}, None)`` for a configuration. An export
     writes over none of them and nothing into the folder (a foreign file would be read, or removed
-    by ``shear --force``, with the snapshots)."""
+    by ``shear --force``, with the snapshots). ``<stem>.last.h5`` is listed even when it does not
+    exist: a file written there would be read as the run's last configuration (by ``shear
+    --resume`` and the next export)."""
     from jamlab.spheres.aqs.checkpoint import checkpoint_paths
 
     path = Path(path)
@@ -174,7 +176,7 @@ def saved_files(path: str | os.PathLike) -> tuple[dict[str, Path], Path | None]:
         return {}, None
     last, snapshots = checkpoint_paths(path)
     files = {f"saved configuration {f.name}": f for f in sorted(snapshots.glob("step_*.h5"))}
-    return files | ({"last configuration": last} if last.is_file() else {}), snapshots
+    return files | {"last configuration": last}, snapshots
 
 
 def export_frames(frames: list[Frame], fmt: str, out: str | os.PathLike) -> Path:
