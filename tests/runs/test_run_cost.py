@@ -53,7 +53,7 @@ def test_a_checkpoint_counts_by_its_steps(run, monkeypatch):
     for key in jam[:3]:
         run.sample_path(key).unlink()
     saved = {jam[0]: 2, jam[1]: None, jam[2]: -1}  # 2 of 5 steps; none; unreadable (redone)
-    monkeypatch.setattr(RunDir, "checkpoint_step", lambda self, key: saved.get(key))
+    monkeypatch.setattr(RunDir, "checkpoint_step", lambda self, key, study: saved.get(key))
     c = {c.phi: c for c in cell_costs(run, study)}["jamming"]
     assert c.to_do == pytest.approx(0.6 + 1 + 1, rel=1e-15)
     assert c.left == pytest.approx(c.seconds[0] * 2.6, rel=1e-15)

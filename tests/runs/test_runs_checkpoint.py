@@ -147,7 +147,7 @@ def test_run_resumes_a_checkpointed_sample_and_removes_its_checkpoint(tmp_path, 
     with pytest.raises(Stop):
         prepare_and_shear(study, key, sample_seed(study.seed, key), rd.checkpoint_dir(key),
                           progress=stop_after(12))
-    assert rd.checkpoint_step(key) == 10
+    assert rd.checkpoint_step(key, study) == 10
     # ... then the run: the sample resumes at step 10 and ends as the uninterrupted run's
     logged = []
     summary = run_study(study, rd.path, Execution(workers=0), log=logged.append)
@@ -158,6 +158,53 @@ def test_run_resumes_a_checkpointed_sample_and_removes_its_checkpoint(tmp_path, 
     # a resumed sample's times cover both invocations
     with __import__("h5py").File(rd.sample_path(key), "r") as h5:
         assert h5.attrs["cpu_seconds"] > 0
+
+
+def test_status_reports_the_checkpoint_verdict_the_run_acts_on(tmp_path, same_runs, capsys):
+    """`jamlab status` said "at step 5 of 23" of a checkpoint whose trace's configuration has a
+    dangling link or whose prepared.h5 is unreadable (it read the trace's rows only), while
+    `jamlab run` found it unusable and started the sample afresh. Both now use one verdict
+    (jamlab.runs.physics.checkpoint_step): status says the sample will be redone, and the run
+    does exactly that (not resumed, equal to the uninterrupted run); a sound checkpoint is
+    reported at its step and resumed from it."""
+    import h5py
+
+    from jamlab.cli import main
+
+    study = Study(**STUDIES["constant-volume"], checkpoint_every=EVERY)
+    run_study(study, tmp_path / "whole", Execution(workers=0))
+    key = study.keys()[0]
+
+    def dangling(folder):
+        with h5py.File(folder / TRACE, "a") as h5:
+            del h5["configuration/diameters"]
+            h5["configuration/diameters"] = h5py.SoftLink("/nothere")
+
+    def unreadable(folder):
+        (folder / PREPARED).write_bytes(b"not HDF5")
+
+    redone = "damaged or not this sample's, will be redone from the start"
+    for name, damage, line, resumed in (("sound", None, "at step 5 of 23", 1),
+                                        ("dangling", dangling, redone, 0),
+                                        ("unreadable", unreadable, redone, 0)):
+        rd = RunDir.open(tmp_path / name, study)
+        with rd.lock():
+            rd.start(study)
+        with pytest.raises(Stop):
+            prepare_and_shear(study, key, sample_seed(study.seed, key), rd.checkpoint_dir(key),
+                              progress=stop_after(7))
+        if damage is not None:
+            damage(rd.checkpoint_dir(key))
+        capsys.readouterr()
+        with pytest.raises(SystemExit) as exc:
+            main(["status", str(rd.path)])
+        assert exc.value.code in (0, None)
+        out = capsys.readouterr().out
+        said = [ln for ln in out.splitlines() if ln.startswith("checkpoint ")]
+        assert said == [f"checkpoint phi=0.8 N=32 sample=0: {line}"], (name, out)
+        summary = run_study(study, rd.path, Execution(workers=0))
+        assert (summary.done, summary.resumed) == (1, resumed), name
+        same_runs(tmp_path / "whole", rd.path)
 
 
 def test_a_written_samples_leftover_checkpoint_is_removed(tmp_path):

@@ -306,7 +306,10 @@ def register(app: typer.Typer) -> None:
         console = Console()
         console.print(table)
         past = {key: run.failures(key) for key in study.keys()}  # read once, used thrice
-        for line in cost_lines(cell_costs(run, study, states, attrs, past)):
+        # each unfinished sample's checkpoint judged once (as jamlab run will), used twice
+        steps = {key: run.checkpoint_step(key, study) for key in study.keys()
+                 if study.checkpoint_every and states[key] != "done"}
+        for line in cost_lines(cell_costs(run, study, states, attrs, past, steps)):
             console.print(line, markup=False, soft_wrap=True)
         for line in census_lines(machine_census(run, study, states, attrs=attrs)):
             console.print(line, markup=False, soft_wrap=True)
@@ -314,12 +317,13 @@ def register(app: typer.Typer) -> None:
             console.print(line, markup=False, soft_wrap=True)
         if study.checkpoint_every:
             for key in study.keys():
-                if states[key] == "done" or (step := run.checkpoint_step(key)) is None:
+                if states[key] == "done" or (step := steps[key]) is None:
                     continue
-                where = ("unreadable, will be redone" if step < 0
+                # the verdict jamlab run acts on: a damaged or foreign checkpoint is replaced
+                where = ("damaged or not this sample's, will be redone from the start" if step < 0
                          else f"at step {step} of {study.n_steps}")
                 console.print(f"checkpoint phi={key.phi_label} N={key.n} sample={key.index}: "
-                              f"{where}", markup=False)
+                              f"{where}", markup=False, soft_wrap=True)
         for key in study.keys():
             # a finished sample that failed before says so (its failures are kept)
             if states[key] == "done" and past[key]:

@@ -78,11 +78,13 @@ def cell_costs(
     run: RunDir, study: Study, states: Mapping[SampleKey, str] | None = None,
     attrs: Mapping[SampleKey, Mapping[str, Any]] | None = None,
     failures: Mapping[SampleKey, list[dict[str, Any]]] | None = None,
+    checkpoints: Mapping[SampleKey, int | None] | None = None,
 ) -> list[CellCost]:
     """One :class:`CellCost` per ``(φ, N)`` of ``study``, in the study's order; ``states``: a
     :meth:`RunDir.scan` already made; ``attrs``: the finished samples' root attributes from
     :meth:`RunDir.survey` (then no file is opened again); ``failures``: every sample's
-    :meth:`RunDir.failures`, already read."""
+    :meth:`RunDir.failures`, already read; ``checkpoints``: the unfinished samples'
+    :meth:`RunDir.checkpoint_step`, already read."""
     cells: dict[tuple[str, int], dict] = {}
     for key, state in (run.scan(study) if states is None else states).items():
         cell = cells.setdefault((key.phi_label, key.n),
@@ -96,7 +98,9 @@ def cell_costs(
             if seconds is not None:
                 cell["seconds"].append(seconds)
             continue
-        saved = run.checkpoint_step(key) if study.checkpoint_every else None
+        saved = None
+        if study.checkpoint_every:
+            saved = run.checkpoint_step(key, study) if checkpoints is None else checkpoints[key]
         cell["to_do"] += 1.0 - (max(saved, 0) / study.n_steps if saved is not None else 0.0)
     return [
         CellCost(phi=phi, n=n, seconds=tuple(c["seconds"]), done=c["done"], to_do=c["to_do"],

@@ -87,13 +87,6 @@ def prepare_and_shear(
             config, times = _save_prepared(folder, config, attrs, seed, (wall0, cpu0))
     else:
         config, attrs, previous, start, times = saved
-        if previous is not None and failed_steps(previous, study.force_tol):
-            # a saved trace with a step that did not converge holds the sample's failure (it was
-            # recorded as failed): resumed, it would only fail again. The shear is redone from the
-            # prepared packing (docs/runs.md: a retried failure); the saves in between are not
-            # resume points (the run's counters at them are not kept), nor are their times
-            previous = start = None
-            times = {"prepared": times["prepared"]}
         resumed_from = 0 if previous is None else previous.n_steps
         # the times of the last record not beyond the save resumed from
         steps = [int(k) for k in times if k != "prepared" and int(k) <= resumed_from]
@@ -232,10 +225,16 @@ def _save_prepared(folder: Path, config: Any, attrs: dict[str, Any], seed: int,
     return read_packing(folder / PREPARED), times
 
 
-def _read_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> tuple | None:
-    """``(prepared packing, preparation attributes, trace so far or None, configuration at its
-    end, times)`` from the sample's checkpoint ``folder``, or ``None`` (nothing saved; a
-    checkpoint that cannot be read or is not this sample's is removed)."""
+class _Unusable(Exception):
+    """A checkpoint that cannot be read or is not the sample's (:func:`_load_checkpoint`)."""
+
+
+def _load_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> tuple | None:
+    """``(prepared packing, preparation attributes, trace to resume or None, configuration at its
+    end, times)`` from the sample's checkpoint ``folder``; ``None`` when nothing is saved;
+    :class:`_Unusable` for a checkpoint that cannot be read or is not this sample's. Writes
+    nothing: the one verdict of :func:`prepare_and_shear` (which acts on it) and of
+    :func:`checkpoint_step` (``jamlab status``, the cost lines)."""
     import h5py
 
     from jamlab.spheres.aqs import resume_configuration
@@ -264,6 +263,35 @@ def _read_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> t
     except (OSError, ValueError, KeyError, TypeError):
         ours = False
     if not ours:
+        raise _Unusable(folder)
+    if previous is not None and failed_steps(previous, study.force_tol):
+        # a saved trace with a step that did not converge holds the sample's failure (it was
+        # recorded as failed): resumed, it would only fail again. The shear is redone from the
+        # prepared packing (docs/runs.md: a retried failure); the saves in between are not
+        # resume points (the run's counters at them are not kept), nor are their times
+        previous = start = None
+        times = {"prepared": times["prepared"]}
+    return config, attrs, previous, start, times
+
+
+def _read_checkpoint(folder: Path, study: Study, key: SampleKey, seed: int) -> tuple | None:
+    """:func:`_load_checkpoint`, a checkpoint it finds unusable removed (then ``None``: the
+    sample starts afresh)."""
+    try:
+        return _load_checkpoint(folder, study, key, seed)
+    except _Unusable:
         shutil.rmtree(folder, ignore_errors=True)
         return None
-    return config, attrs, previous, start, times
+
+
+def checkpoint_step(folder: Path, study: Study, key: SampleKey, seed: int) -> int | None:
+    """The step the sample's next invocation resumes from (``0``: from the prepared packing, the
+    shear redone), ``None`` without a checkpoint, ``-1`` for one it removes, starting afresh.
+    Reads what a resume reads (the prepared packing, the trace and its configuration)."""
+    try:
+        saved = _load_checkpoint(folder, study, key, seed)
+    except _Unusable:
+        return -1
+    if saved is None:
+        return None
+    return 0 if saved[2] is None else saved[2].n_steps

@@ -245,20 +245,15 @@ class RunDir:
             if folder.is_dir():
                 shutil.rmtree(folder)
 
-    def checkpoint_step(self, key: SampleKey) -> int | None:
-        """The step of ``key``'s last save (0: only its prepared packing is saved), ``None``
-        without a checkpoint, ``-1`` for one that cannot be read (it will be redone)."""
-        folder = self.checkpoint_dir(key)
-        if not (folder / CHECKPOINT_PREPARED).is_file():
-            return None
-        if not (folder / CHECKPOINT_TRACE).is_file():
-            return 0
-        from jamlab.spheres.trace import read_trace
+    def checkpoint_step(self, key: SampleKey, study: Study) -> int | None:
+        """The step ``key``'s sample resumes from at the next ``jamlab run`` (0: from its
+        prepared packing), ``None`` without a checkpoint, ``-1`` for one that the run removes and
+        starts afresh (damaged, or not the sample's): ``jamlab.runs.physics.checkpoint_step``,
+        the verdict the run itself acts on."""
+        from jamlab.runs.physics import checkpoint_step
+        from jamlab.runs.seeds import sample_seed
 
-        try:
-            return read_trace(folder / CHECKPOINT_TRACE).n_steps
-        except (OSError, ValueError, KeyError):
-            return -1
+        return checkpoint_step(self.checkpoint_dir(key), study, key, sample_seed(study.seed, key))
 
     def prune_checkpoints(self) -> None:
         """Remove the empty folders left in ``checkpoints/`` (at the end of a run: a worker may
