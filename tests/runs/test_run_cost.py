@@ -8,7 +8,7 @@ import h5py
 import pytest
 
 from cli_helpers import jamlab
-from jamlab.runs import Execution, RunDir, Study, run_study
+from jamlab.runs import Execution, RunDir, Study, cost, run_study
 from jamlab.runs.cost import cell_costs
 
 STUDY = Study(phi=["jamming", 0.8], n=[8], samples=4, dgamma=1e-3, gamma_max=5e-3, seed=2,
@@ -53,7 +53,7 @@ def test_a_checkpoint_counts_by_its_steps(run, monkeypatch):
     for key in jam[:3]:
         run.sample_path(key).unlink()
     saved = {jam[0]: 2, jam[1]: None, jam[2]: -1}  # 2 of 5 steps; none; unreadable (redone)
-    monkeypatch.setattr(RunDir, "checkpoint_step", lambda self, key, study: saved.get(key))
+    monkeypatch.setattr(cost, "resume_step", lambda run, key, study: saved.get(key))
     c = {c.phi: c for c in cell_costs(run, study)}["jamming"]
     assert c.to_do == pytest.approx(0.6 + 1 + 1, rel=1e-15)
     assert c.left == pytest.approx(c.seconds[0] * 2.6, rel=1e-15)

@@ -12,7 +12,7 @@ import pytest
 from runs_helpers import Stop, stop_after
 
 from jamlab.runs import Execution, RunDir, Study, run_study, sample_seed
-from jamlab.runs.physics import PREPARED, TIMES, TRACE, prepare_and_shear
+from jamlab.runs.physics import PREPARED, TIMES, TRACE, prepare_and_shear, resume_step
 from jamlab.runs.results import SampleResult
 
 pytest.importorskip("jamlab.spheres.packing")
@@ -147,7 +147,7 @@ def test_run_resumes_a_checkpointed_sample_and_removes_its_checkpoint(tmp_path, 
     with pytest.raises(Stop):
         prepare_and_shear(study, key, sample_seed(study.seed, key), rd.checkpoint_dir(key),
                           progress=stop_after(12))
-    assert rd.checkpoint_step(key, study) == 10
+    assert resume_step(rd, key, study) == 10
     # ... then the run: the sample resumes at step 10 and ends as the uninterrupted run's
     logged = []
     summary = run_study(study, rd.path, Execution(workers=0), log=logged.append)

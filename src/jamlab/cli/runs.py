@@ -288,6 +288,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.runs.cost import cell_costs
         from jamlab.runs.flag_rule import FLAG_RULE_ATTRS, flag_rule_lines
         from jamlab.runs.origin import census_lines, machine_census
+        from jamlab.runs.physics import resume_step
 
         run = RunDir(run_dir)
         study = run.study()
@@ -307,7 +308,7 @@ def register(app: typer.Typer) -> None:
         console.print(table)
         past = {key: run.failures(key) for key in study.keys()}  # read once, used thrice
         # each unfinished sample's checkpoint judged once (as jamlab run will), used twice
-        steps = {key: run.checkpoint_step(key, study) for key in study.keys()
+        steps = {key: resume_step(run, key, study) for key in study.keys()
                  if study.checkpoint_every and states[key] != "done"}
         for line in cost_lines(cell_costs(run, study, states, attrs, past, steps)):
             console.print(line, markup=False, soft_wrap=True)

@@ -3,7 +3,7 @@
 Per ``(φ, N)`` cell of a study: the CPU seconds every finished sample records (its ``cpu_seconds``
 attribute: preparation and shear, summed over every resume of the sample), and the work left —
 each pending, failed or corrupt sample counts as one sample, less the fraction of its steps a
-checkpoint already holds (``RunDir.checkpoint_step`` / the study's steps); and the failures the
+checkpoint already holds (``physics.resume_step`` / the study's steps); and the failures the
 run recorded (``RunDir.failures``: failed samples and those a retry finished) with the CPU
 seconds their failing invocations spent, work that no finished sample's time includes. The
 projection is the finished samples' mean times that count: an estimate for the machine the
@@ -20,6 +20,7 @@ from typing import Any
 
 import h5py
 
+from jamlab.runs.physics import resume_step
 from jamlab.runs.storage import RunDir
 from jamlab.runs.study import SampleKey, Study
 
@@ -84,7 +85,7 @@ def cell_costs(
     :meth:`RunDir.scan` already made; ``attrs``: the finished samples' root attributes from
     :meth:`RunDir.survey` (then no file is opened again); ``failures``: every sample's
     :meth:`RunDir.failures`, already read; ``checkpoints``: the unfinished samples'
-    :meth:`RunDir.checkpoint_step`, already read."""
+    :func:`jamlab.runs.physics.resume_step`, already read."""
     cells: dict[tuple[str, int], dict] = {}
     for key, state in (run.scan(study) if states is None else states).items():
         cell = cells.setdefault((key.phi_label, key.n),
@@ -100,7 +101,7 @@ def cell_costs(
             continue
         saved = None
         if study.checkpoint_every:
-            saved = run.checkpoint_step(key, study) if checkpoints is None else checkpoints[key]
+            saved = resume_step(run, key, study) if checkpoints is None else checkpoints[key]
         cell["to_do"] += 1.0 - (max(saved, 0) / study.n_steps if saved is not None else 0.0)
     return [
         CellCost(phi=phi, n=n, seconds=tuple(c["seconds"]), done=c["done"], to_do=c["to_do"],

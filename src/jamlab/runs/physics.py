@@ -44,7 +44,7 @@ from jamlab.provenance import continued
 from jamlab.runs.results import TRACE_FIELDS, SampleFailed, SampleResult
 from jamlab.runs.storage import CHECKPOINT_PREPARED as PREPARED
 from jamlab.runs.storage import CHECKPOINT_TRACE as TRACE
-from jamlab.runs.storage import write_json
+from jamlab.runs.storage import RunDir, write_json
 from jamlab.runs.study import SampleKey, Study
 
 TIMES = "times.json"
@@ -295,3 +295,11 @@ def checkpoint_step(folder: Path, study: Study, key: SampleKey, seed: int) -> in
     if saved is None:
         return None
     return 0 if saved[2] is None else saved[2].n_steps
+
+
+def resume_step(run: RunDir, key: SampleKey, study: Study) -> int | None:
+    """:func:`checkpoint_step` of ``key``'s checkpoint folder in the run directory ``run``: the
+    step its sample resumes from at the next ``jamlab run`` (``jamlab status``, the cost lines)."""
+    from jamlab.runs.seeds import sample_seed
+
+    return checkpoint_step(run.checkpoint_dir(key), study, key, sample_seed(study.seed, key))

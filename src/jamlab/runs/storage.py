@@ -245,16 +245,6 @@ class RunDir:
             if folder.is_dir():
                 shutil.rmtree(folder)
 
-    def checkpoint_step(self, key: SampleKey, study: Study) -> int | None:
-        """The step ``key``'s sample resumes from at the next ``jamlab run`` (0: from its
-        prepared packing), ``None`` without a checkpoint, ``-1`` for one that the run removes and
-        starts afresh (damaged, or not the sample's): ``jamlab.runs.physics.checkpoint_step``,
-        the verdict the run itself acts on."""
-        from jamlab.runs.physics import checkpoint_step
-        from jamlab.runs.seeds import sample_seed
-
-        return checkpoint_step(self.checkpoint_dir(key), study, key, sample_seed(study.seed, key))
-
     def prune_checkpoints(self) -> None:
         """Remove the empty folders left in ``checkpoints/`` (at the end of a run: a worker may
         be creating its folder while the run goes on)."""
