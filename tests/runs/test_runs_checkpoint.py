@@ -202,8 +202,13 @@ def test_status_reports_the_checkpoint_verdict_the_run_acts_on(tmp_path, same_ru
         out = capsys.readouterr().out
         said = [ln for ln in out.splitlines() if ln.startswith("checkpoint ")]
         assert said == [f"checkpoint phi=0.8 N=32 sample=0: {line}"], (name, out)
-        summary = run_study(study, rd.path, Execution(workers=0))
+        logged = []
+        summary = run_study(study, rd.path, Execution(workers=0), log=logged.append)
         assert (summary.done, summary.resumed) == (1, resumed), name
+        # the run's first line counts the checkpoint as it then acts on it
+        counted = ("1 with a checkpoint)" if resumed else
+                   "0 with a checkpoint, 1 with a damaged checkpoint (redone from the start)")
+        assert counted in logged[0], (name, logged[0])
         same_runs(tmp_path / "whole", rd.path)
 
 

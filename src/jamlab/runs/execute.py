@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from jamlab import validation
+from jamlab.runs import physics
 from jamlab.runs.seeds import sample_seed
 from jamlab.runs.storage import RunDir, check_sample_data
 from jamlab.runs.study import SampleKey, Study
@@ -298,10 +299,14 @@ def run_study(
         )
         if log is not None:
             corrupt = sum(1 for s in states.values() if s == "corrupt")
+            # the verdict the sample's worker will act on: a damaged checkpoint is redone
+            damaged = sum(1 for key in saved if physics.resume_step(run, key, study) == -1)
             log(
                 f"{run.path}: {summary.skipped} of {summary.total} samples done, "
                 f"{len(todo)} to run ({corrupt} corrupt, {len(removed)} temporary files removed"
-                + (f", {len(saved)} with a checkpoint" if checkpointing else "")
+                + (f", {len(saved) - damaged} with a checkpoint" if checkpointing else "")
+                + (f", {damaged} with a damaged checkpoint (redone from the start)"
+                   if damaged else "")
                 + f") on {execution.describe()}"
             )
         seeds = {key: sample_seed(study.seed, key) for key in todo}
