@@ -231,7 +231,11 @@ def register(app: typer.Typer) -> None:
             resume_configuration,
             shear,
         )
-        from jamlab.spheres.aqs.checkpoint import begin_replacement, recover_replacement
+        from jamlab.spheres.aqs.checkpoint import (
+            begin_replacement,
+            recover_replacement,
+            snapshot_files,
+        )
         from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
@@ -278,7 +282,7 @@ def register(app: typer.Typer) -> None:
         else:
             outputs["checkpoint"] = last
             # the snapshots of an earlier run to --out would be read as this run's
-            stale = sorted(snapshots.glob("step_*.h5")) if snapshots.is_dir() else []
+            stale = snapshot_files(snapshots)
             check_outputs(
                 outputs,
                 {"configuration": config},

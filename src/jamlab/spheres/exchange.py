@@ -169,13 +169,13 @@ def saved_files(path: str | os.PathLike) -> tuple[dict[str, Path], Path | None]:
     by ``shear --force``, with the snapshots). ``<stem>.last.h5`` is listed even when it does not
     exist: a file written there would be read as the run's last configuration (by ``shear
     --resume`` and the next export)."""
-    from jamlab.spheres.aqs.checkpoint import checkpoint_paths
+    from jamlab.spheres.aqs.checkpoint import checkpoint_paths, snapshot_files
 
     path = Path(path)
     if _h5_format(path) != "jamlab-aqs-trace":
         return {}, None
     last, snapshots = checkpoint_paths(path)
-    files = {f"saved configuration {f.name}": f for f in sorted(snapshots.glob("step_*.h5"))}
+    files = {f"saved configuration {f.name}": f for f in snapshot_files(snapshots)}
     return files | {"last configuration": last}, snapshots
 
 

@@ -33,6 +33,12 @@ def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
     return out.with_name(f"{stem}.last.h5"), out.with_name(f"{stem}.configs")
 
 
+
+def snapshot_files(snapshots: Path) -> list[Path]:
+    """The snapshots ``step_*.h5`` in a run's folder ``<stem>.configs`` (:func:`checkpoint_paths`),
+    in step order (the names are zero-padded); empty when the folder does not exist."""
+    return sorted(snapshots.glob("step_*.h5")) if snapshots.is_dir() else []
+
 def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
                     snapshot: bool) -> None:
     """Write ``trace`` (the run so far) together with its last configuration ``packing`` (one
@@ -100,7 +106,7 @@ def _move_aside(snapshots: Path, aside: Path) -> None:
     held = aside / _HELD
     held.mkdir(exist_ok=True)
     if snapshots.is_dir():
-        for f in sorted(snapshots.glob("step_*.h5")):
+        for f in snapshot_files(snapshots):
             os.replace(f, held / f.name)
         if not any(snapshots.iterdir()):
             snapshots.rmdir()
@@ -139,7 +145,7 @@ def recover_replacement(out: str | Path) -> str | None:
     if _identity(out) == old["trace"] or not out.is_file():
         if held.is_dir():
             if (aside / _MOVED).exists():
-                for f in snapshots.glob("step_*.h5"):
+                for f in snapshot_files(snapshots):
                     f.unlink()  # the new run's, written before its trace replaced out
                 (aside / _MOVED).unlink()
             for f in sorted(held.iterdir()):
@@ -216,10 +222,7 @@ def saved_configurations(out: str | Path, trace: Trace) -> dict[int, Path]:
             raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
         return int(step)
 
-    files = {}
-    if snapshots.is_dir():
-        for snap in sorted(snapshots.glob("step_*.h5")):
-            files[step_of(snap)] = snap
+    files = {step_of(snap): snap for snap in snapshot_files(snapshots)}
     if last.is_file():
         files.setdefault(step_of(last), last)
     if not files:
