@@ -546,23 +546,26 @@ def test_python_api_shear_uses_the_validation_layer(good):
 
 
 def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path):
-    """SIGKILL of `shear --save-every 3` at random moments (up to 12 trials, the window adapted to
-    the machine's load): whenever a trace exists,
-    `--resume` succeeds, gives all 61 rows, and the rows written before the kill are bit for bit
-    those of the uninterrupted run. (Equality of the whole file after the resume:
-    tests/cli/test_cli_resume.py.)"""
+    """SIGKILL of `shear --save-every 3` at random moments of its stepping loop (12 trials):
+    whenever a trace exists, `--resume` succeeds, gives all 61 rows, and the rows written before
+    the kill are bit for bit those of the uninterrupted run. (Equality of the whole file after
+    the resume: tests/cli/test_cli_resume.py.)
+
+    The moments are aimed after the trace first appears, not by the clock from the launch: on a
+    loaded machine Python's start-up can outlast the whole stepping loop, and kills timed from
+    the launch then all land before the first checkpoint or after the end (this test once
+    resumed nothing in 12 trials on a CI machine)."""
     args = ("--dgamma", "1e-3", "--gamma-max", "0.06", "--save-every", "3")
     ref = tmp_path / "ref.h5"
+    proc = subprocess.Popen([sys.executable, "-m", "jamlab", "shear", str(good), *args, "--out",
+                             str(ref)], stdout=subprocess.DEVNULL)  # fmt: skip
+    while not ref.exists() and proc.poll() is None:
+        time.sleep(0.002)
     start = time.perf_counter()
-    assert jamlab("shear", good, *args, "--out", ref).returncode == 0
-    wall = time.perf_counter() - start  # kill moments spread over a whole run on this machine
+    assert proc.wait() == 0
+    loop = time.perf_counter() - start  # the stepping loop after the first checkpoint
     whole = read_trace(ref)
     rng = np.random.default_rng(15)
-    # kill moments in [lo, hi] x the uninterrupted wall time, first [0.3, 1.0]: some runs die
-    # before their first checkpoint or after their end, most in the middle. On a loaded machine
-    # a run's start-up can outlast the reference's whole time: the window then moves later
-    # after a kill that came too early, earlier after one that came too late
-    lo, hi = 0.3, 1.0
     resumed_trials = 0
     for trial in range(12):
         d = tmp_path / f"t{trial}"
@@ -570,19 +573,17 @@ def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path)
         out = d / "w.h5"
         cmd = [sys.executable, "-m", "jamlab", "shear", str(good), *args, "--out", str(out)]
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        frac = rng.uniform(lo, hi)
-        time.sleep(frac * wall)
+        while not out.exists() and proc.poll() is None:
+            time.sleep(0.002)
+        time.sleep(rng.uniform(0.0, 0.8) * loop)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-        if not out.exists():
-            lo, hi = frac, max(hi, 2.0 * frac)
-            continue  # killed before the first checkpoint: nothing to resume
+        assert out.exists(), trial  # the trace appears at the first checkpoint and stays
         before = read_trace(out)
         if before.n_steps == 60:  # killed after the run ended: nothing left to resume
             assert "nothing to do" in one_line_error(
                 jamlab("shear", good, *args, "--resume", "--out", out)
             )
-            lo, hi = min(lo, 0.5 * frac), frac
             continue
         r = jamlab("shear", good, *args, "--resume", "--out", out)
         assert r.returncode == 0, (trial, r.stderr)
@@ -593,4 +594,4 @@ def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path)
         for name in ("energy", "shear_stress", "plastic", "iterations"):
             assert getattr(after, name)[:rows].tobytes() == getattr(whole, name)[:rows].tobytes()
         resumed_trials += 1
-    assert resumed_trials >= 1
+    assert resumed_trials >= 6, resumed_trials  # most kills land inside the loop
