@@ -131,3 +131,47 @@ def test_cascade_tree_at_the_node_limit(tmp_path):
     assert len(lines) == 1 and lines[0].startswith("jamlab: error: the cascade tree needs more "
                                                    "than 65534 nodes"), r.stderr[-2000:]
     assert not out.exists() and not csv.exists() and not tree.exists()
+
+
+def test_total_work_beyond_the_limit_is_one_line_at_once(tmp_path, monkeypatch):
+    """One level (q = 0, y = 1) at --dgamma 5 with the default --n 100000: each sample draws
+    ~2.7e5 nodes, 2.7e10 in all, about an hour. Before, the command just ran; now it is refused
+    up front in one line naming the largest --n that fits, exit 2, nothing written."""
+    r = run("--q", "0", "--y", "1", "--dgamma", "5", "--out", str(tmp_path / "x.png"))
+    assert r.returncode == 2, r.stderr[-2000:]
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("jamlab: error: n=100000 samples"), lines
+    # the largest n: 1e10 / (T_1 - 1), T_1 = 1/2 + e^{25/2} Φ(5) from mpmath (independent)
+    import mpmath
+
+    t1 = mpmath.mpf(1) / 2 + mpmath.e ** (mpmath.mpf(25) / 2) * mpmath.ncdf(5)
+    assert f"use n <= {int(mpmath.floor(mpmath.mpf(10) ** 10 / (t1 - 1)))} " in lines[0], lines
+    assert list(tmp_path.iterdir()) == []
+
+    from jamlab.theory import cascade
+
+    def never(*args):
+        raise AssertionError("the sampler ran")
+
+    monkeypatch.setattr(cascade._k, "sample_batch", never)
+    with pytest.raises(ValueError, match="would draw at least"):
+        cascade.sample_cascade_jumps([0.0], [1.0], 5.0, 100_000, seed=1)
+
+
+def test_the_expected_nodes_bound_is_below_the_sampled_mean():
+    """expected_nodes_bound is a lower bound on the mean nodes per sample: for one level it is
+    T_1 - 1 (mpmath), the sampled mean itself; with two and three levels it lies below the
+    sampled mean (far below: it leaves out the stress increments, docs/theory-vs-cascade.md)."""
+    import mpmath
+
+    from jamlab.theory.cascade import expected_nodes_bound, sample_cascade_jumps
+
+    b = 3.0
+    t1 = float(mpmath.mpf(1) / 2 + mpmath.e ** (mpmath.mpf(b) ** 2 / 2) * mpmath.ncdf(b))
+    assert expected_nodes_bound([0.0], [1.0], 3.0) == pytest.approx(t1 - 1, rel=1e-12)
+    for q, y, dg, n in [([0.0], [1.0], 3.0, 20_000), ([0.0, 0.5], [0.5, 1.5], 2.0, 2_000),
+                        ([0.0, 0.3, 0.7], [0.3, 1.0, 2.5], 1.0, 2_000)]:  # fmt: skip
+        nodes = sample_cascade_jumps(q, y, dg, n, seed=3).n_nodes
+        mean, se = nodes.mean(), nodes.std() / np.sqrt(n)
+        assert expected_nodes_bound(q, y, dg) < mean + 4 * se, (q, dg, mean)
+    assert expected_nodes_bound([0.0], [1.0], 0.0) == 0.0

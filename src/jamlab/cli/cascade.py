@@ -43,7 +43,10 @@ def register(app: typer.Typer) -> None:
             0.1, "--dgamma", help="Strain step δγ (bounded by the sampler's 5e7 nodes per sample: "
             "docs/theory-vs-cascade.md §3)."
         ),
-        n: int = typer.Option(100_000, "--n", help="Number of samples."),
+        n: int = typer.Option(
+            100_000, "--n", help="Number of samples (at most ~1e10 nodes expected in all: "
+            "docs/theory-vs-cascade.md §3)."
+        ),
         seed: int = typer.Option(1, "--seed", help="Random seed (explicit, reproducible)."),
         out: str = typer.Option("cascade.png", "--out", help="Histogram figure (PNG)."),
         csv: str = typer.Option(None, "--csv", help="Write the samples as CSV."),
