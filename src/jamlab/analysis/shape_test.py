@@ -63,6 +63,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_logpdf
+from jamlab.threads import one_blas_thread
 
 __all__ = ["ClusteredShapeTest", "clustered_shape_test"]
 
@@ -152,8 +153,10 @@ class _Model:
                 if not free:
                     b[-1] = (log_a, log_a)
                 x0 = np.clip(x0, b[:, 0], b[:, 1])
-                r = optimize.minimize(self.nll, x0, method="L-BFGS-B", bounds=b,
-                                      options={"ftol": 1e-15, "gtol": 1e-9, "maxiter": 5000})
+                with one_blas_thread():  # jamlab.threads
+                    r = optimize.minimize(self.nll, x0, method="L-BFGS-B", bounds=b,
+                                          options={"ftol": 1e-15, "gtol": 1e-9,
+                                                   "maxiter": 5000})
                 if best is None or r.fun < best.fun:
                     best = r
         return np.asarray(best.x, dtype=np.float64)
