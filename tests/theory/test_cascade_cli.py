@@ -36,6 +36,11 @@ def test_cascade_command_bad_input_is_one_line_exit_2(tmp_path):
         assert r.returncode == 2, (args, r.stderr)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), r.stderr
+    for n in ("0", "100000001"):  # the bound of --n, by the validation layer's wording
+        r = run("--linear", "2.5", "--n", n, "--out", str(tmp_path / "x.png"))
+        assert r.returncode == 2 and r.stderr.strip() == (
+            f"jamlab: error: --n must be an integer in [1, 100000000], got {n}"), r.stderr
+    assert not (tmp_path / "x.png").exists()
 
 
 def test_cascade_levels_are_bounded(tmp_path):

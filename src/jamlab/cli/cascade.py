@@ -89,6 +89,7 @@ def register(app: typer.Typer) -> None:
         # beyond MAX_LEVELS the sampler's constants overflow; the discretisation alone would take
         # memory and time without end
         k = validation.integer("--k", 16 if k is None else k, minimum=1, maximum=MAX_LEVELS)
+        n = validation.integer("--n", n, minimum=1, maximum=100_000_000)
         check_outputs({"--out": out, "--csv": csv, "--tree": tree}, force=force,
                       figures=("--out", "--tree"))
         given = [x is not None for x in (q, linear, power_law)]
@@ -110,8 +111,6 @@ def register(app: typer.Typer) -> None:
                 parisi = ParisiFunction.power_law(power_law, amplitude, y0=y0, q_max=q_max)
                 label = f"power law μ={power_law:g}, A={amplitude:g}, q_max={q_max:g}, k={k}"
             qa, ya = validate_levels(*parisi.discretise(k))
-        if n < 1 or n > 100_000_000:
-            raise ValueError(f"--n must be in [1, 1e8], got {n}")
         r = sample_cascade_jumps(qa, ya, dgamma, n, seed)
         # before anything is written: a tree whose ground states are not settled is an error
         t = None if tree is None else sample_cascade_tree(qa, ya, dgamma, seed)
