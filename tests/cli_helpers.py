@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
+from pathlib import Path
 
 
 def jamlab(*args: object, cwd=None, env=None, timeout: float = 600) -> subprocess.CompletedProcess:
@@ -26,3 +28,21 @@ def one_line_error(result: subprocess.CompletedProcess) -> str:
     assert len(lines) == 1, result.stderr
     assert lines[0].startswith("jamlab: error:") and "Traceback" not in result.stderr
     return lines[0]
+
+
+def wait_for_file(proc: subprocess.Popen, path: Path, poll: float) -> None:
+    """Poll every ``poll`` s until ``path`` exists or ``proc`` has exited."""
+    while not path.exists() and proc.poll() is None:
+        time.sleep(poll)
+
+
+def shear_loop_seconds(packing: Path, args: tuple[str, ...], out: Path, poll: float) -> float:
+    """Run ``jamlab shear PACKING ARGS --out OUT`` to its end (exit 0 asserted) and return the
+    wall time from the trace's first appearance (its first checkpoint) to the end: the stepping
+    loop, without Python's start-up, to aim SIGKILLs at."""
+    proc = subprocess.Popen([sys.executable, "-m", "jamlab", "shear", str(packing), *args,
+                             "--out", str(out)], stdout=subprocess.DEVNULL)  # fmt: skip
+    wait_for_file(proc, out, poll)
+    start = time.perf_counter()
+    assert proc.wait() == 0
+    return time.perf_counter() - start

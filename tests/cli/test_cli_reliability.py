@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import jamlab.spheres as sp
-from cli_helpers import jamlab, one_line_error
+from cli_helpers import jamlab, one_line_error, shear_loop_seconds, wait_for_file
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.io import write_packing
 from jamlab.spheres.trace import read_trace, write_trace
@@ -557,13 +557,7 @@ def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path)
     resumed nothing in 12 trials on a CI machine)."""
     args = ("--dgamma", "1e-3", "--gamma-max", "0.06", "--save-every", "3")
     ref = tmp_path / "ref.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "jamlab", "shear", str(good), *args, "--out",
-                             str(ref)], stdout=subprocess.DEVNULL)  # fmt: skip
-    while not ref.exists() and proc.poll() is None:
-        time.sleep(0.002)
-    start = time.perf_counter()
-    assert proc.wait() == 0
-    loop = time.perf_counter() - start  # the stepping loop after the first checkpoint
+    loop = shear_loop_seconds(good, args, ref, poll=0.002)  # after the first checkpoint
     whole = read_trace(ref)
     rng = np.random.default_rng(15)
     resumed_trials = 0
@@ -573,8 +567,7 @@ def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path)
         out = d / "w.h5"
         cmd = [sys.executable, "-m", "jamlab", "shear", str(good), *args, "--out", str(out)]
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        while not out.exists() and proc.poll() is None:
-            time.sleep(0.002)
+        wait_for_file(proc, out, poll=0.002)
         time.sleep(rng.uniform(0.0, 0.8) * loop)
         proc.send_signal(signal.SIGKILL)
         proc.wait()

@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 
-from cli_helpers import jamlab, one_line_error
+from cli_helpers import jamlab, one_line_error, shear_loop_seconds
 from jamlab.spheres.io import write_packing
 from jamlab.spheres.packing import prepare
 
@@ -109,13 +109,7 @@ def test_sigkill_at_random_moments_then_resume_is_the_uninterrupted_run(good, tm
     time the trace file equals the uninterrupted run's in every dataset and attribute."""
     args = ("--dgamma", "1e-4", "--gamma-max", "0.04", "--save-every", "20")
     ref = tmp_path / "ref.h5"
-    proc = subprocess.Popen([sys.executable, "-m", "jamlab", "shear", str(good), *args, "--out",
-                             str(ref)], stdout=subprocess.DEVNULL)  # fmt: skip
-    while not ref.exists() and proc.poll() is None:
-        time.sleep(0.01)
-    t = time.perf_counter()
-    assert proc.wait() == 0
-    loop = time.perf_counter() - t  # the stepping loop after the first checkpoint
+    loop = shear_loop_seconds(good, args, ref, poll=0.01)  # after the first checkpoint
     rng = np.random.default_rng(1515)
     done_at = []
     for trial in range(20):

@@ -33,11 +33,11 @@ def checkpoint_paths(out: str | Path) -> tuple[Path, Path]:
     return out.with_name(f"{stem}.last.h5"), out.with_name(f"{stem}.configs")
 
 
-
 def snapshot_files(snapshots: Path) -> list[Path]:
     """The snapshots ``step_*.h5`` in a run's folder ``<stem>.configs`` (:func:`checkpoint_paths`),
     in step order (the names are zero-padded); empty when the folder does not exist."""
     return sorted(snapshots.glob("step_*.h5")) if snapshots.is_dir() else []
+
 
 def save_checkpoint(out: str | Path, trace: Trace, packing: Packing, step: int,
                     snapshot: bool) -> None:
