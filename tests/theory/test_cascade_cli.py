@@ -180,3 +180,41 @@ def test_the_expected_nodes_bound_is_below_the_sampled_mean():
         mean, se = nodes.mean(), nodes.std() / np.sqrt(n)
         assert expected_nodes_bound(q, y, dg) < mean + 4 * se, (q, dg, mean)
     assert expected_nodes_bound([0.0], [1.0], 0.0) == 0.0
+
+
+def test_the_running_projection_stops_the_run_at_its_rule():
+    """The kernel's running projection (PROJECTION_AFTER): it stops after the first sample at
+    which the nodes drawn so far reach check_after and their mean times n exceeds max_total, the
+    rule recomputed here from the uninterrupted run's node counts; the rows drawn before the stop
+    are that run's first rows, bit for bit (the samples do not depend on the limit)."""
+    from jamlab.theory import cascade
+
+    q, y, dg, n = [0.0, 0.5], [0.5, 1.5], 2.0, 400
+    cst = cascade.cascade_constants(q, y, dg)
+    args = (np.asarray(y, float), cst["sd"], cst["T"], cst["c"], dg, n, 12345, cascade.MAX_NODES)
+    full = cascade._k.sample_batch(*args)
+    cum = np.cumsum(full[:, cascade._k.OUT_NNODES])
+    max_total, after = 0.5 * cum[-1], 0.1 * cum[-1]
+    stop = np.flatnonzero((cum >= after) & (cum / np.arange(1, n + 1) * n > max_total))[0]
+    part = cascade._k.sample_batch(*args, max_total, after)
+    assert part.shape[0] == stop + 1 < n
+    np.testing.assert_array_equal(part, full[: stop + 1])
+    # a limit the run stays under: every row, the same
+    np.testing.assert_array_equal(cascade._k.sample_batch(*args, 2.0 * cum[-1], 0.0), full)
+
+
+def test_a_multi_level_run_beyond_the_limit_stops_early_in_one_line(monkeypatch):
+    """Two levels at δγ = 2: the up-front bound (Σ a_i (R_i - 1)) lets it through, the running
+    projection stops it (limits scaled down here so that it takes milliseconds); the message
+    names the projection and an n that fits."""
+    from jamlab.theory import cascade
+
+    q, y, dg, n = [0.0, 0.5], [0.5, 1.5], 2.0, 20_000
+    monkeypatch.setattr(cascade, "MAX_TOTAL_NODES", 3e5)
+    monkeypatch.setattr(cascade, "PROJECTION_AFTER", 3e3)
+    assert n * cascade.expected_nodes_bound(q, y, dg) < 3e5  # not refused up front
+    with pytest.raises(ValueError, match=r"project to .* use n <= \d+ ") as err:
+        cascade.sample_cascade_jumps(q, y, dg, n, seed=3)
+    assert "\n" not in str(err.value)
+    fits = int(str(err.value).split("use n <= ")[1].split()[0])
+    assert 0 < fits < n

@@ -44,8 +44,8 @@ def register(app: typer.Typer) -> None:
             "docs/theory-vs-cascade.md §3)."
         ),
         n: int = typer.Option(
-            100_000, "--n", help="Number of samples (at most ~1e10 nodes expected in all: "
-            "docs/theory-vs-cascade.md §3)."
+            100_000, "--n", help="Number of samples (at most 1e10 nodes in all, by a bound up "
+            "front and a projection while sampling: docs/theory-vs-cascade.md §3)."
         ),
         seed: int = typer.Option(1, "--seed", help="Random seed (explicit, reproducible)."),
         out: str = typer.Option("cascade.png", "--out", help="Histogram figure (PNG)."),

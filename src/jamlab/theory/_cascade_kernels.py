@@ -80,6 +80,8 @@ def _search(
     max_nodes: int,
     extra: float,
     truncate: bool,
+    max_total: float,
+    check_after: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int, float]:
     """The best-first search, run for ``n`` independent samples (the one implementation).
 
@@ -91,6 +93,9 @@ def _search(
     every state whose bound ``A`` lies below the threshold, for pictures); then ``reach`` is that
     threshold. Reaching ``max_nodes`` nodes raises, or with ``truncate`` ends the sample there:
     ``reach`` is then the heap top, below the threshold (the caller tells the cases apart).
+    Once the samples so far have drawn ``check_after`` nodes, the run stops after the first
+    sample at which their mean, times ``n``, exceeds ``max_total``: the output then has fewer
+    than ``n`` rows (the samples drawn).
     """
     np.random.seed(seed)
     k = y.shape[0]
@@ -115,6 +120,7 @@ def _search(
     iu = -1
     iv = -1
     reach = np.inf
+    total = 0.0
     for t in range(n):
         nn = 1
         par[0] = -1
@@ -257,6 +263,9 @@ def _search(
             out[t, OUT_LEVEL] = -1
         out[t, OUT_NSTATES] = nstates
         out[t, OUT_NNODES] = nn
+        total += nn
+        if total >= check_after and total / (t + 1) * n > max_total:
+            return out[: t + 1], par[:nn], lev[:nn], nu[:nn], ns[:nn], iu, iv, reach
     return out, par[:nn], lev[:nn], nu[:nn], ns[:nn], iu, iv, reach
 
 
@@ -273,15 +282,19 @@ def sample_batch(
     n: int,
     seed: int,
     max_nodes: int,
+    max_total: float = np.inf,
+    check_after: float = np.inf,
 ) -> np.ndarray:
     """Draw ``n`` independent samples; returns an ``(n, 5)`` array.
 
     Columns: ``ΔU``, ``ΔΣ`` (in the ``d >= 0`` frame), deepest-common-ancestor level of old and
     new ground states (``k + 1`` when they coincide; overlap ``q[level-1]``), number of states
     (leaves) materialised, number of nodes materialised. ``max_nodes`` bounds the tree size per
-    sample (a safety net; exceeding it raises).
+    sample (a safety net; exceeding it raises). ``max_total``, ``check_after``: the running
+    projection of the whole run's nodes (:func:`_search`); the array has fewer than ``n`` rows
+    when it stopped the run. The samples drawn do not depend on them.
     """
-    return _search(y, sd, T, c, d, n, seed, max_nodes, 0.0, False)[0]
+    return _search(y, sd, T, c, d, n, seed, max_nodes, 0.0, False, max_total, check_after)[0]
 
 
 def sample_tree(
@@ -303,5 +316,5 @@ def sample_tree(
     ``max(U*, V*) + extra``, and below ``max(U*, V*)`` when the ground states are not settled.
     """
     _, par, lev, nu, ns, iu, iv, reach = _search(y, sd, T, c, d, 1, seed, TREE_MAX_NODES, extra,
-                                                 True)
+                                                 True, np.inf, np.inf)
     return par.copy(), lev.copy(), nu.copy(), ns.copy(), int(iu), int(iv), float(reach)

@@ -66,11 +66,22 @@ MAX_MISS = 1e-3
 """The up-front refusal's bound on the probability that one sample stays below ``MAX_NODES``."""
 
 MAX_TOTAL_NODES = 1e10
-"""Most nodes ``n`` samples together are expected to draw, by the lower bound
-:func:`expected_nodes_bound`: ``1e10`` nodes is ~25 min on one core at the sampler's measured
-~7e6 nodes/s (AMD EPYC, one level at δγ = 3–5). :func:`sample_cascade_jumps` refuses more up
-front (``jamlab cascade --q 0 --y 1 --dgamma 5`` with the default ``--n 100000`` would draw
-~2.7e10 nodes, about an hour)."""
+"""Most nodes ``n`` samples together may draw: ``1e10`` nodes is ~25 min on one core at the
+sampler's measured ~7e6 nodes/s (AMD EPYC, one level at δγ = 3–5; 1–3e6 nodes/s with two and
+three levels). :func:`sample_cascade_jumps` refuses more up front by the lower bound
+:func:`expected_nodes_bound` (``jamlab cascade --q 0 --y 1 --dgamma 5`` with the default
+``--n 100000`` would draw ~2.7e10 nodes, about an hour), and while sampling by the running
+projection (:data:`PROJECTION_AFTER`)."""
+
+PROJECTION_AFTER = 1e8
+"""Nodes drawn (1 % of :data:`MAX_TOTAL_NODES`) after which :func:`sample_cascade_jumps` stops
+a run as soon as the mean nodes of its samples so far, times ``n``, exceed
+:data:`MAX_TOTAL_NODES` (one-line ValueError naming the projection and the largest ``n`` that
+fits). The up-front bound leaves out the stress increments and lies far below the mean with
+several levels; this catches those runs after ~15–60 s instead of hours, and no run draws more
+than ``MAX_TOTAL_NODES`` (plus one sample). With node counts this heavy-tailed (two levels at
+δγ = 3: median 570, mean 3.2e4, largest of 200 3.6e6) an early projection can also
+overshoot: the message says from how many samples it was made."""
 
 MAX_LEVELS = 4096
 """Most levels ``k`` a ``ParisiFunction`` is discretised into for the sampler (``jamlab cascade
@@ -329,7 +340,8 @@ def sample_cascade_jumps(
     cst = cascade_constants(qa, ya, dg)
     try:
         out = _k.sample_batch(
-            ya, cst["sd"], cst["T"], cst["c"], abs(dg), n, _kernel_seed(seed), MAX_NODES
+            ya, cst["sd"], cst["T"], cst["c"], abs(dg), n, _kernel_seed(seed), MAX_NODES,
+            MAX_TOTAL_NODES, PROJECTION_AFTER,
         )
     except RuntimeError as e:  # the kernel's node limit; its samples are lost with it
         if "max_nodes" not in str(e):
@@ -338,6 +350,14 @@ def sample_cascade_jumps(
             f"a cascade sample needed more than {MAX_NODES:.0e} nodes (the sampler's limit) at "
             f"dgamma={dgamma!r} with {qa.size} levels (y up to {ya[-1]:.4g}): use a smaller "
             "|dgamma| (or fewer levels, a lower y)") from None
+    if out.shape[0] < n:  # the running projection stopped the run (PROJECTION_AFTER)
+        drawn = float(out[:, _k.OUT_NNODES].sum())
+        per = drawn / out.shape[0]
+        raise ValueError(
+            f"n={n} samples at dgamma={dgamma!r} with {qa.size} levels project to "
+            f"{per * n:.2g} nodes ({per:.2g} per sample over the first {out.shape[0]}, "
+            f"{drawn:.2g} drawn; the limit is {MAX_TOTAL_NODES:.0e}): use n <= "
+            f"{int(MAX_TOTAL_NODES // per)} (and several seeds) or a smaller |dgamma|")
     du = out[:, _k.OUT_DU].copy()
     ds = out[:, _k.OUT_DS].copy()
     if dg < 0:
