@@ -19,6 +19,12 @@ or more. For each pressure it prints:
 - over all pressures: ``Σ z²`` (its χ² p on one degree of freedom per pressure) and ``Σ z / √k``
   (its two-sided normal p), of the slopes' bootstrap z.
 
+``--coarse 2 4``: per pressure, also the sizes at ``k δγ`` (the same minima, steps grouped ``k``
+at a time: ``jamlab.reproduce.ensembles.coarse_avalanches``) fitted in the same window, the
+slope at each ``k`` and at the linear extrapolation ``2 τ(δγ) − τ(2 δγ)`` to ``δγ → 0``, σ from
+the same packing resamples at every ``k`` (``jamlab.analysis.strain_step_slopes``): does the
+strain step make the slope? (``k = 2`` is required.)
+
 Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
 from the real data; the resamples refit τ in it (they do not choose their own window).
 
@@ -34,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import combined_scores, size_difference
+from jamlab.analysis import combined_scores, size_difference, strain_step_slopes
+from jamlab.reproduce.ensembles import coarse_avalanches
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_study
@@ -45,24 +52,37 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("runs", type=Path, nargs="+", help="fixed-pressure run directories, one N each")
     ap.add_argument("--boot", type=int, default=2000, help="packing resamples per pressure")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--coarse", type=int, nargs="+", default=[],
+                    help="strain steps k δγ to add (k = 2 required), e.g. --coarse 2 4")
     args = ap.parse_args(argv)
     if args.boot < 2:
         ap.error(f"--boot must be >= 2, got {args.boot}")
+    if args.coarse and (2 not in args.coarse or min(args.coarse) < 2):
+        ap.error(f"--coarse takes k >= 2 and must include 2, got {args.coarse}")
+    ks = [1, *sorted(set(args.coarse))] if args.coarse else []
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
+    coarse: dict[float, dict[int, dict[int, list[np.ndarray]]]] = {}
     for path in args.runs:
         ds, study = open_study(ap, path)
         if study.pressure is None or len(study.n) != 1:
             ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
                      f"N = {list(study.n)})")
         n = int(study.n[0])
-        by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(
-            avalanche_set(ds, "jamming", n).per_sample)
+        per_sample = avalanche_set(ds, "jamming", n).per_sample
+        by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(per_sample)
+        for k in ks:
+            seen = coarse_avalanches(ds, "jamming", n, k).per_sample
+            if k == 1 and not all(np.array_equal(a, b) for a, b in zip(
+                    seen, per_sample, strict=True)):
+                ap.error(f"{path}: k = 1 does not give the report's avalanches")
+            coarse.setdefault(study.pressure, {}).setdefault(k, {}).setdefault(n, []).extend(seen)
     scale = replace(SCALES["medium"], n_boot=0)
     print(f"| p | window x_min (ε) | N: packings, sizes, τ ± asymptotic σ | Δτ (largest − "
           f"smallest N) | z (asymptotic) | σ of Δτ, {args.boot} packing resamples | z | resamples "
           "with Δτ ≤ 0 | dτ/d ln N ± σ (resamples) | z of the slope |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     zs = []
+    x_mins = []
     for p in sorted(by_p, reverse=True):
         groups = by_p[p]
         if len(groups) < 2:
@@ -75,11 +95,27 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as err:
             ap.error(f"p = {p:g}: {err}")
         zs.append(r.z_slope)
+        x_mins.append(r.x_min)
         per_n = "; ".join(f"{n}: {k}, {t}, {tau:.3f} ± {s:.3f}" for n, k, t, tau, s in zip(
             r.n, r.packings, r.tails, r.tau, r.sigma, strict=True))
         print(f"| {p:g} | {r.x_min:.3g} | {per_n} | {r.delta:+.3f} | {r.z_asymptotic:+.2f} | "
               f"{r.boot_sigma:.3f} | {r.z_boot:+.2f} | {r.fraction_not_above:.3f} | "
               f"{r.slope:+.3f} ± {r.slope_sigma:.3f} | {r.z_slope:+.2f} |")
+    windows = dict(zip(sorted(by_p, reverse=True), x_mins, strict=True))
+    for p in sorted(coarse, reverse=True):
+        try:
+            c = strain_step_slopes(coarse[p], windows[p], args.boot, args.seed)
+        except ValueError as err:
+            ap.error(f"p = {p:g}, --coarse: {err}")
+        print(f"\np = {p:g}, the same window {c.x_min:.3g} at k δγ (the same minima, steps "
+              f"grouped), {args.boot} packing resamples paired across k:\n")
+        print("| strain step | " + " | ".join(f"τ, N = {n}" for n in c.n)
+              + " | dτ/d ln N ± σ | z |")
+        print("|---" * (len(c.n) + 3) + "|")
+        rows = [f"{k} δγ" for k in c.k] + ["δγ → 0: 2 τ(δγ) − τ(2 δγ)"]
+        for name, tau, slope, sig in zip(rows, c.tau, c.slope, c.slope_sigma, strict=True):
+            print(f"| {name} | " + " | ".join(f"{t:.3f}" for t in tau)
+                  + f" | {slope:+.3f} ± {sig:.3f} | {slope / sig:+.2f} |")
     chi2, p_chi2, s, p_s = combined_scores(zs)
     print(f"\nover {len(zs)} pressure(s), bootstrap z of the slopes: Σ z² = {chi2:.2f} "
           f"(χ²_{len(zs)} p = {p_chi2:.2f}); Σ z/√k = {s:+.2f} (two-sided p = {p_s:.2f})")

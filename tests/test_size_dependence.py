@@ -95,3 +95,39 @@ def test_the_report_rows_difference_is_the_packings(runs):
     assert row.verdicts[0].startswith("no size dependence: ")
     none = with_cutoff(est, sources, replace(scale, n_boot=0))
     assert none.size_difference is None and len(pressure_tau_rows({1e-3: none})) == 3
+
+
+def test_coarse_steps_table_and_refusals(sd, runs, capsys):
+    """``--coarse 2``: the k = 1 row is the main table's τ, the k = 2 row is each size's sizes
+    grouped two steps at a time (``coarse_avalanches``, whose per-sample sizes pooled are its
+    sizes) fitted in the same window, the last row 2 τ(δγ) − τ(2 δγ); --coarse without 2 is
+    refused (exit 2)."""
+    from jamlab.analysis import fit_cutoff_power_law
+    from jamlab.reproduce.ensembles import coarse_avalanches
+    from jamlab.runs import open_run
+
+    for argv in (["--coarse", "3"], ["--coarse", "1", "2"]):
+        with pytest.raises(SystemExit) as err:
+            sd.main([str(runs[16]), str(runs[24]), "--boot", "4", *argv])
+        assert err.value.code == 2
+    capsys.readouterr()
+    two = {n: coarse_avalanches(open_run(runs[n]), "jamming", n, 2) for n in (16, 24)}
+    for c in two.values():
+        np.testing.assert_array_equal(np.concatenate(c.per_sample), c.sizes)
+    try:
+        sd.main([str(runs[16]), str(runs[24]), "--boot", "20", "--coarse", "2"])
+    except SystemExit as err:  # too few avalanches in the window at this tiny size
+        assert err.value.code == 2
+        return
+    out = capsys.readouterr().out.splitlines()
+    x_min = float(next(ln for ln in out if ln.startswith("p = 0.001, the same window")).split()[6])
+    rows = {ln.split("|")[1].strip(): ln for ln in out if ln.startswith("| 1 δγ")
+            or ln.startswith("| 2 δγ") or ln.startswith("| δγ → 0")}
+    main = next(ln for ln in out if ln.startswith("| 0.001 |"))
+    tau1 = [float(c.split(",")[2].split("±")[0]) for c in main.split("|")[3].split(";")]
+    got1 = [float(v) for v in rows["1 δγ"].split("|")[2:4]]
+    got2 = [float(v) for v in rows["2 δγ"].split("|")[2:4]]
+    assert got1 == tau1
+    for n, g in zip((16, 24), got2, strict=True):
+        want = fit_cutoff_power_law(two[n].sizes, x_min).tau  # x_min printed to 3 digits
+        assert abs(g - want) < 0.02

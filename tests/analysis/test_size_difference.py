@@ -106,3 +106,43 @@ def test_bad_groups_are_refused():
         size_difference(two, X_MIN, boot=10)
     with pytest.raises(ValueError, match="boot must be >= 2"):
         size_difference({**one, 1000: one[500]}, X_MIN, boot=1)
+
+
+def test_strain_step_slopes_pair_the_resamples_and_extrapolate():
+    """``strain_step_slopes``: with the same packings at k = 1 and 2 the rows and their σ are one
+    and the extrapolation 2 τ(δγ) − τ(2 δγ) is that row again; the k = 1 row is
+    ``size_difference``'s slope and σ (the same packing picks); every slope is numpy's
+    least-squares line through its row; a k = 2 whose largest N is flatter moves the
+    extrapolated τ of that N up by the difference."""
+    from jamlab.analysis import strain_step_slopes
+
+    rng = np.random.default_rng(8)
+    ns = (250, 500, 1000)
+    one = {n: _packings(rng, [1.5] * 12, 100.0, 80) for n in ns}
+    r = strain_step_slopes({1: one, 2: one}, X_MIN, boot=40, seed=3)
+    assert r.k == (1, 2) and r.n == ns and r.tau.shape == (3, 3)
+    np.testing.assert_array_equal(r.tau[0], r.tau[1])
+    np.testing.assert_array_equal(r.tau[2], r.tau[0])
+    assert r.slope_sigma[0] == r.slope_sigma[1] == r.slope_sigma[2]
+    d = size_difference(one, X_MIN, boot=40, seed=3)
+    assert r.slope[0] == pytest.approx(d.slope, rel=1e-12)
+    assert r.slope_sigma[0] == pytest.approx(d.slope_sigma, rel=1e-12)
+    for row, slope in zip(r.tau, r.slope, strict=True):
+        assert slope == pytest.approx(np.polyfit(np.log(ns), row, 1)[0], rel=1e-10)
+    two = {**one, 1000: _packings(rng, [1.3] * 12, 100.0, 80)}
+    s = strain_step_slopes({1: one, 2: two, 4: two}, X_MIN, boot=40, seed=3)
+    assert s.k == (1, 2, 4) and s.tau.shape == (4, 3)
+    assert s.tau[3, 2] == 2 * s.tau[0, 2] - s.tau[1, 2] and s.tau[3, 2] > s.tau[0, 2]
+    assert s.slope[1] < s.slope[0] < s.slope[3]
+
+
+def test_strain_step_slopes_refusals():
+    from jamlab.analysis import strain_step_slopes
+
+    rng = np.random.default_rng(9)
+    g = {n: _packings(rng, [1.5] * 4, 100.0, 40) for n in (250, 500)}
+    fewer = {250: g[250][:3], 500: g[500]}
+    for groups, boot in (({1: g}, 10), ({1: g, 4: g}, 10), ({1: g, 2: g}, 1),
+                         ({1: g, 2: fewer}, 10), ({1: g, 2: {250: g[250]}}, 10)):
+        with pytest.raises(ValueError):
+            strain_step_slopes(groups, X_MIN, boot=boot)

@@ -66,14 +66,22 @@ from jamlab.analysis.powerlaw import (
     sample_power_law,
 )
 from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
-from jamlab.analysis.size_difference import SizeDifference, combined_scores, size_difference
+from jamlab.analysis.size_difference import (
+    SizeDifference,
+    StrainStepSlopes,
+    combined_scores,
+    size_difference,
+    strain_step_slopes,
+)
 
 __all__ = [
     "ClusteredShapeTest",
     "clustered_shape_test",
     "SizeDifference",
+    "StrainStepSlopes",
     "combined_scores",
     "size_difference",
+    "strain_step_slopes",
     "CHI2_1_95",
     "CutoffPowerLawFit",
     "CutoffShapeProfile",

@@ -20,7 +20,8 @@ from scipy import stats
 
 from jamlab.analysis.cutoff_powerlaw import fit_cutoff_power_law
 
-__all__ = ["SizeDifference", "combined_scores", "size_difference"]
+__all__ = ["SizeDifference", "StrainStepSlopes", "combined_scores", "size_difference",
+           "strain_step_slopes"]
 
 
 @dataclass(frozen=True)
@@ -85,15 +86,7 @@ def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int
             raise ValueError(f"N = {n}: {tail} sizes at or above {x_min:.3g}, fewer than 10")
     fits = [fit_cutoff_power_law(np.concatenate(p), x_min) for p in packs]
     log_n = np.log(np.asarray(ns, dtype=np.float64))
-    rng = np.random.default_rng(seed)
-    taus = np.empty((boot, len(ns)))
-    for b in range(boot):
-        for k, p in enumerate(packs):
-            pick = rng.integers(0, len(p), len(p))
-            s = np.concatenate([p[i] for i in pick])
-            # (a resample with fewer than 10 sizes in the window has no fit: τ = NaN, dropped)
-            taus[b, k] = (fit_cutoff_power_law(s, x_min).tau
-                          if np.count_nonzero(s >= x_min) >= 10 else math.nan)
+    taus = _resampled_taus(packs, x_min, boot, seed)
     taus = taus[np.all(np.isfinite(taus), axis=1)]
     deltas = taus[:, -1] - taus[:, 0]
     slopes = np.array([_slope(log_n, t) for t in taus])
@@ -105,6 +98,71 @@ def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int
         boot_sigma=float(np.std(deltas, ddof=1)),
         fraction_not_above=float(np.mean(deltas <= 0)),
         slope=_slope(log_n, tau), slope_sigma=float(np.std(slopes, ddof=1)))
+
+
+def _resampled_taus(packs: list[list[np.ndarray]], x_min: float, boot: int,
+                    seed: int) -> np.ndarray:
+    """``(boot, sizes)`` τ of resamples of each size's packings (``default_rng(seed)``, the sizes
+    in order); NaN where a resample has fewer than 10 sizes at or above ``x_min``. The picks
+    depend only on ``seed`` and the packing counts, so two calls with the same counts draw the
+    same packings (:func:`strain_step_slopes` pairs its strain steps so)."""
+    rng = np.random.default_rng(seed)
+    taus = np.empty((boot, len(packs)))
+    for b in range(boot):
+        for k, p in enumerate(packs):
+            pick = rng.integers(0, len(p), len(p))
+            s = np.concatenate([p[i] for i in pick])
+            taus[b, k] = (fit_cutoff_power_law(s, x_min).tau
+                          if np.count_nonzero(s >= x_min) >= 10 else math.nan)
+    return taus
+
+
+@dataclass(frozen=True)
+class StrainStepSlopes:
+    """:func:`strain_step_slopes`: per strain step ``k δγ`` (``k`` in :attr:`k`, then the linear
+    extrapolation to ``δγ → 0``, ``2 τ(δγ) − τ(2 δγ)``, as the last row) τ of every size, the
+    slope ``dτ/d ln N`` and its σ from packing resamples paired across the rows."""
+
+    x_min: float
+    n: tuple[int, ...]
+    k: tuple[int, ...]
+    tau: np.ndarray  # (len(k) + 1, sizes)
+    slope: np.ndarray  # (len(k) + 1,)
+    slope_sigma: np.ndarray  # (len(k) + 1,)
+
+
+def strain_step_slopes(groups: dict[int, dict[int, list[np.ndarray]]], x_min: float, boot: int,
+                       seed: int = 0) -> StrainStepSlopes:
+    """The slope ``dτ/d ln N`` at several strain steps: ``groups[k]`` is ``{N: per-packing
+    sizes}`` of the same packings seen at ``k δγ`` (``jamlab.reproduce.ensembles.
+    coarse_avalanches``); ``k = 1`` and ``k = 2`` are required (the extrapolation
+    ``2 τ(δγ) − τ(2 δγ)`` uses them). Each size is fitted alone at the fixed ``x_min`` as in
+    :func:`size_difference`; the ``boot`` resamples draw the same packings at every ``k``
+    (resamples where some fit is missing are dropped). ValueError without k = 1, 2, with sizes
+    or packing counts that differ between the k, or with ``boot < 2``."""
+    ks = sorted(groups)
+    if 1 not in groups or 2 not in groups:
+        raise ValueError(f"need k = 1 and k = 2, got {ks}")
+    if boot < 2:
+        raise ValueError(f"boot must be >= 2, got {boot}")
+    ns = sorted(groups[1])
+    counts = [len(groups[1][n]) for n in ns]
+    for k in ks:
+        if sorted(groups[k]) != ns or [len(groups[k][n]) for n in ns] != counts:
+            raise ValueError(f"k = {k}: not the sizes and packings of k = 1")
+    log_n = np.log(np.asarray(ns, dtype=np.float64))
+    tau = np.array([[fit_cutoff_power_law(np.concatenate(groups[k][n]), x_min).tau for n in ns]
+                    for k in ks])
+    boots = np.stack([_resampled_taus([groups[k][n] for n in ns], x_min, boot, seed)
+                      for k in ks])  # (k, boot, sizes), the same packings in every k
+    tau = np.vstack([tau, 2.0 * tau[0] - tau[1]])
+    boots = np.concatenate([boots, (2.0 * boots[0] - boots[1])[None]])
+    boots = boots[:, np.all(np.isfinite(boots), axis=(0, 2))]
+    slopes = np.array([[_slope(log_n, t) for t in row] for row in boots])
+    return StrainStepSlopes(
+        x_min=float(x_min), n=tuple(ns), k=tuple(ks), tau=tau,
+        slope=np.array([_slope(log_n, t) for t in tau]),
+        slope_sigma=np.std(slopes, axis=1, ddof=1))
 
 
 def combined_scores(zs: list[float]) -> tuple[float, float, float, float]:

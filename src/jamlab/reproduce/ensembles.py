@@ -121,7 +121,8 @@ class CoarseAvalanches:
     ``k = 1`` reproduces); ``lost``: such blocks with ``ΔE ≥ 0`` (a jump smaller than the
     branch's curvature energy over the block); ``curvature``: ``½ δγ ΔΣ`` of the elastic blocks, the
     branch's curvature energy over one block; ``strain``: the strain of all blocks of all samples
-    (summed over the samples); ``samples``."""
+    (summed over the samples); ``samples``; ``per_sample``: ``sizes`` split by sample (packings as
+    units, as :attr:`AvalancheSet.per_sample`)."""
 
     k: int
     sizes: np.ndarray
@@ -129,6 +130,7 @@ class CoarseAvalanches:
     curvature: np.ndarray
     strain: float
     samples: int
+    per_sample: tuple[np.ndarray, ...] = ()
 
 
 def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
@@ -152,7 +154,8 @@ def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
     return CoarseAvalanches(
         int(k), -c.energy_jump[counted], int(np.count_nonzero(events & (c.energy_jump >= 0))),
         0.5 * c.strain_step[elastic] * c.stress_jump[elastic], float(c.strain_step.sum()),
-        int(done.sum()))
+        int(done.sum()),
+        tuple(-row[m] for row, m in zip(c.energy_jump, counted, strict=True)))
 
 
 def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:
