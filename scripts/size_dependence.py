@@ -25,6 +25,11 @@ slope at each ``k`` and at the linear extrapolation ``2 τ(δγ) − τ(2 δγ)`
 the same packing resamples at every ``k`` (``jamlab.analysis.strain_step_slopes``): does the
 strain step make the slope? (``k = 2`` is required.)
 
+``--shapes 0.3 0.5 1``: per pressure, each size alone in the same window with the cut-off
+``e^(−(S/S*)^a)`` held at each ``a`` (``jamlab.analysis.cutoff_shape_profile``), τ per size, the
+slope weighted by the asymptotic σ (avalanches as units), and the ``a`` each size prefers with
+its ``2Δlog L`` against the exponential: is the slope the cut-off's shape?
+
 Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
 from the real data; the resamples refit τ in it (they do not choose their own window).
 
@@ -40,7 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import combined_scores, size_difference, strain_step_slopes
+from jamlab.analysis import (
+    combined_scores,
+    cutoff_shape_profile,
+    size_difference,
+    strain_step_slopes,
+)
 from jamlab.reproduce.ensembles import coarse_avalanches
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
@@ -54,7 +64,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--coarse", type=int, nargs="+", default=[],
                     help="strain steps k δγ to add (k = 2 required), e.g. --coarse 2 4")
+    ap.add_argument("--shapes", type=float, nargs="+", default=[],
+                    help="cut-off shapes a to hold fixed, e.g. --shapes 0.3 0.5 1")
     args = ap.parse_args(argv)
+    if any(not np.isfinite(a) or a <= 0 for a in args.shapes) or len(set(args.shapes)) < len(
+            args.shapes):
+        ap.error(f"--shapes must be distinct numbers > 0, got {args.shapes}")
     if args.boot < 2:
         ap.error(f"--boot must be >= 2, got {args.boot}")
     if args.coarse and (2 not in args.coarse or min(args.coarse) < 2):
@@ -116,6 +131,28 @@ def main(argv: list[str] | None = None) -> int:
         for name, tau, slope, sig in zip(rows, c.tau, c.slope, c.slope_sigma, strict=True):
             print(f"| {name} | " + " | ".join(f"{t:.3f}" for t in tau)
                   + f" | {slope:+.3f} ± {sig:.3f} | {slope / sig:+.2f} |")
+    for p in sorted(by_p, reverse=True) if args.shapes else ():
+        ns = sorted(by_p[p])
+        try:
+            prof = {n: cutoff_shape_profile(np.concatenate(by_p[p][n]), windows[p],
+                                            tuple(args.shapes)) for n in ns}
+        except ValueError as err:
+            ap.error(f"p = {p:g}, --shapes: {err}")
+        grid = prof[ns[0]].stretches
+        print(f"\np = {p:g}, the same window {windows[p]:.3g}, each size alone with the cut-off's "
+              "shape a held fixed (asymptotic σ, avalanches as units):\n")
+        print("| a | " + " | ".join(f"τ, N = {n}" for n in ns) + " | dτ/d ln N ± σ | z |")
+        print("|---" * (len(ns) + 3) + "|")
+        x = np.log(np.asarray(ns, dtype=np.float64))
+        for i, a in enumerate(grid):
+            tau = np.array([prof[n].taus[i] for n in ns])
+            w = 1.0 / np.array([prof[n].tau_stderrs[i] for n in ns]) ** 2
+            dx = x - np.sum(w * x) / w.sum()
+            slope, sig = np.sum(w * dx * tau) / np.sum(w * dx * dx), np.sum(w * dx * dx) ** -0.5
+            print(f"| {a:g} | " + " | ".join(f"{t:.3f}" for t in tau)
+                  + f" | {slope:+.3f} ± {sig:.3f} | {slope / sig:+.2f} |")
+        print("| preferred a (2Δlog L against a = 1) | " + " | ".join(
+            f"{prof[n].best:g} ({prof[n].lr_exponential:.1f})" for n in ns) + " | | |")
     chi2, p_chi2, s, p_s = combined_scores(zs)
     print(f"\nover {len(zs)} pressure(s), bootstrap z of the slopes: Σ z² = {chi2:.2f} "
           f"(χ²_{len(zs)} p = {p_chi2:.2f}); Σ z/√k = {s:+.2f} (two-sided p = {p_s:.2f})")

@@ -131,3 +131,38 @@ def test_coarse_steps_table_and_refusals(sd, runs, capsys):
     for n, g in zip((16, 24), got2, strict=True):
         want = fit_cutoff_power_law(two[n].sizes, x_min).tau  # x_min printed to 3 digits
         assert abs(g - want) < 0.02
+
+
+def test_shapes_table_and_refusals(sd, runs, capsys):
+    """``--shapes``: the a = 1 row is the main table's τ; each slope is numpy's weighted line
+    (``polyfit`` with weights 1/σ) through ``cutoff_shape_profile``'s τ at that a; bad shapes are
+    refused (exit 2)."""
+    from jamlab.analysis import cutoff_shape_profile
+    from jamlab.reproduce.measurements import avalanche_set
+    from jamlab.runs import open_run
+
+    for bad in (["0"], ["0.5", "0.5"], ["-1"]):
+        with pytest.raises(SystemExit) as err:
+            sd.main([str(runs[16]), str(runs[24]), "--boot", "4", "--shapes", *bad])
+        assert err.value.code == 2
+    capsys.readouterr()
+    try:
+        sd.main([str(runs[16]), str(runs[24]), "--boot", "10", "--shapes", "0.5", "1"])
+    except SystemExit as err:  # too few avalanches in the window at this tiny size
+        assert err.value.code == 2
+        return
+    out = capsys.readouterr().out.splitlines()
+    main = next(ln for ln in out if ln.startswith("| 0.001 |"))
+    tau1 = [float(c.split(",")[2].split("±")[0]) for c in main.split("|")[3].split(";")]
+    rows = {ln.split("|")[1].strip(): ln.split("|") for ln in out
+            if ln.startswith("| 0.5 |") or ln.startswith("| 1 |")}
+    assert [float(v) for v in rows["1"][2:4]] == tau1
+    x_min = float(next(ln for ln in out if "each size alone" in ln).split()[6].rstrip(","))
+    sizes = {n: avalanche_set(open_run(runs[n]), "jamming", n).sizes for n in (16, 24)}
+    for name, a in (("0.5", 0.5), ("1", 1.0)):
+        prof = [cutoff_shape_profile(sizes[n], x_min, (a,)) for n in (16, 24)]
+        tau = [p.taus[0] for p in prof]
+        w = [1 / p.tau_stderrs[0] for p in prof]
+        slope = np.polyfit(np.log([16, 24]), tau, 1, w=w)[0]
+        got = float(rows[name][4].split("±")[0])
+        assert abs(got - slope) < 0.002 + 0.01 * abs(slope)  # x_min printed to 3 digits
