@@ -31,6 +31,10 @@ def stay_probability(c: float, info: np.ndarray) -> float:
     info = np.asarray(info, dtype=np.float64)
     if info.ndim != 1 or info.size == 0 or np.any(info <= 0) or np.any(np.diff(info) <= 0):
         raise ValueError("information must be positive and increasing (σ_k decreasing)")
+    # Simpson's rule on each look's grid (GRID odd): these weights times the grid spacing / 3
+    simpson = np.full(GRID, 2.0)
+    simpson[1::2] = 4.0
+    simpson[0] = simpson[-1] = 1.0
     edge = c * np.sqrt(info[0])
     x = np.linspace(-edge, edge, GRID)
     density = norm.pdf(x, scale=np.sqrt(info[0]))
@@ -38,18 +42,11 @@ def stay_probability(c: float, info: np.ndarray) -> float:
         step = np.sqrt(info[k] - info[k - 1])
         edge = c * np.sqrt(info[k])
         y = np.linspace(-edge, edge, GRID)
-        # Simpson's rule over the previous region for each new point
-        w = np.full(GRID, 2.0)
-        w[1::2] = 4.0
-        w[0] = w[-1] = 1.0
-        w *= (x[1] - x[0]) / 3.0
+        # the previous look's density carried to each new point, integrated by Simpson's rule
         kernel = norm.pdf((y[:, None] - x[None, :]) / step) / step
-        density = kernel @ (w * density)
+        density = kernel @ (simpson * density) * ((x[1] - x[0]) / 3.0)
         x = y
-    w = np.full(GRID, 2.0)
-    w[1::2] = 4.0
-    w[0] = w[-1] = 1.0
-    return float(np.sum(w * density) * (x[1] - x[0]) / 3.0)
+    return float(np.sum(simpson * density) * (x[1] - x[0]) / 3.0)
 
 
 def boundary(sigma: list[float] | np.ndarray, alpha: float = 0.05) -> float:

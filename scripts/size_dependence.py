@@ -48,6 +48,7 @@ import numpy as np
 from jamlab.analysis import (
     combined_scores,
     cutoff_shape_profile,
+    fit_log_slope,
     size_difference,
     strain_step_slopes,
 )
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
           "with Δτ ≤ 0 | dτ/d ln N ± σ (resamples) | z of the slope |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     zs = []
-    x_mins = []
+    windows: dict[float, float] = {}  # each pressure's window, used again below
     for p in sorted(by_p, reverse=True):
         groups = by_p[p]
         if len(groups) < 2:
@@ -110,13 +111,12 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as err:
             ap.error(f"p = {p:g}: {err}")
         zs.append(r.z_slope)
-        x_mins.append(r.x_min)
+        windows[p] = r.x_min
         per_n = "; ".join(f"{n}: {k}, {t}, {tau:.3f} ± {s:.3f}" for n, k, t, tau, s in zip(
             r.n, r.packings, r.tails, r.tau, r.sigma, strict=True))
         print(f"| {p:g} | {r.x_min:.3g} | {per_n} | {r.delta:+.3f} | {r.z_asymptotic:+.2f} | "
               f"{r.boot_sigma:.3f} | {r.z_boot:+.2f} | {r.fraction_not_above:.3f} | "
               f"{r.slope:+.3f} ± {r.slope_sigma:.3f} | {r.z_slope:+.2f} |")
-    windows = dict(zip(sorted(by_p, reverse=True), x_mins, strict=True))
     for p in sorted(coarse, reverse=True):
         try:
             c = strain_step_slopes(coarse[p], windows[p], args.boot, args.seed)
@@ -143,14 +143,13 @@ def main(argv: list[str] | None = None) -> int:
               "shape a held fixed (asymptotic σ, avalanches as units):\n")
         print("| a | " + " | ".join(f"τ, N = {n}" for n in ns) + " | dτ/d ln N ± σ | z |")
         print("|---" * (len(ns) + 3) + "|")
-        x = np.log(np.asarray(ns, dtype=np.float64))
         for i, a in enumerate(grid):
             tau = np.array([prof[n].taus[i] for n in ns])
-            w = 1.0 / np.array([prof[n].tau_stderrs[i] for n in ns]) ** 2
-            dx = x - np.sum(w * x) / w.sum()
-            slope, sig = np.sum(w * dx * tau) / np.sum(w * dx * dx), np.sum(w * dx * dx) ** -0.5
+            sig = np.array([prof[n].tau_stderrs[i] for n in ns])
+            # τ = log e^τ: the weighted line of τ on ln N is fit_log_slope's, σ_log = σ
+            f = fit_log_slope(ns, np.exp(tau), np.exp(tau) * sig)
             print(f"| {a:g} | " + " | ".join(f"{t:.3f}" for t in tau)
-                  + f" | {slope:+.3f} ± {sig:.3f} | {slope / sig:+.2f} |")
+                  + f" | {f.slope:+.3f} ± {f.slope_err:.3f} | {f.slope / f.slope_err:+.2f} |")
         print("| preferred a (2Δlog L against a = 1) | " + " | ".join(
             f"{prof[n].best:g} ({prof[n].lr_exponential:.1f})" for n in ns) + " | | |")
     chi2, p_chi2, s, p_s = combined_scores(zs)
