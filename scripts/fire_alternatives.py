@@ -22,28 +22,41 @@ seed. Then:
   (the driving force ``P⁻¹F``, the mixing in the ``P`` metric, one solve per iteration; the
   first ``--count`` starts, at most ``--cap`` iterations, ``--dt-max``), against plain FIRE; and
   the largest eigenvalue of ``P⁻¹K`` (power iteration, ``K`` by finite differences of the
-  forces) at the parent and at FIRE's minimum, which sets the stable time step.
+  forces) at the parent and at FIRE's minimum, which sets the stable time step;
+- ``abc``: ABC-FIRE (Echeverri Restrepo & Andric, Comput. Mater. Sci. 218, 111978 (2023)): FIRE
+  2.0 whose mixed velocity is divided by the bias ``1 − (1 − α)^(N⁺ + 1)`` of the running
+  average (``N⁺`` the steps since the last restart), for each ``--alpha0``, against jamlab's
+  FIRE 2.0, both to ``max|F| < --ftol`` (the fallback's finish level, 1e-9, by default) or
+  ``--max-iter``: iterations, CPU time, non-converged runs, energy and distance of the minima.
+  The ABC kernel is jamlab's compiled loop with that one line changed (``kernel_copy.py``: made
+  from its source, stops if the line is not found); jamlab's cap ``dmax`` stays the only cap.
 
     PYTHONPATH=src python scripts/fire_alternatives.py lbfgs --n 1000 --seeds 1
     PYTHONPATH=src python scripts/fire_alternatives.py scan --n 1000 --seeds 1 2
     PYTHONPATH=src python scripts/fire_alternatives.py ptail --n 1000 --seeds 1 --loose 1e-8
     PYTHONPATH=src python scripts/fire_alternatives.py pfire --n 1000 --seeds 1 --count 5
+    PYTHONPATH=src python scripts/fire_alternatives.py abc --n 1000 --seeds 1 2 --alpha0 0.25 0.1
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections import deque
+from pathlib import Path
 
 import numpy as np
 
-from fire_fallback_probe import collect
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fire_fallback_probe import collect  # noqa: E402
+from jamlab.spheres import kernels as K
 from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
-from jamlab.spheres.fire import FireParameters, minimize
+from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import energy_and_forces
+from kernel_copy import edited_fire
 
 SCAN = [
     {}, {"dt_max": 0.25}, {"dt_max": 0.35}, {"dt_max": 0.4}, {"n_delay": 5}, {"n_delay": 10},
@@ -293,9 +306,67 @@ def pfire(pairs, count: int, cap: int, dt_max: float) -> None:
               f"{its} ({resets}), {fm:.1e}, {1e3 * (t3 - t2):.0f} |", flush=True)
 
 
+_MIXING = """        if ff > 0.0:
+            c1 = 1.0 - alpha
+            c2 = alpha * np.sqrt(vv / ff)
+"""
+_ABC_MIXING = """        if ff > 0.0:
+            m = 1.0 / (1.0 - (1.0 - alpha) ** (n_pos + 1))
+            c1 = m * (1.0 - alpha)
+            c2 = m * alpha * np.sqrt(vv / ff)
+"""
+
+
+def abc_kernel():
+    """jamlab's compiled FIRE loop with the mixing divided by ABC-FIRE's bias correction
+    (``scripts/kernel_copy.py``: the kernel's own source with that line edited)."""
+    return edited_fire("fire_abc", [(_MIXING, _ABC_MIXING)])
+
+
+def run_kernel(kernel, packing, ftol: float, params: FireParameters, max_iter: int):
+    """One FIRE run of ``kernel`` from ``packing`` as :func:`minimize` makes it (the relaxations'
+    skin): ``(iterations, converged, energy, CPU s, positions)``."""
+    box = packing.box
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    K.wrap_positions(pos, box.length, box.strain)
+    nl = NeighborList(packing.with_positions(pos), skin=RELAX_SKIN)
+    pos = nl.sorted(pos)
+    t = time.process_time()
+    out = kernel(*kernel_arguments(pos, box, nl, ftol, max_iter, params))
+    cpu = time.process_time() - t
+    return int(out[0]), bool(out[2]), float(out[3]), cpu, nl.unsorted(pos)
+
+
+def abc(starts, alphas: list[float], ftol: float, max_iter: int) -> None:
+    variants = [("FIRE 2.0", K.fire, FireParameters())]
+    kernel = abc_kernel()
+    variants += [(f"ABC α₀={a0:g}", kernel, FireParameters(alpha0=a0)) for a0 in alphas]
+    for _, kern, params in variants:  # compile
+        run_kernel(kern, starts[0], 1e-3, params, max_iter)
+    totals = {name: [0, 0.0, 0] for name, _, _ in variants}
+    print("| # | " + " | ".join(f"{name}: its, ms, dE/E, dx" for name, _, _ in variants) + " |")
+    print("|---|" + "---|" * len(variants))
+    for k, s in enumerate(starts):
+        cells, ref = [], None
+        for name, kern, params in variants:
+            it, conv, e, cpu, x = run_kernel(kern, s, ftol, params, max_iter)
+            ref = (e, x) if ref is None else ref
+            dx = float(np.max(np.abs(s.box.minimum_image(x - ref[1]))))
+            totals[name][0] += it
+            totals[name][1] += cpu
+            totals[name][2] += not conv
+            cells.append(f"{it}{'' if conv else ' (not converged)'}, {cpu * 1e3:.0f}, "
+                         f"{(e - ref[0]) / abs(ref[0]):+.1e}, {dx:.1e}")
+        print(f"| {k} | " + " | ".join(cells) + " |", flush=True)
+    base = totals["FIRE 2.0"][0]
+    for name, (its, cpu, nc) in totals.items():
+        print(f"{name}: {its} iterations ({its / base:.2f} of FIRE 2.0), {cpu:.2f} CPU s, "
+              f"{nc} not converged")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=["lbfgs", "scan", "ptail", "pfire"])
+    ap.add_argument("what", choices=["lbfgs", "scan", "ptail", "pfire", "abc"])
     ap.add_argument("--n", type=int, default=1000)
     ap.add_argument("--pressure", type=float, default=1e-4)
     ap.add_argument("--dgamma", type=float, default=1e-5)
@@ -308,6 +379,10 @@ def main() -> None:
                     help="ptail: L-BFGS iterations at most; pfire: iterations at most")
     ap.add_argument("--count", type=int, default=5, help="pfire: starts measured")
     ap.add_argument("--dt-max", type=float, default=0.3, help="pfire: largest time step")
+    ap.add_argument("--alpha0", type=float, nargs="+", default=[0.25, 0.1],
+                    help="abc: FIRE's initial mixing α₀ of each ABC run")
+    ap.add_argument("--ftol", type=float, default=1e-9, help="abc: the tolerance of both")
+    ap.add_argument("--max-iter", type=int, default=200_000, help="abc: iterations at most")
     a = ap.parse_args()
     pairs = [pair for seed in a.seeds for pair in collect(a.n, a.pressure, a.dgamma, a.steps, seed)]
     starts = [s for s, _ in pairs]
@@ -319,6 +394,9 @@ def main() -> None:
         return
     if a.what == "pfire":
         pfire(pairs, a.count, a.cap, a.dt_max)
+        return
+    if a.what == "abc":
+        abc(starts, a.alpha0, a.ftol, a.max_iter)
         return
     if a.what == "scan":
         base = None

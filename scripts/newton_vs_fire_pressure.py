@@ -7,8 +7,9 @@ all redone; Newton minimiser), with the located confirmation against it (``--com
 located``: each redone candidate first decided on the piece where the branch ends, by Newton
 alone), or with the relaxations' Verlet skin
 (:data:`jamlab.spheres.neighbors.RELAX_SKIN`, ``--compare skin``: 0.1 against the earlier 0.2,
-which changes only rounding), or with the candidates that surely released enough not redone
-(``--compare band``: the default ``confirm_below`` against every candidate redone), or with
+which changes only rounding; ``--compare thin-skin``: 0.03 against 0.1), or with the
+candidates that surely released enough not redone (``--compare band``: the default
+``confirm_below`` against every candidate redone), or with
 the backbone factorisation (``--compare factorisation``: CHOLMOD's Cholesky against SuperLU's
 ``LDLᵀ``, :data:`jamlab.spheres.aqs.linalg.FACTORISATION`; a preconditioner: rounding only), or
 with the Newton relaxer's FIRE fallbacks finished by Newton below ``max|F| = 1e-9`` against FIRE
@@ -51,6 +52,7 @@ VARIANTS: dict[str, tuple[tuple[str, dict], tuple[str, dict]]] = {
     "confirm": (("continued", {"confirm": "continued"}), ("chain", {"confirm": "chain"})),
     "located": (("located", {"confirm": "located"}), ("continued", {"confirm": "continued"})),
     "skin": (("skin 0.1", {}), ("skin 0.2", {})),
+    "thin-skin": (("skin 0.03", {}), ("skin 0.1", {})),
     "band": (("band (default)", {"confirm_below": CONFIRM_BELOW}),
              ("all redone", {"confirm_below": math.inf})),
     "factorisation": (("CHOLMOD", {}), ("SuperLU", {})),
@@ -73,6 +75,7 @@ SETTINGS: dict[str, Callable[[], None]] = {
     # the relaxations' Verlet skin, in every module that reads it
     "skin 0.1": lambda: set_relax_skin(0.1),
     "skin 0.2": lambda: set_relax_skin(0.2),
+    "skin 0.03": lambda: set_relax_skin(0.03),
     # the backbone factorisation (jamlab.spheres.aqs.linalg.FACTORISATION)
     "CHOLMOD": _setter(linalg, "FACTORISATION", "cholmod"),
     "SuperLU": _setter(linalg, "FACTORISATION", "superlu"),
@@ -89,16 +92,24 @@ SETTINGS: dict[str, Callable[[], None]] = {
 sets it, called before each of that variant's runs."""
 
 
+MIN_TAIL = 50
+"""The fewest sizes above ``S_min`` a τ of :func:`print_size_comparison` is fitted from."""
+
+
 def print_size_comparison(sizes: dict, new: str, ref: str, fit: bool = True) -> None:
     """Print the two-sample KS test of the pooled sizes ``sizes[new]`` against ``sizes[ref]``
     and, with ``fit``, τ of both above the same ``S_min`` (chosen on the reference's sizes by the
-    KS rule) and their difference in σ. Also used by ``tree_statistics.py``."""
+    KS rule) and their difference in σ; with fewer than :data:`MIN_TAIL` reference sizes it says
+    so instead of fitting. Also used by ``tree_statistics.py``."""
     ks = ks_2samp(sizes[new], sizes[ref])
     print(f"two-sample KS on the sizes: D = {ks.statistic:.3f}, p-value = {ks.pvalue:.3f}")
     if not fit:
         return
+    if len(sizes[ref]) < MIN_TAIL:
+        print(f"tau not fitted: {len(sizes[ref])} reference sizes, fewer than {MIN_TAIL}")
+        return
     # τ: x_min chosen on the reference's sizes (KS rule), the same x_min for both
-    chosen = fit_power_law(sizes[ref], min_tail=50)
+    chosen = fit_power_law(sizes[ref], min_tail=MIN_TAIL)
     fits = {m: fit_power_law(sizes[m], x_min=chosen.x_min) for m in (new, ref)}
     for m, f in fits.items():
         print(f"tau ({m}) = {f.tau:.3f} ± {f.tau_stderr:.3f} from {f.n_tail} sizes above "
