@@ -68,7 +68,7 @@ def test_lists_without_a_branch_free_twin_do_not_calibrate(fresh):
 
 
 def test_calibration_measures_both_kernels():
-    cal = KC.calibrate(sizes=(2000, 4000), rounds=1)
+    cal = KC.calibrate(sizes=(2800, 4000), rounds=1)
     pairs = [p for p, _, _ in cal.table]
     assert pairs == sorted(pairs) and pairs[0] > KC.CALIBRATE_ABOVE  # the lists the rule needs
     assert all(np.isfinite(t) and t > 0 for _, *ts in cal.table for t in ts)

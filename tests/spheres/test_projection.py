@@ -187,3 +187,26 @@ def test_projected_run_resumes_bit_for_bit(tmp_path):
     for col in ("energy", "shear_stress", "pressure", "jammed", "plastic"):
         assert np.array_equal(getattr(whole.trace, col), getattr(rest.trace, col)), col
     assert np.array_equal(whole.packing.positions, rest.packing.positions)
+
+
+def test_pairs_beyond_a_thin_list_are_added_and_solved_again():
+    """A list whose skin is thinner than the projection's moves misses pairs that the end
+    overlaps; the projection adds them and solves once more: the end has no overlap among all
+    pairs (brute force) and equals the projection on a list wide enough to hold every pair."""
+    start = overlapping_start(64, 3, 0.5, 7)
+    wide = project(start, NeighborList(start, skin=0.3))
+    thin_list = NeighborList(start, skin=1e-4)
+    first = project(start, thin_list, pairs=_list_pairs(start, thin_list))  # no second round
+    assert not first and "overlap" in first.reason  # the thin list alone does not suffice
+    thin = project(start, NeighborList(start, skin=1e-4))
+    assert wide and thin, (wide.reason, thin.reason)
+    x = thin.packing.positions
+    g, _, _ = all_pairs_gaps(x, start.box)
+    assert g.min() > -1e-14
+    assert np.abs(start.box.minimum_image(x - wide.packing.positions)).max() < 1e-8
+
+
+def _list_pairs(packing, nl):
+    from jamlab.spheres.aqs.projection import candidate_pairs
+
+    return candidate_pairs(packing, nl)

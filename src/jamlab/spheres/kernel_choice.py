@@ -14,13 +14,14 @@ AMD EPYC (there the branch-free kernel is 1.35× *slower* at 9–18k pairs, N = 
 
 :func:`calibration` measures it once per process, the first time a list long enough for the
 choice to matter is evaluated (:data:`CALIBRATE_ABOVE` pairs): both kernels on uniformly random
-configurations (φ = 0.645, skin 0.1, about 3.4 listed pairs and 2.6 contacts per particle: a
-contact pattern as unpredictable as near jamming's) from ``N = 2000`` to ``16000`` (≈ 7k–55k
-pairs), in short interleaved rounds, best of :data:`ROUNDS` (robust to a second process on the
-machine: a round the scheduler interrupted is never the best). The threshold is the geometric
-midpoint between the longest list on which the branchy kernel is still faster and the next size,
-from which the branch-free one is faster by at least :data:`MARGIN` on every longer list
-measured. It takes ≈ 0.5 s. Results never depend on the choice (same bits, tested); only the
+configurations (φ = 0.645, the relaxations' skin ``RELAX_SKIN``: at 0.03 about 2.8 listed pairs
+and 2.6 contacts per particle, against 3.75 and 3.0 near a jammed minimum at p = 1e-4; at the
+earlier 0.1, 3.4 and 2.6: a contact pattern as irregular as near jamming's) from ``N = 2800`` to
+``16000`` (≈ 8k–45k pairs), in short interleaved rounds, best of :data:`ROUNDS` (robust to a
+second process on the machine: a round the scheduler interrupted is never the best). The threshold
+is the geometric midpoint between the longest list on which the branchy kernel is still faster and
+the next size, from which the branch-free one is faster by at least :data:`MARGIN` on every longer
+list measured. It takes ≈ 0.5 s. Results never depend on the choice (same bits, tested); only the
 time does.
 
 ``JAMLAB_FORCE_KERNEL`` overrides it: ``branchy`` (never branch-free), ``branch-free`` (every
@@ -57,8 +58,9 @@ CALIBRATE_ABOVE = 6000
 """Lists up to this length take the branchy kernel without a measurement (both machines measured
 favour it there by 5–35 %); the first longer list triggers :func:`calibrate`."""
 
-SIZES = (2000, 2800, 4000, 5600, 8000, 11300, 16000)
-"""Particle numbers of the calibration configurations (≈ 6.8k … 55k pairs at skin 0.1)."""
+SIZES = (2800, 4000, 5600, 8000, 11300, 16000)
+"""Particle numbers of the calibration configurations (≈ 8.0k … 45k pairs at skin 0.03; every list
+longer than :data:`CALIBRATE_ABOVE`; 2000 was the first size at skin 0.1, 6.8k pairs there)."""
 
 ROUNDS = 9
 MARGIN = 1.03
