@@ -165,87 +165,93 @@ def project(
     particles beyond the list's skin: a large step, or a thin skin), it is solved again with
     those pairs added, at most :data:`MAX_PAIR_ROUNDS` times.
     """
-    n, d = affine.positions.shape
+    n = affine.positions.shape[0]
     pi, pj = candidate_pairs(affine, nl) if pairs is None else pairs
     auto = pairs is None
     solves = 0
-    rounds = 0
-
-    def failed(k: int, why: str) -> Projection:  # (the values of the round that failed)
-        return Projection(None, k, solves, pi, pj, lam, why)
-
-    while True:
-        sigma = pair_sigmas(affine.diameters, pi, pj)
-        x0 = np.array(affine.positions)
-        x = x0.copy() if start is None else np.array(start.positions)
-        lam = np.zeros(pi.size)
-        cached: tuple[np.ndarray, object] | None = None  # (active indices, their factor)
-
-        hist_x: list[np.ndarray] = []  # accelerated linearisation points (one active set)
-        hist_f: list[np.ndarray] = []  # their residuals T(x) − x
-        last_active: np.ndarray | None = None
-        for k in range(1, max_sqp + 1):
-            g, u = _gaps(x, affine, pi, pj, sigma)
-            jac = _jacobian(pi, pj, u, n, d)
-            q = g - jac @ (x - x0).ravel()
-            m = (jac @ jac.T).tocsr()
-            if k > 1:
-                a = lam > 0.0  # the last linearisation's touching pairs
-            elif parent is not None:
-                a = _gaps(parent.positions, parent, pi, pj, sigma)[0] < TOUCH_GAP
-            else:
-                a = q < 0.0
-            for _ in range(max_active):
-                idx = np.flatnonzero(a)
-                lam = np.zeros(pi.size)
-                if idx.size:
-                    m_aa = m[idx][:, idx]
-                    sol = None
-                    if cached is not None and np.array_equal(cached[0], idx):
-                        sol, ok, _ = pcg(m_aa, -q[idx], cached[1].solve, CG_ATOL, CG_MAXITER, 1)
-                        sol = sol if ok else None
-                    if sol is None:
-                        fac = cholesky(m_aa.tocsc(), natural=False)
-                        solves += 1
-                        if fac is None:
-                            return failed(k, "a state of self-stress among the touching pairs")
-                        cached = (idx, fac)
-                        sol = fac.solve(-q[idx])
-                    lam[idx] = sol
-                w = q + m @ lam
-                new = (lam - w) > 0.0
-                if np.array_equal(new, a):
-                    break
-                a = new
-            else:
-                return failed(k, f"the touching pairs did not settle in {max_active} iterations")
-            x_new = x0 + (jac.T @ lam).reshape(n, d)
-            moved = float(np.abs(x_new - x).max())
-            if moved < xtol:
-                x = x_new
-                break
-            active = lam > 0.0
-            if last_active is None or not np.array_equal(active, last_active):
-                hist_x, hist_f = [], []
-            last_active = active
-            hist_x.append(x.ravel())
-            hist_f.append((x_new - x).ravel())
-            x = _anderson(hist_x, hist_f, anderson).reshape(n, d) if anderson else x_new
-        else:
-            return failed(max_sqp, f"the linearisations did not settle in {max_sqp}")
+    for rounds in range(MAX_PAIR_ROUNDS + 1):
+        x, k, used, lam, why = _solve(affine, pi, pj, parent, start, max_sqp, max_active,
+                                      anderson, xtol)
+        solves += used
+        if why:
+            return Projection(None, k, solves, pi, pj, lam, why)
         out = affine.with_positions(x)
         ci, cj = candidate_pairs(out, nl)  # the list at the end (it may have been rebuilt)
         g, _ = _gaps(x, out, ci, cj, pair_sigmas(out.diameters, ci, cj))
-        if g.size and g.min() < -overlap_tol:
-            over = g < -overlap_tol
-            known = np.unique(np.minimum(pi, pj) * n + np.maximum(pi, pj))
-            keys = np.unique(np.minimum(ci[over], cj[over]) * n + np.maximum(ci[over], cj[over]))
-            missed = keys[~np.isin(keys, known)]
-            if auto and missed.size and rounds < MAX_PAIR_ROUNDS:
-                # pairs that were no candidates (the projection moved particles beyond the list's
-                # skin): solved again with them added
-                pi, pj = np.concatenate([pi, missed // n]), np.concatenate([pj, missed % n])
-                rounds += 1
-                continue
-            return failed(k, f"an overlap of {-g.min():.2e} remains")
-        return Projection(out, k, solves, pi, pj, lam)
+        if not g.size or g.min() >= -overlap_tol:
+            return Projection(out, k, solves, pi, pj, lam)
+        over = g < -overlap_tol
+        known = np.unique(np.minimum(pi, pj) * n + np.maximum(pi, pj))
+        keys = np.unique(np.minimum(ci[over], cj[over]) * n + np.maximum(ci[over], cj[over]))
+        missed = keys[~np.isin(keys, known)]
+        if not (auto and missed.size and rounds < MAX_PAIR_ROUNDS):
+            return Projection(None, k, solves, pi, pj, lam,
+                              f"an overlap of {-g.min():.2e} remains")
+        # pairs that were no candidates (the projection moved particles beyond the list's
+        # skin): solved again with them added
+        pi, pj = np.concatenate([pi, missed // n]), np.concatenate([pj, missed % n])
+    raise AssertionError("unreachable: the last round returns")
+
+
+def _solve(affine: Packing, pi, pj, parent, start, max_sqp, max_active, anderson, xtol):
+    """One projection with the candidate pairs ``(pi, pj)`` (the SQP of :func:`project`):
+    ``(x, linearisations, factorisations, λ, reason)``, ``reason`` empty when it settled."""
+    n, d = affine.positions.shape
+    solves = 0
+    sigma = pair_sigmas(affine.diameters, pi, pj)
+    x0 = np.array(affine.positions)
+    x = x0.copy() if start is None else np.array(start.positions)
+    lam = np.zeros(pi.size)
+    cached: tuple[np.ndarray, object] | None = None  # (active indices, their factor)
+
+    hist_x: list[np.ndarray] = []  # accelerated linearisation points (one active set)
+    hist_f: list[np.ndarray] = []  # their residuals T(x) − x
+    last_active: np.ndarray | None = None
+    for k in range(1, max_sqp + 1):
+        g, u = _gaps(x, affine, pi, pj, sigma)
+        jac = _jacobian(pi, pj, u, n, d)
+        q = g - jac @ (x - x0).ravel()
+        m = (jac @ jac.T).tocsr()
+        if k > 1:
+            a = lam > 0.0  # the last linearisation's touching pairs
+        elif parent is not None:
+            a = _gaps(parent.positions, parent, pi, pj, sigma)[0] < TOUCH_GAP
+        else:
+            a = q < 0.0
+        for _ in range(max_active):
+            idx = np.flatnonzero(a)
+            lam = np.zeros(pi.size)
+            if idx.size:
+                m_aa = m[idx][:, idx]
+                sol = None
+                if cached is not None and np.array_equal(cached[0], idx):
+                    sol, ok, _ = pcg(m_aa, -q[idx], cached[1].solve, CG_ATOL, CG_MAXITER, 1)
+                    sol = sol if ok else None
+                if sol is None:
+                    fac = cholesky(m_aa.tocsc(), natural=False)
+                    solves += 1
+                    if fac is None:
+                        return x, k, solves, lam, "a state of self-stress among the touching pairs"
+                    cached = (idx, fac)
+                    sol = fac.solve(-q[idx])
+                lam[idx] = sol
+            w = q + m @ lam
+            new = (lam - w) > 0.0
+            if np.array_equal(new, a):
+                break
+            a = new
+        else:
+            return (x, k, solves, lam,
+                    f"the touching pairs did not settle in {max_active} iterations")
+        x_new = x0 + (jac.T @ lam).reshape(n, d)
+        moved = float(np.abs(x_new - x).max())
+        if moved < xtol:
+            return x_new, k, solves, lam, ""
+        active = lam > 0.0
+        if last_active is None or not np.array_equal(active, last_active):
+            hist_x, hist_f = [], []
+        last_active = active
+        hist_x.append(x.ravel())
+        hist_f.append((x_new - x).ravel())
+        x = _anderson(hist_x, hist_f, anderson).reshape(n, d) if anderson else x_new
+    return x, max_sqp, solves, lam, f"the linearisations did not settle in {max_sqp}"
