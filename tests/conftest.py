@@ -24,6 +24,24 @@ def small_pressure_run(tmp_path_factory):
     run_study(study, out, Execution(workers=0))
     return out
 
+@pytest.fixture(scope="session")
+def jam64_packing():
+    """``jam(64, 3, seed=5, p_target=1e-4)``: a small packing above jamming, shared by the
+    tests of the FIRE probes."""
+    from jamlab.spheres import jam
+
+    return jam(64, 3, seed=5, p_target=1e-4).packing
+
+
+@pytest.fixture(scope="session")
+def fire_start(jam64_packing):
+    """:func:`jam64_packing` with every coordinate moved by ``2e-3`` Gaussian noise (seed 1):
+    a start FIRE needs some hundred iterations from."""
+    rng = np.random.default_rng(1)
+    pk = jam64_packing
+    return pk.with_positions(pk.positions + 2e-3 * rng.standard_normal(pk.positions.shape))
+
+
 # Property tests: deterministic in CI (a failure there must be reproducible), random locally.
 try:
     from hypothesis import settings

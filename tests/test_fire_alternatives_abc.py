@@ -12,33 +12,25 @@ from tests.script_helpers import script_module
 from jamlab.spheres import kernels as K
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN
-from jamlab.spheres.packing import jam
 from jamlab.spheres.potential import forces
 
 
-@pytest.fixture(scope="module")
-def start():
-    pk = jam(64, 3, seed=5, p_target=1e-4).packing
-    rng = np.random.default_rng(3)
-    return pk.with_positions(pk.positions + 2e-3 * rng.standard_normal(pk.positions.shape))
-
-
-def test_baseline_is_fire(start):
+def test_baseline_is_fire(fire_start):
     probe = script_module("fire_alternatives")
-    ref = minimize(start, ftol=1e-12, skin=RELAX_SKIN)
-    its, conv, e, _, x = probe.run_kernel(K.fire, start, 1e-12, FireParameters(), 1_000_000)
+    ref = minimize(fire_start, ftol=1e-12, skin=RELAX_SKIN)
+    its, conv, e, _, x = probe.run_kernel(K.fire, fire_start, 1e-12, FireParameters(), 1_000_000)
     assert ref.converged and conv
     assert its == ref.iterations and e == ref.energy
     assert np.array_equal(x, ref.packing.positions)
 
 
-def test_abc_copy_converges_and_differs(start):
+def test_abc_copy_converges_and_differs(fire_start):
     probe = script_module("fire_alternatives")
     kernel = probe.abc_kernel()
-    ref = minimize(start, ftol=1e-12, skin=RELAX_SKIN)
-    its, conv, e, _, x = probe.run_kernel(kernel, start, 1e-12, FireParameters(), 1_000_000)
+    ref = minimize(fire_start, ftol=1e-12, skin=RELAX_SKIN)
+    its, conv, e, _, x = probe.run_kernel(kernel, fire_start, 1e-12, FireParameters(), 1_000_000)
     assert conv
-    fmax = float(np.max(np.linalg.norm(forces(start.with_positions(x)), axis=1)))
+    fmax = float(np.max(np.linalg.norm(forces(fire_start.with_positions(x)), axis=1)))
     assert fmax < 1e-12
     assert its != ref.iterations  # the edit took effect
     assert e == pytest.approx(ref.energy, rel=1e-6)

@@ -13,35 +13,27 @@ from tests.script_helpers import script_module
 
 from jamlab.spheres.fire import FireParameters, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN
-from jamlab.spheres.packing import jam
 from jamlab.spheres.potential import forces
 
 
-@pytest.fixture(scope="module")
-def start():
-    pk = jam(64, 3, seed=5, p_target=1e-4).packing
-    rng = np.random.default_rng(1)
-    return pk.with_positions(pk.positions + 2e-3 * rng.standard_normal(pk.positions.shape))
-
-
-def test_copy_retraces_fire(start):
+def test_copy_retraces_fire(fire_start):
     probe = script_module("fire_line_probe")
-    ref = minimize(start, ftol=1e-12, skin=RELAX_SKIN)
-    (its, fmax, conv, e, evals, jumps, _), pos = probe.run_lines(start, 1e-12, False)
+    ref = minimize(fire_start, ftol=1e-12, skin=RELAX_SKIN)
+    (its, fmax, conv, e, evals, jumps, _), pos = probe.run_lines(fire_start, 1e-12, False)
     assert ref.converged and conv
     assert its == ref.iterations and evals == 0 and jumps == 0
     assert e == ref.energy
     assert np.array_equal(pos, ref.packing.positions)
 
 
-def test_counted_copy_retraces_fire(start):
+def test_counted_copy_retraces_fire(fire_start):
     probe = script_module("fire_unjamming_probe")
-    ref = minimize(start, ftol=1e-12, skin=RELAX_SKIN)
+    ref = minimize(fire_start, ftol=1e-12, skin=RELAX_SKIN)
     its, fmax, conv, e, n_restart, n_small, trace = probe.run(
-        probe.instrumented_fire(), start, FireParameters(), 1e-12, 1_000_000)
+        probe.instrumented_fire(), fire_start, FireParameters(), 1e-12, 1_000_000)
     assert conv and its == ref.iterations and e == ref.energy
-    # max|F| at iteration 1 is the start's: the counters see the loop's own state
-    assert trace[0] == pytest.approx(float(np.max(np.linalg.norm(forces(start), axis=1))),
+    # max|F| at iteration 1 is the fire_start's: the counters see the loop's own state
+    assert trace[0] == pytest.approx(float(np.max(np.linalg.norm(forces(fire_start), axis=1))),
                                      rel=1e-12)
     assert 0 < n_restart < its and 0 <= n_small <= its
 
@@ -52,12 +44,12 @@ def test_stale_edit_fails_loudly():
         copy.edited_fire("fire_stale", [("    this line is not in the kernel\n", "")])
 
 
-def test_lines_still_converge(start):
+def test_lines_still_converge(fire_start):
     probe = script_module("fire_line_probe")
     saved = dict(probe.OPTS)
     probe.OPTS.update(every=20, cos=0.5)  # jump often
     try:
-        (its, fmax, conv, e, evals, jumps, _), _ = probe.run_lines(start, 1e-12, True)
+        (its, fmax, conv, e, evals, jumps, _), _ = probe.run_lines(fire_start, 1e-12, True)
     finally:
         probe.OPTS.clear()
         probe.OPTS.update(saved)
@@ -65,13 +57,13 @@ def test_lines_still_converge(start):
     assert jumps > 0 and evals >= jumps
 
 
-def test_line_search_returns_to_the_minimum_along_its_line():
+def test_line_search_returns_to_the_minimum_along_its_line(jam64_packing):
     """From a minimum moved back by δ along a unit direction ``u``, the force along ``u`` points
     to the minimum and vanishes there (harmonic at this δ): the line search of the ``line``
     variant (the compiled one on a fresh list) lands within its tolerance, ``|g| < g(0)/10``,
     i.e. within about 10 % of δ; and a direction with the force against it is refused."""
     probe = script_module("fire_line_probe")
-    pk0 = minimize(jam(64, 3, seed=5, p_target=1e-4).packing, ftol=1e-13, skin=RELAX_SKIN).packing
+    pk0 = minimize(jam64_packing, ftol=1e-13, skin=RELAX_SKIN).packing
     u = np.random.default_rng(2).standard_normal(pk0.positions.shape)
     u /= np.linalg.norm(u)
     delta = 1e-4
