@@ -53,7 +53,7 @@ from fire_fallback_probe import collect  # noqa: E402
 from jamlab.spheres import kernels as K
 from jamlab.spheres.aqs.linalg import backbone_matrix, factorise
 from jamlab.spheres.aqs.network import backbone_mask, contact_list
-from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize
+from jamlab.spheres.fire import FireParameters, kernel_arguments, kernel_start, minimize
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
 from jamlab.spheres.potential import energy_and_forces
 from kernel_copy import edited_fire
@@ -326,13 +326,9 @@ def abc_kernel():
 def run_kernel(kernel, packing, ftol: float, params: FireParameters, max_iter: int):
     """One FIRE run of ``kernel`` from ``packing`` as :func:`minimize` makes it (the relaxations'
     skin): ``(iterations, converged, energy, CPU s, positions)``."""
-    box = packing.box
-    pos = np.array(packing.positions, dtype=np.float64, order="C")
-    K.wrap_positions(pos, box.length, box.strain)
-    nl = NeighborList(packing.with_positions(pos), skin=RELAX_SKIN)
-    pos = nl.sorted(pos)
+    pos, nl = kernel_start(packing, skin=RELAX_SKIN)
     t = time.process_time()
-    out = kernel(*kernel_arguments(pos, box, nl, ftol, max_iter, params))
+    out = kernel(*kernel_arguments(pos, packing.box, nl, ftol, max_iter, params))
     cpu = time.process_time() - t
     return int(out[0]), bool(out[2]), float(out[3]), cpu, nl.unsorted(pos)
 

@@ -55,11 +55,15 @@ from kernel_copy import edited_fire  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
-from jamlab.spheres.fire import FireParameters, kernel_arguments, minimize  # noqa: E402
+from jamlab.spheres.fire import (  # noqa: E402
+    FireParameters,
+    kernel_arguments,
+    kernel_start,
+    minimize,
+)
 from jamlab.spheres.kernel_choice import threshold_for  # noqa: E402
-from jamlab.spheres.kernels.geometry import wrap_positions  # noqa: E402
 from jamlab.spheres.kernels.pairs import energy_forces_any  # noqa: E402
-from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
+from jamlab.spheres.neighbors import RELAX_SKIN  # noqa: E402
 
 OPTS = {"chunk": 1000, "every": 1000, "cos": 0.99, "cap": 1e-2, "de": 1e-11,
         "variants": "plain,kernel,kernel+lines,chunks,line"}
@@ -82,10 +86,8 @@ def line_search(pk, u: np.ndarray, s0: float, counts: dict):
     (the compiled :func:`search_line` of ``kernel+lines``, first trial ``s0``, on a fresh
     neighbour list: any particle's move capped at ``--cap`` and at half the list's skin); ``None``
     when the force along ``u`` is not positive at the start or no trial has it positive."""
-    pos = np.array(pk.positions, dtype=np.float64, order="C")
-    wrap_positions(pos, pk.box.length, pk.box.strain)
-    nl = NeighborList(pk.with_positions(pos), skin=RELAX_SKIN)
-    pos = np.ascontiguousarray(nl.sorted(pos))
+    pos, nl = kernel_start(pk, skin=RELAX_SKIN)
+    pos = np.ascontiguousarray(pos)
     lists = (nl.start, nl.nbr, nl.shift, nl.diameters, nl.alpha,
              threshold_for(nl.nbr.size, pos.shape[1], nl.alpha))  # as kernel_arguments passes
     last = np.ascontiguousarray(nl.sorted(u * s0))
@@ -292,10 +294,7 @@ def fire_lines():
 
 def run_lines(start_pk, ftol: float, lines: bool):
     """:func:`fire_lines` from ``start_pk`` (a fresh neighbour list, as :func:`minimize`)."""
-    pos = np.array(start_pk.positions, dtype=np.float64, order="C")
-    wrap_positions(pos, start_pk.box.length, start_pk.box.strain)
-    nl = NeighborList(start_pk.with_positions(pos), skin=RELAX_SKIN)
-    pos = nl.sorted(pos)
+    pos, nl = kernel_start(start_pk, skin=RELAX_SKIN)
     args = kernel_arguments(pos, start_pk.box, nl, ftol, 1_000_000, FireParameters())
     out = fire_lines()(*args, int(OPTS["every"]), OPTS["cos"], OPTS["cap"], lines)
     return out, nl.unsorted(pos)

@@ -26,9 +26,8 @@ from kernel_copy import edited_fire  # noqa: E402
 # isort: split
 import numpy as np  # noqa: E402
 
-import jamlab.spheres.kernels as K  # noqa: E402
-from jamlab.spheres.fire import FireParameters, kernel_arguments  # noqa: E402
-from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList  # noqa: E402
+from jamlab.spheres.fire import FireParameters, kernel_arguments, kernel_start  # noqa: E402
+from jamlab.spheres.neighbors import RELAX_SKIN  # noqa: E402
 from jamlab.spheres.packing import jam  # noqa: E402
 from jamlab.spheres.potential import affine_shear  # noqa: E402
 
@@ -52,12 +51,8 @@ def instrumented_fire():
 
 
 def run(fire, packing, params: FireParameters, ftol: float, max_iter: int):
-    box = packing.box
-    pos = np.array(packing.positions, dtype=np.float64, order="C")
-    K.wrap_positions(pos, box.length, box.strain)
-    nl = NeighborList(packing.with_positions(pos), skin=RELAX_SKIN)
-    pos = nl.sorted(pos)
-    return fire(*kernel_arguments(pos, box, nl, ftol, max_iter, params))
+    pos, nl = kernel_start(packing, skin=RELAX_SKIN)
+    return fire(*kernel_arguments(pos, packing.box, nl, ftol, max_iter, params))
 
 
 def main() -> None:

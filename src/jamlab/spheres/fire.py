@@ -138,6 +138,28 @@ def kernel_arguments(
     )
 
 
+def kernel_start(
+    packing: Packing, neighbors: NeighborList | None = None, skin: float = DEFAULT_SKIN
+) -> tuple[np.ndarray, NeighborList]:
+    """The positions the compiled FIRE loop starts from, in the list's order, and the list:
+    ``packing``'s positions wrapped into the box and a fresh list of ``skin``, or ``neighbors``
+    updated to them (it must match the packing's box, particle number and pair law). As
+    :func:`minimize` prepares its run; for code that calls a FIRE kernel itself (with
+    :func:`kernel_arguments`), e.g. the probes of ``scripts/``."""
+    box = packing.box
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    if neighbors is None:
+        K.wrap_positions(pos, box.length, box.strain)
+        neighbors = NeighborList(packing.with_positions(pos), skin=skin)
+    else:
+        if not neighbors.matches(packing):
+            raise ValueError(
+                "neighbour list belongs to a different box, particle number or pair law"
+            )
+        neighbors.update(pos, box.strain)
+    return neighbors.sorted(pos), neighbors
+
+
 def minimize(
     packing: Packing,
     ftol: float = 1e-12,
@@ -159,17 +181,7 @@ def minimize(
     params = FireParameters() if params is None else params
     t0 = time.perf_counter()
     box = packing.box
-    pos = np.array(packing.positions, dtype=np.float64, order="C")
-    if neighbors is None:
-        K.wrap_positions(pos, box.length, box.strain)
-        neighbors = NeighborList(packing.with_positions(pos), skin=skin)
-    else:
-        if not neighbors.matches(packing):
-            raise ValueError(
-                "neighbour list belongs to a different box, particle number or pair law"
-            )
-        neighbors.update(pos, box.strain)
-    pos = neighbors.sorted(pos)
+    pos, neighbors = kernel_start(packing, neighbors, skin)
     out = K.fire(*kernel_arguments(pos, box, neighbors, ftol, max_iter, params))
     iterations, fmax, converged, energy, n_rebuild, start, nbr, shift, img_y, ref = out
     if n_rebuild > 0:
