@@ -30,6 +30,13 @@ strain step make the slope? (``k = 2`` is required.)
 slope weighted by the asymptotic σ (avalanches as units), and the ``a`` each size prefers with
 its ``2Δlog L`` against the exponential: is the slope the cut-off's shape?
 
+``--free-shapes``: per pressure, each size with its own cut-off scale *and* shape (the shapes of
+``--shape-grid``, default ``jamlab.analysis.cutoff_powerlaw.DEFAULT_STRETCHES``): τ per size at its
+best shape with its shape-free 95 % interval, the slope through them with its σ from ``--boot``
+packing resamples (at most 500), one τ for all sizes with each size's shape and scale free and its
+95 % profile interval, and the likelihood ratio of the separate fits against that one τ
+(``jamlab.analysis.shared_tau``): is the slope a cut-off that moves with N?
+
 Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
 from the real data; the resamples refit τ in it (they do not choose their own window).
 
@@ -49,9 +56,11 @@ from jamlab.analysis import (
     combined_scores,
     cutoff_shape_profile,
     fit_log_slope,
+    shared_tau,
     size_difference,
     strain_step_slopes,
 )
+from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import coarse_avalanches
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
@@ -67,7 +76,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="strain steps k δγ to add (k = 2 required), e.g. --coarse 2 4")
     ap.add_argument("--shapes", type=float, nargs="+", default=[],
                     help="cut-off shapes a to hold fixed, e.g. --shapes 0.3 0.5 1")
+    ap.add_argument("--free-shapes", action="store_true",
+                    help="also fit each size with its own cut-off shape (module docstring)")
+    ap.add_argument("--shape-grid", type=float, nargs="+", default=list(DEFAULT_STRETCHES),
+                    help="the cut-off shapes a of --free-shapes")
     args = ap.parse_args(argv)
+    if any(not np.isfinite(a) or a <= 0 for a in args.shape_grid) or len(
+            set(args.shape_grid)) < len(args.shape_grid):
+        ap.error(f"--shape-grid must be distinct numbers > 0, got {args.shape_grid}")
     if any(not np.isfinite(a) or a <= 0 for a in args.shapes) or len(set(args.shapes)) < len(
             args.shapes):
         ap.error(f"--shapes must be distinct numbers > 0, got {args.shapes}")
@@ -152,6 +168,26 @@ def main(argv: list[str] | None = None) -> int:
                   + f" | {f.slope:+.3f} ± {f.slope_err:.3f} | {f.slope / f.slope_err:+.2f} |")
         print("| preferred a (2Δlog L against a = 1) | " + " | ".join(
             f"{prof[n].best:g} ({prof[n].lr_exponential:.1f})" for n in ns) + " | | |")
+    for p in sorted(by_p, reverse=True) if args.free_shapes else ():
+        try:
+            f = shared_tau(by_p[p], windows[p], tuple(args.shape_grid), min(args.boot, 500),
+                           args.seed)
+        except ValueError as err:
+            ap.error(f"p = {p:g}, --free-shapes: {err}")
+        print(f"\np = {p:g}, the same window {f.x_min:.3g}, each size with its own cut-off scale "
+              f"and shape (a on a grid of {len(f.stretches)} from {f.stretches[0]:g} to "
+              f"{f.stretches[-1]:g}):\n")
+        print("| N | packings | sizes | best a | τ there | shape-free 95 % | a at the one τ |")
+        print("|---|---|---|---|---|---|---|")
+        for i, n in enumerate(f.n):
+            print(f"| {n} | {f.packings[i]} | {f.tails[i]} | {f.a_each[i]:g} | "
+                  f"{f.tau_each[i]:.3f} | [{f.low_each[i]:.3f}, {f.high_each[i]:.3f}] | "
+                  f"{f.a_joint[i]:g} |")
+        print(f"\ndτ/d ln N through the sizes' τ: {f.slope:+.3f} ± {f.slope_sigma:.3f} "
+              f"({f.boot_used} packing resamples), z = {f.z_slope:+.2f}; one τ with every "
+              f"size's cut-off free: {f.tau:.3f}, 95 % [{f.tau_low:.3f}, {f.tau_high:.3f}] "
+              f"(σ ≈ {(f.tau_high - f.tau_low) / 3.92:.3f}); separate against one τ: "
+              f"2Δlog L = {f.lr:.2f}, χ²_{f.dof} p = {f.p_value:.3g} (avalanches as units)")
     chi2, p_chi2, s, p_s = combined_scores(zs)
     print(f"\nover {len(zs)} pressure(s), bootstrap z of the slopes: Σ z² = {chi2:.2f} "
           f"(χ²_{len(zs)} p = {p_chi2:.2f}); Σ z/√k = {s:+.2f} (two-sided p = {p_s:.2f})")

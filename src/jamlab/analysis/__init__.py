@@ -65,6 +65,7 @@ from jamlab.analysis.powerlaw import (
     power_law_pdf,
     sample_power_law,
 )
+from jamlab.analysis.shape_per_size import SharedTau, fixed_tau_loglik, shared_tau
 from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
 from jamlab.analysis.size_difference import (
     SizeDifference,
@@ -75,6 +76,9 @@ from jamlab.analysis.size_difference import (
 )
 
 __all__ = [
+    "SharedTau",
+    "fixed_tau_loglik",
+    "shared_tau",
     "ClusteredShapeTest",
     "clustered_shape_test",
     "SizeDifference",
