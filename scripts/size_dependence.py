@@ -37,6 +37,9 @@ packing resamples (at most 500), one τ for all sizes with each size's shape and
 95 % profile interval, and the likelihood ratio of the separate fits against that one τ
 (``jamlab.analysis.shared_tau``): is the slope a cut-off that moves with N?
 
+``--window X``: every pressure's window starts at ``X`` (ε) instead of the pooled KS window (does
+the answer depend on the window's lower end?).
+
 Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
 from the real data; the resamples refit τ in it (they do not choose their own window).
 
@@ -80,7 +83,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="also fit each size with its own cut-off shape (module docstring)")
     ap.add_argument("--shape-grid", type=float, nargs="+", default=list(DEFAULT_STRETCHES),
                     help="the cut-off shapes a of --free-shapes")
+    ap.add_argument("--window", type=float, default=None,
+                    help="the window's lower end x_min (ε) at every pressure, instead of the "
+                         "pooled KS window")
     args = ap.parse_args(argv)
+    if args.window is not None and not (np.isfinite(args.window) and args.window > 0):
+        ap.error(f"--window must be a number > 0, got {args.window}")
     if any(not np.isfinite(a) or a <= 0 for a in args.shape_grid) or len(
             set(args.shape_grid)) < len(args.shape_grid):
         ap.error(f"--shape-grid must be distinct numbers > 0, got {args.shape_grid}")
@@ -119,11 +127,16 @@ def main(argv: list[str] | None = None) -> int:
         groups = by_p[p]
         if len(groups) < 2:
             ap.error(f"p = {p:g}: need two sizes N or more, got {sorted(groups)}")
-        cut = fit_tau_cutoff(np.concatenate([np.concatenate(g) for g in groups.values()]), scale)
-        if cut is None:
-            ap.error(f"p = {p:g}: too few avalanches for the pooled cut-off fit")
+        if args.window is None:
+            cut = fit_tau_cutoff(np.concatenate([np.concatenate(g) for g in groups.values()]),
+                                 scale)
+            if cut is None:
+                ap.error(f"p = {p:g}: too few avalanches for the pooled cut-off fit")
+            x_min = cut.x_min
+        else:
+            x_min = args.window
         try:
-            r = size_difference(groups, cut.x_min, args.boot, args.seed)
+            r = size_difference(groups, x_min, args.boot, args.seed)
         except ValueError as err:
             ap.error(f"p = {p:g}: {err}")
         zs.append(r.z_slope)
@@ -180,10 +193,14 @@ def main(argv: list[str] | None = None) -> int:
         print("| N | packings | sizes | best a | τ there | shape-free 95 % | a at the one τ |")
         print("|---|---|---|---|---|---|---|")
         for i, n in enumerate(f.n):
-            print(f"| {n} | {f.packings[i]} | {f.tails[i]} | {f.a_each[i]:g} | "
+            edge = "*" if f.a_each[i] in (f.stretches[0], f.stretches[-1]) else ""
+            print(f"| {n} | {f.packings[i]} | {f.tails[i]} | {f.a_each[i]:g}{edge} | "
                   f"{f.tau_each[i]:.3f} | [{f.low_each[i]:.3f}, {f.high_each[i]:.3f}] | "
                   f"{f.a_joint[i]:g} |")
-        print(f"\ndτ/d ln N through the sizes' τ: {f.slope:+.3f} ± {f.slope_sigma:.3f} "
+        print("\n(* the best shape is an end of the grid: the maximum may lie beyond, and τ there "
+              "is not resolved)" if any(a in (f.stretches[0], f.stretches[-1]) for a in f.a_each)
+              else "")
+        print(f"dτ/d ln N through the sizes' τ: {f.slope:+.3f} ± {f.slope_sigma:.3f} "
               f"({f.boot_used} packing resamples), z = {f.z_slope:+.2f}; one τ with every "
               f"size's cut-off free: {f.tau:.3f}, 95 % [{f.tau_low:.3f}, {f.tau_high:.3f}] "
               f"(σ ≈ {(f.tau_high - f.tau_low) / 3.92:.3f}); separate against one τ: "

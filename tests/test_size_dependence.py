@@ -30,8 +30,10 @@ def runs(tmp_path_factory):
 
 
 def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):
-    # exit code 2, one line: not a run directory; one size only
-    for argv in ([str(tmp_path)], [str(runs[16])], [str(runs[16]), str(runs[24]), "--boot", "1"]):
+    # exit code 2, one line: not a run directory; one size only; bad --boot, --window, shapes
+    two = [str(runs[16]), str(runs[24])]
+    for argv in ([str(tmp_path)], [str(runs[16])], [*two, "--boot", "1"], [*two, "--window", "0"],
+                 [*two, "--free-shapes", "--shape-grid", "0.5", "-1"]):
         with pytest.raises(SystemExit) as err:
             sd.main(argv)
         assert err.value.code == 2
