@@ -248,12 +248,19 @@ def _nll_stretched(params: NDArray, log_y: FloatArray, y: FloatArray, stretch: f
             + y.size * log_z)
 
 
-def _objective(y: FloatArray, log_y: FloatArray, stretch: float) -> tuple:
+def tail_objective(y: FloatArray, log_y: FloatArray, stretch: float) -> tuple:
     """``(−ℓ, its extra arguments after the parameters)`` for the cut-off's shape ``stretch``
-    (``_nll`` itself for the exponential one)."""
+    (``_nll`` itself for the exponential one): ``fun(np.array([τ, log y_c]), *args)`` is
+    ``−ℓ`` of the tail data ``y = x / x_min ≥ 1`` without ``n log x_min``."""
     if stretch == 1.0:
         return _nll, (log_y, y)
     return _nll_stretched, (log_y, y, stretch, float(np.sum(y**stretch)))
+
+
+def log_yc_bounds(y: FloatArray, stretch: float = 1.0) -> tuple[float, float]:
+    """The search bounds of ``log y_c`` for tail data ``y ≥ 1``: ``−3/a`` to
+    ``log max y + 7/a`` (those of the exponential cut-off in ``(y/y_c)^a``)."""
+    return -3.0 / stretch, math.log(float(y.max())) + 7.0 / stretch
 
 
 def _mle(y: FloatArray, stretch: float = 1.0) -> tuple[float, float, float, bool, NDArray]:
@@ -261,11 +268,11 @@ def _mle(y: FloatArray, stretch: float = 1.0) -> tuple[float, float, float, bool
     ``stretch = a``: the cut-off ``e^(−(y/y_c)^a)`` (the bounds of ``log y_c`` are those of the
     exponential one in ``(y/y_c)^a``, the same numbers at ``a = 1``)."""
     log_y = np.log(y)
-    hi = math.log(float(y.max())) + 7.0 / stretch
-    bounds = np.array([[-1.0, 5.0], [-3.0 / stretch, hi]])
+    lo, hi = log_yc_bounds(y, stretch)
+    bounds = np.array([[-1.0, 5.0], [lo, hi]])
     mean_log = float(log_y.mean())
     tau0 = 1.0 + 1.0 / mean_log if mean_log > 0 else 1.5
-    fun, args = _objective(y, log_y, stretch)
+    fun, args = tail_objective(y, log_y, stretch)
     best = None
     for log_yc0 in (math.log(float(y.max())), math.log(float(np.median(y))) + 2.0,
                     hi - 1.0 / stretch):
@@ -284,7 +291,7 @@ def _stderr(tau: float, log_yc: float, y: FloatArray, stretch: float = 1.0
             ) -> tuple[float, float]:
     """Standard errors of ``τ`` and ``log y_c`` from the observed information."""
     log_y = np.log(y)
-    fun, args = _objective(y, log_y, stretch)
+    fun, args = tail_objective(y, log_y, stretch)
     p0 = np.array([tau, log_yc])
     h = np.array([1e-4, 1e-3])
     hess = np.empty((2, 2))

@@ -31,9 +31,11 @@ from scipy import optimize, stats
 from jamlab.analysis.cutoff_powerlaw import (
     CHI2_1_95,
     DEFAULT_STRETCHES,
-    cutoff_power_law_log_norm,
     cutoff_shape_profile,
+    log_yc_bounds,
+    tail_objective,
 )
+from jamlab.analysis.size_difference import least_squares_slope, resampled_taus
 
 __all__ = ["SharedTau", "fixed_tau_loglik", "shared_tau"]
 
@@ -55,14 +57,12 @@ def fixed_tau_loglik(x: np.ndarray, x_min: float, tau: float, stretch: float
         raise ValueError(f"need at least {_MIN_TAIL} sizes at or above x_min={x_min:g}, "
                          f"got {y.size}")
     n = y.size
-    sum_log = float(np.log(y).sum())
-    sum_ya = float(np.sum(y**stretch))
+    fun, args = tail_objective(y, np.log(y), stretch)
 
     def nll(v: float) -> float:  # −ℓ_y at log y_c = v
-        return (tau * sum_log + sum_ya * math.exp(-stretch * v)
-                + n * cutoff_power_law_log_norm(tau, math.exp(v), 1.0, stretch))
+        return fun(np.array([tau, v]), *args)
 
-    lo, hi = -3.0 / stretch, math.log(float(y.max())) + 7.0 / stretch
+    lo, hi = log_yc_bounds(y, stretch)
     grid = np.linspace(lo, hi, _SCAN)
     vals = [nll(float(v)) for v in grid]
     k = int(np.argmin(vals))
@@ -109,11 +109,6 @@ class SharedTau:
         return self.slope / self.slope_sigma
 
 
-def _slope(log_n: np.ndarray, tau: np.ndarray) -> float:
-    x = log_n - log_n.mean()
-    return float(np.dot(x, tau - tau.mean()) / np.dot(x, x))
-
-
 def _joint(tails: list[np.ndarray], x_min: float, grid: tuple[float, ...], tau: float
            ) -> tuple[float, tuple[float, ...]]:
     """``(L(τ), the shape each size takes at τ)``."""
@@ -149,18 +144,9 @@ def shared_tau(groups: dict[int, list[np.ndarray]], x_min: float,
     prof = [cutoff_shape_profile(t, x_min, grid) for t in tails]
     tau_each = np.array([p.tau_best for p in prof])
     log_n = np.log(np.array(ns, dtype=np.float64))
-    rng = np.random.default_rng(seed)
-    slopes = []
-    for _ in range(boot):
-        taus = []
-        for n in ns:
-            samples = groups[n]
-            pick = rng.integers(0, len(samples), len(samples))
-            t = np.concatenate([samples[i] for i in pick])
-            taus.append(cutoff_shape_profile(t, x_min, grid).tau_best
-                        if np.count_nonzero(t >= x_min) >= _MIN_TAIL else math.nan)
-        if all(math.isfinite(v) for v in taus):
-            slopes.append(_slope(log_n, np.array(taus)))
+    boots = resampled_taus([groups[n] for n in ns], x_min, boot, seed,
+                           lambda t, xm: cutoff_shape_profile(t, xm, grid).tau_best)
+    slopes = [least_squares_slope(log_n, t) for t in boots if np.all(np.isfinite(t))]
     # the joint fit: a coarse grid in τ around the separate fits, then a bounded refinement
     lo, hi = float(tau_each.min()) - 0.4, float(tau_each.max()) + 0.4
     taus = np.arange(lo, hi + _TAU_STEP / 2, _TAU_STEP)
@@ -174,16 +160,15 @@ def shared_tau(groups: dict[int, list[np.ndarray]], x_min: float,
     a_joint = _joint(tails, x_min, grid, tau)[1]
 
     def edge(side: np.ndarray) -> float:  # where 2 (L_max − L) crosses 3.84 on that side
-        out = side[2.0 * (best - vals[np.searchsorted(taus, side)]) > CHI2_1_95]
+        out = side[2.0 * (best - vals[side]) > CHI2_1_95]  # grid indices, nearest τ first
         if out.size == 0:
             return math.nan  # the grid does not reach the edge
-        t_out = float(out[0])
         return optimize.brentq(
             lambda t: 2.0 * (best - _joint(tails, x_min, grid, t)[0]) - CHI2_1_95,
-            t_out, tau, xtol=1e-6)
+            float(taus[out[0]]), tau, xtol=1e-6)
 
-    tau_low = edge(taus[taus < tau][::-1])
-    tau_high = edge(taus[taus > tau])
+    tau_low = edge(np.flatnonzero(taus < tau)[::-1])
+    tau_high = edge(np.flatnonzero(taus > tau))
     ll_each = tuple(max(p.logliks) for p in prof)
     lr = max(2.0 * (sum(ll_each) - best), 0.0)
     dof = len(ns) - 1
@@ -192,7 +177,7 @@ def shared_tau(groups: dict[int, list[np.ndarray]], x_min: float,
         tails=tuple(int(t.size) for t in tails), stretches=grid,
         tau_each=tuple(float(v) for v in tau_each), a_each=tuple(p.best for p in prof),
         low_each=tuple(p.tau_low for p in prof), high_each=tuple(p.tau_high for p in prof),
-        loglik_each=ll_each, slope=_slope(log_n, tau_each),
+        loglik_each=ll_each, slope=least_squares_slope(log_n, tau_each),
         slope_sigma=float(np.std(slopes, ddof=1)) if len(slopes) > 1 else math.nan,
         boot_used=len(slopes), tau=tau, tau_low=tau_low, tau_high=tau_high, loglik=best,
         a_joint=a_joint, lr=lr, dof=dof, p_value=float(stats.chi2.sf(lr, dof)))

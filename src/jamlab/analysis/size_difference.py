@@ -13,6 +13,7 @@ all the sizes, from resamples that draw each size's packings with replacement;
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,7 +61,7 @@ class SizeDifference:
         return self.slope / self.slope_sigma
 
 
-def _slope(log_n: np.ndarray, tau: np.ndarray) -> float:
+def least_squares_slope(log_n: np.ndarray, tau: np.ndarray) -> float:
     """Least-squares slope of ``tau`` on ``log_n`` (equal weights)."""
     x = log_n - log_n.mean()
     return float(np.dot(x, tau - tau.mean()) / np.dot(x, x))
@@ -86,10 +87,10 @@ def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int
             raise ValueError(f"N = {n}: {tail} sizes at or above {x_min:.3g}, fewer than 10")
     fits = [fit_cutoff_power_law(np.concatenate(p), x_min) for p in packs]
     log_n = np.log(np.asarray(ns, dtype=np.float64))
-    taus = _resampled_taus(packs, x_min, boot, seed)
+    taus = resampled_taus(packs, x_min, boot, seed)
     taus = taus[np.all(np.isfinite(taus), axis=1)]
     deltas = taus[:, -1] - taus[:, 0]
-    slopes = np.array([_slope(log_n, t) for t in taus])
+    slopes = np.array([least_squares_slope(log_n, t) for t in taus])
     tau = np.array([f.tau for f in fits])
     return SizeDifference(
         x_min=float(x_min), n=tuple(ns), packings=tuple(len(p) for p in packs),
@@ -97,23 +98,27 @@ def size_difference(groups: dict[int, list[np.ndarray]], x_min: float, boot: int
         sigma=tuple(f.tau_stderr for f in fits),
         boot_sigma=float(np.std(deltas, ddof=1)),
         fraction_not_above=float(np.mean(deltas <= 0)),
-        slope=_slope(log_n, tau), slope_sigma=float(np.std(slopes, ddof=1)))
+        slope=least_squares_slope(log_n, tau), slope_sigma=float(np.std(slopes, ddof=1)))
 
 
-def _resampled_taus(packs: list[list[np.ndarray]], x_min: float, boot: int,
-                    seed: int) -> np.ndarray:
+def _exponential_tau(sizes: np.ndarray, x_min: float) -> float:
+    return fit_cutoff_power_law(sizes, x_min).tau
+
+
+def resampled_taus(packs: list[list[np.ndarray]], x_min: float, boot: int, seed: int,
+                   fit: Callable[[np.ndarray, float], float] = _exponential_tau) -> np.ndarray:
     """``(boot, sizes)`` τ of resamples of each size's packings (``default_rng(seed)``, the sizes
-    in order); NaN where a resample has fewer than 10 sizes at or above ``x_min``. The picks
-    depend only on ``seed`` and the packing counts, so two calls with the same counts draw the
-    same packings (:func:`strain_step_slopes` pairs its strain steps so)."""
+    in order), ``fit(sizes, x_min)`` of each (default: τ with an exponential cut-off,
+    :func:`fit_cutoff_power_law`); NaN where a resample has fewer than 10 sizes at or above
+    ``x_min``. The picks depend only on ``seed`` and the packing counts, so two calls with the
+    same counts draw the same packings (:func:`strain_step_slopes` pairs its strain steps so)."""
     rng = np.random.default_rng(seed)
     taus = np.empty((boot, len(packs)))
     for b in range(boot):
         for k, p in enumerate(packs):
             pick = rng.integers(0, len(p), len(p))
             s = np.concatenate([p[i] for i in pick])
-            taus[b, k] = (fit_cutoff_power_law(s, x_min).tau
-                          if np.count_nonzero(s >= x_min) >= 10 else math.nan)
+            taus[b, k] = fit(s, x_min) if np.count_nonzero(s >= x_min) >= 10 else math.nan
     return taus
 
 
@@ -153,15 +158,15 @@ def strain_step_slopes(groups: dict[int, dict[int, list[np.ndarray]]], x_min: fl
     log_n = np.log(np.asarray(ns, dtype=np.float64))
     tau = np.array([[fit_cutoff_power_law(np.concatenate(groups[k][n]), x_min).tau for n in ns]
                     for k in ks])
-    boots = np.stack([_resampled_taus([groups[k][n] for n in ns], x_min, boot, seed)
+    boots = np.stack([resampled_taus([groups[k][n] for n in ns], x_min, boot, seed)
                       for k in ks])  # (k, boot, sizes), the same packings in every k
     tau = np.vstack([tau, 2.0 * tau[0] - tau[1]])
     boots = np.concatenate([boots, (2.0 * boots[0] - boots[1])[None]])
     boots = boots[:, np.all(np.isfinite(boots), axis=(0, 2))]
-    slopes = np.array([[_slope(log_n, t) for t in row] for row in boots])
+    slopes = np.array([[least_squares_slope(log_n, t) for t in row] for row in boots])
     return StrainStepSlopes(
         x_min=float(x_min), n=tuple(ns), k=tuple(ks), tau=tau,
-        slope=np.array([_slope(log_n, t) for t in tau]),
+        slope=np.array([least_squares_slope(log_n, t) for t in tau]),
         slope_sigma=np.std(slopes, axis=1, ddof=1))
 
 
