@@ -26,6 +26,7 @@ import os
 import pickle
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -70,11 +71,14 @@ def start(n: int, p: float, seed: int, cache: Path):
     return pk
 
 
-def parse_sample_arguments(doc: str) -> argparse.Namespace:
+def parse_sample_arguments(doc: str, argv: list[str] | None = None,
+                           extra: Callable[[argparse.ArgumentParser], None] | None = None,
+                           ) -> argparse.Namespace:
     """``--n --pressure --seed --steps --dgamma --cache``: one run from :func:`start`'s packing,
     as the scripts that dissect a run take it (``scripts/pressure_time_anatomy.py``,
-    ``scripts/newton_failure_anatomy.py``), parsed from the command line; ``doc`` is the
-    script's docstring, whose first paragraph is its description. ``--sample FILE`` instead:
+    ``scripts/newton_failure_anatomy.py``), parsed from ``argv`` (default: the command line);
+    ``doc`` is the script's docstring, whose first paragraph is its description; ``extra`` adds
+    a script's own options to the parser. ``--sample FILE`` instead:
     the prepared packing of a ``jamlab run`` sample file, sheared as its run did (the run's
     pressure, δγ and N replace ``--pressure --dgamma --n``; the first ``--steps`` steps of the
     run, same minima); :func:`sample_start` gives the packing either way."""
@@ -87,7 +91,11 @@ def parse_sample_arguments(doc: str) -> argparse.Namespace:
     ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
     ap.add_argument("--sample", type=Path, default=None,
                     help="a fixed-pressure run's sample file: its packing, pressure and δγ")
-    a = ap.parse_args()
+    if extra is not None:
+        extra(ap)
+    a = ap.parse_args(argv)
+    if a.steps < 1:
+        ap.error(f"--steps must be >= 1, got {a.steps}")
     if a.sample is not None:
         from jamlab.runs.storage import RunDir
 

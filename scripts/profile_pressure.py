@@ -3,12 +3,13 @@ METIS ordering repeats one already made.
 
 Runs ``shear_at_pressure(packing, δγ, pressure=p, n_steps=…)`` (the default path, after a short
 warm-up run that compiles the kernels) on the packing of ``benchmarks/bench_pressure.py``'s cache
-(made there if missing) under ``cProfile``, and prints: the run's profiled time; the time of the
-groups that carry it (the compiled FIRE loop, CHOLMOD's solves, factorisations and analyses,
-METIS's nested dissection, neighbour-list construction inclusive, the backbone Hessian kernel),
-each from the profile's own-time (``tottime``) entries; the ``--top`` functions by own time;
-and the backbone orderings (``linalg.nested_dissection``) whose free set and contact pairs
-repeat an earlier one of the run — what a cache of orderings could save.
+(made there if missing; or ``--sample FILE``: a run's prepared packing, sheared as its run did; the
+options of ``bench_pressure.parse_sample_arguments``) under ``cProfile``, and prints: the run's
+profiled time; the time of the groups that carry it (the compiled FIRE loop, CHOLMOD's solves,
+factorisations and analyses, METIS's nested dissection, the neighbour-list build kernel, the
+backbone Hessian kernel), each from the profile's own-time (``tottime``) entries; the ``--top``
+functions by own time; and the backbone orderings (``linalg.nested_dissection``) whose free set and
+contact pairs repeat an earlier one of the run — what a cache of orderings could save.
 
     PYTHONPATH=src python scripts/profile_pressure.py --n 1000 --seed 1 --steps 300 --cache CACHE
 
@@ -21,18 +22,21 @@ from __future__ import annotations
 import argparse
 import cProfile
 import hashlib
-import importlib.util
 import io
 import pstats
+import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# bench_pressure first: it sets one thread for the BLAS, OpenMP and numba before numpy loads
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from bench_pressure import parse_sample_arguments, sample_start  # noqa: E402
 
-import jamlab.spheres.aqs.linalg as linalg
-import jamlab.spheres.pressure_shear as ps
+# isort: split
+import numpy as np  # noqa: E402
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_pressure.py"
+import jamlab.spheres.aqs.linalg as linalg  # noqa: E402
+import jamlab.spheres.pressure_shear as ps  # noqa: E402
 
 GROUPS = {
     "FIRE (compiled loop)": lambda f, fn: f.endswith("kernels/fire.py") and fn == "fire",
@@ -83,22 +87,17 @@ def group_times(stats: pstats.Stats) -> dict[str, float]:
     return out
 
 
+def _count(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--n", type=int, default=1000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--steps", type=int, default=300)
-    ap.add_argument("--pressure", type=float, default=1e-4)
-    ap.add_argument("--dgamma", type=float, default=1e-5)
-    ap.add_argument("--top", type=int, default=25)
-    ap.add_argument("--cache", type=Path, default=Path("bench_pressure_cache"))
-    a = ap.parse_args(argv)
-    if a.steps < 1 or a.top < 0:
-        ap.error(f"--steps must be >= 1 and --top >= 0, got {a.steps}, {a.top}")
-    spec = importlib.util.spec_from_file_location("bench_pressure", BENCH)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    packing = bench.start(a.n, a.pressure, a.seed, a.cache)
+    a = parse_sample_arguments(__doc__, argv, lambda ap: ap.add_argument(
+        "--top", type=_count, default=25, help="functions to list by own time"))
+    packing = sample_start(a)
     ps.shear_at_pressure(packing, a.dgamma, pressure=a.pressure, n_steps=2)  # compile
     tally = count_orderings()
     prof = cProfile.Profile()

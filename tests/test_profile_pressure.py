@@ -51,6 +51,7 @@ def test_bad_arguments():
     prof = script_module("profile_pressure")
     import pytest
 
-    with pytest.raises(SystemExit) as err:
-        prof.main(["--steps", "0"])
-    assert err.value.code == 2
+    for argv in (["--steps", "0"], ["--top", "-1"]):
+        with pytest.raises(SystemExit) as err:
+            prof.main(argv)
+        assert err.value.code == 2
