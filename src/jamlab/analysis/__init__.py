@@ -65,6 +65,7 @@ from jamlab.analysis.powerlaw import (
     power_law_pdf,
     sample_power_law,
 )
+from jamlab.analysis.rate_collapse import RateCollapse, cumulative_rates, rate_collapse
 from jamlab.analysis.shape_per_size import SharedTau, fixed_tau_loglik, shared_tau
 from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
 from jamlab.analysis.size_difference import (
@@ -76,6 +77,9 @@ from jamlab.analysis.size_difference import (
 )
 
 __all__ = [
+    "RateCollapse",
+    "cumulative_rates",
+    "rate_collapse",
     "SharedTau",
     "fixed_tau_loglik",
     "shared_tau",

@@ -1,0 +1,68 @@
+"""``scripts/rate_collapse.py`` on real run directories: its exponents against the analysis run on
+an h5py recount of the same samples, its counts, and its refusals (exit code 2). The statistics:
+tests/analysis/test_rate_collapse.py."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from script_helpers import script_module
+from trace_recount import finished_samples, recount_sample
+
+
+@pytest.fixture(scope="module")
+def rc():
+    return script_module("rate_collapse")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    from jamlab.runs import Execution, Study, run_study
+
+    root = tmp_path_factory.mktemp("rc_runs")
+    out = {}
+    for n, gmax in ((16, 0.2), (24, 0.2), (32, 0.1)):
+        study = Study(phi=["jamming"], n=[n], samples=4, dgamma=1e-3, gamma_max=gmax, seed=5,
+                      pressure=1e-3)
+        run_study(study, root / f"n{n}", Execution(workers=0))
+        out[n] = root / f"n{n}"
+    return out
+
+
+def test_refusals(rc, runs, tmp_path):
+    two = [str(runs[16]), str(runs[24])]
+    for argv in ([str(tmp_path), "--s-min", "1e-6"], [str(runs[16]), "--s-min", "1e-6"],
+                 [*two], [*two, "--s-min", "0"], [*two, "--s-min", "1e-6", "--boot", "1"],
+                 [*two, "--s-min", "1e-6", "--least", "0"],
+                 [*two, str(runs[32]), "--s-min", "1e-6"],  # another gamma_max at one p
+                 [*two, "--s-min", "1e3"]):  # no avalanche that large
+        with pytest.raises(SystemExit) as err:
+            rc.main(argv)
+        assert err.value.code == 2
+
+
+def test_exponents_are_the_recounts(rc, runs, capsys):
+    from jamlab.analysis import rate_collapse
+
+    groups = {n: [recount_sample(f) for f in finished_samples(runs[n])] for n in (16, 24)}
+    s_min = float(np.quantile(np.concatenate([np.concatenate(g) for g in groups.values()]), 0.2))
+    argv = [str(runs[16]), str(runs[24]), "--s-min", repr(s_min), "--least", "2", "--boot", "5"]
+    try:
+        code = rc.main(argv)
+    except SystemExit as err:  # too few avalanches at these tiny sizes for a window's fit
+        assert err.value.code == 2
+        assert "fewer than" in capsys.readouterr().err
+        return
+    assert code == 0
+    out = capsys.readouterr().out
+    want = rate_collapse(groups, 0.2, s_min, least=2, boot=5)
+    m = re.search(r"a = ([-\d.]+) ± ([\d.]+), b = ([-\d.]+) ± ([\d.]+)", out)
+    assert m is not None
+    assert [float(v) for v in m.groups()] == pytest.approx(
+        [want.a, want.a_sigma, want.b, want.b_sigma], abs=6e-4)
+    assert f"16: 4, {want.tails[0]}; 24: 4, {want.tails[1]}" in out
+    assert want.tails == tuple(int(sum(np.count_nonzero(a >= s_min) for a in groups[n]))
+                               for n in (16, 24))
