@@ -14,6 +14,11 @@ pressure, from ``--s-min`` up (ε; above the plastic flag's losses of every size
   ``x_min`` (as ``size_dependence.py``), and again in the window ``x_min (N/N_0)^a`` that scales
   with the sizes (``N_0`` the smallest size; ``a`` the collapse's, fitted on the same data).
 
+``--figure F`` (``.png``, ``.pdf`` or ``.svg``, not inside a run directory): one column per
+pressure; above, the collapsed curves ``N^b n_N(≥ S)`` against ``S/N^a``; below, each size's
+local exponent ``τ(S) = 1 − d ln n_N / d ln S`` (the cumulative rate's slope over half a decade)
+against the same scaled size: where the sizes' shapes differ.
+
 Every packing is taken as sheared over the study's ``gamma_max`` (finished samples only, as the
 report counts them).
 
@@ -30,10 +35,42 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import rate_collapse, size_difference
+from jamlab.analysis import cumulative_rates, rate_collapse, size_difference
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_study
+
+
+def figure(fits: dict, groups: dict, strain: dict, least: int, path: Path) -> None:
+    """The figure of ``--figure`` (module docstring)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ps = sorted(fits, reverse=True)
+    fig, ax = plt.subplots(2, len(ps), figsize=(3.6 * len(ps), 5.8), squeeze=False,
+                           gridspec_kw={"height_ratios": [3, 2]})
+    half = 10  # grid points per half decade (20 per decade)
+    for col, p in enumerate(ps):
+        c = fits[p]
+        curves = cumulative_rates(groups[p], strain[p], c.s_min, least)
+        for n, (s, rate) in curves.items():
+            x = s / n**c.a
+            line, = ax[0, col].loglog(x, rate * n**c.b, "-", label=f"N = {n}")
+            if s.size > half:
+                local = 1 - np.log(rate[half:] / rate[:-half]) / np.log(s[half:] / s[:-half])
+                mid = np.sqrt(x[half:] * x[:-half])
+                ax[1, col].semilogx(mid, local, "-", color=line.get_color())
+        ax[0, col].set_title(f"p = {p:g}: a = {c.a:.2f}, b = {c.b:.2f}", fontsize=9)
+        ax[1, col].set_xlabel("S / N^a (ε)")
+        ax[0, col].legend(fontsize=7)
+    ax[0, 0].set_ylabel("N^b n_N(≥ S) (per particle, unit strain)")
+    ax[1, 0].set_ylabel("local τ (half-decade slope)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    print(f"\nfigure: {path}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,7 +82,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="avalanches at or above a size for it to enter the collapse")
     ap.add_argument("--boot", type=int, default=200, help="packing resamples per pressure")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="collapsed curves and local exponents (.png, .pdf or .svg)")
     args = ap.parse_args(argv)
+    if args.figure is not None:
+        if args.figure.suffix not in (".png", ".pdf", ".svg"):
+            ap.error(f"--figure must end in .png, .pdf or .svg, got {args.figure}")
+        inside = [r for r in args.runs if args.figure.resolve().is_relative_to(r.resolve())]
+        if inside:
+            ap.error(f"--figure {args.figure} is inside the run directory {inside[0]}")
     if not (np.isfinite(args.s_min) and args.s_min > 0):
         ap.error(f"--s-min must be a number > 0, got {args.s_min}")
     if args.least < 1:
@@ -66,6 +111,7 @@ def main(argv: list[str] | None = None) -> int:
         by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(
             avalanche_set(ds, "jamming", n).per_sample)
     scale = replace(SCALES["medium"], n_boot=0)
+    fits = {}
     for p in sorted(by_p, reverse=True):
         groups = by_p[p]
         if len(groups) < 2:
@@ -75,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
                               seed=args.seed)
         except ValueError as err:
             ap.error(f"p = {p:g}: {err}")
+        fits[p] = c
         print(f"\np = {p:g}, S ≥ {c.s_min:.3g} ε, strain {strain[p]:g} per packing; N: packings, "
               "avalanches: " + "; ".join(f"{n}: {k}, {t}" for n, k, t in zip(
                   c.n, c.packings, c.tails, strict=True)))
@@ -101,6 +148,8 @@ def main(argv: list[str] | None = None) -> int:
                               for n, t, tau, s in zip(r.n, r.tails, r.tau, r.sigma, strict=True))
             print(f"| {name} | {per_n} | {r.slope:+.3f} ± {r.slope_sigma:.3f} | "
                   f"{r.z_slope:+.2f} |")
+    if args.figure is not None:
+        figure(fits, by_p, strain, args.least, args.figure)
     return 0
 
 

@@ -38,18 +38,21 @@ def test_refusals(rc, runs, tmp_path):
                  [*two], [*two, "--s-min", "0"], [*two, "--s-min", "1e-6", "--boot", "1"],
                  [*two, "--s-min", "1e-6", "--least", "0"],
                  [*two, str(runs[32]), "--s-min", "1e-6"],  # another gamma_max at one p
-                 [*two, "--s-min", "1e3"]):  # no avalanche that large
+                 [*two, "--s-min", "1e3"],  # no avalanche that large
+                 [*two, "--s-min", "1e-6", "--figure", str(tmp_path / "f.txt")],
+                 [*two, "--s-min", "1e-6", "--figure", str(runs[16] / "f.png")]):
         with pytest.raises(SystemExit) as err:
             rc.main(argv)
         assert err.value.code == 2
 
 
-def test_exponents_are_the_recounts(rc, runs, capsys):
+def test_exponents_are_the_recounts(rc, runs, capsys, tmp_path):
     from jamlab.analysis import rate_collapse
 
     groups = {n: [recount_sample(f) for f in finished_samples(runs[n])] for n in (16, 24)}
     s_min = float(np.quantile(np.concatenate([np.concatenate(g) for g in groups.values()]), 0.2))
-    argv = [str(runs[16]), str(runs[24]), "--s-min", repr(s_min), "--least", "2", "--boot", "5"]
+    argv = [str(runs[16]), str(runs[24]), "--s-min", repr(s_min), "--least", "2", "--boot", "5",
+            "--figure", str(tmp_path / "rc.png")]
     try:
         code = rc.main(argv)
     except SystemExit as err:  # too few avalanches at these tiny sizes for a window's fit
@@ -57,6 +60,7 @@ def test_exponents_are_the_recounts(rc, runs, capsys):
         assert "fewer than" in capsys.readouterr().err
         return
     assert code == 0
+    assert (tmp_path / "rc.png").stat().st_size > 0
     out = capsys.readouterr().out
     want = rate_collapse(groups, 0.2, s_min, least=2, boot=5)
     m = re.search(r"a = ([-\d.]+) ± ([\d.]+), b = ([-\d.]+) ± ([\d.]+)", out)
