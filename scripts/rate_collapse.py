@@ -19,8 +19,9 @@ pressure; above, the collapsed curves ``N^b n_N(≥ S)`` against ``S/N^a``; belo
 local exponent ``τ(S) = 1 − d ln n_N / d ln S`` (the cumulative rate's slope over half a decade)
 against the same scaled size: where the sizes' shapes differ.
 
-Every packing is taken as sheared over the study's ``gamma_max`` (finished samples only, as the
-report counts them).
+The exposure of a packing is the strain it was sheared over
+(``jamlab.reproduce.ensembles.sample_strains``; finished samples only, as the report counts
+them).
 
     R=data/runs
     PYTHONPATH=src python scripts/rate_collapse.py $R/n250-p1e-4-vg $R/n500-p1e-4-vg \\
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from jamlab.analysis import cumulative_rates, rate_collapse, size_difference
+from jamlab.reproduce.ensembles import sample_strains
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_study
@@ -98,16 +100,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.boot < 2:
         ap.error(f"--boot must be >= 2, got {args.boot}")
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
-    strain: dict[float, float] = {}
+    strain: dict[float, dict[int, list[float]]] = {}
     for path in args.runs:
         ds, study = open_study(ap, path)
         if study.pressure is None or len(study.n) != 1:
             ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
                      f"N = {list(study.n)})")
-        if strain.setdefault(study.pressure, study.gamma_max) != study.gamma_max:
-            ap.error(f"{path}: gamma_max {study.gamma_max:g}, the other runs at p = "
-                     f"{study.pressure:g} have {strain[study.pressure]:g}")
         n = int(study.n[0])
+        strain.setdefault(study.pressure, {}).setdefault(n, []).extend(
+            sample_strains(ds, "jamming", n))
         by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(
             avalanche_set(ds, "jamming", n).per_sample)
     scale = replace(SCALES["medium"], n_boot=0)
@@ -122,9 +123,9 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as err:
             ap.error(f"p = {p:g}: {err}")
         fits[p] = c
-        print(f"\np = {p:g}, S ≥ {c.s_min:.3g} ε, strain {strain[p]:g} per packing; N: packings, "
-              "avalanches: " + "; ".join(f"{n}: {k}, {t}" for n, k, t in zip(
-                  c.n, c.packings, c.tails, strict=True)))
+        print(f"\np = {p:g}, S ≥ {c.s_min:.3g} ε; N: packings, avalanches, mean strain per "
+              "packing: " + "; ".join(f"{n}: {k}, {t}, {np.mean(strain[p][n]):g}" for n, k, t in
+                                      zip(c.n, c.packings, c.tails, strict=True)))
         print(f"rate collapse n_N(≥ S) = N^(−b) F(S/N^a): a = {c.a:.3f} ± {c.a_sigma:.3f}, "
               f"b = {c.b:.3f} ± {c.b_sigma:.3f} (correlation {c.correlation:+.2f}, "
               f"{c.boot_used} packing resamples); RMS {c.rms:.4f} decades (unrescaled "

@@ -37,7 +37,6 @@ def test_refusals(rc, runs, tmp_path):
     for argv in ([str(tmp_path), "--s-min", "1e-6"], [str(runs[16]), "--s-min", "1e-6"],
                  [*two], [*two, "--s-min", "0"], [*two, "--s-min", "1e-6", "--boot", "1"],
                  [*two, "--s-min", "1e-6", "--least", "0"],
-                 [*two, str(runs[32]), "--s-min", "1e-6"],  # another gamma_max at one p
                  [*two, "--s-min", "1e3"],  # no avalanche that large
                  [*two, "--s-min", "1e-6", "--figure", str(tmp_path / "f.txt")],
                  [*two, "--s-min", "1e-6", "--figure", str(runs[16] / "f.png")]):
@@ -47,11 +46,23 @@ def test_refusals(rc, runs, tmp_path):
 
 
 def test_exponents_are_the_recounts(rc, runs, capsys, tmp_path):
+    # N = 32 was sheared to half the strain of the others: the exposure is each packing's own
+    import h5py
+
     from jamlab.analysis import rate_collapse
 
-    groups = {n: [recount_sample(f) for f in finished_samples(runs[n])] for n in (16, 24)}
+    ns = (16, 24, 32)
+    groups = {n: [recount_sample(f) for f in finished_samples(runs[n])] for n in ns}
+    strains = {}
+    for n in ns:
+        strains[n] = []
+        for f in finished_samples(runs[n]):
+            with h5py.File(f, "r") as h5:
+                g = h5["trace/gamma"][()]
+            strains[n].append(float(g[-1] - g[0]))
+    assert strains[32] == pytest.approx([0.1] * 4) and strains[16] == pytest.approx([0.2] * 4)
     s_min = float(np.quantile(np.concatenate([np.concatenate(g) for g in groups.values()]), 0.2))
-    argv = [str(runs[16]), str(runs[24]), "--s-min", repr(s_min), "--least", "2", "--boot", "5",
+    argv = [*(str(runs[n]) for n in ns), "--s-min", repr(s_min), "--least", "2", "--boot", "5",
             "--figure", str(tmp_path / "rc.png")]
     try:
         code = rc.main(argv)
@@ -62,11 +73,12 @@ def test_exponents_are_the_recounts(rc, runs, capsys, tmp_path):
     assert code == 0
     assert (tmp_path / "rc.png").stat().st_size > 0
     out = capsys.readouterr().out
-    want = rate_collapse(groups, 0.2, s_min, least=2, boot=5)
+    want = rate_collapse(groups, strains, s_min, least=2, boot=5)
     m = re.search(r"a = ([-\d.]+) ± ([\d.]+), b = ([-\d.]+) ± ([\d.]+)", out)
     assert m is not None
     assert [float(v) for v in m.groups()] == pytest.approx(
         [want.a, want.a_sigma, want.b, want.b_sigma], abs=6e-4)
-    assert f"16: 4, {want.tails[0]}; 24: 4, {want.tails[1]}" in out
+    assert (f"16: 4, {want.tails[0]}, 0.2; 24: 4, {want.tails[1]}, 0.2; 32: 4, {want.tails[2]}, "
+            "0.1") in out
     assert want.tails == tuple(int(sum(np.count_nonzero(a >= s_min) for a in groups[n]))
-                               for n in (16, 24))
+                               for n in ns)

@@ -4,12 +4,12 @@
 is normalised at each ``N`` and so cannot see how the *number* of avalanches changes with the box.
 Here the quantity is the cumulative rate per particle and unit strain,
 
-    ``n_N(≥ S) = #{avalanches ≥ S} / (N · γ · packings)``,
+    ``n_N(≥ S) = #{avalanches ≥ S} / (N Σ_packings γ)``,
 
-(``γ`` the strain each packing was sheared over), and the collapse asks for the sizes to scale
-as ``N^a`` and the rate at a fixed scaled size as ``N^(−b)``. Avalanches whose number and sizes
-do not depend on the box give ``a = b = 0``; a release per particle and unit strain that does
-not depend on N (``∫ S dn``) needs ``a = b``.
+(``γ`` the strain each packing was sheared over: one number for all, or one per packing), and the
+collapse asks for the sizes to scale as ``N^a`` and the rate at a fixed scaled size as ``N^(−b)``.
+Avalanches whose number and sizes do not depend on the box give ``a = b = 0``; a release per
+particle and unit strain that does not depend on N (``∫ S dn``) needs ``a = b``.
 
 The curves: per ``N``, ``n_N(≥ S)`` on one geometric grid of ``points_per_decade`` sizes per
 decade from ``s_min`` up, kept where at least ``least`` avalanches are ``≥ S``. The collapse's
@@ -73,14 +73,34 @@ class RateCollapse:
     rms_rate_only: float
 
 
-def cumulative_rates(groups: Mapping[int, Sequence[np.ndarray]], strain: float, s_min: float,
+Strain = float | Mapping[int, Sequence[float]]
+
+
+def _per_packing(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain) -> dict:
+    """``{N: strains of its packings}`` from one strain for all or one per packing; ValueError
+    where a strain is not a number > 0 or a size's count differs from its packings'."""
+    out = {}
+    for n, packs in groups.items():
+        g = np.full(len(packs), strain, dtype=np.float64) if isinstance(strain, int | float) \
+            else np.asarray(strain[n], dtype=np.float64).ravel()
+        if g.size != len(packs) or not np.all(np.isfinite(g) & (g > 0)):
+            got = strain if isinstance(strain, int | float) else g
+            raise ValueError(f"N = {n}: the strains must be numbers > 0, one per packing "
+                             f"({len(packs)}), got {got}")
+        out[n] = g
+    return out
+
+
+def cumulative_rates(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain, s_min: float,
                      least: int = 20, points_per_decade: int = 20
                      ) -> dict[int, tuple[FloatArray, FloatArray]]:
     """``{N: (S, n_N(≥ S))}``: the rate per particle and unit strain of avalanches ``≥ S`` of each
-    size's packings (``groups[N]``: one size array per packing, each sheared over ``strain``), on
+    size's packings (``groups[N]``: one size array per packing, sheared over ``strain``: one
+    number, or ``{N: one per packing}``; the exposure is ``N`` times the packings' strains), on
     the grid ``s_min · 10^(k / points_per_decade)``, where at least ``least`` avalanches are
     ``≥ S``."""
     out = {}
+    strains = _per_packing(groups, strain)
     top = max((float(np.max(a)) for p in groups.values() for a in p if np.size(a)),
               default=s_min)
     k = np.arange(int(math.floor(points_per_decade * math.log10(max(top, s_min) / s_min))) + 1)
@@ -91,7 +111,7 @@ def cumulative_rates(groups: Mapping[int, Sequence[np.ndarray]], strain: float, 
                                          for a in packs])) if packs else np.empty(0)
         count = pooled.size - np.searchsorted(pooled, grid, side="left")
         ok = count >= least
-        out[int(n)] = (grid[ok], count[ok] / (float(n) * strain * len(packs)))
+        out[int(n)] = (grid[ok], count[ok] / (float(n) * float(strains[n].sum())))
     return out
 
 
@@ -104,7 +124,8 @@ class RateCurves:
         self.least, self.s_min = least, s_min
         self.n = sorted(packs)
         self.pooled = {n: np.sort(np.concatenate(packs[n])) for n in self.n}
-        self.exposure = {n: float(n) * strain * len(packs[n]) for n in self.n}
+        strains = _per_packing(packs, strain)
+        self.exposure = {n: float(n) * float(strains[n].sum()) for n in self.n}
         self.points = {n: s for n, (s, _) in cumulative_rates(
             packs, strain, s_min, least, points_per_decade).items()}
 
@@ -145,39 +166,39 @@ def _fit(c: RateCurves, start: tuple[float, float] | None) -> tuple[float, float
     return float(res.x[0]), float(res.x[1]), float(res.fun)
 
 
-def rate_collapse(groups: Mapping[int, Sequence[np.ndarray]], strain: float, s_min: float, *,
+def rate_collapse(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain, s_min: float, *,
                   least: int = 20, boot: int = 200, seed: int = 0,
                   points_per_decade: int = 20) -> RateCollapse:
-    """:class:`RateCollapse` of ``groups`` (``{N: per-packing size arrays}``, two sizes or more;
-    every packing sheared over ``strain``) from ``s_min`` up (module docstring). ValueError with
-    fewer than two sizes, a bad ``strain``, ``s_min``, ``least`` or ``boot``, or a size with
-    fewer than two grid points above ``least`` avalanches."""
+    """:class:`RateCollapse` of ``groups`` (``{N: per-packing size arrays}``, two sizes or more; the
+    packings sheared over ``strain``, as in :func:`cumulative_rates`) from ``s_min`` up (module
+    docstring). ValueError with fewer than two sizes, a bad ``strain``, ``s_min``, ``least`` or
+    ``boot``, or a size with fewer than two grid points above ``least`` avalanches."""
     if len(groups) < 2:
         raise ValueError(f"need two sizes N or more, got {sorted(groups)}")
-    for name, v in (("strain", strain), ("s_min", s_min)):
-        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a number > 0, got {v!r}")
+    if not (isinstance(s_min, int | float) and math.isfinite(s_min) and s_min > 0):
+        raise ValueError(f"s_min must be a number > 0, got {s_min!r}")
+    strains = _per_packing(groups, strain)
     if not (isinstance(least, int) and least >= 1):
         raise ValueError(f"least must be an integer >= 1, got {least!r}")
     if not (isinstance(boot, int) and boot >= 2):
         raise ValueError(f"boot must be an integer >= 2, got {boot!r}")
     ns = sorted(int(n) for n in groups)
     packs = {n: [np.asarray(a, dtype=np.float64).ravel() for a in groups[n]] for n in ns}
-    curves = RateCurves(packs, strain, s_min, least, points_per_decade)
+    strains = {int(n): g for n, g in strains.items()}
+    curves = RateCurves(packs, strains, s_min, least, points_per_decade)
     for n, s in curves.points.items():
         if s.size < 2:
             raise ValueError(f"N = {n}: fewer than two sizes S >= {s_min:.3g} with {least} "
                              "avalanches or more at or above them")
     a, b, rms = _fit(curves, None)
     only = minimize_scalar(lambda v: collapse_rms(curves, 0.0, v), bounds=(-1.0, 2.0),
-                           method="bounded",
-                           options={"xatol": 1e-6})
+                           method="bounded", options={"xatol": 1e-6})
     rng = np.random.default_rng(seed)
     draws = []
     for _ in range(boot):
-        resampled = {n: [packs[n][i] for i in rng.integers(0, len(packs[n]), len(packs[n]))]
-                     for n in ns}
-        c = RateCurves(resampled, strain, s_min, least, points_per_decade)
+        pick = {n: rng.integers(0, len(packs[n]), len(packs[n])) for n in ns}
+        c = RateCurves({n: [packs[n][i] for i in pick[n]] for n in ns},
+                       {n: strains[n][pick[n]] for n in ns}, s_min, least, points_per_decade)
         if all(s.size >= 2 for s in c.points.values()):
             fa, fb, q = _fit(c, (a, b))
             if math.isfinite(q):
