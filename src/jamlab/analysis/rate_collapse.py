@@ -11,22 +11,22 @@ collapse asks for the sizes to scale as ``N^a`` and the rate at a fixed scaled s
 Avalanches whose number and sizes do not depend on the box give ``a = b = 0``; a release per
 particle and unit strain that does not depend on N (``∫ S dn``) needs ``a = b``.
 
-The curves: per ``N``, ``n_N(≥ S)`` on one geometric grid of ``points_per_decade`` sizes per
-decade from ``s_min`` up, kept where at least ``least`` avalanches are ``≥ S``. The collapse's
-quality at ``(a, b)``: the RMS, in decades, of ``log10(N_i^b n_i(S)) − log10(N_j^b n_j(S
-(N_j/N_i)^a))`` over every ordered pair of sizes and every grid point of ``i`` where ``j`` has
-``least`` avalanches at or above the matched size. The other size's rate is *counted* at the
-matched size, not interpolated between its grid points: interpolation smooths one curve and
-not the other, and makes a false minimum wherever the grids align (``a = 0`` among them).
-``(a, b)`` minimise it: a grid of step 0.05 over
-``[−1, 2]²``, then Nelder–Mead from the grid's best point (its first simplex one grid step wide:
-the counted rates make the objective rough on scales of 1e-3 in ``a``). Errors: the standard
-deviations of ``(a, b)`` over ``boot`` resamples of each size's packings with replacement (each
-refitted by Nelder–Mead from the data's optimum; ``numpy.random.default_rng(seed)``), and their
-correlation. A pure power law ``n ∝ S^(1−τ)`` is invariant along ``b = a (τ − 1)``: the fit is
-determined by where the curves bend (their cut-offs, a lower roll-off), and the resamples'
-correlation says how much. Beside the optimum: the RMS without rescaling and with the rate
-alone rescaled (``a = 0``, best ``b``).
+The curves: per ``N``, ``n_N(≥ S)`` on one geometric grid of ``points_per_decade`` sizes per decade
+from ``s_min`` up, kept where at least ``least`` avalanches are ``≥ S``. The collapse's quality at
+``(a, b)``: the RMS, in decades, of ``log10(N_i^b n_i(S)) − log10(N_j^b n_j(S (N_j/N_i)^a))`` over
+every ordered pair of sizes and every grid point of ``i`` where ``j`` has ``least`` avalanches at or
+above the matched size. The other size's rate is *counted* at the matched size, not interpolated
+between its grid points: interpolation smooths one curve and not the other except where the grids
+align, and at ``a = 0``, where they do, a first version that interpolated had a sharp dip (its fits
+landed on ``a = 0`` to 1e-9 from any start). ``(a, b)`` minimise it: a grid of step 0.05 over
+``[−1, 2]²``, then Nelder–Mead from the grid's best point (its first simplex one grid step wide: the
+counted rates make the objective rough on scales of 1e-3 in ``a``). Errors: the standard deviations
+of ``(a, b)`` over ``boot`` resamples of each size's packings with replacement (each refitted by
+Nelder–Mead from the data's optimum; ``numpy.random.default_rng(seed)``), and their correlation. A
+pure power law ``n ∝ S^(1−τ)`` is invariant along ``b = a (τ − 1)``: the fit is determined by where
+the curves bend (their cut-offs, a lower roll-off), and the resamples' correlation says how much.
+Beside the optimum: the RMS without rescaling and with the rate alone rescaled (``a = 0``, best
+``b``).
 
 Used by ``scripts/rate_collapse.py`` (docs/reproduce.md, "The rate of avalanches collapses").
 """
