@@ -112,6 +112,27 @@ def test_refusals(kwargs, message):
         rate_collapse(ensemble(0.3, 0.4, packings=5), args["strain"], args["s_min"], **rest)
 
 
+def test_strains_per_packing_checked():
+    g = ensemble(0.3, 0.4, packings=5)
+    per = {n: [STRAIN] * 5 for n in SIZES}
+    # one strain per packing, all equal: the one-number fit exactly; unequal strains: the
+    # exposure is N times their sum
+    r = rate_collapse(g, per, 1e-9, boot=3)
+    one = rate_collapse(g, STRAIN, 1e-9, boot=3)
+    assert (r.a, r.b, r.rms, r.a_sigma) == (one.a, one.b, one.rms, one.a_sigma)
+    mixed = {**per, 2000: [STRAIN, 3 * STRAIN, STRAIN, STRAIN, 2 * STRAIN]}
+    s, rate = cumulative_rates(g, mixed, 1e-9)[2000]
+    pooled = np.concatenate(g[2000])
+    assert rate == pytest.approx([np.sum(pooled >= x) / (2000 * 8 * STRAIN) for x in s], rel=1e-13)
+    for bad, message in (({**per, 250: [STRAIN] * 4}, "one per packing"),
+                         ({**per, 500: [STRAIN] * 4 + [0.0]}, "numbers > 0"),
+                         ({n: per[n] for n in SIZES[1:]}, "no strains")):
+        with pytest.raises(ValueError, match=message):
+            rate_collapse(g, bad, 1e-9, boot=3)
+    with pytest.raises(ValueError, match="no packings"):
+        rate_collapse({**g, 250: []}, STRAIN, 1e-9, boot=3)
+
+
 def test_one_size_refused():
     with pytest.raises(ValueError, match="two sizes"):
         rate_collapse({250: ensemble(0.3, 0.4, packings=3)[250]}, STRAIN, 1e-9)

@@ -81,6 +81,8 @@ def _per_packing(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain) -> 
     where a strain is not a number > 0 or a size's count differs from its packings'."""
     out = {}
     for n, packs in groups.items():
+        if not isinstance(strain, int | float) and n not in strain:
+            raise ValueError(f"N = {n}: no strains given for its packings")
         g = np.full(len(packs), strain, dtype=np.float64) if isinstance(strain, int | float) \
             else np.asarray(strain[n], dtype=np.float64).ravel()
         if g.size != len(packs) or not np.all(np.isfinite(g) & (g > 0)):
@@ -117,8 +119,8 @@ def cumulative_rates(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain,
 
 class RateCurves:
     """``RateCurves(groups, strain, s_min, least, points_per_decade)``, the data of the collapse's
-    objective :func:`collapse_rms`. Per size: the pooled sizes ascending, the exposure ``N γ
-    packings``, and the grid points where at least ``least`` avalanches are at or above."""
+    objective :func:`collapse_rms`. Per size: the pooled sizes ascending, the exposure ``N Σ γ``
+    over its packings, and the grid points where at least ``least`` avalanches are at or above."""
 
     def __init__(self, packs, strain, s_min, least, points_per_decade):
         self.least, self.s_min = least, s_min
@@ -183,6 +185,9 @@ def rate_collapse(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain, s_
     if not (isinstance(boot, int) and boot >= 2):
         raise ValueError(f"boot must be an integer >= 2, got {boot!r}")
     ns = sorted(int(n) for n in groups)
+    empty = [n for n in ns if not len(groups[n])]
+    if empty:
+        raise ValueError(f"N = {empty[0]}: no packings")
     packs = {n: [np.asarray(a, dtype=np.float64).ravel() for a in groups[n]] for n in ns}
     strains = {int(n): g for n, g in strains.items()}
     curves = RateCurves(packs, strains, s_min, least, points_per_decade)
