@@ -40,7 +40,7 @@ from jamlab.analysis import cumulative_rates, rate_collapse, size_difference
 from jamlab.reproduce.ensembles import sample_strains
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_study
+from jamlab.runs import open_pressure_run
 
 
 def figure(fits: dict, groups: dict, strain: dict, least: int, path: Path) -> None:
@@ -102,14 +102,10 @@ def main(argv: list[str] | None = None) -> int:
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
     strain: dict[float, dict[int, list[float]]] = {}
     for path in args.runs:
-        ds, study = open_study(ap, path)
-        if study.pressure is None or len(study.n) != 1:
-            ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
-                     f"N = {list(study.n)})")
-        n = int(study.n[0])
-        strain.setdefault(study.pressure, {}).setdefault(n, []).extend(
+        ds, pressure, n = open_pressure_run(ap, path)
+        strain.setdefault(pressure, {}).setdefault(n, []).extend(
             sample_strains(ds, "jamming", n))
-        by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(
+        by_p.setdefault(pressure, {}).setdefault(n, []).extend(
             avalanche_set(ds, "jamming", n).per_sample)
     scale = replace(SCALES["medium"], n_boot=0)
     fits = {}

@@ -67,7 +67,7 @@ from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
 from jamlab.reproduce.ensembles import coarse_avalanches
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_study
+from jamlab.runs import open_pressure_run
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -103,19 +103,15 @@ def main(argv: list[str] | None = None) -> int:
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
     coarse: dict[float, dict[int, dict[int, list[np.ndarray]]]] = {}
     for path in args.runs:
-        ds, study = open_study(ap, path)
-        if study.pressure is None or len(study.n) != 1:
-            ap.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
-                     f"N = {list(study.n)})")
-        n = int(study.n[0])
+        ds, pressure, n = open_pressure_run(ap, path)
         per_sample = avalanche_set(ds, "jamming", n).per_sample
-        by_p.setdefault(study.pressure, {}).setdefault(n, []).extend(per_sample)
+        by_p.setdefault(pressure, {}).setdefault(n, []).extend(per_sample)
         for k in ks:
             seen = coarse_avalanches(ds, "jamming", n, k).per_sample
             if k == 1 and not all(np.array_equal(a, b) for a, b in zip(
                     seen, per_sample, strict=True)):
                 ap.error(f"{path}: k = 1 does not give the report's avalanches")
-            coarse.setdefault(study.pressure, {}).setdefault(k, {}).setdefault(n, []).extend(seen)
+            coarse.setdefault(pressure, {}).setdefault(k, {}).setdefault(n, []).extend(seen)
     scale = replace(SCALES["medium"], n_boot=0)
     print(f"| p | window x_min (ε) | N: packings, sizes, τ ± asymptotic σ | Δτ (largest − "
           f"smallest N) | z (asymptotic) | σ of Δτ, {args.boot} packing resamples | z | resamples "

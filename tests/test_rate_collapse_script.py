@@ -45,6 +45,18 @@ def test_refusals(rc, runs, tmp_path):
         assert err.value.code == 2
 
 
+def test_a_constant_volume_run_refused(rc, runs, tmp_path, capsys):
+    # jamlab.runs.open_pressure_run, which size_dependence.py uses too
+    from jamlab.runs import Execution, Study, run_study
+
+    study = Study(phi=["jamming"], n=[16], samples=1, dgamma=1e-3, gamma_max=0.005, seed=5)
+    run_study(study, tmp_path / "cv", Execution(workers=0))
+    with pytest.raises(SystemExit) as err:
+        rc.main([str(tmp_path / "cv"), str(runs[16]), "--s-min", "1e-6"])
+    assert err.value.code == 2
+    assert "not a fixed-pressure study of one N (pressure None" in capsys.readouterr().err
+
+
 def test_exponents_are_the_recounts(rc, runs, capsys, tmp_path):
     # N = 32 was sheared to half the strain of the others: the exposure is each packing's own
     import h5py

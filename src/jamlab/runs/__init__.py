@@ -7,7 +7,7 @@
 - :func:`add_run_arguments`, :func:`sizes_per_run` — the analysis scripts' runs and their ``--n``.
 """
 
-from jamlab.runs.arguments import add_run_arguments, open_study, sizes_per_run
+from jamlab.runs.arguments import add_run_arguments, open_pressure_run, open_study, sizes_per_run
 from jamlab.runs.execute import Execution, RunSummary, run_study
 from jamlab.runs.load import open_run, prepared_packing, read_sample
 from jamlab.runs.seeds import sample_seed, sample_seed_sequence
@@ -26,6 +26,7 @@ __all__ = [
     "SampleResult",
     "Study",
     "add_run_arguments",
+    "open_pressure_run",
     "open_study",
     "load_toml",
     "open_run",

@@ -43,3 +43,13 @@ def open_study(parser: argparse.ArgumentParser, path: Path) -> tuple[Any, Any]:
     except (OSError, ValueError) as err:
         parser.error(f"{path}: not a run directory ({err})")
     return ds, Study.from_dict(json.loads(ds.attrs["study"]))
+
+
+def open_pressure_run(parser: argparse.ArgumentParser, path: Path) -> tuple[Any, float, int]:
+    """:func:`open_study` for a fixed-pressure study of one N: the run, its pressure and its N;
+    any other study is the parser's error (one line, exit code 2)."""
+    ds, study = open_study(parser, path)
+    if study.pressure is None or len(study.n) != 1:
+        parser.error(f"{path}: not a fixed-pressure study of one N (pressure {study.pressure}, "
+                     f"N = {list(study.n)})")
+    return ds, study.pressure, int(study.n[0])
