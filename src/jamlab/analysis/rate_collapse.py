@@ -101,40 +101,45 @@ def cumulative_rates(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain,
     number, or ``{N: one per packing}``; the exposure is ``N`` times the packings' strains), on
     the grid ``s_min · 10^(k / points_per_decade)``, where at least ``least`` avalanches are
     ``≥ S``."""
-    out = {}
-    strains = _per_packing(groups, strain)
-    top = max((float(np.max(a)) for p in groups.values() for a in p if np.size(a)),
-              default=s_min)
-    k = np.arange(int(math.floor(points_per_decade * math.log10(max(top, s_min) / s_min))) + 1)
-    grid = s_min * 10.0 ** (k / points_per_decade)
-    for n in sorted(groups):
-        packs = groups[n]
-        pooled = np.sort(np.concatenate([np.asarray(a, dtype=np.float64).ravel()
-                                         for a in packs])) if packs else np.empty(0)
-        count = pooled.size - np.searchsorted(pooled, grid, side="left")
-        ok = count >= least
-        out[int(n)] = (grid[ok], count[ok] / (float(n) * float(strains[n].sum())))
-    return out
+    c = RateCurves(groups, strain, s_min, least, points_per_decade)
+    return {n: (c.points[n], c.rate(n, c.points[n])[0]) for n in c.n}
 
 
 class RateCurves:
-    """``RateCurves(groups, strain, s_min, least, points_per_decade)``, the data of the collapse's
-    objective :func:`collapse_rms`. Per size: the pooled sizes ascending, the exposure ``N Σ γ``
-    over its packings, and the grid points where at least ``least`` avalanches are at or above."""
+    """``RateCurves(groups, strain, s_min, least, points_per_decade)`` (as
+    :func:`cumulative_rates`), the data of the collapse's objective :func:`collapse_rms`. Per
+    size: the pooled sizes ascending, the exposure ``N Σ γ`` over its packings, and the points of
+    the grid ``s_min · 10^(k / points_per_decade)`` where at least ``least`` avalanches are at or
+    above."""
 
-    def __init__(self, packs, strain, s_min, least, points_per_decade):
+    def __init__(self, groups, strain, s_min, least, points_per_decade):
         self.least, self.s_min = least, s_min
-        self.n = sorted(packs)
-        self.pooled = {n: np.sort(np.concatenate(packs[n])) for n in self.n}
-        strains = _per_packing(packs, strain)
-        self.exposure = {n: float(n) * float(strains[n].sum()) for n in self.n}
-        self.points = {n: s for n, (s, _) in cumulative_rates(
-            packs, strain, s_min, least, points_per_decade).items()}
+        self.n = sorted(int(n) for n in groups)
+        strains = _per_packing(groups, strain)
+        self.pooled = {int(n): np.sort(np.concatenate([np.asarray(a, dtype=np.float64).ravel()
+                                                       for a in packs])) if len(packs)
+                       else np.empty(0) for n, packs in groups.items()}
+        self.exposure = {int(n): float(n) * float(g.sum()) for n, g in strains.items()}
+        top = max((float(p[-1]) for p in self.pooled.values() if p.size), default=s_min)
+        k = np.arange(int(math.floor(points_per_decade * math.log10(max(top, s_min) / s_min)))
+                      + 1)
+        grid = s_min * 10.0 ** (k / points_per_decade)
+        self.points = {n: grid[self._count(n, grid) >= least] for n in self.n}
+
+    def _count(self, n: int, s: FloatArray) -> NDArray[np.int64]:
+        return self.pooled[n].size - np.searchsorted(self.pooled[n], s, side="left")
+
+    def rate(self, n: int, s: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """Size ``n``'s rate of avalanches ``≥ s`` per particle and unit strain, and where it
+        rests on ``least`` avalanches or more with ``s ≥ s_min``."""
+        count = self._count(n, s)
+        return count / self.exposure[n], (count >= self.least) & (s >= self.s_min)
 
     def log_rate(self, n: int, s: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-        count = self.pooled[n].size - np.searchsorted(self.pooled[n], s, side="left")
-        ok = (count >= self.least) & (s >= self.s_min)
-        return np.log10(np.maximum(count, 1) / self.exposure[n]), ok
+        """:meth:`rate` in decades (a count of 0 taken as 1: such points are never kept)."""
+        count = self._count(n, s)
+        return (np.log10(np.maximum(count, 1) / self.exposure[n]),
+                (count >= self.least) & (s >= self.s_min))
 
 
 def collapse_rms(c: RateCurves, a: float, b: float) -> float:
