@@ -40,6 +40,11 @@ packing resamples (at most 500), one τ for all sizes with each size's shape and
 ``--window X``: every pressure's window starts at ``X`` (ε) instead of the pooled KS window (does
 the answer depend on the window's lower end?).
 
+``--steps FIRST LAST``: only the avalanches of the AQS steps ``FIRST`` … ``LAST`` (1-based, both
+included; step ``k`` takes the minimum at ``γ = (k − 1) δγ`` to ``k δγ``) of every packing (does
+the answer live in a part of the strain window? With ``--window``, every part is fitted in the
+same window). Not with ``--coarse``.
+
 Avalanches are those the report counts (jammed steps only, ``S = −ΔH``). The window is fixed
 from the real data; the resamples refit τ in it (they do not choose their own window).
 
@@ -64,10 +69,23 @@ from jamlab.analysis import (
     strain_step_slopes,
 )
 from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
-from jamlab.reproduce.ensembles import coarse_avalanches
+from jamlab.reproduce.ensembles import coarse_avalanches, counted_steps
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
 from jamlab.runs import open_pressure_run
+
+
+def steps_part(ap: argparse.ArgumentParser, path: Path, ds, n: int, first: int,
+               last: int) -> tuple[np.ndarray, ...]:
+    """Per finished packing, the sizes of the avalanches the report counts at AQS steps
+    ``first`` … ``last`` (1-based, both included); the parser's error where the run has fewer
+    steps than ``last``."""
+    ej, counted = counted_steps(ds, "jamming", n)
+    if last > ej.shape[1]:
+        ap.error(f"{path}: --steps {first} {last}, but its packings have {ej.shape[1]} steps")
+    part = np.zeros(ej.shape[1], dtype=bool)
+    part[first - 1:last] = True
+    return tuple(-row[m & part] for row, m in zip(ej, counted, strict=True))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -86,7 +104,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--window", type=float, default=None,
                     help="the window's lower end x_min (ε) at every pressure, instead of the "
                          "pooled KS window")
+    ap.add_argument("--steps", type=int, nargs=2, default=None, metavar=("FIRST", "LAST"),
+                    help="only the avalanches of these AQS steps (1-based, both included)")
     args = ap.parse_args(argv)
+    if args.steps is not None and not 1 <= args.steps[0] <= args.steps[1]:
+        ap.error(f"--steps needs 1 <= FIRST <= LAST, got {args.steps}")
+    if args.steps is not None and args.coarse:
+        ap.error("--steps and --coarse do not go together (coarse steps straddle the parts)")
     if args.window is not None and not (np.isfinite(args.window) and args.window > 0):
         ap.error(f"--window must be a number > 0, got {args.window}")
     if any(not np.isfinite(a) or a <= 0 for a in args.shape_grid) or len(
@@ -105,6 +129,8 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.runs:
         ds, pressure, n = open_pressure_run(ap, path)
         per_sample = avalanche_set(ds, "jamming", n).per_sample
+        if args.steps is not None:
+            per_sample = steps_part(ap, path, ds, n, *args.steps)
         by_p.setdefault(pressure, {}).setdefault(n, []).extend(per_sample)
         for k in ks:
             seen = coarse_avalanches(ds, "jamming", n, k).per_sample
@@ -113,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
                 ap.error(f"{path}: k = 1 does not give the report's avalanches")
             coarse.setdefault(pressure, {}).setdefault(k, {}).setdefault(n, []).extend(seen)
     scale = replace(SCALES["medium"], n_boot=0)
+    if args.steps is not None:
+        print(f"AQS steps {args.steps[0]}–{args.steps[1]} of every packing only\n")
     print(f"| p | window x_min (ε) | N: packings, sizes, τ ± asymptotic σ | Δτ (largest − "
           f"smallest N) | z (asymptotic) | σ of Δτ, {args.boot} packing resamples | z | resamples "
           "with Δτ ≤ 0 | dτ/d ln N ± σ (resamples) | z of the slope |")

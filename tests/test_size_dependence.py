@@ -168,3 +168,41 @@ def test_shapes_table_and_refusals(sd, runs, capsys):
         slope = np.polyfit(np.log([16, 24]), tau, 1, w=w)[0]
         got = float(rows[name][4].split("±")[0])
         assert abs(got - slope) < 0.002 + 0.01 * abs(slope)  # x_min printed to 3 digits
+
+
+def test_a_part_of_the_strain_window(sd, runs, capsys):
+    """``--steps FIRST LAST``: each packing's avalanches of those steps, against an h5py recount
+    of the same steps; the whole window gives the main table unchanged, byte for byte; bad parts
+    and ``--coarse`` with it are refused (exit 2)."""
+    import argparse
+
+    from jamlab.runs import open_run
+    from trace_recount import recount_steps
+
+    two = [str(runs[16]), str(runs[24])]
+    for argv in (["--steps", "0", "5"], ["--steps", "5", "4"], ["--steps", "1", "201"],
+                 ["--steps", "1", "5", "--coarse", "2"]):
+        with pytest.raises(SystemExit) as err:
+            sd.main([*two, "--boot", "4", *argv])
+        assert err.value.code == 2
+    capsys.readouterr()
+    for n in (16, 24):
+        ds = open_run(runs[n])
+        files = finished_samples(runs[n])
+        for first, last in ((1, 100), (101, 200), (37, 37)):
+            got = sd.steps_part(argparse.ArgumentParser(), runs[n], ds, n, first, last)
+            assert len(got) == len(files)
+            for a, f in zip(got, files, strict=True):
+                np.testing.assert_array_equal(a, recount_steps(f, first, last))
+        whole = sd.steps_part(argparse.ArgumentParser(), runs[n], ds, n, 1, 200)
+        for a, f in zip(whole, files, strict=True):
+            np.testing.assert_array_equal(a, recount_sample(f))
+    outs = []
+    for extra in ([], ["--steps", "1", "200"]):
+        try:
+            sd.main([*two, "--boot", "20", *extra])
+        except SystemExit as err:  # too few avalanches in the window at this tiny size
+            assert err.value.code == 2
+            return
+        outs.append(capsys.readouterr().out)
+    assert outs[1] == "AQS steps 1–200 of every packing only\n\n" + outs[0]

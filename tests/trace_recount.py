@@ -24,6 +24,18 @@ def recount_sample(path: Path) -> np.ndarray:
     return -de[pl & (de < 0) & jm[:-1] & jm[1:]]
 
 
+def recount_steps(path: Path, first: int, last: int) -> np.ndarray:
+    """The avalanche sizes of one sample file at AQS steps ``first`` … ``last`` (1-based, both
+    included: step ``k`` goes from trace row ``k − 1`` to row ``k``)."""
+    with h5py.File(path, "r") as h5:
+        de = h5["trace/energy_jump"][()]
+        pl = h5["trace/plastic"][()].astype(bool)
+        jm = h5["trace/jammed"][()]
+    k = np.arange(first, last + 1)
+    keep = pl[k] & (de[k] < 0) & jm[k - 1] & jm[k]
+    return -de[k][keep]
+
+
 def recount(run: Path) -> np.ndarray:
     """The avalanche sizes of every sample file of ``run``, concatenated."""
     return np.concatenate([np.empty(0)] + [recount_sample(f) for f in finished_samples(run)])
