@@ -184,12 +184,12 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['sigma']:.3f} / {r['sigma_pack']:.3f} | {holds(lo_e, hi_e)} | {t:.3f}, "
               f"[{lo:.3f}, {hi:.3f}] ({(hi - lo) / 3.92:.3f}) | {holds(lo, hi)} | "
               f"{', '.join(f'{a:g}' for a in r['free_a'])} | {lr} |")
-    print("\n| p | τ per N, exponential cut-off in the pooled window (± asymptotic σ; sizes) | "
-          f"dτ/d ln N ± σ ({args.boot} packing resamples), z |")
-    print("|---|---|---|")
-    for p, r in rows.items():
-        if r["slope"] is None:
-            continue
+    several = {p: r for p, r in rows.items() if r["slope"] is not None}
+    if several:
+        print("\n| p | τ per N, exponential cut-off in the pooled window (± asymptotic σ; "
+              f"sizes) | dτ/d ln N ± σ ({args.boot} packing resamples), z |")
+        print("|---|---|---|")
+    for p, r in several.items():
         per_n = "; ".join(f"{n}: {t:.3f} ± {s:.3f} ({k})" for n, k, t, s in r["per_n"])
         slope, sig, z = r["slope"]
         print(f"| {p:g} | {per_n} | {slope:+.3f} ± {sig:.3f}, {z:+.2f} |")

@@ -104,3 +104,30 @@ def test_real_runs_and_refusals(ts, runs, tmp_path, capsys):
     assert float(tau) == pytest.approx(fit.tau, abs=5e-4)
     assert float(rest.split(" / ")[0]) == pytest.approx(fit.tau_stderr, abs=5e-4)
     assert math.isfinite(float(rest.split(" / ")[1]))
+
+
+def test_one_size_takes_its_own_shape_free_fit(ts, runs, capsys):
+    """A pressure with one size: the shape-free column is ``cutoff_shape_profile`` of that size at
+    the window, no likelihood ratio, no per-N table row."""
+    from jamlab.analysis import cutoff_shape_profile
+
+    try:
+        assert ts.main([str(runs[24]), "--boot", "10"]) == 0
+    except SystemExit as err:  # too few avalanches in a window at this tiny size
+        assert err.value.code == 2
+        return
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("| 0.001 |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[8] == "— (one size)"
+    sizes = recount(runs[24])
+    x_min = float(cells[2].split(",")[0])
+    near = sizes[np.argmin(np.abs(np.log(sizes / x_min)))]
+    prof = cutoff_shape_profile(sizes, near)
+    best, interval = cells[5].split(", [")
+    assert float(best) == pytest.approx(prof.tau_best, abs=5e-4)
+    lo, hi = (float(v) for v in interval.split("]")[0].split(","))
+    assert lo == pytest.approx(prof.tau_low, abs=5e-4) and hi == pytest.approx(prof.tau_high,
+                                                                                abs=5e-4)
+    assert sum(line.startswith("| 0.001 |") for line in out.splitlines()) == 1
+    assert "τ per N, exponential" not in out
