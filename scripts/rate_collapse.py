@@ -40,7 +40,7 @@ from jamlab.analysis import cumulative_rates, rate_collapse, size_difference
 from jamlab.reproduce.ensembles import sample_strains
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_pressure_run
+from jamlab.runs import check_figure_path, open_pressure_run
 
 
 def figure(fits: dict, groups: dict, strain: dict, least: int, path: Path) -> None:
@@ -87,12 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--figure", type=Path, default=None,
                     help="collapsed curves and local exponents (.png, .pdf or .svg)")
     args = ap.parse_args(argv)
-    if args.figure is not None:
-        if args.figure.suffix not in (".png", ".pdf", ".svg"):
-            ap.error(f"--figure must end in .png, .pdf or .svg, got {args.figure}")
-        inside = [r for r in args.runs if args.figure.resolve().is_relative_to(r.resolve())]
-        if inside:
-            ap.error(f"--figure {args.figure} is inside the run directory {inside[0]}")
+    check_figure_path(ap, args.figure, args.runs)
     if not (np.isfinite(args.s_min) and args.s_min > 0):
         ap.error(f"--s-min must be a number > 0, got {args.s_min}")
     if args.least < 1:

@@ -46,7 +46,7 @@ from jamlab.analysis.cutoff_powerlaw import DEFAULT_STRETCHES
 from jamlab.paper import PAPER_TAU
 from jamlab.reproduce.measurements import avalanche_set, fit_tau_cutoff
 from jamlab.reproduce.scales import SCALES
-from jamlab.runs import open_pressure_run
+from jamlab.runs import check_figure_path, open_pressure_run
 from jamlab.theory import tau_jamming
 
 Z95 = float(norm.ppf(0.975))
@@ -152,12 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     if any(not np.isfinite(a) or a <= 0 for a in args.shape_grid) or len(
             set(args.shape_grid)) < len(args.shape_grid):
         ap.error(f"--shape-grid must be distinct numbers > 0, got {args.shape_grid}")
-    if args.figure is not None:
-        if args.figure.suffix not in (".png", ".pdf", ".svg"):
-            ap.error(f"--figure must end in .png, .pdf or .svg, got {args.figure}")
-        inside = [r for r in args.runs if args.figure.resolve().is_relative_to(r.resolve())]
-        if inside:
-            ap.error(f"--figure {args.figure} is inside the run directory {inside[0]}")
+    check_figure_path(ap, args.figure, args.runs)
     by_p: dict[float, dict[int, list[np.ndarray]]] = {}
     for path in args.runs:
         ds, pressure, n = open_pressure_run(ap, path)

@@ -4,10 +4,17 @@
 - :func:`sample_seed` — a sample's seed from the master seed and (φ, N, index), nothing else;
 - :func:`run_study` — run or resume a study in a run directory, locally or on Dask;
 - :func:`open_run` — the stored traces as an ``xarray.Dataset`` indexed by φ, N, sample, step;
-- :func:`add_run_arguments`, :func:`sizes_per_run` — the analysis scripts' runs and their ``--n``.
+- :func:`add_run_arguments`, :func:`sizes_per_run`, :func:`check_figure_path` — the analysis
+  scripts' runs, their ``--n`` and their ``--figure``.
 """
 
-from jamlab.runs.arguments import add_run_arguments, open_pressure_run, open_study, sizes_per_run
+from jamlab.runs.arguments import (
+    add_run_arguments,
+    check_figure_path,
+    open_pressure_run,
+    open_study,
+    sizes_per_run,
+)
 from jamlab.runs.execute import Execution, RunSummary, run_study
 from jamlab.runs.load import open_run, prepared_packing, read_sample
 from jamlab.runs.seeds import sample_seed, sample_seed_sequence
@@ -26,6 +33,7 @@ __all__ = [
     "SampleResult",
     "Study",
     "add_run_arguments",
+    "check_figure_path",
     "open_pressure_run",
     "open_study",
     "load_toml",

@@ -1,4 +1,5 @@
-"""The analysis scripts' shared arguments: run directories and the N of each (``--n``).
+"""The analysis scripts' shared arguments: run directories, the N of each (``--n``) and where
+a figure may go (``--figure``).
 
 Every script in ``scripts/`` that reads finished runs takes them the same way: run directories
 as positional arguments and ``--n`` with one size for all of them or one per run (runs of
@@ -29,6 +30,20 @@ def sizes_per_run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
     if len(sizes) not in (1, runs):
         parser.error(f"--n takes one size or one per run ({runs}), got {len(sizes)}")
     return sizes * runs if len(sizes) == 1 else sizes
+
+
+def check_figure_path(parser: argparse.ArgumentParser, figure: Path | None,
+                      runs: list[Path]) -> None:
+    """A script's ``--figure`` (None: no figure): it must end in ``.png``, ``.pdf`` or ``.svg``
+    and lie outside every run directory read (a figure is never written into a run); else the
+    parser's error (one line, exit code 2)."""
+    if figure is None:
+        return
+    if figure.suffix not in (".png", ".pdf", ".svg"):
+        parser.error(f"--figure must end in .png, .pdf or .svg, got {figure}")
+    inside = [r for r in runs if figure.resolve().is_relative_to(r.resolve())]
+    if inside:
+        parser.error(f"--figure {figure} is inside the run directory {inside[0]}")
 
 
 def open_study(parser: argparse.ArgumentParser, path: Path) -> tuple[Any, Any]:
