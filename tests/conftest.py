@@ -25,6 +25,24 @@ def small_pressure_run(tmp_path_factory):
     return out
 
 @pytest.fixture(scope="session")
+def pressure_runs_by_size(tmp_path_factory):
+    """``{N: run directory}``: tiny fixed-pressure studies of N = 16 and 24 (4 samples, 200 steps
+    δγ = 1e-3) and N = 32 (4 samples, 100 steps), p = 1e-3, study seed 5, read by the tests of
+    the scripts that compare sizes (``size_dependence.py``, ``rate_collapse.py``,
+    ``tau_summary.py``). Read only: a test that changes a run copies it first."""
+    from jamlab.runs import Execution, Study, run_study
+
+    root = tmp_path_factory.mktemp("pressure-runs-by-size")
+    out = {}
+    for n, gmax in ((16, 0.2), (24, 0.2), (32, 0.1)):
+        study = Study(phi=["jamming"], n=[n], samples=4, dgamma=1e-3, gamma_max=gmax, seed=5,
+                      pressure=1e-3)
+        run_study(study, root / f"n{n}", Execution(workers=0))
+        out[n] = root / f"n{n}"
+    return out
+
+
+@pytest.fixture(scope="session")
 def jam64_packing():
     """``jam(64, 3, seed=5, p_target=1e-4)``: a small packing above jamming, shared by the
     tests of the FIRE probes."""

@@ -19,17 +19,8 @@ def rc():
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    from jamlab.runs import Execution, Study, run_study
-
-    root = tmp_path_factory.mktemp("rc_runs")
-    out = {}
-    for n, gmax in ((16, 0.2), (24, 0.2), (32, 0.1)):
-        study = Study(phi=["jamming"], n=[n], samples=4, dgamma=1e-3, gamma_max=gmax, seed=5,
-                      pressure=1e-3)
-        run_study(study, root / f"n{n}", Execution(workers=0))
-        out[n] = root / f"n{n}"
-    return out
+def runs(pressure_runs_by_size):
+    return pressure_runs_by_size
 
 
 def test_refusals(rc, runs, tmp_path):

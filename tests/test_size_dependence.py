@@ -16,17 +16,8 @@ def sd():
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    from jamlab.runs import Execution, Study, run_study
-
-    root = tmp_path_factory.mktemp("sd_runs")
-    out = {}
-    for n in (16, 24):
-        study = Study(phi=["jamming"], n=[n], samples=4, dgamma=1e-3, gamma_max=0.2, seed=5,
-                      pressure=1e-3)
-        run_study(study, root / f"n{n}", Execution(workers=0))
-        out[n] = root / f"n{n}"
-    return out
+def runs(pressure_runs_by_size):
+    return pressure_runs_by_size
 
 
 def test_real_runs_and_refusals(sd, runs, tmp_path, capsys):

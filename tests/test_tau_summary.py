@@ -58,17 +58,8 @@ def test_which_references_an_interval_holds(ts):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    from jamlab.runs import Execution, Study, run_study
-
-    root = tmp_path_factory.mktemp("ts_runs")
-    out = {}
-    for n in (16, 24):
-        study = Study(phi=["jamming"], n=[n], samples=4, dgamma=1e-3, gamma_max=0.2, seed=5,
-                      pressure=1e-3)
-        run_study(study, root / f"n{n}", Execution(workers=0))
-        out[n] = root / f"n{n}"
-    return out
+def runs(pressure_runs_by_size):
+    return pressure_runs_by_size
 
 
 def test_real_runs_and_refusals(ts, runs, tmp_path, capsys):
