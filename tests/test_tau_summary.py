@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from law_draws import cutoff_power_law
 from script_helpers import script_module
 from trace_recount import finished_samples, recount
 
@@ -20,28 +21,19 @@ def ts():
     return script_module("tau_summary")
 
 
-def _draw(rng, tau: float, s_c: float, m: int) -> np.ndarray:
-    """``m`` sizes of ``S^−τ e^(−S/S_c)`` on ``S ≥ X_MIN`` (Pareto draws thinned by the cut-off)."""
-    out = np.empty(0)
-    while out.size < m:
-        s = X_MIN * (1 - rng.random(4 * m)) ** (-1 / (tau - 1))
-        out = np.concatenate([out, s[rng.random(s.size) < np.exp(-(s - X_MIN) / s_c)]])
-    return out[:m]
-
-
 def test_pooled_resamples_of_independent_avalanches_give_the_asymptotic_error(ts):
     """One law for every packing of two sizes: the stratified packing resamples' σ of the pooled
     τ is the asymptotic σ of the pooled fit; each packing with its own τ widens it."""
     from jamlab.analysis import fit_cutoff_power_law
 
     rng = np.random.default_rng(4)
-    groups = {500: [_draw(rng, 1.5, 80.0, 60) for _ in range(40)],
-              1000: [_draw(rng, 1.5, 80.0, 120) for _ in range(20)]}
+    groups = {500: [cutoff_power_law(rng, 1.5, 80.0, 60, X_MIN) for _ in range(40)],
+              1000: [cutoff_power_law(rng, 1.5, 80.0, 120, X_MIN) for _ in range(20)]}
     fit = fit_cutoff_power_law(np.concatenate([np.concatenate(g) for g in groups.values()]), X_MIN)
     sigma, used = ts.pooled_packing_sigma(groups, X_MIN, 300, 0)
     assert used == 300 and 0.8 < sigma / fit.tau_stderr < 1.25
-    spread = {n: [_draw(rng, t, 80.0, 60) for t in rng.normal(1.6, 0.25, 30).clip(1.15, None)]
-              for n in (500, 1000)}
+    spread = {n: [cutoff_power_law(rng, t, 80.0, 60, X_MIN)
+                  for t in rng.normal(1.6, 0.25, 30).clip(1.15, None)] for n in (500, 1000)}
     fit = fit_cutoff_power_law(np.concatenate([np.concatenate(g) for g in spread.values()]), X_MIN)
     assert ts.pooled_packing_sigma(spread, X_MIN, 300, 0)[0] > 1.5 * fit.tau_stderr
     # the same seed draws the same packings

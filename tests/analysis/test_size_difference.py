@@ -8,21 +8,13 @@ import numpy as np
 import pytest
 
 from jamlab.analysis import combined_scores, size_difference
+from law_draws import cutoff_power_law
 
 X_MIN = 1.0
 
 
-def _draw(rng, tau: float, s_c: float, m: int) -> np.ndarray:
-    """``m`` sizes of ``S^−τ e^(−S/S_c)`` on ``S ≥ X_MIN`` (Pareto draws thinned by the cut-off)."""
-    out = np.empty(0)
-    while out.size < m:
-        s = X_MIN * (1 - rng.random(4 * m)) ** (-1 / (tau - 1))
-        out = np.concatenate([out, s[rng.random(s.size) < np.exp(-(s - X_MIN) / s_c)]])
-    return out[:m]
-
-
 def _packings(rng, taus, s_c: float, m: int) -> list[np.ndarray]:
-    return [_draw(rng, t, s_c, m) for t in taus]
+    return [cutoff_power_law(rng, t, s_c, m, X_MIN) for t in taus]
 
 
 def test_independent_avalanches_give_the_asymptotic_error():
