@@ -103,6 +103,7 @@ def summarise(groups: dict[int, list[np.ndarray]], boot: int, seed: int,
 def figure(rows: dict[float, dict], path: Path) -> None:
     """The figure of ``--figure`` (module docstring)."""
     from jamlab.plots.report import plot_tau_against_pressure
+    from jamlab.reproduce.figures import tau_pressure_references
 
     ps = sorted(rows)
     nan = [math.nan] * len(ps)
@@ -126,11 +127,7 @@ def figure(rows: dict[float, dict], path: Path) -> None:
             hit = [(t, t - Z95 * s, t + Z95 * s) for m, _, t, s in rows[p]["per_n"] if m == n]
             vals.append(hit[0] if hit else (math.nan,) * 3)
         per_n[f"N = {n} alone (95 %, asymptotic)"] = series(vals)
-    paper, paper_err = PAPER_TAU["jamming"]
-    tau_j = tau_jamming()
-    refs = {f"theory τ_J = {tau_j:.5f} (p → 0)": (tau_j, 0.0),
-            f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
-            "τ_UNSAT = 1": (1.0, 0.0)}
+    refs = tau_pressure_references()
     panels = [("fixed-pressure AQS, all sizes pooled, KS window", pooled)]
     if per_n:
         panels.append(("each N alone, exponential cut-off in the pooled window", per_n))

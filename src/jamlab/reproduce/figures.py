@@ -41,6 +41,7 @@ __all__ = [
     "finite_size",
     "criticality_captions",
     "tau_pressure",
+    "tau_pressure_references",
     "tau_pressure_series",
     "tau_pressure_per_n",
 ]
@@ -191,21 +192,28 @@ def tau_pressure_title(estimates: dict[float, TauEstimate]) -> str:
     return f"fixed-pressure AQS, N = {' + '.join(names)}" + (" pooled" if len(names) > 1 else "")
 
 
+def tau_pressure_references() -> dict[str, tuple[float, float]]:
+    """The reference lines of a τ(p) figure, ``{label: (value, σ)}``: τ_J (p → 0), the paper's
+    constant-volume fit with its quoted uncertainty, τ_UNSAT = 1."""
+    from jamlab.paper import PAPER_TAU
+
+    paper, paper_err = PAPER_TAU["jamming"]
+    tau_j = predicted_tau("jamming")
+    return {f"theory τ_J = {tau_j:.5f} (p → 0)": (tau_j, 0.0),
+            f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
+            "τ_UNSAT = 1": (1.0, 0.0)}
+
+
 def tau_pressure(estimates: dict[float, TauEstimate] | None, figdir: Path,
                  ext: str = ".png") -> Path | None:
     """τ(p) of the report's fixed-pressure rows against τ_J, the paper's constant-volume fit
     and τ_UNSAT (None without fixed-pressure studies)."""
-    from jamlab.paper import PAPER_TAU
     from jamlab.plots.report import plot_tau_against_pressure
 
     if not estimates:
         return None
     ps, fits = tau_pressure_series(estimates)
-    paper, paper_err = PAPER_TAU["jamming"]
-    tau_j = predicted_tau("jamming")
-    refs = {f"theory τ_J = {tau_j:.5f} (p → 0)": (tau_j, 0.0),
-            f"paper's constant-volume fit {paper} ± {paper_err}": (paper, paper_err),
-            "τ_UNSAT = 1": (1.0, 0.0)}
+    refs = tau_pressure_references()
     panels = [(tau_pressure_title(estimates), fits)]
     per_n = tau_pressure_per_n(estimates)
     if per_n:
