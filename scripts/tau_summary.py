@@ -88,7 +88,7 @@ def summarise(groups: dict[int, list[np.ndarray]], boot: int, seed: int,
            "sigma": cut.tau_stderr, "sigma_pack": sigma_pack, "boot_used": used,
            "n": sorted(groups), "packings": [len(groups[n]) for n in sorted(groups)]}
     if len(groups) >= 2:
-        f = shared_tau(groups, x_min, grid, boot=2, seed=seed)  # its slope is not used here
+        f = shared_tau(groups, x_min, grid, boot=0, seed=seed)  # no resamples: slope unused here
         d = size_difference(groups, x_min, boot, seed)
         out.update(free=(f.tau, f.tau_low, f.tau_high), free_a=f.a_joint, lr=f.lr, dof=f.dof,
                    p_value=f.p_value, per_n=list(zip(d.n, d.tails, d.tau, d.sigma, strict=True)),

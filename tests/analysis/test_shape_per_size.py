@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -61,6 +63,11 @@ def test_one_tau_with_moving_shapes_is_not_rejected_and_covers_the_truth():
     assert r.p_value > 0.01
     # the separate fits are never worse than the joint one
     assert sum(r.loglik_each) >= r.loglik - 1e-6
+    # without resamples: the same joint fit and separate τ, no σ for the slope
+    r0 = shared_tau(groups, X_MIN, boot=0, seed=1)
+    assert r0.boot_used == 0 and math.isnan(r0.slope_sigma)
+    assert (r0.tau, r0.tau_low, r0.tau_high, r0.lr, r0.slope) == (
+        r.tau, r.tau_low, r.tau_high, r.lr, r.slope)
 
 
 def test_different_taus_are_told_apart():
@@ -78,5 +85,7 @@ def test_bad_input():
         shared_tau(one, X_MIN)
     with pytest.raises(ValueError, match="boot"):
         shared_tau({**one, 500: one[250]}, X_MIN, boot=1)
+    with pytest.raises(ValueError, match="boot"):
+        shared_tau({**one, 500: one[250]}, X_MIN, boot=-2)
     with pytest.raises(ValueError, match="at least 10"):
         fixed_tau_loglik(np.array([1e-8, 2e-8]), X_MIN, 1.3, 1.0)

@@ -127,12 +127,14 @@ def shared_tau(groups: dict[int, list[np.ndarray]], x_min: float,
     """:class:`SharedTau` of ``groups`` (``{N: per-packing size arrays}``, two sizes or more) at
     the fixed lower end ``x_min``, the shapes on the grid ``stretches``; ``boot`` resamples of
     each size's packings (``numpy.random.default_rng(seed)``, sizes in ascending N; a resample
-    where a size has fewer than 10 sizes in the window is dropped). ValueError with fewer than
-    two sizes, ``boot < 2`` or a size with fewer than 10 sizes in the window."""
+    where a size has fewer than 10 sizes in the window is dropped), for the σ of the slope of
+    the separate τ against ``ln N``; ``boot = 0`` draws none (``slope_sigma`` NaN, the joint fit
+    unchanged). ValueError with fewer than two sizes, ``boot`` 1 or negative, or a size with
+    fewer than 10 sizes in the window."""
     if len(groups) < 2:
         raise ValueError(f"need two sizes N or more, got {sorted(groups)}")
-    if boot < 2:
-        raise ValueError(f"boot must be >= 2, got {boot}")
+    if boot < 0 or boot == 1:
+        raise ValueError(f"boot must be 0 or >= 2, got {boot}")
     ns = sorted(groups)
     grid = tuple(sorted(float(a) for a in stretches))
     tails = [np.concatenate(groups[n]) for n in ns]
@@ -145,7 +147,8 @@ def shared_tau(groups: dict[int, list[np.ndarray]], x_min: float,
     tau_each = np.array([p.tau_best for p in prof])
     log_n = np.log(np.array(ns, dtype=np.float64))
     boots = resampled_taus([groups[n] for n in ns], x_min, boot, seed,
-                           lambda t, xm: cutoff_shape_profile(t, xm, grid).tau_best)
+                           lambda t, xm: cutoff_shape_profile(t, xm, grid).tau_best
+                           ) if boot else []
     slopes = [least_squares_slope(log_n, t) for t in boots if np.all(np.isfinite(t))]
     # the joint fit: a coarse grid in τ around the separate fits, then a bounded refinement
     lo, hi = float(tau_each.min()) - 0.4, float(tau_each.max()) + 0.4
