@@ -294,6 +294,28 @@ def test_per_sample_sizes_recounted_from_the_files(tiny):
             np.testing.assert_array_equal(g, w)
 
 
+def test_fig4_trace_recounted_from_its_sample_file(tiny):
+    """Fig. 4's sample: its pressures, jammed flags and which flagged steps are counted
+    (plastic, ΔE < 0, both minima jammed), recounted here with numpy from the first finished
+    sample file of the largest N."""
+    from jamlab.reproduce.measurements import one_trace
+    from jamlab.runs import open_run
+
+    out = tiny[0]
+    n = max(SCALE.jamming_n)
+    t = one_trace(open_run(out / "runs" / "jamming"), SCALE)
+    want = _traces(out / "runs" / "jamming", "jamming", n)[0]["trace"]
+    de, pl = want["energy_jump"], want["plastic"].astype(bool)
+    jm = want["jammed"].astype(bool)
+    counted = np.zeros(de.size, dtype=bool)
+    counted[1:] = pl[1:] & (de[1:] < 0) & jm[:-1] & jm[1:]
+    np.testing.assert_array_equal(t.pressure, want["pressure"])
+    np.testing.assert_array_equal(t.jammed, jm)
+    np.testing.assert_array_equal(t.counted, counted)
+    np.testing.assert_array_equal(t.plastic, pl)
+    assert not np.any(t.counted & ~t.plastic)
+
+
 def test_second_call_reuses_the_runs(tiny, tmp_path):
     out, result, _, _ = tiny
     runs = result.data["runs"]

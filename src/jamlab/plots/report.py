@@ -167,19 +167,59 @@ def plot_one_trace(
     plastic: NDArray[np.bool_],
     out: str | os.PathLike,
     title: str = "",
+    *,
+    pressure: FloatArray | None = None,
+    counted: NDArray[np.bool_] | None = None,
+    jammed: NDArray[np.bool_] | None = None,
 ) -> None:
-    """Paper Fig. 4: ``E/N`` and ``σ_xy`` against ``γ`` for one sample, plastic steps marked."""
-    fig, (ax_e, ax_s) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
+    """Paper Fig. 4: ``E/N`` and ``σ_xy`` against ``γ`` for one sample, plastic steps marked
+    at the minimum they end in. With ``pressure`` a third panel, ``p(γ)`` on a log axis; with
+    ``counted`` (per minimum, as ``plastic``) the counted avalanches are filled and the other
+    flagged steps hollow; with ``jammed`` (per minimum) the steps that start or end at an
+    unjammed minimum (those the statistics exclude) are shaded in every panel."""
+    rows = 3 if pressure is not None else 2
+    fig, axes = plt.subplots(rows, 1, sharex=True, figsize=(7, 2.6 * rows + 0.6))
+    ax_e, ax_s = axes[0], axes[1]
     ax_e.plot(gamma, energy_per_particle, lw=1)
     ax_s.plot(gamma, stress, lw=1)
-    idx = np.flatnonzero(plastic)
-    ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ms=2.5, color="C3",
-              label=f"plastic step ({idx.size})")
-    ax_s.plot(gamma[idx], stress[idx], "o", ms=2.5, color="C3")
+    flagged = np.asarray(plastic, dtype=bool)
+    if counted is None:
+        idx = np.flatnonzero(flagged)
+        ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ms=2.5, color="C3",
+                  label=f"plastic step ({idx.size})")
+        ax_s.plot(gamma[idx], stress[idx], "o", ms=2.5, color="C3")
+    else:
+        counted = np.asarray(counted, dtype=bool)
+        marks = (
+            (counted, dict(color="C3"), "avalanche counted: plastic, ΔE < 0, both minima jammed"),
+            (flagged & ~counted, dict(mfc="none", mec="0.4"),
+             "flagged plastic, not counted (a minimum unjammed, or ΔE ≥ 0)"),
+        )
+        for mask, style, label in marks:
+            idx = np.flatnonzero(mask)
+            ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ms=3, ls="none", **style,
+                      label=f"{label} ({idx.size})")
+            ax_s.plot(gamma[idx], stress[idx], "o", ms=3, ls="none", **style)
+    if pressure is not None:
+        ax_p = axes[2]
+        p = np.asarray(pressure, dtype=np.float64)
+        pos = p > 0
+        ax_p.semilogy(gamma[pos], p[pos], lw=1, color="C2")
+        ax_p.set_ylabel("pressure p (ε/σ³)")
+    if jammed is not None:
+        jm = np.asarray(jammed, dtype=bool)
+        excluded = ~(jm[:-1] & jm[1:])  # step k - 1 -> k, as the statistics exclude it
+        for k in np.flatnonzero(excluded):
+            for ax in axes:
+                ax.axvspan(gamma[k], gamma[k + 1], color="0.88", lw=0, zorder=0)
+        axes[0].plot([], [], "s", color="0.88",
+                     label=f"shaded: steps from or to an unjammed minimum ({int(excluded.sum())}"
+                           f" of {excluded.size}; {int((~jm).sum())} of {jm.size} minima "
+                           "unjammed)")
     ax_e.set_ylabel("energy per particle E/N (ε)")
     ax_s.set_ylabel("shear stress σ_xy (ε/σ³)")
-    ax_s.set_xlabel("shear strain γ (dimensionless)")
-    ax_e.legend(fontsize=8)
+    axes[-1].set_xlabel("shear strain γ (dimensionless)")
+    ax_e.legend(fontsize=7)
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()

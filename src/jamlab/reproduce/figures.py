@@ -122,7 +122,8 @@ def fig4(t: OneTrace | None, scale: Scale, figdir: Path, ext: str = ".png") -> P
     path = figdir / f"fig4_one_jammed_sample{ext}"
     plot_one_trace(t.gamma, t.energy_per_particle, t.stress, t.plastic, path,
                    title=f"one sample at jamming: N = {t.n}, sample {t.sample}, "
-                         f"φ_J = {t.phi_j:.4f}, δγ = {scale.dgamma:g}")
+                         f"φ_J = {t.phi_j:.4f}, δγ = {scale.dgamma:g}",
+                   pressure=t.pressure, counted=t.counted, jammed=t.jammed)
     return path
 
 
@@ -340,9 +341,13 @@ def captions(
                        "exact law (solid, docs/theory-vs-cascade.md §7–9) and the paper's printed "
                        "formula with the same cut-off (dashed) and without (grey), at δγ = 1e-2 "
                        "and 1e-3; below, the local log-slopes against −2μ."),
-        "fig4": ("Energy per particle E/N (ε) and intensive shear stress σ_xy = Σ/L³ (ε/σ³) "
-                 "against strain for the first finished sample of the largest jamming ensemble;"
-                 " red: steps flagged plastic."),
+        "fig4": ("Energy per particle E/N (ε), intensive shear stress σ_xy = Σ/L³ and "
+                 "pressure p (ε/σ³) against strain for the first finished sample of the largest "
+                 "jamming ensemble (constant volume from p_target, the paper's protocol). Red: "
+                 "the avalanches the report counts (plastic, ΔE < 0, both minima jammed); "
+                 "hollow: steps flagged plastic but not counted; grey bands: steps that start or "
+                 "end at an unjammed minimum (no rigid backbone, or p below the resolution "
+                 "floor), which every statistic excludes."),
         "fig5": ("Histograms of S = −ΔE (total energy, ε) per AQS step for each N, at "
                  "φ = 0.75, 0.80 and at jamming, and (d) all together with S rescaled by a "
                  "typical size of each φ. Black: maximum-likelihood truncated power law fitted "

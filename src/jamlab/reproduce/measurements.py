@@ -467,7 +467,11 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
 
 @dataclass(frozen=True)
 class OneTrace:
-    """One jammed sample's trace: ``E/N`` (ε), ``Σ/L³`` (ε/σ³) and plastic flags against γ."""
+    """One jammed sample's trace against γ (one entry per minimum, row 0 the start): ``E/N``
+    (ε), ``Σ/L³`` (ε/σ³), the pressure (ε/σ³), the plastic flags of the steps that end there,
+    which of them are counted as avalanches (the report's rule, :func:`jamlab.analysis.
+    classify_steps`: plastic, ``ΔE < 0``, both minima jammed) and the ``jammed`` flag of each
+    minimum (``None`` for runs without it)."""
 
     n: int
     sample: int
@@ -476,6 +480,9 @@ class OneTrace:
     energy_per_particle: np.ndarray
     stress: np.ndarray
     plastic: np.ndarray
+    pressure: np.ndarray
+    counted: np.ndarray
+    jammed: np.ndarray | None
 
 
 def one_trace(jamming: Any, scale: Scale) -> OneTrace | None:
@@ -484,14 +491,23 @@ def one_trace(jamming: Any, scale: Scale) -> OneTrace | None:
     done = np.flatnonzero(finished(jamming, "jamming", n))
     if not done.size:
         return None
+    from jamlab.analysis import classify_steps
+
     i = int(done[0])
     sel = dict(phi="jamming", N=n, sample=i)
     length = float(jamming.box_length.sel(**sel))
+    plastic = jamming.plastic.sel(**sel).values > 0.5
+    flags = jammed_flags(jamming, "jamming", n)
+    jammed = None if flags is None else flags[0]  # row 0: the first finished sample, i
+    counted = np.zeros(plastic.shape, dtype=bool)
+    counted[1:] = classify_steps(jamming.energy_jump.sel(**sel).values[1:], plastic[1:],
+                                 jammed=jammed)
     return OneTrace(n=n, sample=i, phi_j=float(jamming.phi_actual.sel(**sel)),
                     gamma=jamming.gamma.sel(**sel).values,
                     energy_per_particle=jamming.energy.sel(**sel).values / n,
                     stress=jamming.shear_stress.sel(**sel).values / length**3,
-                    plastic=jamming.plastic.sel(**sel).values > 0.5)
+                    plastic=plastic, pressure=jamming.pressure.sel(**sel).values,
+                    counted=counted, jammed=jammed)
 
 
 @dataclass(frozen=True)
