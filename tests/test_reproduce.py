@@ -221,6 +221,27 @@ def test_moduli_slope_recomputed_with_numpy(tiny, phi, run, ns, title):
     mu_row = _row(rows, f"⟨μ_1⟩ at the smallest and largest δγ, {title}")
     assert mu_row["value"] == pytest.approx(mu1, rel=1e-10)
 
+    def within(m):
+        # each sample's variance of its kept differences about their mean, divided by
+        # K − Σ_k w_k²/(m K) (w_k: kept differences holding fine step k; docs/analysis.md §4)
+        out = []
+        for st, jm in zip(stress, jammed, strict=True):
+            kept = [k for k in range(st.size - m) if jm[k : k + m + 1].all()]
+            if len(kept) < 2:
+                continue
+            d = np.array([(st[k + m] - st[k]) / (m * SCALE.dgamma) for k in kept])
+            w = [sum(1 for k in kept if k <= j < k + m) for j in range(st.size - 1)]
+            dof = len(kept) - sum(v * v for v in w) / (m * len(kept))
+            out.append(((d - d.mean()) ** 2).sum() / dof)
+        return np.array(out)
+
+    v = [within(m) for m in lags]
+    y = np.array([a.mean() for a in v])
+    e = np.array([a.std(ddof=1) / math.sqrt(a.size) for a in v])
+    slope = np.polyfit(np.log(x), np.log(y), 1, w=y / e)[0]
+    row = _row(rows, f"slope of the within-sample variance of μ_1 vs log δγ, {title}")
+    assert row["value"] == pytest.approx(slope, rel=1e-8, abs=1e-10)
+
 
 def test_coordination_rows_recomputed(tiny):
     out, _, _, rows = tiny

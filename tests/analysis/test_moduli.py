@@ -125,3 +125,38 @@ def test_unjammed_minima_are_left_out_as_a_loop_would(overlapping: bool) -> None
                               jammed=np.ones_like(jammed))
     np.testing.assert_array_equal(plain.mu1_sq, every.mu1_sq)
     assert plain.n_excluded is None and list(every.n_excluded) == [0, 0, 0]
+
+
+@pytest.mark.parametrize("overlapping, unjammed", [(True, 0.0), (True, 0.03), (False, 0.0)])
+def test_within_sample_variance_is_the_jump_part(overlapping, unjammed):
+    """mu1_var = λ E[s²] / δγ exactly for independent increments, whatever the spread of G
+    between samples and even at lags near the trace's length, where the sum of squares about
+    each sample's own mean needs the overlap correction; ⟨μ_1²⟩ holds the spread besides."""
+    rng = np.random.default_rng(63)
+    dgamma0, steps, samples, spread = 1e-4, 100, 3000, 6.0
+    stress = _traces(rng, samples=samples, steps=steps, dgamma0=dgamma0)
+    stress += rng.normal(0.0, spread, samples)[:, None] * (np.arange(steps + 1) * dgamma0)
+    jammed = rng.random(stress.shape) >= unjammed
+    lags = np.array([1, 5, 20, 50])
+    mom = moduli_from_trace(stress, dgamma0, lags, overlapping=overlapping,
+                            jammed=jammed if unjammed else None)
+    exact = LAM * MEAN_S2 / mom.strain_step
+    assert np.all(np.abs(mom.mu1_var - exact) < 4 * mom.mu1_var_err)
+    # the spread of G between samples (spread² = 36, twice mu1_var at the largest lag) is in
+    # ⟨μ_1²⟩ besides ⟨μ_1⟩², not in mu1_var (which would have shown it: 4σ < spread²)
+    assert np.all(mom.mu1_sq - mom.mu1**2 - mom.mu1_var > 0.5 * spread**2)
+    assert 4 * mom.mu1_var_err[-1] < spread**2
+    if overlapping and not unjammed:
+        # without the correction (divisor: the count less one) the largest lag is biased low
+        m = 50
+        d = (stress[:, m:] - stress[:, :-m]) / (m * dgamma0)
+        naive = d.var(axis=1, ddof=1).mean()
+        assert naive < exact[-1] - 6 * mom.mu1_var_err[-1]
+
+
+def test_within_sample_variance_of_separate_runs():
+    rng = np.random.default_rng(64)
+    steps = np.array([1e-4, 1e-3])
+    runs = [np.diff(_traces(rng, samples=300, steps=50, dgamma0=dg), axis=1) for dg in steps]
+    mom = moduli_from_stress_jumps(runs, steps)
+    assert np.all(np.abs(mom.mu1_var - LAM * MEAN_S2 / steps) < 4 * mom.mu1_var_err)

@@ -12,6 +12,13 @@ Averages: first over the differences of one sample (stationarity in ``γ``, as t
 assumes), then over samples; the standard error is the sample-to-sample one,
 ``std(per-sample means, ddof=1)/√n_samples``, which stays honest when the differences within a
 sample are correlated (overlapping differences, or a sample's own modulus).
+
+``⟨μ_1²⟩`` holds ``⟨μ_1⟩²``, the sample-to-sample spread of the modulus (δγ-independent) and the
+part the jumps make (``∝ δγ⁻¹``). :attr:`ModulusMoments.mu1_var` is the last one alone: the
+variance of ``ΔΣ/δγ`` about each sample's own mean, averaged over samples, with the overlap
+correction that makes it unbiased for independent stationary increments (``docs/analysis.md``
+§4). Where the spread between samples is large (small N near jamming) ``⟨μ_1²⟩`` is flat in
+``δγ`` while ``mu1_var`` still falls as ``δγ⁻¹``.
 """
 
 from __future__ import annotations
@@ -52,6 +59,11 @@ class ModulusMoments:
     n_excluded: NDArray[np.int64] | None = None
     """Differences left out at each ``δγ`` because they span an unjammed minimum, of the
     ``n_samples × n_differences`` there (``None``: no ``jammed`` flags were given)."""
+    mu1_var: FloatArray | None = None
+    """The within-sample variance of ``ΔΣ/δγ`` (each sample's own mean removed, the overlap
+    correction of the module docstring), averaged over the samples with two or more
+    differences; NaN where none has."""
+    mu1_var_err: FloatArray | None = None
 
 
 def _mean_and_error(per_sample: FloatArray) -> tuple[float, float]:
@@ -62,22 +74,58 @@ def _mean_and_error(per_sample: FloatArray) -> tuple[float, float]:
 
 
 def _moments_of_jumps(
-    jumps: FloatArray, dgamma: float, keep: NDArray[np.bool_] | None = None
-) -> tuple[float, float, float, float]:
-    """Moments from ``jumps`` of shape (samples, differences) at one strain step; with ``keep``
-    (same shape) only the kept differences, and only samples that keep at least one."""
+    jumps: FloatArray,
+    dgamma: float,
+    keep: NDArray[np.bool_] | None = None,
+    dof: FloatArray | None = None,
+) -> tuple[float, float, float, float, float, float]:
+    """``(⟨μ_1⟩, σ, ⟨μ_1²⟩, σ, within-sample variance, σ)`` from ``jumps`` of shape (samples,
+    differences) at one strain step; with ``keep`` (same shape) only the kept differences, and
+    only samples that keep at least one. ``dof`` (per sample): the effective number of
+    independent differences less one, the divisor of the sum of squares about the sample's mean
+    (default: the count less one, as for independent differences); samples with ``dof ≤ 0`` are
+    left out of the variance."""
     if keep is None:
-        m1 = jumps.mean(axis=1) / dgamma
-        m2 = (jumps**2).mean(axis=1) / dgamma**2
+        keep = np.ones(jumps.shape, dtype=bool)
+    count = keep.sum(axis=1)
+    if dof is None:
+        dof = count - 1.0
+    used = count > 0
+    if not used.any():
+        return (float("nan"),) * 6
+    kept = np.where(keep, jumps, 0.0)
+    mean = kept[used].sum(axis=1) / count[used]
+    m1 = mean / dgamma
+    m2 = (kept[used] ** 2).sum(axis=1) / count[used] / dgamma**2
+    var_ok = used & (dof > 0)
+    if var_ok.any():
+        centred = np.where(keep, jumps - np.where(used, kept.sum(axis=1) / np.maximum(count, 1),
+                                                   0.0)[:, None], 0.0)
+        var = (centred[var_ok] ** 2).sum(axis=1) / dof[var_ok] / dgamma**2
+        v = _mean_and_error(var)
     else:
-        count = keep.sum(axis=1)
-        used = count > 0
-        if not used.any():
-            return (float("nan"),) * 4
-        kept = np.where(keep, jumps, 0.0)[used]
-        m1 = kept.sum(axis=1) / count[used] / dgamma
-        m2 = (kept**2).sum(axis=1) / count[used] / dgamma**2
-    return (*_mean_and_error(m1), *_mean_and_error(m2))
+        v = (float("nan"), float("nan"))
+    return (*_mean_and_error(m1), *_mean_and_error(m2), *v)
+
+
+def _overlap_dof(keep: NDArray[np.bool_], starts: NDArray[np.int64], m: int, steps: int
+                 ) -> FloatArray:
+    """Per sample, ``|K| − Σ_k w_k² / (m |K|)``: the divisor that makes the sum of squares of
+    the kept differences ``D_n = Σ_{k=n}^{n+m−1} ξ_k`` (``n`` in ``starts[keep]``, ``K`` the kept
+    set) about their mean an unbiased estimate of ``Var D`` for independent increments ``ξ_k`` of
+    one variance: ``E[SS] = σ² (|K| m − Σ_k w_k²/|K|)``, ``w_k`` the number of kept differences
+    that contain the fine step ``k``. Non-overlapping differences give ``|K| − 1``."""
+    out = np.zeros(keep.shape[0])
+    for i, row in enumerate(keep):
+        k = int(row.sum())
+        if k < 2:
+            continue
+        cover = np.zeros(steps + 1)
+        np.add.at(cover, starts[row], 1.0)
+        np.subtract.at(cover, starts[row] + m, 1.0)
+        w = np.cumsum(cover)[:steps]
+        out[i] = k - float(w @ w) / (m * k)
+    return out
 
 
 def moduli_from_trace(
@@ -128,10 +176,14 @@ def moduli_from_trace(
         if unjammed_before is not None:
             # no unjammed minimum among n … n+m
             keep = (unjammed_before[:, m + 1:] - unjammed_before[:, : n_points - m]) == 0
+        starts = np.arange(n_points - m)
         if not overlapping:
             jumps = jumps[:, ::m]
             keep = None if keep is None else keep[:, ::m]
-        out.append(_moments_of_jumps(jumps, m * strain_step, keep))
+            starts = starts[::m]
+        full = np.ones(jumps.shape, dtype=bool) if keep is None else keep
+        dof = _overlap_dof(full, starts, m, n_points - 1)
+        out.append(_moments_of_jumps(jumps, m * strain_step, keep, dof))
         counts.append(jumps.shape[1])
         excluded.append(0 if keep is None else int(keep.size - keep.sum()))
     arr = np.array(out)
@@ -145,6 +197,8 @@ def moduli_from_trace(
         n_differences=np.array(counts, dtype=np.int64),
         overlapping=overlapping,
         n_excluded=None if jammed is None else np.array(excluded, dtype=np.int64),
+        mu1_var=arr[:, 4],
+        mu1_var_err=arr[:, 5],
     )
 
 
@@ -176,6 +230,8 @@ def moduli_from_stress_jumps(
         n_samples=n_samples.pop(),
         n_differences=np.array([j.shape[1] for j in jumps_list], dtype=np.int64),
         overlapping=False,
+        mu1_var=arr[:, 4],
+        mu1_var_err=arr[:, 5],
     )
 
 

@@ -234,8 +234,9 @@ def plot_moduli(
     how: str,
 ) -> None:
     """Paper Fig. 7: for each φ label a row with ``⟨μ_1⟩`` (log δγ axis) and ``⟨μ_1²⟩``
-    (log-log) against ``δγ``, one curve per ``N``; ``fits[label] = (N, slope fit, δγ_max of the
-    fit)`` is drawn on the ``⟨μ_1²⟩`` panel. ``how`` says where the moments come from."""
+    (log-log) against ``δγ``, one curve per ``N``, with the within-sample variance of ``μ_1``
+    (``mu1_var``, dotted, where the moments have it); ``fits[label] = (N, slope fit, δγ_max of
+    the fit)`` is drawn on the ``⟨μ_1²⟩`` panel. ``how`` says where the moments come from."""
     labels = list(moments)
     fig, axes = plt.subplots(len(labels), 2, figsize=(11, 4 * len(labels)), squeeze=False)
     letters = iter("abcdefgh")
@@ -246,6 +247,10 @@ def plot_moduli(
                          label=f"N = {n} ({m.n_samples} samples)")
             ax2.errorbar(m.strain_step, m.mu1_sq, m.mu1_sq_err, fmt="o-", ms=3, color=f"C{j}",
                          label=f"N = {n}")
+            if m.mu1_var is not None:
+                ax2.errorbar(m.strain_step, m.mu1_var, m.mu1_var_err, fmt="s:", ms=2.5, lw=1,
+                             mfc="none", color=f"C{j}",
+                             label=f"N = {n}: within-sample variance of μ_1")
         fit = fits.get(lab)
         if fit is not None:
             n, sf, dg_max = fit

@@ -17,7 +17,8 @@ compute them, and each is re-derived independently in ``tests/test_reproduce.py`
 
 - :mod:`~jamlab.reproduce.scales`: :class:`Scale`, the named :data:`SCALES`, their studies;
 - :mod:`~jamlab.reproduce.ensembles`: reading the run directories (finished samples, sizes, stress);
-- :mod:`~jamlab.reproduce.measurements`: τ, φ_J, moduli, one trace, stress–strain (typed results);
+- :mod:`~jamlab.reproduce.measurements`: τ, φ_J, moduli, one trace, stress–strain (typed results;
+  the moduli rendered by :mod:`~jamlab.reproduce.moduli_table`);
 - :mod:`~jamlab.reproduce.coordination`: coordination exponents (with
   :mod:`~jamlab.reproduce.cache`, the ``.npz`` cache of coordination curves);
 - :mod:`~jamlab.reproduce.theory_checks`: no-jump probabilities, printed vs exact vs sampled;

@@ -361,7 +361,10 @@ def captions(
         "fig7": ("⟨μ_1⟩ and ⟨μ_1²⟩ against δγ at jamming and at φ = 0.75, from subsampling one "
                  f"fine trace per sample (δγ₀ = {scale.dgamma:g}, overlapping differences), not "
                  "from separate runs. Dashed: weighted least-squares slope over δγ ≤ "
-                 f"{scale.moduli_fit_max_lag * scale.dgamma:g} at the largest N."),
+                 f"{scale.moduli_fit_max_lag * scale.dgamma:g} at the largest N. Dotted: the "
+                 "within-sample variance of μ_1 (each sample's own mean removed), the part of "
+                 "⟨μ_1²⟩ the jumps make; ⟨μ_1²⟩ adds ⟨μ_1⟩² and the spread of the modulus "
+                 "between samples, flat in δγ."),
         "tau_pressure": (
             "τ of the avalanches S = −ΔH of fixed-pressure AQS (all N pooled) against the "
             "pressure: the power law with an exponential cut-off in its KS window (± the "

@@ -434,10 +434,13 @@ def phi_j_estimate(jamming: Any, scale: Scale) -> PhiJEstimate:
 @dataclass(frozen=True)
 class ModuliResult:
     """Moments of the shear modulus per label and N, and per label the slope fit of
-    ``log⟨μ_1²⟩`` as ``(N, fit, largest δγ fitted)`` at the largest N (None without one)."""
+    ``log⟨μ_1²⟩`` as ``(N, fit, largest δγ fitted)`` at the largest N (None without one);
+    ``var_slopes`` the same for the within-sample variance of ``μ_1`` (``mu1_var``, the part of
+    ``⟨μ_1²⟩`` the jumps make)."""
 
     moments: dict[str, dict[int, Any]]
     slopes: dict[str, tuple[int, Any, float] | None]
+    var_slopes: dict[str, tuple[int, Any, float] | None]
 
 
 def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
@@ -446,6 +449,7 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
 
     moments: dict[str, dict[int, Any]] = {}
     slopes: dict[str, tuple[int, Any, float] | None] = {}
+    var_slopes: dict[str, tuple[int, Any, float] | None] = {}
     for label, ds, ns in (("jamming", jamming, scale.jamming_n), ("0.75", unsat, scale.unsat_n)):
         moments[label] = {}
         for n in ns:
@@ -454,15 +458,17 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
                 # differences across an unjammed minimum are not elastic responses: left out
                 moments[label][n] = moduli_from_trace(st, scale.dgamma, scale.moduli_lags,
                                                       jammed=jammed_flags(ds, label, n))
-        slopes[label] = None
+        slopes[label] = var_slopes[label] = None
         if moments[label]:
             n_big = max(moments[label])
             m = moments[label][n_big]
             sel = m.strain_step <= scale.moduli_fit_max_lag * scale.dgamma * (1 + 1e-9)
-            if sel.sum() >= 2 and np.all(m.mu1_sq_err[sel] > 0):
-                sf = fit_log_slope(m.strain_step[sel], m.mu1_sq[sel], m.mu1_sq_err[sel])
-                slopes[label] = (n_big, sf, scale.moduli_fit_max_lag * scale.dgamma)
-    return ModuliResult(moments, slopes)
+            for out, y, err in ((slopes, m.mu1_sq, m.mu1_sq_err),
+                                (var_slopes, m.mu1_var, m.mu1_var_err)):
+                if sel.sum() >= 2 and np.all(y[sel] > 0) and np.all(err[sel] > 0):
+                    sf = fit_log_slope(m.strain_step[sel], y[sel], err[sel])
+                    out[label] = (n_big, sf, scale.moduli_fit_max_lag * scale.dgamma)
+    return ModuliResult(moments, slopes, var_slopes)
 
 
 @dataclass(frozen=True)

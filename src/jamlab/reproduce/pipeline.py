@@ -19,7 +19,7 @@ from typing import Any
 
 from jamlab.files import atomic_write_text, check_new_run_directory
 from jamlab.report import Figure, ReportMeta, Row, write_report
-from jamlab.reproduce import criticality_table, figures, table
+from jamlab.reproduce import criticality_table, figures, moduli_table, table
 from jamlab.reproduce.coordination import coordination
 from jamlab.reproduce.criticality import finite_size_scaling, packing_criticality
 from jamlab.reproduce.ensembles import RunSet
@@ -102,7 +102,8 @@ PARTS: dict[str, Part] = {
     "phi_j": Part(lambda c: phi_j_estimate(c.runs["jamming"], c.scale),
                   lambda r, s: ([table.phi_j_row(r)], table.phi_j_data(r))),
     "moduli": Part(lambda c: moduli(c.runs["jamming"], c.runs["unsat"], c.scale),
-                   lambda r, s: (table.moduli_rows(r, s), table.moduli_data(r))),
+                   lambda r, s: (moduli_table.moduli_rows(r, s),
+                                 moduli_table.moduli_data(r))),
     "trace": Part(lambda c: one_trace(c.runs["jamming"], c.scale), None),
     "stress_strain": Part(lambda c: stress_strain(c.runs["stress-strain"], c.scale),
                           _stress_strain_data),

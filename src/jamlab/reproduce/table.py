@@ -28,8 +28,6 @@ from jamlab.paper import (
 from jamlab.report import Comparison, Row, format_value
 from jamlab.reproduce.coordination import CoordinationResult
 from jamlab.reproduce.measurements import (
-    MODULI_LABELS,
-    ModuliResult,
     PhiJEstimate,
     TauEstimate,
     interval_note,
@@ -45,8 +43,6 @@ __all__ = [
     "coordination_data",
     "coordination_rows",
     "fit_text",
-    "moduli_data",
-    "moduli_rows",
     "notes",
     "parameters",
     "phi_j_data",
@@ -70,8 +66,6 @@ TAU_TITLES = {
     "0.75": "τ at φ = 0.75",
     "0.8": "τ at φ = 0.80",
 }
-_MODULI_TITLES = {"jamming": "at jamming (constant volume, the paper's protocol)",
-                  "0.75": "at φ = 0.75"}
 
 
 def pressure_text(q: tuple[float, float, float] | None) -> str:
@@ -352,68 +346,6 @@ def phi_j_row(e: PhiJEstimate) -> Row:
 def phi_j_data(e: PhiJEstimate) -> dict[str, Any]:
     """``phi_j``: mean, standard error, count."""
     return {"phi_j": dict(mean=e.mean, sem=e.sem, n=e.n)}
-
-
-def _moduli_exclusion(m: Any) -> str:
-    """How many stress differences the jammed flags left out (at the smallest and largest lag)."""
-    if m is None or m.n_excluded is None:
-        return "no jammed flags in these runs: no difference excluded"
-    total = m.n_samples * m.n_differences
-    return (f"differences across an unjammed minimum excluded: {m.n_excluded[0]} of {total[0]} "
-            f"at the smallest δγ, {m.n_excluded[-1]} of {total[-1]} at the largest")
-
-
-def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
-    """Slope of ``log⟨μ_1²⟩`` per label (theory −1), then ``⟨μ_1⟩`` at both ends of the lags."""
-    rows = []
-    for label in MODULI_LABELS:
-        title = _MODULI_TITLES[label]
-        sf = r.slopes[label]
-        val, err = (sf[1].slope, sf[1].slope_err) if sf else (float("nan"), float("nan"))
-        n_big = sf[0] if sf else (max(r.moments[label]) if r.moments[label] else 0)
-        m = r.moments[label].get(n_big)
-        rows.append(Row(
-            quantity=f"slope of log⟨μ_1²⟩ vs log δγ, {title}",
-            reference_text="−1 (theory; paper Fig. 7: ⟨μ_1²⟩ ∝ δγ⁻¹)",
-            value=val, error=err,
-            value_text=(format_value(val, err) + (
-                f" (N = {n_big}, δγ ≤ {scale.moduli_fit_max_lag * scale.dgamma:g}, "
-                f"χ²/dof = {sf[1].chi2:.2g}/{sf[1].dof})" if sf else "")),
-            samples=f"{m.n_samples if m else 0} samples",
-            comparisons=(Comparison("theory", -1.0),
-                         Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
-            note="error indicative: the lags of one trace are correlated; " + _moduli_exclusion(m),
-        ))
-    for label in MODULI_LABELS:
-        if not r.moments[label]:
-            continue
-        n_big = max(r.moments[label])
-        m = r.moments[label][n_big]
-        first = format_value(float(m.mu1[0]), float(m.mu1_err[0]))
-        last = format_value(float(m.mu1[-1]), float(m.mu1_err[-1]))
-        rows.append(Row(
-            quantity=f"⟨μ_1⟩ at the smallest and largest δγ, {_MODULI_TITLES[label]} (ε/σ³)",
-            reference_text="finite as δγ → 0 (paper Fig. 7a,c)",
-            value=float(m.mu1[0]), error=float(m.mu1_err[0]),
-            value_text=(f"{first} at δγ = {m.strain_step[0]:g}; {last}"
-                        f" at δγ = {m.strain_step[-1]:g} (N = {n_big})"),
-            samples=f"{m.n_samples} samples",
-            comparisons=(Comparison(f"⟨μ_1⟩ at δγ = {m.strain_step[-1]:g}", float(m.mu1[-1]),
-                                    float(m.mu1_err[-1])),),
-            note="finite and δγ-independent if it agrees with its value at the largest δγ",
-        ))
-    return rows
-
-
-def moduli_data(r: ModuliResult) -> dict[str, Any]:
-    """``slope_<label>``: the slope fit's numbers (None without a fit)."""
-    data: dict[str, Any] = {}
-    for label in MODULI_LABELS:
-        sf = r.slopes[label]
-        data[f"slope_{label}"] = None if not sf else dict(
-            n=sf[0], slope=sf[1].slope, slope_err=sf[1].slope_err, chi2=sf[1].chi2,
-            dof=sf[1].dof)
-    return data
 
 
 def coordination_rows(r: CoordinationResult, scale: Scale) -> list[Row]:
