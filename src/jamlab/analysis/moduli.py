@@ -94,13 +94,12 @@ def _moments_of_jumps(
     if not used.any():
         return (float("nan"),) * 6
     kept = np.where(keep, jumps, 0.0)
-    mean = kept[used].sum(axis=1) / count[used]
-    m1 = mean / dgamma
+    mean = kept.sum(axis=1) / np.maximum(count, 1)  # per sample (0 where none is kept)
+    m1 = mean[used] / dgamma
     m2 = (kept[used] ** 2).sum(axis=1) / count[used] / dgamma**2
     var_ok = used & (dof > 0)
     if var_ok.any():
-        centred = np.where(keep, jumps - np.where(used, kept.sum(axis=1) / np.maximum(count, 1),
-                                                   0.0)[:, None], 0.0)
+        centred = np.where(keep, jumps - mean[:, None], 0.0)
         var = (centred[var_ok] ** 2).sum(axis=1) / dof[var_ok] / dgamma**2
         v = _mean_and_error(var)
     else:
