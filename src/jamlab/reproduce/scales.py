@@ -89,26 +89,13 @@ class Scale:
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
 MEDIUM_EXPECTED = (
-    "≈ 5.8 CPU-hours ≈ 2.9 h on 2 cores, projected (a session cannot host it; docs/reproduce.md) "
-    "from samples measured with the current code: constant volume 0.37 CPU-h, the scale's "
-    "study run whole with its floppy steps projected (CPU s per sample with its preparation: "
-    "N = 500 14, 81, 92; N = 1000 229, 227, 698 — the costly ones hover at the edge of "
-    "jamming; τ 1.304 ± 0.078 by the rule, 1.284 ± 0.030 with an exponential cut-off, at "
-    "p ≈ 1e-5 – 2e-4; with FIRE on the floppy steps 0.54 CPU-h); fixed pressure ≈ 5.0 "
-    "CPU-h from the scale's first 2 samples at every "
-    "(N, p), preparation included: N = 500 115 s per 1000-step sample at p = 1e-5, 38 s at 1e-4, "
-    "20 s at 1e-3, 11 s at 1e-2; N = 1000 509, 125, 49 and 34 s (20 samples each in the scale) "
-    "— τ on the ensembles measured earlier, with an exponential cut-off at N = 500: "
-    "1.472 ± 0.029 (p = 1e-5), 1.397 ± 0.045 (1e-4), "
-    "1.144 ± 0.023 (1e-3), 1.213 ± 0.070 (1e-2); at N = 1000: 1.338 ± 0.035 (1e-4), "
-    "1.206 ± 0.044 (1e-3), 1.117 ± 0.057 (1e-2); with a "
-    "window systematic of about ±0.1 (the truncated power law at N = 500: 1.737 ± 0.081, "
-    "1.601 ± 0.072, 1.207 ± 0.122, 1.256 ± 0.082); the four fixed-pressure studies since run "
-    "whole (40 samples each, on a machine 2.2× slower at N = 1000, p = 1e-5): 11.2 CPU-h, "
-    "46 / 86 / 173 / 705 CPU s per sample at p = 1e-2 / 1e-3 / 1e-4 / 1e-5, pooled τ with an "
-    "exponential cut-off 1.160 ± 0.048, 1.151 ± 0.034, 1.317 ± 0.022, 1.464 ± 0.040, from the "
-    "lowest δγ-converged floor 1.160, 1.162, 1.317, 1.475 (the rows below add the cut-off's "
-    "shape free and the strain step's check; figure τ(p))"
+    "≈ 5.8 CPU-hours ≈ 2.9 h on 2 cores, projected (a session cannot host it) from samples "
+    "measured with the current code: constant volume 0.37 CPU-h, the scale's study run whole "
+    "(CPU s per sample with its preparation: N = 500 14, 81, 92; N = 1000 229, 227, 698 — the "
+    "costly ones hover at the edge of jamming); fixed pressure ≈ 5.0 CPU-h from the scale's "
+    "first 2 samples at every (N, p) (N = 500: 115, 38, 20, 11 s per 1000-step sample at p = "
+    "1e-5, 1e-4, 1e-3, 1e-2; N = 1000: 509, 125, 49, 34 s); the τ those samples gave: "
+    "docs/reproduce.md, \"Times\""
 )
 
 """The ``medium`` scale (issue 18): τ(p) at fixed p = 1e-2, 1e-3, 1e-4, 1e-5 and the paper's
@@ -167,7 +154,8 @@ SCALES: dict[str, Scale] = {
         cascade_samples=40_000,
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
-        expected="≈ 10 minutes on 2 idle cores (measured; budget 30 minutes)",
+        expected=("≈ 5–10 minutes on 2 idle cores (measured: 5 min on an Intel Xeon of 2026-12-05, "
+                  "≈ 9 on slower machines; budget 30 minutes)"),
     ),
     "medium": Scale(
         name="medium",
