@@ -51,7 +51,7 @@ TITLES = {
     "fig2": "Fig. 2 — a Derrida–Ruelle cascade",
     "fig3": "Fig. 3 — mean-field jump distribution P(ΔE|δγ)",
     "fig3_exact": "Fig. 3, exact — the printed formula beside the exact jump law",
-    "fig4": "Fig. 4 — energy and stress vs strain, one jammed sample",
+    "fig4": "Fig. 4 — energy, stress and pressure vs strain, one sample at jamming",
     "fig5": "Fig. 5 — avalanche size distributions",
     "fig6": "Fig. 6 — mean stress–strain curve",
     "fig7": "Fig. 7 — moments of the shear modulus vs δγ",
@@ -114,7 +114,7 @@ def fig3_exact(figdir: Path, ext: str = ".png") -> Path:
 
 
 def fig4(t: OneTrace | None, scale: Scale, figdir: Path, ext: str = ".png") -> Path | None:
-    """Energy and stress against strain of one jammed sample."""
+    """Energy, stress and pressure against strain of one sample of the jamming ensemble."""
     from jamlab.plots.report import plot_one_trace
 
     if t is None:
