@@ -40,6 +40,12 @@ packing resamples (at most 500), one τ for all sizes with each size's shape and
 ``--window X``: every pressure's window starts at ``X`` (ε) instead of the pooled KS window (does
 the answer depend on the window's lower end?).
 
+``--dispersion``: per pressure and N, are the packings alike in the window
+(``jamlab.analysis.packing_dispersion``, 2000 permutations, ``--seed``)? The between- over
+within-packing variance of ``log(S/x_min)`` with its permutation p, and the variance over mean
+of the packings' counts with its p of over-dispersion: a mixture of packings that differ in
+cut-off or rate, whose pooled shape could move with N, would show in either.
+
 ``--steps FIRST LAST``: only the avalanches of the AQS steps ``FIRST`` … ``LAST`` (1-based, both
 included; step ``k`` takes the minimum at ``γ = (k − 1) δγ`` to ``k δγ``) of every packing (does
 the answer live in a part of the strain window? With ``--window``, every part is fitted in the
@@ -64,6 +70,7 @@ from jamlab.analysis import (
     combined_scores,
     cutoff_shape_profile,
     fit_log_slope,
+    packing_dispersion,
     shared_tau,
     size_difference,
     strain_step_slopes,
@@ -101,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="also fit each size with its own cut-off shape (module docstring)")
     ap.add_argument("--shape-grid", type=float, nargs="+", default=list(DEFAULT_STRETCHES),
                     help="the cut-off shapes a of --free-shapes")
+    ap.add_argument("--dispersion", action="store_true",
+                    help="per pressure and N: are the packings alike (packing_dispersion)?")
     ap.add_argument("--window", type=float, default=None,
                     help="the window's lower end x_min (ε) at every pressure, instead of the "
                          "pooled KS window")
@@ -229,6 +238,21 @@ def main(argv: list[str] | None = None) -> int:
               f"size's cut-off free: {f.tau:.3f}, 95 % [{f.tau_low:.3f}, {f.tau_high:.3f}] "
               f"(σ ≈ {(f.tau_high - f.tau_low) / 3.92:.3f}); separate against one τ: "
               f"2Δlog L = {f.lr:.2f}, χ²_{f.dof} p = {f.p_value:.3g} (avalanches as units)")
+    for p in sorted(by_p, reverse=True) if args.dispersion else ():
+        print(f"\np = {p:g}, the same window {windows[p]:.3g}: are the packings alike? "
+              "(log S: between / within packings, permutation p; counts: variance / mean, "
+              "p of over-dispersion)\n")
+        print("| N | packings (with ≥ 2 sizes) | sizes | mean log(S/x_min) | F, p | count mean, "
+              "variance / mean, p |")
+        print("|---|---|---|---|---|---|")
+        for n in sorted(by_p[p]):
+            try:
+                d = packing_dispersion(by_p[p][n], windows[p], seed=args.seed)
+            except ValueError as err:
+                ap.error(f"p = {p:g}, N = {n}, --dispersion: {err}")
+            print(f"| {n} | {d.n_packings} ({d.packings}) | {d.sizes} | {d.mean_log:.3f} | "
+                  f"{d.f_ratio:.2f}, {d.f_p:.3f} | {d.count_mean:.1f}, {d.count_ratio:.2f}, "
+                  f"{d.count_p:.3g} |")
     chi2, p_chi2, s, p_s = combined_scores(zs)
     print(f"\nover {len(zs)} pressure(s), bootstrap z of the slopes: Σ z² = {chi2:.2f} "
           f"(χ²_{len(zs)} p = {p_chi2:.2f}); Σ z/√k = {s:+.2f} (two-sided p = {p_s:.2f})")

@@ -197,3 +197,33 @@ def test_a_part_of_the_strain_window(sd, runs, capsys):
             return
         outs.append(capsys.readouterr().out)
     assert outs[1] == "AQS steps 1–200 of every packing only\n\n" + outs[0]
+
+
+def test_dispersion_table(sd, runs, capsys):
+    """``--dispersion``: per N, the packings' count, sizes in the window and the variance / mean
+    of their counts, recounted here from the sample files with h5py and numpy."""
+    try:
+        sd.main([str(runs[16]), str(runs[24]), "--boot", "4", "--dispersion"])
+    except SystemExit as err:  # too few avalanches in the window at this tiny size
+        assert err.value.code == 2
+        return
+    out = capsys.readouterr().out.splitlines()
+    head = next(ln for ln in out if ln.startswith("p = 0.001, the same window"))
+    x_min = float(head.split()[6].rstrip(":"))
+    start = out.index(head)
+    rows = {int(ln.split("|")[1]): ln for ln in out[start:] if ln[:2] == "| " and
+            ln.split("|")[1].strip().isdigit()}
+    for n in (16, 24):
+        cells = [c.strip() for c in rows[n].strip("|").split("|")]
+        per = [recount_sample(f) for f in finished_samples(runs[n])]
+        counts = np.array([np.count_nonzero(s >= x_min) for s in per], dtype=float)
+        assert int(cells[1].split()[0]) == len(per)
+        # x_min is printed to 3 digits: compare the counts away from it
+        lo = sum(np.count_nonzero(s >= x_min * 1.001) for s in per if
+                 np.count_nonzero(s >= x_min * 1.001) >= 2)
+        hi = sum(np.count_nonzero(s >= x_min * 0.999) for s in per)
+        assert lo <= int(cells[2]) <= hi
+        mean, ratio = (float(v) for v in cells[5].split(",")[:2])
+        if np.all(counts == np.array([np.count_nonzero(s >= x_min * 1.001) for s in per])):
+            assert mean == pytest.approx(counts.mean(), abs=0.051)
+            assert ratio == pytest.approx(counts.var(ddof=1) / counts.mean(), abs=0.0051)

@@ -55,6 +55,7 @@ from jamlab.analysis.moduli import (
     moduli_from_stress_jumps,
     moduli_from_trace,
 )
+from jamlab.analysis.packing_dispersion import PackingDispersion, packing_dispersion
 from jamlab.analysis.powerlaw import (
     PowerLawFit,
     fit_power_law,
@@ -89,6 +90,8 @@ __all__ = [
     "StrainStepSlopes",
     "combined_scores",
     "size_difference",
+    "PackingDispersion",
+    "packing_dispersion",
     "strain_step_slopes",
     "CHI2_1_95",
     "CutoffPowerLawFit",
