@@ -49,8 +49,8 @@ def test_the_ratio_by_hand():
     logs = [np.log(p[p >= 1.0]) for p in packs]
     allv = np.concatenate(logs)
     means = [v.mean() for v in logs]
-    between = sum(v.size * (m - allv.mean()) ** 2 for v, m in zip(logs, means)) / 2
-    within = sum(((v - m) ** 2).sum() for v, m in zip(logs, means)) / (allv.size - 3)
+    between = sum(v.size * (m - allv.mean()) ** 2 for v, m in zip(logs, means, strict=True)) / 2
+    within = sum(((v - m) ** 2).sum() for v, m in zip(logs, means, strict=True)) / (allv.size - 3)
     assert d.f_ratio == pytest.approx(between / within, rel=1e-12)
     assert d.sizes == 8 and d.packings == 3 and d.mean_log == pytest.approx(allv.mean())
     assert d.count_ratio == pytest.approx(np.var([3, 2, 3], ddof=1) / np.mean([3, 2, 3]))
