@@ -184,22 +184,20 @@ def plot_one_trace(
     ax_s.plot(gamma, stress, lw=1)
     flagged = np.asarray(plastic, dtype=bool)
     if counted is None:
-        idx = np.flatnonzero(flagged)
-        ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ms=2.5, color="C3",
-                  label=f"plastic step ({idx.size})")
-        ax_s.plot(gamma[idx], stress[idx], "o", ms=2.5, color="C3")
+        marks = ((flagged, dict(ms=2.5, color="C3"), "plastic step"),)
     else:
         counted = np.asarray(counted, dtype=bool)
         marks = (
-            (counted, dict(color="C3"), "avalanche counted: plastic, ΔE < 0, both minima jammed"),
-            (flagged & ~counted, dict(mfc="none", mec="0.4"),
+            (counted, dict(ms=3, color="C3"),
+             "avalanche counted: plastic, ΔE < 0, both minima jammed"),
+            (flagged & ~counted, dict(ms=3, mfc="none", mec="0.4"),
              "flagged plastic, not counted (a minimum unjammed, or ΔE ≥ 0)"),
         )
-        for mask, style, label in marks:
-            idx = np.flatnonzero(mask)
-            ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ms=3, ls="none", **style,
-                      label=f"{label} ({idx.size})")
-            ax_s.plot(gamma[idx], stress[idx], "o", ms=3, ls="none", **style)
+    for mask, style, label in marks:
+        idx = np.flatnonzero(mask)
+        ax_e.plot(gamma[idx], energy_per_particle[idx], "o", ls="none", **style,
+                  label=f"{label} ({idx.size})")
+        ax_s.plot(gamma[idx], stress[idx], "o", ls="none", **style)
     if pressure is not None:
         ax_p = axes[2]
         p = np.asarray(pressure, dtype=np.float64)

@@ -31,7 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import avalanche_set, finished, intensive_stress, jammed_flags
+from jamlab.reproduce.ensembles import (
+    avalanche_set,
+    counted_steps,
+    finished,
+    intensive_stress,
+    jammed_flags,
+)
 from jamlab.reproduce.scales import UNSAT_PHI, Scale
 
 __all__ = [
@@ -475,9 +481,9 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
 class OneTrace:
     """One jammed sample's trace against γ (one entry per minimum, row 0 the start): ``E/N``
     (ε), ``Σ/L³`` (ε/σ³), the pressure (ε/σ³), the plastic flags of the steps that end there,
-    which of them are counted as avalanches (the report's rule, :func:`jamlab.analysis.
-    classify_steps`: plastic, ``ΔE < 0``, both minima jammed) and the ``jammed`` flag of each
-    minimum (``None`` for runs without it)."""
+    which of them are counted as avalanches (the report's rule,
+    :func:`jamlab.reproduce.ensembles.counted_steps`: plastic, ``ΔE < 0``, both minima jammed)
+    and the ``jammed`` flag of each minimum (``None`` for runs without it)."""
 
     n: int
     sample: int
@@ -497,8 +503,6 @@ def one_trace(jamming: Any, scale: Scale) -> OneTrace | None:
     done = np.flatnonzero(finished(jamming, "jamming", n))
     if not done.size:
         return None
-    from jamlab.analysis import classify_steps
-
     i = int(done[0])
     sel = dict(phi="jamming", N=n, sample=i)
     length = float(jamming.box_length.sel(**sel))
@@ -506,8 +510,7 @@ def one_trace(jamming: Any, scale: Scale) -> OneTrace | None:
     flags = jammed_flags(jamming, "jamming", n)
     jammed = None if flags is None else flags[0]  # row 0: the first finished sample, i
     counted = np.zeros(plastic.shape, dtype=bool)
-    counted[1:] = classify_steps(jamming.energy_jump.sel(**sel).values[1:], plastic[1:],
-                                 jammed=jammed)
+    counted[1:] = counted_steps(jamming, "jamming", n)[1][0]  # the report's rule, sample i
     return OneTrace(n=n, sample=i, phi_j=float(jamming.phi_actual.sel(**sel)),
                     gamma=jamming.gamma.sel(**sel).values,
                     energy_per_particle=jamming.energy.sel(**sel).values / n,
