@@ -479,9 +479,9 @@ def moduli(jamming: Any, unsat: Any, scale: Scale) -> ModuliResult:
 
 @dataclass(frozen=True)
 class OneTrace:
-    """One jammed sample's trace against γ (one entry per minimum, row 0 the start): ``E/N``
-    (ε), ``Σ/L³`` (ε/σ³), the pressure (ε/σ³), the plastic flags of the steps that end there,
-    which of them are counted as avalanches (the report's rule,
+    """One trace of the jamming ensemble against γ (one entry per minimum, row 0 the start):
+    ``E/N`` (ε), ``Σ/L³`` (ε/σ³), the pressure (ε/σ³), the plastic flags of the steps that end
+    there, which of them are counted as avalanches (the report's rule,
     :func:`jamlab.reproduce.ensembles.counted_steps`: plastic, ``ΔE < 0``, both minima jammed)
     and the ``jammed`` flag of each minimum (``None`` for runs without it)."""
 
