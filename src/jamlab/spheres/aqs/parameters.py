@@ -23,8 +23,13 @@ class AQSParameters:
     ``energy_match``: largest displacement and relative energy difference between FIRE's minimum
     and the continued branch for them to count as the same minimum
     (:func:`~jamlab.spheres.aqs.classify.same_minimum`);
-    ``max_fire_iter``: FIRE iteration cap. ``event_tol``: a contact crossing closer than
-    ``event_tol · δγ`` to the current point is switched there; ``max_events``: contact
+    ``max_fire_iter``: FIRE iteration cap. ``refactor_every``: steps after which the backbone
+    Hessian is factorised afresh in any case; ``refactor_missed``: an elastic step the lean
+    step could not take (its chord iteration stalled, or a list rebuild) refreshes a factor at
+    least that many steps old (an aged, corrected factor contracts the chord step by
+    0.03–0.25 instead of ≈ 1e-3 and keeps handing steps to the continuation: ``docs/aqs.md``).
+    ``event_tol``: a contact crossing closer than ``event_tol · δγ`` to the current point is
+    switched there; ``max_events``: contact
     switches per step (and ten times as many Newton solves) before the branch is declared
     ended (FIRE then takes the step; a single pair switched back and forth ends it sooner,
     :data:`~jamlab.spheres.aqs.continuation.CHATTER_SWITCHES`).
@@ -41,6 +46,7 @@ class AQSParameters:
     max_cg: int = 60
     max_corrections: int = 48
     refactor_every: int = 250
+    refactor_missed: int = 20
     stale_cg: int = 24
     contraction: float = 0.5
     linear_basin: float = 1.0
@@ -61,8 +67,10 @@ class AQSParameters:
 
     def __post_init__(self) -> None:
         validation.floppy(self.floppy)
-        if not (isinstance(self.max_newton, int) and self.max_newton >= 1):
-            raise ValueError(f"max_newton must be an integer >= 1, got {self.max_newton!r}")
+        for name in ("max_newton", "refactor_every", "refactor_missed"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
         for name in ("contraction", "linear_basin", "min_substep"):
             v = getattr(self, name)
             if not (0 < v < 1 or (name == "linear_basin" and v > 0)):

@@ -297,6 +297,7 @@ class Stepper:
             or self.fac.lu is None
             or not np.array_equal(self.fac.backbone, backbone)
             or self.age >= params.refactor_every
+            or (self.linear and not step.lean and self.age >= params.refactor_missed)
             or (branch is not None and branch.cg_iterations > params.stale_cg)
         )
         if stale and self.checked is not None and self.checked[0] is new:
