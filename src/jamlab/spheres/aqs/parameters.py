@@ -25,8 +25,8 @@ class AQSParameters:
     (:func:`~jamlab.spheres.aqs.classify.same_minimum`);
     ``max_fire_iter``: FIRE iteration cap. ``refactor_every``: steps after which the backbone
     Hessian is factorised afresh in any case; ``refactor_missed``: an elastic step the lean
-    step could not take (its chord iteration stalled, or a list rebuild) refreshes a factor at
-    least that many steps old (an aged, corrected factor contracts the chord step by
+    step did not take (the continuation took it) refreshes a factor at least that many steps
+    old (an aged, corrected factor contracts the chord step by
     0.03–0.25 instead of ≈ 1e-3 and keeps handing steps to the continuation: ``docs/aqs.md``).
     ``event_tol``: a contact crossing closer than ``event_tol · δγ`` to the current point is
     switched there; ``max_events``: contact
