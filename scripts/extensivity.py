@@ -11,7 +11,8 @@ the loading stores must go somewhere): ``rate ∝ N^−α``, ``⟨S⟩ ∝ N^α`
 First, per run, all the counted avalanches (no floor): the plastic fraction (avalanches per AQS
 step, with its binomial σ; it depends on the plastic flag's threshold, which grows with N),
 ``⟨S⟩`` ± a bootstrap over whole samples, the median and the largest size. Then, for each run
-directory (φ label ``jamming`` at its ``--n``, finished samples, the avalanches the
+directory (φ label ``--phi``, default ``jamming``, at its ``--n``; a run directory named twice
+with two sizes is read at each; finished samples, the avalanches the
 report counts: :func:`jamlab.reproduce.ensembles.avalanche_set`) and each floor of ``--above``:
 the three numbers above for the avalanches with ``S ≥ floor``, each ± its standard error from
 ``--boot`` resamplings of whole samples (avalanches of one trajectory need not be independent).
@@ -94,17 +95,22 @@ class Run(NamedTuple):
     steps: int
 
 
-def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
+def log_or_nan(x: float) -> float:
+    """``ln x``, or NaN where ``x ≤ 0`` (a bootstrap bound of a ratio of few counts can be 0)."""
+    return math.log(x) if x > 0 else math.nan
+
+
+def sample_energies(ds, n: int, label: str = "jamming") -> tuple[np.ndarray, ...]:
     """``(work, given_up, volume_given_up, avalanche_volume, dphi)`` per finished sample at
-    ``("jamming", n)``: ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}``, ``E_0 − E_last`` (``E`` the trace's
+    ``(label, n)``: ``Σ_n (γ_n − γ_{n−1}) Σ_{n−1}``, ``E_0 − E_last`` (``E`` the trace's
     ``energy`` column, the enthalpy ``H = U + pV`` at fixed pressure), its volume part
     ``p (V_0 − V_last)``, the part of that given up at the counted avalanches
     (:func:`jamlab.reproduce.ensembles.counted_steps`), ``Σ p (V_{n−1} − V_n)`` over them, and
     ``φ_last − φ_0``. The volume of step ``n`` is ``V_n = v / φ_n``, ``v = L^d φ`` the particles'
     volume (:func:`jamlab.reproduce.ensembles.row_volumes`); at constant volume the volume parts
     and the change of φ are 0."""
-    done = finished(ds, "jamming", n)
-    sel = {"phi": "jamming", "N": n}
+    done = finished(ds, label, n)
+    sel = {"phi": label, "N": n}
     gam = np.asarray(ds.gamma.sel(**sel).values)[done]
     sig = np.asarray(ds.shear_stress.sel(**sel).values)[done]
     ene = np.asarray(ds.energy.sel(**sel).values)[done]
@@ -113,7 +119,7 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     given_up = ene[:, 0] - ene[np.arange(len(last)), last]
     study = json.loads(ds.attrs.get("study", "{}"))
     pressure = study.get("pressure")
-    vol = row_volumes(ds, "jamming", n)
+    vol = row_volumes(ds, label, n)
     if pressure is None or vol is None:
         zero = np.zeros(given_up.size)
         return work, given_up, zero, zero, zero
@@ -122,7 +128,7 @@ def sample_energies(ds, n: int) -> tuple[np.ndarray, ...]:
     volume = float(pressure) * (vol[:, 0] - vol[rows, last])
     lost = float(pressure) * np.diff(vol, axis=1)  # p (V_n − V_{n−1})
     phi_last = phi[rows, last]
-    counted = counted_steps(ds, "jamming", n)[1]
+    counted = counted_steps(ds, label, n)[1]
     avalanche_volume = -np.where(counted, lost, 0.0).sum(axis=1)
     return work, given_up, volume, avalanche_volume, phi_last - phi[:, 0]
 
@@ -329,6 +335,9 @@ def main() -> None:
     ap.add_argument("--figure", type=Path, default=None)
     ap.add_argument("--least", type=int, default=20,
                     help="the figure's curves stop where a run has fewer avalanches ≥ S")
+    ap.add_argument("--phi", default="jamming",
+                    help="the φ label read in every run (default jamming; e.g. 0.75 in a "
+                    "constant-volume run above jamming)")
     a = ap.parse_args()
     sizes_n = sizes_per_run(ap, a)
     if any(not x > 0 for x in a.above):
@@ -339,15 +348,18 @@ def main() -> None:
         ap.error(f"--labels takes one label per run ({len(a.runs)}), got {len(a.labels)}")
     rng = np.random.default_rng(a.seed)
     data = []
+    repeated = {run for run in a.runs if a.runs.count(run) > 1}
     for run, n in zip(a.runs, sizes_n, strict=True):
         ds = open_run(run)
-        if n not in np.asarray(ds.N.values) or "jamming" not in np.asarray(ds.phi.values):
-            ap.error(f"{run}: no φ label jamming at N = {n}")
-        aval = avalanche_set(ds, "jamming", n)
-        strains = sample_strains(ds, "jamming", n)
+        if n not in np.asarray(ds.N.values) or a.phi not in np.asarray(ds.phi.values):
+            ap.error(f"{run}: no φ label {a.phi} at N = {n}")
+        aval = avalanche_set(ds, a.phi, n)
+        strains = sample_strains(ds, a.phi, n)
         if not aval.samples or not np.all(strains > 0):
             ap.error(f"{run}: no finished sample at N = {n}")
-        data.append(Run(str(run), n, aval.per_sample, strains, *sample_energies(ds, n),
+        # one run directory read at two sizes (a study with several N) is named per size
+        name = f"{run} N={n}" if run in repeated else str(run)
+        data.append(Run(name, n, aval.per_sample, strains, *sample_energies(ds, n, a.phi),
                         aval.steps))
     labels = a.labels if a.labels is not None else [""] * len(data)
     order = sorted(range(len(data)), key=lambda i: data[i].n)
@@ -421,8 +433,9 @@ def main() -> None:
             for i, q in enumerate(QUANTITIES):
                 print(f"| {label_of[r1]} | {n2} against {n1} | {q} | {v['ratio'][i]:.3f} "
                       f"({v['lo'][i]:.3f}, "
-                      f"{v['hi'][i]:.3f}) | {math.log(v['ratio'][i]) / scale:+.2f} "
-                      f"({math.log(v['lo'][i]) / scale:+.2f}, {math.log(v['hi'][i]) / scale:+.2f})"
+                      f"{v['hi'][i]:.3f}) | {log_or_nan(v['ratio'][i]) / scale:+.2f} "
+                      f"({log_or_nan(v['lo'][i]) / scale:+.2f}, "
+                      f"{log_or_nan(v['hi'][i]) / scale:+.2f})"
                       f" | {v['p'][i]:.3g} |")
         groups = {}
         for r in data:

@@ -219,3 +219,38 @@ def test_a_size_the_run_lacks_exits_2(ex, small_pressure_run, monkeypatch, capsy
     argv = [str(small_pressure_run), "--n", "999", "--above", "1e-9"]
     assert exit_code(ex, argv, monkeypatch) == 2
     assert "no φ label jamming at N = 999" in capsys.readouterr().err
+
+
+def test_phi_label_and_one_run_at_two_sizes(ex, tmp_path_factory, monkeypatch, capsys):
+    """``--phi``: a constant-volume run above jamming (φ = 0.8, N = 16 and 24 in one study),
+    named twice with ``--n 16 24``, is read at each size; its energy balance per particle and
+    unit strain equals the sums over the sample files (h5py) of each size."""
+    from jamlab.runs import Execution, Study, run_study
+
+    run = tmp_path_factory.mktemp("cv-two-sizes") / "cv"
+    run_study(Study(phi=[0.8], n=[16, 24], samples=3, dgamma=1e-3, gamma_max=2e-2, seed=6),
+              run, Execution(workers=0))
+    monkeypatch.setattr(sys, "argv", ["extensivity.py", str(run), str(run), "--n", "16", "24",
+                                      "--phi", "0.8", "--above", "1e-300", "--boot", "20",
+                                      "--permutations", "9"])
+    ex.main()
+    out = capsys.readouterr().out
+    balance = out.split("## Energy balance")[1].split("## Where")[0]
+    for n in (16, 24):
+        work, given, strain = 0.0, 0.0, 0.0
+        for f in sorted(run.glob(f"samples/phi=0.8*/N={n}/sample-*.h5")):
+            with h5py.File(f) as h:
+                g, sig, e = (h[f"trace/{k}"][:] for k in ("gamma", "shear_stress", "energy"))
+            work += float(np.sum(np.diff(g) * sig[:-1]))
+            given += float(e[0] - e[-1])
+            strain += float(g[-1] - g[0])
+        row = [r for r in balance.splitlines() if r.startswith(f"| cv N={n} | {n} (3) |")]
+        assert len(row) == 1, balance
+        cells = row[0].split("|")
+        assert cells[3].strip().startswith(f"{work / (n * strain):.3g} ±")
+        assert cells[4].strip().startswith(f"{given / (n * strain):.3g} ±")
+
+
+def test_a_phi_label_the_run_lacks_exits_2(ex, small_pressure_run, monkeypatch):
+    argv = [str(small_pressure_run), "--n", "16", "--phi", "0.75", "--above", "1e-9"]
+    assert exit_code(ex, argv, monkeypatch) == 2
