@@ -1,0 +1,211 @@
+"""Above jamming: the avalanches of a fresh quench against those of the steady state.
+
+Every scale of ``jamlab reproduce`` shears ``prepare(N, 3, φ, seed)`` packings (a fresh quench)
+from γ = 0 for a strain window of 0.01–0.02 — the paper's protocol. Within that window the
+avalanches release mostly the quench's own stored energy, not the shear's work
+(docs/reproduce.md, "Above jamming the avalanches give up the preparation's energy"). This
+script shears the same packings twice, per ``(N, seed)``:
+
+- *transient*: ``shear(packing, --dgamma, n_steps=--steps)`` from the quench (the report's
+  protocol);
+- *steady*: first ``shear(packing, --pre-dgamma, gamma_max=--pre-strain)`` (AQS with a coarser
+  step, classification off), then the same ``--steps`` steps of ``--dgamma`` from where that
+  ends;
+
+and per protocol pools the avalanches by the report's rule
+(:func:`jamlab.analysis.classify_steps`: plastic flags, ``ΔE < 0``, both minima jammed),
+prints the energy balance per particle and unit strain (work of the shear
+``Σ (γ_n − γ_{n−1}) Σ_{n−1}``, energy the packings give up ``E_0 − E_last``, released by the
+avalanches ``Σ S``), ``⟨S⟩`` per N, and τ by the report's fit
+(:func:`jamlab.analysis.fit_power_law`, KS-chosen ``x_min``, truncated at the largest size,
+bootstrap 95 % interval; all N pooled) with its σ = interval width / 3.92. In the steady
+state the release should equal the work (no stored energy is left to give up); the question is
+whether τ then moves towards the predicted 1.
+
+``--workers`` processes (one sample each at a time); ``--out F.npz`` keeps every size and
+balance (loadable with ``--load F.npz`` to reprint without shearing).
+
+    PYTHONPATH=src python scripts/steady_unsat.py --phi 0.75 --n 128 256 --samples 120 \\
+        --workers 2 --out steady_075.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import numpy as np  # noqa: E402
+
+PROTOCOLS = ("transient", "steady")
+
+
+def counted_sizes(trace) -> np.ndarray:
+    """``S = −ΔE`` of the steps of ``trace`` the report counts (row 0 has no step)."""
+    from jamlab.analysis import classify_steps
+
+    ej = np.asarray(trace.energy_jump)[1:]
+    counted = classify_steps(ej, np.asarray(trace.plastic)[1:], jammed=np.asarray(trace.jammed))
+    return -ej[counted]
+
+
+def balance(trace) -> tuple[float, float, float]:
+    """``(work, given up, strain)`` of ``trace``: ``Σ (γ_n − γ_{n−1}) Σ_{n−1}``,
+    ``E_0 − E_last`` and ``γ_last − γ_0``."""
+    g, sig, e = (np.asarray(getattr(trace, k)) for k in ("gamma", "shear_stress", "energy"))
+    return float(np.sum(np.diff(g) * sig[:-1])), float(e[0] - e[-1]), float(g[-1] - g[0])
+
+
+def one_sample(job: tuple) -> dict:
+    """Both protocols on ``prepare(n, 3, phi, seed)``: per protocol the counted sizes and the
+    balance, and the CPU seconds."""
+    from jamlab.spheres import aqs, prepare
+
+    n, phi, seed, dgamma, steps, pre_dgamma, pre_strain = job
+    t0 = time.process_time()
+    start = prepare(n, 3, phi, seed).packing
+    out = {"n": n, "seed": seed}
+    transient = aqs.shear(start, dgamma, n_steps=steps).trace
+    pre = aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
+    steady = aqs.shear(pre.packing, dgamma, n_steps=steps).trace
+    for name, tr in zip(PROTOCOLS, (transient, steady), strict=True):
+        out[name] = {"sizes": counted_sizes(tr), "balance": balance(tr),
+                     "converged": bool(np.all(np.asarray(tr.max_force) < 1e-12))}
+    out["cpu"] = time.process_time() - t0
+    return out
+
+
+def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> None:
+    """The balance per N and protocol, τ per protocol (all N pooled), and τ of both at each
+    fixed ``x_min`` of ``x_mins`` (the same window for both: the KS choice of each differs)."""
+    from jamlab.analysis import fit_power_law
+
+    sizes_n = sorted({r["n"] for r in results})
+    print("| protocol | N (samples) | avalanches | ⟨S⟩ (ε) | work | given up | released "
+          "| released / work | all minima converged |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name in PROTOCOLS:
+        for n in sizes_n:
+            rs = [r for r in results if r["n"] == n]
+            s = np.concatenate([r[name]["sizes"] for r in rs])
+            w, g, gam = np.array([r[name]["balance"] for r in rs]).sum(axis=0)
+            exposure = n * gam
+            mean = f"{s.mean():.3g}" if s.size else "—"
+            print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {w / exposure:.3g} | "
+                  f"{g / exposure:.3g} | {s.sum() / exposure:.3g} | {s.sum() / w:.2f} | "
+                  f"{all(r[name]['converged'] for r in rs)} |")
+    print("\n(work, given up, released: ε per particle per unit strain)\n")
+    print("| protocol | τ (95 %) | σ | x_min (ε) | tail |")
+    print("|---|---|---|---|---|")
+    for name in PROTOCOLS:
+        s = np.concatenate([r[name]["sizes"] for r in results])
+        if s.size < min_tail:
+            print(f"| {name} | no data (fewer than {min_tail} avalanches) | | | |")
+            continue
+        fit = fit_power_law(s, x_max=float(s.max()), min_tail=min_tail, n_boot=boot, seed=0)
+        lo, hi = fit.ci_low, fit.ci_high
+        print(f"| {name} | {fit.tau:.3f} [{lo:.3f}, {hi:.3f}] | {(hi - lo) / 3.92:.3f} | "
+              f"{fit.x_min:.3g} | {fit.n_tail} |")
+    if not x_mins:
+        return
+    print("\n| x_min (ε), fixed | " + " | ".join(f"τ {name} (95 %), tail, KS distance"
+                                               for name in PROTOCOLS) + " |")
+    print("|---|" + "---|" * len(PROTOCOLS))
+    for x_min in x_mins:
+        cells = []
+        for name in PROTOCOLS:
+            s = np.concatenate([r[name]["sizes"] for r in results])
+            if np.count_nonzero(s >= x_min) < min_tail:
+                cells.append(f"no data (fewer than {min_tail} sizes)")
+                continue
+            fit = fit_power_law(s, x_min=x_min, x_max=float(s.max()), n_boot=boot, seed=0)
+            cells.append(f"{fit.tau:.3f} [{fit.ci_low:.3f}, {fit.ci_high:.3f}], {fit.n_tail}, "
+                         f"{fit.ks_distance:.3f}")
+        print(f"| {x_min:.3g} | " + " | ".join(cells) + " |")
+
+
+def save(path: Path, results: list[dict]) -> None:
+    """Every sample's sizes and balances in one ``.npz``."""
+    arrays = {}
+    for i, r in enumerate(results):
+        arrays[f"s{i}_meta"] = np.array([r["n"], r["seed"], r["cpu"]])
+        for name in PROTOCOLS:
+            arrays[f"s{i}_{name}_sizes"] = r[name]["sizes"]
+            arrays[f"s{i}_{name}_balance"] = np.array(r[name]["balance"])
+            arrays[f"s{i}_{name}_converged"] = np.array(r[name]["converged"])
+    np.savez(path, **arrays)
+
+
+def load(path: Path) -> list[dict]:
+    """The results :func:`save` wrote."""
+    z = np.load(path)
+    out, i = [], 0
+    while f"s{i}_meta" in z:
+        n, seed, cpu = z[f"s{i}_meta"]
+        r = {"n": int(n), "seed": int(seed), "cpu": float(cpu)}
+        for name in PROTOCOLS:
+            r[name] = {"sizes": z[f"s{i}_{name}_sizes"],
+                       "balance": tuple(z[f"s{i}_{name}_balance"]),
+                       "converged": bool(z[f"s{i}_{name}_converged"])}
+        out.append(r)
+        i += 1
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--phi", type=float, default=0.75)
+    ap.add_argument("--n", type=int, nargs="+", default=[128, 256])
+    ap.add_argument("--samples", type=int, default=120)
+    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--dgamma", type=float, default=1e-4)
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--pre-dgamma", type=float, default=1e-3)
+    ap.add_argument("--pre-strain", type=float, default=0.2)
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--boot", type=int, default=200)
+    ap.add_argument("--min-tail", type=int, default=50)
+    ap.add_argument("--x-min", type=float, nargs="*", default=[],
+                    help="also τ of both protocols at these fixed x_min (ε)")
+    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--load", type=Path, default=None)
+    a = ap.parse_args(argv)
+    if any(not x > 0 for x in a.x_min):
+        ap.error("--x-min needs values > 0")
+    if a.load is not None:
+        if not a.load.is_file():
+            ap.error(f"--load {a.load}: no such file")
+        table(load(a.load), a.boot, a.min_tail, tuple(a.x_min))
+        return
+    if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
+        ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
+    if not (0 < a.dgamma < a.pre_strain and 0 < a.pre_dgamma < a.pre_strain):
+        ap.error("need 0 < --dgamma, --pre-dgamma < --pre-strain")
+    if any(n < 8 for n in a.n):
+        ap.error("--n: at least 8 spheres")
+    if a.out is not None and a.out.exists():
+        ap.error(f"--out {a.out} exists (finished data is never overwritten)")
+    jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain)
+            for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
+    t0 = time.time()
+    if a.workers == 1:
+        results = [one_sample(j) for j in jobs]
+    else:
+        with ProcessPoolExecutor(a.workers) as ex:
+            results = list(ex.map(one_sample, jobs, chunksize=4))
+    print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
+          f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
+          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}\n", file=sys.stderr)
+    if a.out is not None:
+        save(a.out, results)
+    table(results, a.boot, a.min_tail, tuple(a.x_min))
+
+
+if __name__ == "__main__":
+    main()

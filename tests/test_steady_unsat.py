@@ -1,0 +1,72 @@
+"""``scripts/steady_unsat.py``: the counted sizes and the balance of a trace recomputed by hand,
+the results file's round trip, a tiny run end to end, and the refusals."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from tests.script_helpers import exit_code, script_module
+
+
+@pytest.fixture(scope="module")
+def su():
+    return script_module("steady_unsat")
+
+
+def test_balance_by_hand(su):
+    tr = SimpleNamespace(gamma=np.array([0.0, 0.1, 0.3]), shear_stress=np.array([2.0, 3.0, 5.0]),
+                         energy=np.array([10.0, 9.0, 7.5]))
+    work, given, strain = su.balance(tr)
+    assert work == pytest.approx(0.1 * 2.0 + 0.2 * 3.0)
+    assert given == pytest.approx(2.5) and strain == pytest.approx(0.3)
+
+
+def test_counted_sizes_by_hand(su):
+    # steps 1..4: plastic with a drop (counted), plastic with a rise (not), elastic drop (not),
+    # plastic drop ending at an unjammed minimum (not)
+    tr = SimpleNamespace(energy_jump=np.array([0.0, -2.0, 1.0, -3.0, -4.0]),
+                         plastic=np.array([False, True, True, False, True]),
+                         jammed=np.array([True, True, True, True, False]))
+    assert su.counted_sizes(tr).tolist() == [2.0]
+
+
+def test_tiny_run_end_to_end_and_round_trip(su, tmp_path, capsys):
+    out = tmp_path / "r.npz"
+    su.main(["--phi", "0.8", "--n", "16", "--samples", "2", "--steps", "20", "--pre-strain",
+             "0.02", "--pre-dgamma", "2e-3", "--dgamma", "1e-3", "--min-tail", "1",
+             "--boot", "5", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert "| transient | 16 (2) |" in text and "| steady | 16 (2) |" in text
+    results = su.load(out)
+    assert [r["seed"] for r in results] == [1, 2]
+    for r in results:
+        for name in su.PROTOCOLS:
+            assert r[name]["converged"]
+            assert np.all(r[name]["sizes"] > 0)
+            assert r[name]["balance"][2] == pytest.approx(20 * 1e-3)  # the strain sheared
+    su.main(["--load", str(out), "--min-tail", "1", "--boot", "5"])
+    assert capsys.readouterr().out == text  # the file reprints the same table
+    # τ at a fixed x_min: the tail counted by hand from the file's sizes
+    every = {name: np.concatenate([r[name]["sizes"] for r in results]) for name in su.PROTOCOLS}
+    x_min = float(np.median(every["transient"])) if every["transient"].size else 1e-9
+    su.main(["--load", str(out), "--min-tail", "1", "--boot", "5", "--x-min", str(x_min)])
+    row = capsys.readouterr().out.split(f"| {x_min:.3g} | ")[1].split("\n")[0]
+    for name, cell in zip(su.PROTOCOLS, row.split(" | "), strict=True):
+        tail = int(np.count_nonzero(every[name] >= x_min))
+        assert (f"], {tail}, " in cell) if tail >= 1 else cell.startswith("no data")
+
+
+@pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--samples", "0"], ["--n", "4"],
+                                  ["--dgamma", "0.5"], ["--load", "/nonexistent.npz"],
+                                  ["--x-min", "0"]])
+def test_bad_arguments_exit_2(su, monkeypatch, argv):
+    assert exit_code(su, argv, monkeypatch) == 2
+
+
+def test_existing_out_is_not_overwritten(su, tmp_path, monkeypatch):
+    out = tmp_path / "r.npz"
+    out.write_bytes(b"finished data")
+    assert exit_code(su, ["--out", str(out)], monkeypatch) == 2
+    assert out.read_bytes() == b"finished data"
