@@ -228,7 +228,7 @@ def test_phi_label_and_one_run_at_two_sizes(ex, tmp_path_factory, monkeypatch, c
     from jamlab.runs import Execution, Study, run_study
 
     run = tmp_path_factory.mktemp("cv-two-sizes") / "cv"
-    run_study(Study(phi=[0.8], n=[16, 24], samples=3, dgamma=1e-3, gamma_max=2e-2, seed=6),
+    run_study(Study(phi=[0.8], n=[16, 24], samples=3, dgamma=1e-3, gamma_max=0.1, seed=6),
               run, Execution(workers=0))
     monkeypatch.setattr(sys, "argv", ["extensivity.py", str(run), str(run), "--n", "16", "24",
                                       "--phi", "0.8", "--above", "1e-300", "--boot", "20",
