@@ -54,7 +54,7 @@ def bulk_modulus(packing, pressure: float, dp: float) -> tuple[float, float]:
 def run_shares(run: Path, dp: float) -> dict:
     """N, the study's pressure, K, and per counted avalanche ``S`` and ``c``."""
     from jamlab.reproduce.ensembles import counted_steps, finished, row_volumes
-    from jamlab.runs import open_run
+    from jamlab.runs import RunDir, SampleKey, open_run
     from jamlab.runs.load import prepared_packing
 
     ds = open_run(run)
@@ -66,7 +66,7 @@ def run_shares(run: Path, dp: float) -> dict:
     ej, counted = counted_steps(ds, "jamming", n)
     volumes = row_volumes(ds, "jamming", n)
     done = np.flatnonzero(finished(ds, "jamming", n))
-    first = sorted(run.glob(f"samples/phi=jamming/N={n}/sample-*.h5"))[int(done[0])]
+    first = RunDir(run).sample_path(SampleKey("jamming", n, int(done[0])))
     k, p = bulk_modulus(prepared_packing(first), float(study["pressure"]), dp)
     before, dv = volumes[:, :-1][counted], np.diff(volumes, axis=1)[counted]
     return {"n": n, "pressure": p, "K": k, "S": -ej[counted], "c": 0.5 * k * dv**2 / before}

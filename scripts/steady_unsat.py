@@ -13,7 +13,7 @@ script shears the same packings twice, per ``(N, seed)``:
   ends;
 
 and per protocol pools the avalanches by the report's rule
-(:func:`jamlab.analysis.classify_steps`: plastic flags, ``ΔE < 0``, both minima jammed),
+(:func:`jamlab.analysis.avalanche_sizes`: plastic flags, ``ΔE < 0``, both minima jammed),
 prints the energy balance per particle and unit strain (work of the shear
 ``Σ (γ_n − γ_{n−1}) Σ_{n−1}``, energy the packings give up ``E_0 − E_last``, released by the
 avalanches ``Σ S``), ``⟨S⟩`` per N, and τ by the report's fit
@@ -47,12 +47,12 @@ PROTOCOLS = ("transient", "steady")
 
 
 def counted_sizes(trace) -> np.ndarray:
-    """``S = −ΔE`` of the steps of ``trace`` the report counts (row 0 has no step)."""
-    from jamlab.analysis import classify_steps
+    """``S = −ΔE`` of the steps of ``trace`` the report counts (row 0 has no step):
+    :func:`jamlab.analysis.avalanche_sizes` with the plastic and jammed flags."""
+    from jamlab.analysis import avalanche_sizes
 
-    ej = np.asarray(trace.energy_jump)[1:]
-    counted = classify_steps(ej, np.asarray(trace.plastic)[1:], jammed=np.asarray(trace.jammed))
-    return -ej[counted]
+    return avalanche_sizes(np.asarray(trace.energy_jump)[1:], np.asarray(trace.plastic)[1:],
+                           jammed=np.asarray(trace.jammed))
 
 
 def balance(trace) -> tuple[float, float, float]:
