@@ -22,6 +22,13 @@ bootstrap 95 % interval; all N pooled) with its σ = interval width / 3.92. In t
 state the release should equal the work (no stored energy is left to give up); the question is
 whether τ then moves towards the predicted 1.
 
+Monodisperse spheres (the paper's system, ``--sizes mono``) order under long shear: at φ = 0.8,
+N = 256 most particles are crystalline by γ ≈ 0.6 (docs/reproduce.md, "Sheared monodisperse
+spheres crystallise"). So every protocol's window also records the order of its first and last
+configuration (:func:`jamlab.analysis.order.bond_order`: ten Wolde's crystalline fraction, and
+Steinhardt's ``Q_6``), printed per protocol and N; ``--sizes bidisperse`` (50:50, ratio 1.4)
+stays amorphous.
+
 ``--workers`` processes (one sample each at a time); ``--out F.npz`` keeps every size and
 balance (loadable with ``--load F.npz`` to reprint without shearing).
 
@@ -62,21 +69,37 @@ def balance(trace) -> tuple[float, float, float]:
     return float(np.sum(np.diff(g) * sig[:-1])), float(e[0] - e[-1]), float(g[-1] - g[0])
 
 
+def order_of(packing) -> tuple[float, float]:
+    """``(crystalline fraction, Q_6)`` of ``packing`` with the contacts as bonds; ``nan`` where
+    the box is too small for the minimum image (fewer than ≈ 20 spheres)."""
+    from jamlab.analysis.order import bond_order
+
+    try:
+        o = bond_order(packing.positions, packing.box.length, packing.box.strain,
+                       packing.diameters)
+    except ValueError:
+        return float("nan"), float("nan")
+    return o.crystalline_fraction, o.global_q
+
+
 def one_sample(job: tuple) -> dict:
-    """Both protocols on ``prepare(n, 3, phi, seed)``: per protocol the counted sizes and the
-    balance, and the CPU seconds."""
+    """Both protocols on ``prepare(n, 3, phi, seed, sizes=sizes)``: per protocol the counted
+    sizes, the balance and the order at the window's start and end, and the CPU seconds."""
     from jamlab.spheres import aqs, prepare
 
-    n, phi, seed, dgamma, steps, pre_dgamma, pre_strain = job
+    n, phi, seed, dgamma, steps, pre_dgamma, pre_strain, sizes = job
     t0 = time.process_time()
-    start = prepare(n, 3, phi, seed).packing
+    start = prepare(n, 3, phi, seed, sizes=sizes).packing
     out = {"n": n, "seed": seed}
-    transient = aqs.shear(start, dgamma, n_steps=steps).trace
+    transient = aqs.shear(start, dgamma, n_steps=steps)
     pre = aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
-    steady = aqs.shear(pre.packing, dgamma, n_steps=steps).trace
-    for name, tr in zip(PROTOCOLS, (transient, steady), strict=True):
+    steady = aqs.shear(pre.packing, dgamma, n_steps=steps)
+    for name, first, run in zip(PROTOCOLS, (start, pre.packing), (transient, steady),
+                                strict=True):
+        tr = run.trace
         out[name] = {"sizes": counted_sizes(tr), "balance": balance(tr),
-                     "converged": bool(np.all(np.asarray(tr.max_force) < 1e-12))}
+                     "converged": bool(np.all(np.asarray(tr.max_force) < 1e-12)),
+                     "order": (*order_of(first), *order_of(run.packing))}
     out["cpu"] = time.process_time() - t0
     return out
 
@@ -101,6 +124,17 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
                   f"{g / exposure:.3g} | {s.sum() / exposure:.3g} | {s.sum() / w:.2f} | "
                   f"{all(r[name]['converged'] for r in rs)} |")
     print("\n(work, given up, released: ε per particle per unit strain)\n")
+    print("| protocol | N | crystalline fraction at the window's start: mean, max, samples "
+          "> 0.05 | at its end: mean, max, samples > 0.05 | Q_6 start → end (mean) |")
+    print("|---|---|---|---|---|")
+    for name in PROTOCOLS:
+        for n in sizes_n:
+            o = np.array([r[name]["order"] for r in results if r["n"] == n], dtype=float)
+            cells = [f"{np.mean(o[:, k]):.3f}, {np.max(o[:, k]):.3f}, "
+                     f"{int(np.sum(o[:, k] > 0.05))}" for k in (0, 2)]
+            print(f"| {name} | {n} | {cells[0]} | {cells[1]} | "
+                  f"{np.mean(o[:, 1]):.3f} → {np.mean(o[:, 3]):.3f} |")
+    print()
     print("| protocol | τ (95 %) | σ | x_min (ε) | tail |")
     print("|---|---|---|---|---|")
     for name in PROTOCOLS:
@@ -139,6 +173,7 @@ def save(path: Path, results: list[dict]) -> None:
             arrays[f"s{i}_{name}_sizes"] = r[name]["sizes"]
             arrays[f"s{i}_{name}_balance"] = np.array(r[name]["balance"])
             arrays[f"s{i}_{name}_converged"] = np.array(r[name]["converged"])
+            arrays[f"s{i}_{name}_order"] = np.array(r[name]["order"])
     np.savez(path, **arrays)
 
 
@@ -152,7 +187,10 @@ def load(path: Path) -> list[dict]:
         for name in PROTOCOLS:
             r[name] = {"sizes": z[f"s{i}_{name}_sizes"],
                        "balance": tuple(z[f"s{i}_{name}_balance"]),
-                       "converged": bool(z[f"s{i}_{name}_converged"])}
+                       "converged": bool(z[f"s{i}_{name}_converged"]),
+                       # files of the first version carry no order: nan
+                       "order": tuple(z[f"s{i}_{name}_order"]) if f"s{i}_{name}_order" in z
+                       else (np.nan,) * 4}
         out.append(r)
         i += 1
     return out
@@ -168,6 +206,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--pre-dgamma", type=float, default=1e-3)
     ap.add_argument("--pre-strain", type=float, default=0.2)
+    ap.add_argument("--sizes", default="mono", choices=["mono", "bidisperse"],
+                    help="diameters of the prepared packings (SPEC §5)")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--boot", type=int, default=200)
     ap.add_argument("--min-tail", type=int, default=50)
@@ -178,6 +218,8 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     if any(not x > 0 for x in a.x_min):
         ap.error("--x-min needs values > 0")
+    if a.min_tail < 2:
+        ap.error("--min-tail: at least 2 (a power-law fit needs two sizes)")
     if a.load is not None:
         if not a.load.is_file():
             ap.error(f"--load {a.load}: no such file")
@@ -191,7 +233,7 @@ def main(argv: list[str] | None = None) -> None:
         ap.error("--n: at least 8 spheres")
     if a.out is not None and a.out.exists():
         ap.error(f"--out {a.out} exists (finished data is never overwritten)")
-    jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain)
+    jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
             for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
     t0 = time.time()
     if a.workers == 1:
@@ -201,7 +243,8 @@ def main(argv: list[str] | None = None) -> None:
             results = list(ex.map(one_sample, jobs, chunksize=4))
     print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
           f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
-          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}\n", file=sys.stderr)
+          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
+          file=sys.stderr)
     if a.out is not None:
         save(a.out, results)
     table(results, a.boot, a.min_tail, tuple(a.x_min))

@@ -55,6 +55,7 @@ from jamlab.analysis.moduli import (
     moduli_from_stress_jumps,
     moduli_from_trace,
 )
+from jamlab.analysis.order import BondOrder, bond_order, bonds
 from jamlab.analysis.packing_dispersion import PackingDispersion, packing_dispersion
 from jamlab.analysis.powerlaw import (
     PowerLawFit,
@@ -78,6 +79,9 @@ from jamlab.analysis.size_difference import (
 )
 
 __all__ = [
+    "BondOrder",
+    "bond_order",
+    "bonds",
     "RateCollapse",
     "cumulative_rates",
     "rate_collapse",

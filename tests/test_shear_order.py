@@ -1,0 +1,57 @@
+"""``scripts/shear_order.py``: a tiny run's rows recomputed from the sheared packing itself, the
+results file's round trip, and the refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tests.script_helpers import exit_code, script_module
+
+
+@pytest.fixture(scope="module")
+def so():
+    return script_module("shear_order")
+
+
+def test_rows_recomputed_by_hand(so):
+    from jamlab.analysis.order import bond_order
+    from jamlab.spheres import aqs, prepare
+    from jamlab.spheres.potential import energy, virial
+
+    rows = so.one_sample((40, 0.8, 3, "mono", 2e-3, 0.02, 0.01))
+    assert rows.shape == (3, len(so.COLUMNS))
+    np.testing.assert_allclose(rows[:, 0], [0.0, 0.01, 0.02])
+    packing = prepare(40, 3, 0.8, 3).packing
+    for k, row in enumerate(rows):
+        if k:
+            packing = aqs.shear(packing, 2e-3, n_steps=5, classify=False).packing
+        assert packing.box.strain == pytest.approx(row[0])
+        o = bond_order(packing.positions, packing.box.length, packing.box.strain)
+        assert row[1] == o.crystalline_fraction and row[2] == o.global_q
+        assert row[3] == pytest.approx(energy(packing) / 40, rel=1e-12)
+        assert row[4] == pytest.approx(virial(packing)[0, 1] / packing.box.length ** 3,
+                                       rel=1e-9, abs=1e-15)
+
+
+def test_run_and_round_trip(so, tmp_path, capsys):
+    out = tmp_path / "o.npz"
+    so.main(["--n", "40", "--samples", "2", "--sizes", "mono", "bidisperse", "--gamma-max",
+             "0.01", "--every", "0.01", "--dgamma", "5e-3", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert "| mono | 40 (2) | 0.01 |" in text and "| bidisperse | 40 (2) | 0 |" in text
+    so.main(["--load", str(out)])
+    assert capsys.readouterr().out == text
+
+
+@pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--n", "8"], ["--every", "2"],
+                                  ["--samples", "0"], ["--load", "/nonexistent.npz"],
+                                  ["--sizes", "poly"]])
+def test_bad_arguments_exit_2(so, monkeypatch, argv):
+    assert exit_code(so, argv, monkeypatch) == 2
+
+
+def test_existing_out_is_not_overwritten(so, tmp_path, monkeypatch):
+    out = tmp_path / "o.npz"
+    out.write_bytes(b"finished data")
+    assert exit_code(so, ["--out", str(out)], monkeypatch) == 2
+    assert out.read_bytes() == b"finished data"
