@@ -11,7 +11,8 @@ ordered (crystalline fraction above ``--ordered``), the mean ``Q_6``, ``E/N`` an
     PYTHONPATH=src python scripts/shear_order.py --phi 0.8 --n 128 256 --sizes mono bidisperse \\
         --samples 20 --dgamma 1e-3 --gamma-max 1.0 --every 0.1 --workers 2
 
-``--out F.npz`` keeps every measurement (``--load F.npz`` reprints it).
+``--gamma-max 0`` measures the quenches alone. ``--out F.npz`` keeps every measurement
+(``--load F.npz`` reprints it).
 """
 
 from __future__ import annotations
@@ -92,8 +93,8 @@ def main(argv: list[str] | None = None) -> None:
         return
     if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.workers < 1 or min(a.n) < 32:
         ap.error("need 0.5 < --phi < 1, --samples and --workers >= 1, --n >= 32")
-    if not (0 < a.dgamma <= a.every <= a.gamma_max):
-        ap.error("need 0 < --dgamma <= --every <= --gamma-max")
+    if not (0 < a.dgamma <= a.every and a.gamma_max >= 0):
+        ap.error("need 0 < --dgamma <= --every and --gamma-max >= 0 (0: the quench alone)")
     if a.out is not None and a.out.exists():
         ap.error(f"--out {a.out} exists (finished data is never overwritten)")
     jobs = [(n, a.phi, s, sizes, a.dgamma, a.gamma_max, a.every)

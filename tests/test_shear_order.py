@@ -43,7 +43,13 @@ def test_run_and_round_trip(so, tmp_path, capsys):
     assert capsys.readouterr().out == text
 
 
-@pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--n", "8"], ["--every", "2"],
+def test_the_quench_alone(so):
+    rows = so.one_sample((40, 0.8, 3, "bidisperse", 1e-3, 0.0, 0.1))
+    assert rows.shape == (1, len(so.COLUMNS)) and rows[0, 0] == 0.0
+
+
+@pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--n", "8"], ["--gamma-max", "-1"],
+                                  ["--dgamma", "0.2", "--every", "0.1"],
                                   ["--samples", "0"], ["--load", "/nonexistent.npz"],
                                   ["--sizes", "poly"]])
 def test_bad_arguments_exit_2(so, monkeypatch, argv):
