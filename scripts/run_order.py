@@ -4,8 +4,10 @@ and the avalanches of the amorphous and the ordered ones apart.
 For each run directory and each ``(φ label, N)`` in it (``--phi`` keeps some labels), every
 finished sample's prepared packing (the start of its shear:
 :func:`jamlab.runs.load.prepared_packing`) gets its bond order
-(:func:`jamlab.analysis.order.bond_order`, contacts as bonds): ten Wolde's crystalline fraction
-and Steinhardt's ``Q_6``. A sample is *ordered* when its crystalline fraction exceeds
+(:func:`jamlab.analysis.order.bond_order`; bonds: the contacts, or the pairs closer than
+``--cutoff · σ_ij``): ten Wolde's crystalline fraction and Steinhardt's ``Q_6``. Near jamming
+(``z ≈ 6``) no particle can have ten Wolde's 7 ordered contacts: read such runs with the first
+shell, ``--cutoff 1.3``. A sample is *ordered* when its crystalline fraction exceeds
 ``--ordered`` (default 0.05; an amorphous packing of these sizes has none, a monodisperse
 quench's ordered ones range from a few per cent to the whole box). Per ``(φ, N)``: the samples,
 the ordered ones (and those above one half), and the avalanches the report counts
@@ -29,7 +31,8 @@ import numpy as np
 GROUPS = ("all", "amorphous", "ordered")
 
 
-def sample_order(run: Path, label: str, n: int, done: np.ndarray) -> np.ndarray:
+def sample_order(run: Path, label: str, n: int, done: np.ndarray,
+                 cutoff: float = 1.0) -> np.ndarray:
     """``(crystalline fraction, Q_6)`` of the prepared packing of each finished sample."""
     from jamlab.analysis.order import bond_order
     from jamlab.runs import RunDir
@@ -38,12 +41,12 @@ def sample_order(run: Path, label: str, n: int, done: np.ndarray) -> np.ndarray:
     rows = []
     for index in np.flatnonzero(done):
         p = prepared_packing(RunDir(run).sample_path(sample_key(label, n, int(index))))
-        o = bond_order(p.positions, p.box.length, p.box.strain, p.diameters)
+        o = bond_order(p.positions, p.box.length, p.box.strain, p.diameters, cutoff)
         rows.append((o.crystalline_fraction, o.global_q))
     return np.array(rows, dtype=float).reshape(-1, 2)
 
 
-def read(runs: list[Path], labels: list[str] | None) -> list[dict]:
+def read(runs: list[Path], labels: list[str] | None, cutoff: float = 1.0) -> list[dict]:
     """Per run, label and N: the samples' order and counted sizes."""
     from jamlab.reproduce.ensembles import avalanche_set, finished
     from jamlab.runs import open_run
@@ -60,7 +63,7 @@ def read(runs: list[Path], labels: list[str] | None) -> list[dict]:
                     continue
                 a = avalanche_set(ds, label, n)
                 out.append({"run": run, "label": label, "n": n,
-                            "order": sample_order(run, label, n, done),
+                            "order": sample_order(run, label, n, done, cutoff),
                             "sizes": [np.asarray(s) for s in a.per_sample]})
     return out
 
@@ -126,15 +129,18 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("runs", type=Path, nargs="+", help="run directories")
     ap.add_argument("--phi", nargs="*", default=None, help="φ labels to read (default: all)")
     ap.add_argument("--ordered", type=float, default=0.05)
+    ap.add_argument("--cutoff", type=float, default=1.0,
+                    help="bonds: pairs closer than cutoff · σ_ij (1: the contacts; near jamming, "
+                         "where z ≈ 6 < 7 ordered bonds, take the first shell, ≈ 1.3)")
     ap.add_argument("--boot", type=int, default=200)
     ap.add_argument("--min-tail", type=int, default=50)
     a = ap.parse_args(argv)
     for run in a.runs:
         if not (run / "manifest.json").is_file():
             ap.error(f"{run}: not a run directory (no manifest.json)")
-    if not 0 <= a.ordered < 1 or a.min_tail < 2 or a.boot < 0:
-        ap.error("need 0 <= --ordered < 1, --min-tail >= 2, --boot >= 0")
-    cells = read(a.runs, a.phi)
+    if not 0 <= a.ordered < 1 or a.min_tail < 2 or a.boot < 0 or not a.cutoff > 0:
+        ap.error("need 0 <= --ordered < 1, --min-tail >= 2, --boot >= 0, --cutoff > 0")
+    cells = read(a.runs, a.phi, a.cutoff)
     if not cells:
         ap.error("no finished sample at the labels asked for")
     tables(cells, a.ordered, a.boot, a.min_tail)

@@ -71,3 +71,15 @@ def test_refusals(ro, unsat_run, tmp_path, monkeypatch):
     assert exit_code(ro, [str(tmp_path)], monkeypatch) == 2  # not a run
     assert exit_code(ro, [str(unsat_run), "--phi", "0.9"], monkeypatch) == 2  # no such label
     assert exit_code(ro, [str(unsat_run), "--ordered", "1.5"], monkeypatch) == 2
+    assert exit_code(ro, [str(unsat_run), "--cutoff", "0"], monkeypatch) == 2
+
+
+def test_cutoff_reaches_the_first_shell(ro, unsat_run):
+    from jamlab.analysis.order import bond_order
+    from jamlab.runs.load import prepared_packing
+
+    (cell,) = ro.read([unsat_run], None, cutoff=1.3)
+    first = sorted((unsat_run / "samples").rglob("sample-*.h5"))[0]
+    p = prepared_packing(first)
+    o = bond_order(p.positions, p.box.length, p.box.strain, cutoff=1.3)
+    assert tuple(cell["order"][0]) == pytest.approx((o.crystalline_fraction, o.global_q))
