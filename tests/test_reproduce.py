@@ -352,3 +352,49 @@ def test_unknown_scale_and_unwritable_out(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(ValueError, match="cannot create output directory"):
         reproduce("tiny", tmp_path / "file" / "sub")
+
+
+def test_order_rows_recomputed_from_the_sample_files(tiny):
+    """The bond-order section: each prepared packing's crystalline fraction from the positions
+    in its file (first shell, 1.3 σ_ij), the ordered counts, and τ of the amorphous samples'
+    avalanches counted here with numpy."""
+    from jamlab.analysis.order import bond_order
+
+    out, _, data, rows = tiny
+    for run, phi, ns, title in (("jamming", "jamming", SCALE.jamming_n, "τ at jamming"),
+                                ("unsat", "0.75", SCALE.unsat_n, "τ at φ = 0.75"),
+                                ("unsat", "0.8", SCALE.unsat_n, "τ at φ = 0.80"),
+                                ("stress-strain", "0.75", (SCALE.stress_n,), None)):
+        fractions, sizes = [], []
+        for n in ns:
+            files = sorted(glob.glob(str(out / "runs" / run / "samples" / f"phi={phi}" /
+                                         f"N={n}" / "*.h5")))
+            for f, smp in zip(files, _traces(out / "runs" / run, phi, n), strict=True):
+                with h5py.File(f, "r") as h5:
+                    pos, length = h5["packing/positions"][()], float(h5.attrs["box_length"])
+                frac = bond_order(pos, length, 0.0, cutoff=1.3).crystalline_fraction
+                fractions.append(frac)
+                t = smp["trace"]
+                de, pl = t["energy_jump"][1:], t["plastic"][1:].astype(bool)
+                jm = t["jammed"].astype(bool)
+                if frac <= 0.05:
+                    sizes.append(-de[pl & (de < 0) & jm[:-1] & jm[1:]])
+        stored = data["data"]["order"][f"{run}:{phi}"]
+        got = [x for n in ns for x in stored["crystalline_fraction"][str(n)]]
+        np.testing.assert_allclose(got, fractions, rtol=0, atol=1e-12)
+        ordered = int(np.sum(np.array(fractions) > 0.05))
+        count = _row(rows, f"ordered prepared packings, {run} run, φ = {phi} ")
+        assert count["value_text"] == f"{ordered} of {len(fractions)}"
+        if title is None:
+            assert stored["tau_amorphous"] is None
+            continue
+        row = _row(rows, f"amorphous prepared packings only: {title}")
+        s = np.concatenate(sizes) if sizes else np.empty(0)
+        assert row["samples"] == (f"{len(sizes)} of {len(fractions)} samples, "
+                                  f"{s.size} avalanches")
+        if s.size < SCALE.min_tail:
+            assert row["value"] is None and row["value_text"] == "n/a"
+            continue
+        fit = fit_power_law(s, x_max=float(s.max()), min_tail=SCALE.min_tail,
+                            n_boot=SCALE.n_boot, seed=SCALE.seed)
+        assert row["value"] == pytest.approx(fit.tau, rel=1e-12)

@@ -19,7 +19,7 @@ from typing import Any
 
 from jamlab.files import atomic_write_text, check_new_run_directory
 from jamlab.report import Figure, ReportMeta, Row, write_report
-from jamlab.reproduce import criticality_table, figures, moduli_table, table
+from jamlab.reproduce import amorphous, criticality_table, figures, moduli_table, table
 from jamlab.reproduce.coordination import coordination
 from jamlab.reproduce.criticality import finite_size_scaling, packing_criticality
 from jamlab.reproduce.ensembles import RunSet
@@ -95,6 +95,14 @@ def _criticality(c: _Analysis) -> Any:
     return r, c.result("avalanches")["jamming"]
 
 
+def _order(c: _Analysis) -> Any:
+    r = amorphous.order_checks(c.runs, c.scale)
+    c.log("bond order of " + ", ".join(f"{e.run} φ = {e.label}: {e.total[0]} of {e.total[1]} "
+                                       "ordered" for e in r)
+          + f" ({sum(e.seconds for e in r):.1f} s CPU)")
+    return r
+
+
 PARTS: dict[str, Part] = {
     "avalanches": Part(_avalanches, lambda r, s: (table.tau_rows(r), table.tau_data(r))),
     "pressure_tau": Part(lambda c: pressure_tau_estimates(c.runs, c.scale),
@@ -119,6 +127,7 @@ PARTS: dict[str, Part] = {
                                                       c.result("avalanches"), c.scale),
                         lambda r, s: (criticality_table.finite_size_rows(r),
                                       criticality_table.finite_size_data(r))),
+    "order": Part(_order, lambda r, s: (amorphous.order_rows(r), amorphous.order_data(r))),
 }
 """The analysis in independent parts, in report order of their rows."""
 
@@ -343,7 +352,8 @@ def reproduce(
             f"(the wall time covers only this invocation)"),
             "machines": _machines(scale, runs_dir)} | table.parameters(scale, runs_dir),
         notes=table.notes(scale),
-        sections=dict(criticality_table.SECTION_TEXT),
+        sections=dict(criticality_table.SECTION_TEXT) | {amorphous.SECTION:
+                                                         amorphous.SECTION_TEXT},
     )
     paths = write_report(out, rows, figs, meta, extra=data)
     log(f"report written: {paths['html']} ({seconds:.0f} s)")
