@@ -3,8 +3,9 @@
 Shears ``prepare(N, 3, φ, seed, sizes=...)`` (an as-quenched UNSAT packing; seeds
 ``--first-seed …``) by AQS steps of ``--dgamma`` (classification off: only the minima matter)
 to ``--gamma-max`` and, every ``--every`` of strain, measures the configuration's bond order
-(:func:`jamlab.analysis.order.bond_order`, contacts as bonds: ten Wolde's crystalline
-fraction and Steinhardt's ``Q_6``), its energy per particle and its shear stress ``σ_xy = Σ/V``.
+(:func:`jamlab.analysis.order.bond_order`; bonds: the contacts, or the pairs closer than
+``--cutoff · σ_ij``: ten Wolde's crystalline fraction and Steinhardt's ``Q_6``), its energy
+per particle and its shear stress ``σ_xy = Σ/V``.
 Per ``(sizes, N)`` and strain it prints the mean crystalline fraction, how many samples are
 ordered (crystalline fraction above ``--ordered``), the mean ``Q_6``, ``E/N`` and ``σ_xy``.
 
@@ -38,13 +39,13 @@ def one_sample(job: tuple) -> np.ndarray:
     from jamlab.spheres import aqs, prepare
     from jamlab.spheres.potential import energy, shear_stress
 
-    n, phi, seed, sizes, dgamma, gamma_max, every = job
+    n, phi, seed, sizes, dgamma, gamma_max, every, cutoff = job
     packing = prepare(n, 3, phi, seed, sizes=sizes).packing
     per_block = max(1, round(every / dgamma))
     rows, done = [], 0
     while True:
         box = packing.box
-        o = bond_order(packing.positions, box.length, box.strain, packing.diameters)
+        o = bond_order(packing.positions, box.length, box.strain, packing.diameters, cutoff)
         rows.append((done * dgamma, o.crystalline_fraction, o.global_q,
                      energy(packing) / n, shear_stress(packing) / box.length ** 3))
         if (done + per_block) * dgamma > gamma_max * (1 + 1e-9):
@@ -81,6 +82,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--every", type=float, default=0.1)
     ap.add_argument("--ordered", type=float, default=0.05,
                     help="a sample with a larger crystalline fraction counts as ordered")
+    ap.add_argument("--cutoff", type=float, default=1.0,
+                    help="bonds: pairs closer than cutoff · σ_ij (1: the contacts; 1.3: the "
+                         "first shell, as the report's order check)")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--load", type=Path, default=None)
@@ -97,7 +101,9 @@ def main(argv: list[str] | None = None) -> None:
         ap.error("need 0 < --dgamma <= --every and --gamma-max >= 0 (0: the quench alone)")
     if a.out is not None and a.out.exists():
         ap.error(f"--out {a.out} exists (finished data is never overwritten)")
-    jobs = [(n, a.phi, s, sizes, a.dgamma, a.gamma_max, a.every)
+    if not a.cutoff > 0:
+        ap.error("--cutoff must be > 0")
+    jobs = [(n, a.phi, s, sizes, a.dgamma, a.gamma_max, a.every, a.cutoff)
             for sizes in a.sizes for n in a.n
             for s in range(a.first_seed, a.first_seed + a.samples)]
     t0 = time.time()

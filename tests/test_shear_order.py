@@ -18,7 +18,7 @@ def test_rows_recomputed_by_hand(so):
     from jamlab.spheres import aqs, prepare
     from jamlab.spheres.potential import energy, virial
 
-    rows = so.one_sample((40, 0.8, 3, "mono", 2e-3, 0.02, 0.01))
+    rows = so.one_sample((40, 0.8, 3, "mono", 2e-3, 0.02, 0.01, 1.0))
     assert rows.shape == (3, len(so.COLUMNS))
     np.testing.assert_allclose(rows[:, 0], [0.0, 0.01, 0.02])
     packing = prepare(40, 3, 0.8, 3).packing
@@ -44,13 +44,19 @@ def test_run_and_round_trip(so, tmp_path, capsys):
 
 
 def test_the_quench_alone(so):
-    rows = so.one_sample((40, 0.8, 3, "bidisperse", 1e-3, 0.0, 0.1))
+    rows = so.one_sample((40, 0.8, 3, "bidisperse", 1e-3, 0.0, 0.1, 1.3))
     assert rows.shape == (1, len(so.COLUMNS)) and rows[0, 0] == 0.0
+    from jamlab.analysis.order import bond_order
+    from jamlab.spheres import prepare
+
+    p = prepare(40, 3, 0.8, 3, sizes="bidisperse").packing
+    assert rows[0, 2] == bond_order(p.positions, p.box.length, 0.0, p.diameters, 1.3).global_q
 
 
 @pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--n", "8"], ["--gamma-max", "-1"],
                                   ["--dgamma", "0.2", "--every", "0.1"],
                                   ["--samples", "0"], ["--load", "/nonexistent.npz"],
+                                  ["--cutoff", "0"],
                                   ["--sizes", "poly"]])
 def test_bad_arguments_exit_2(so, monkeypatch, argv):
     assert exit_code(so, argv, monkeypatch) == 2
