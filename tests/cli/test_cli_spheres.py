@@ -110,3 +110,32 @@ def test_coincident_particles_are_one_line(tmp_path):
         ["shear", good, "--out", tmp_path / "s", "--gamma-max", 0.01, "--dgamma", 0.001],
     ):
         assert "particles 2 and 5 coincide" in one_line_error(jamlab(*args))
+
+
+def test_inspect_order_against_bond_order_and_a_crystal(tmp_path):
+    from jamlab.analysis.order import bond_order
+
+    p = sp.random_packing(120, 3, 0.75, seed=5)
+    path = write_packing(tmp_path / "c.h5", p)
+    r = jamlab("inspect", str(path), "--json", "--order")
+    assert r.returncode == 0, r.stderr
+    info = json.loads(r.stdout)
+    assert set(info) == KEYS | {"q6", "crystalline_fraction"}
+    o = bond_order(p.positions, p.box.length, 0.0, cutoff=1.3)
+    assert info["q6"] == o.global_q and info["crystalline_fraction"] == o.crystalline_fraction
+    # an fcc crystal, nearest neighbours at 0.98: every particle crystalline, Q_6 = 0.57452
+    cell = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    grid = np.array([[i, j, k] for i in range(4) for j in range(4) for k in range(4)], float)
+    a = 0.98 * np.sqrt(2)
+    fcc = sp.Packing(((grid[:, None] + cell[None]).reshape(-1, 3)) * a, sp.Box(4 * a, 3))
+    r = jamlab("inspect", str(write_packing(tmp_path / "fcc.h5", fcc)), "--order")
+    assert r.returncode == 0, r.stderr
+    assert "crystalline_fraction  1.0" in r.stdout and "q6" in r.stdout
+    line = next(x for x in r.stdout.splitlines() if x.strip().startswith("q6"))
+    assert float(line.split()[1]) == pytest.approx(0.57452, abs=1e-5)
+
+
+def test_inspect_order_refuses_2d(tmp_path):
+    p = sp.random_packing(64, 2, 0.8, seed=1)
+    r = jamlab("inspect", str(write_packing(tmp_path / "d2.h5", p)), "--order")
+    assert r.returncode == 2 and one_line_error(r)

@@ -31,6 +31,25 @@ def inspect_packing(path: Path) -> dict[str, float | int]:
     return compute_summary(read_packing(path))
 
 
+ORDER_KEYS = ("q6", "crystalline_fraction")
+"""What ``jamlab inspect --order`` adds."""
+
+
+def bond_order_summary(path: Path) -> dict[str, float]:
+    """``Q_6`` and ten Wolde's crystalline fraction of the configuration at ``path``, with the
+    first shell (``r < 1.3 σ_ij``) as bonds — the report's order check
+    (:data:`jamlab.reproduce.amorphous.ORDER_CUTOFF`)."""
+    from jamlab.analysis.order import bond_order
+    from jamlab.reproduce.amorphous import ORDER_CUTOFF
+    from jamlab.spheres.io import read_packing
+
+    p = read_packing(path)
+    if p.dim != 3:
+        raise ValueError(f"--order needs a 3D configuration ({path} is {p.dim}D)")
+    o = bond_order(p.positions, p.box.length, p.box.strain, p.diameters, ORDER_CUTOFF)
+    return {"q6": o.global_q, "crystalline_fraction": o.crystalline_fraction}
+
+
 def register(app: typer.Typer) -> None:
     """Add the soft-sphere commands."""
 
@@ -38,8 +57,14 @@ def register(app: typer.Typer) -> None:
     def inspect_command(
         config: Annotated[Path, typer.Argument(help="Configuration file (HDF5, docs/formats.md).")],
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+        order: Annotated[bool, typer.Option(
+            "--order", help="Also the bond order (3D): Steinhardt's Q_6 and ten Wolde's "
+            "crystalline fraction, first shell r < 1.3 σ_ij as bonds (docs/analysis.md §7).",
+        )] = False,
     ) -> None:
         info = inspect_packing(config)
+        if order:
+            info = info | bond_order_summary(config)
         if as_json:
             typer.echo(json.dumps(info))
             return
@@ -47,8 +72,9 @@ def register(app: typer.Typer) -> None:
             f"{config}: N={info['n']} d={info['dim']} phi={info['phi']:.10g} "
             f"strain={info['strain']!r}"
         )
-        width = max(len(k) for k in INSPECT_KEYS)
-        for key in INSPECT_KEYS[4:]:
+        keys = INSPECT_KEYS[4:] + (ORDER_KEYS if order else ())
+        width = max(len(k) for k in keys)
+        for key in keys:
             value = info[key]
             text = f"{value!r}" if isinstance(value, float) else str(value)
             typer.echo(f"  {key:<{width}}  {text}")
