@@ -138,8 +138,8 @@ def main(argv: list[str] | None = None) -> None:
     for run in a.runs:
         if not (run / "manifest.json").is_file():
             ap.error(f"{run}: not a run directory (no manifest.json)")
-    if not 0 <= a.ordered < 1 or a.min_tail < 2 or a.boot < 0 or not a.cutoff > 0:
-        ap.error("need 0 <= --ordered < 1, --min-tail >= 2, --boot >= 0, --cutoff > 0")
+    if not 0 <= a.ordered < 1 or a.min_tail < 2 or a.boot < 0 or not a.cutoff >= 1:
+        ap.error("need 0 <= --ordered < 1, --min-tail >= 2, --boot >= 0, --cutoff >= 1")
     cells = read(a.runs, a.phi, a.cutoff)
     if not cells:
         ap.error("no finished sample at the labels asked for")

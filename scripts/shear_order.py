@@ -101,8 +101,8 @@ def main(argv: list[str] | None = None) -> None:
         ap.error("need 0 < --dgamma <= --every and --gamma-max >= 0 (0: the quench alone)")
     if a.out is not None and a.out.exists():
         ap.error(f"--out {a.out} exists (finished data is never overwritten)")
-    if not a.cutoff > 0:
-        ap.error("--cutoff must be > 0")
+    if not a.cutoff >= 1:
+        ap.error("--cutoff must be >= 1 (the contacts at least)")
     jobs = [(n, a.phi, s, sizes, a.dgamma, a.gamma_max, a.every, a.cutoff)
             for sizes in a.sizes for n in a.n
             for s in range(a.first_seed, a.first_seed + a.samples)]

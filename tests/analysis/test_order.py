@@ -10,7 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from jamlab.analysis.order import bond_order, bonds
+from jamlab.analysis.contact_geometry import pairs_within
+from jamlab.analysis.order import bond_order
 
 
 def lattice(basis, cells: int, spacing: float):
@@ -97,11 +98,15 @@ def test_lees_edwards_bonds_against_every_image(strain):
     pos = rng.random((n, 3)) * length + np.array(
         [image(length, strain, k) for k in rng.integers(-1, 2, (n, 3))])
     diam = rng.choice([1.0, 1.4], n)
-    i, j, r = bonds(pos, length, strain, diam, cutoff=1.2)
+    # bond_order's bonds are pairs_within's pairs with h_max = cutoff − 1 (r_i − r_j)
+    pairs = pairs_within(pos, length, strain, diam, h_max=0.2)
     want = image_bonds(pos, length, strain, diam, 1.2)
-    assert set(zip(i.tolist(), j.tolist(), strict=True)) == set(want)
-    for a, b, dr in zip(i, j, r, strict=True):
-        np.testing.assert_allclose(dr, want[(a, b)], atol=1e-12)
+    assert set(zip(pairs.i.tolist(), pairs.j.tolist(), strict=True)) == set(want)
+    for a, b, dr in zip(pairs.i, pairs.j, pairs.rij, strict=True):
+        np.testing.assert_allclose(-dr, want[(a, b)], atol=1e-12)
+    o = bond_order(pos, length, strain, diam, cutoff=1.2)
+    np.testing.assert_array_equal(o.neighbours, np.bincount(
+        [k for pair in want for k in pair], minlength=n))
 
 
 def test_a_whole_strain_is_the_same_lattice():
@@ -135,6 +140,7 @@ def test_a_particle_without_bonds():
     ((np.random.default_rng(0).random((4, 3)), 1.9), {}),  # box below twice the cut-off
     ((np.random.default_rng(0).random((4, 3)), 5.0), {"l": 5}),  # odd degree
     ((np.random.default_rng(0).random((4, 3)), 5.0), {"cutoff": 0.0}),
+    ((np.random.default_rng(0).random((4, 3)), 5.0), {"cutoff": 0.9}),  # inside the contacts
     ((np.random.default_rng(0).random((4, 3)), 5.0), {"diameters": [1.0, 1.0]}),
 ])
 def test_refusals(args, kwargs):

@@ -55,7 +55,7 @@ from jamlab.analysis.moduli import (
     moduli_from_stress_jumps,
     moduli_from_trace,
 )
-from jamlab.analysis.order import BondOrder, bond_order, bonds
+from jamlab.analysis.order import BondOrder, bond_order
 from jamlab.analysis.packing_dispersion import PackingDispersion, packing_dispersion
 from jamlab.analysis.powerlaw import (
     PowerLawFit,
@@ -81,7 +81,6 @@ from jamlab.analysis.size_difference import (
 __all__ = [
     "BondOrder",
     "bond_order",
-    "bonds",
     "RateCollapse",
     "cumulative_rates",
     "rate_collapse",

@@ -15,10 +15,9 @@ configuration's ``Q_6`` falls as ``(number of bonds)^(−1/2)``. A bond is *orde
 normalised ``q_6`` vectors of its two ends have a real scalar product above ``0.7``
 (``q̂_6(i) · q̂_6(j)* > 0.7``), and a particle is *crystalline* with at least 7 ordered bonds.
 
-The separations are Lees–Edwards minimum images (:mod:`jamlab.lees_edwards`), valid while the
-cut-off distance is below half the box side. The search is brute force over all pairs, in
-blocks: adequate for the sizes sheared here (``N ≤ 4000``), and free of any cell list that
-could miss a sheared image.
+The bonds are the pairs of :func:`jamlab.analysis.contact_geometry.pairs_within` (Lees–Edwards
+images in a k-d tree, ``h_max = cutoff − 1``), which refuses a cut-off distance of half the box
+side or more.
 """
 
 from __future__ import annotations
@@ -30,15 +29,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import sph_harm_y
 
-from jamlab.lees_edwards import minimum_image
+from jamlab.analysis.contact_geometry import pairs_within
 
-__all__ = ["BondOrder", "bond_order", "bonds"]
+__all__ = ["BondOrder", "bond_order"]
 
 ORDERED_BOND = 0.7
 """ten Wolde's threshold of ``q̂_6(i) · q̂_6(j)*`` for an ordered bond."""
 CRYSTALLINE_BONDS = 7
 """ten Wolde's number of ordered bonds that makes a particle crystalline."""
-_BLOCK = 256
 
 
 @dataclass(frozen=True)
@@ -61,57 +59,24 @@ class BondOrder:
         return float(np.mean(self.crystalline))
 
 
-def bonds(
-    positions: ArrayLike, length: float, strain: float = 0.0,
-    diameters: ArrayLike | None = None, cutoff: float = 1.0,
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """Pairs ``i < j`` closer than ``cutoff · σ_ij``: ``(i, j, r_ij)`` with ``r_ij = r_j − r_i``
-    the minimum image (``(n_bonds, d)``).
-
-    Raises ``ValueError`` where the cut-off distance reaches half the box side (the minimum
-    image would no longer be the only image within it) or the input is not a configuration.
-    """
-    x = np.asarray(positions, dtype=np.float64)
-    if x.ndim != 2 or x.shape[0] < 2 or x.shape[1] < 2:
-        raise ValueError(f"positions must be (N >= 2, d >= 2), not {x.shape}")
-    n = x.shape[0]
-    diam = np.ones(n) if diameters is None else np.asarray(diameters, dtype=np.float64)
-    if diam.shape != (n,) or not np.all(diam > 0):
-        raise ValueError("diameters must be N positive numbers")
-    if not (cutoff > 0 and math.isfinite(cutoff)):
-        raise ValueError(f"cutoff must be > 0, not {cutoff}")
-    if not length > 2 * cutoff * float(diam.max()):
-        raise ValueError(f"box side {length} is not above twice the cut-off distance "
-                         f"{cutoff * float(diam.max())}")
-    out_i, out_j, out_r = [], [], []
-    for start in range(0, n, _BLOCK):
-        rows = np.arange(start, min(start + _BLOCK, n))
-        dr = minimum_image(x[None, :, :] - x[rows, None, :], length, strain)
-        dist = np.sqrt(np.einsum("abk,abk->ab", dr, dr))
-        near = (dist < cutoff * 0.5 * (diam[rows, None] + diam[None, :]))
-        near &= np.arange(n)[None, :] > rows[:, None]
-        a, b = np.nonzero(near)
-        out_i.append(rows[a])
-        out_j.append(b)
-        out_r.append(dr[a, b])
-    d = x.shape[1]
-    return (np.concatenate(out_i).astype(np.int64), np.concatenate(out_j).astype(np.int64),
-            np.concatenate(out_r).reshape(-1, d))
-
-
 def bond_order(
     positions: ArrayLike, length: float, strain: float = 0.0,
     diameters: ArrayLike | None = None, cutoff: float = 1.0, l: int = 6,  # noqa: E741
 ) -> BondOrder:
     """Steinhardt's ``Q_l``, ``q_l(i)`` and ten Wolde's crystalline particles of a 3D
-    configuration (module docstring); ``l`` even (odd degrees vanish for undirected bonds)."""
+    configuration (module docstring); bonds: the pairs closer than ``cutoff · σ_ij``,
+    ``cutoff ≥ 1`` (the contacts at least); ``l`` even (odd degrees vanish for undirected
+    bonds)."""
     x = np.asarray(positions, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != 3:
         raise ValueError(f"bond order needs 3D positions (N, 3), not {x.shape}")
     if not (isinstance(l, int) and l >= 2 and l % 2 == 0):
         raise ValueError(f"l must be an even integer >= 2, not {l}")
+    if not (math.isfinite(cutoff) and cutoff >= 1):
+        raise ValueError(f"cutoff must be >= 1 (the contacts at least), not {cutoff}")
     n = x.shape[0]
-    i, j, r = bonds(x, length, strain, diameters, cutoff)
+    pairs = pairs_within(x, length, strain, diameters, h_max=cutoff - 1.0)
+    i, j, r = pairs.i, pairs.j, pairs.rij  # r = r_i − r_j: the sign does not enter for even l
     count = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
     if i.size == 0:
         return BondOrder(l, math.nan, np.full(n, math.nan), np.zeros(n, dtype=bool), count)
