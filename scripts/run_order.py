@@ -2,9 +2,9 @@
 and the avalanches of the amorphous and the ordered ones apart.
 
 For each run directory and each ``(φ label, N)`` in it (``--phi`` keeps some labels), every
-finished sample's prepared packing (the start of its shear:
-:func:`jamlab.runs.load.prepared_packing`) gets its bond order
-(:func:`jamlab.analysis.order.bond_order`; bonds: the contacts, or the pairs closer than
+finished sample's prepared packing (the start of its shear) gets its bond order
+(:func:`jamlab.reproduce.amorphous.prepared_order`, the report's reader, with
+:func:`jamlab.analysis.order.bond_order`; bonds: the contacts, or the pairs closer than
 ``--cutoff · σ_ij``): ten Wolde's crystalline fraction and Steinhardt's ``Q_6``. Near jamming
 (``z ≈ 6``) no particle can have ten Wolde's 7 ordered contacts: read such runs with the first
 shell, ``--cutoff 1.3``. A sample is *ordered* when its crystalline fraction exceeds
@@ -31,23 +31,9 @@ import numpy as np
 GROUPS = ("all", "amorphous", "ordered")
 
 
-def sample_order(run: Path, label: str, n: int, done: np.ndarray,
-                 cutoff: float = 1.0) -> np.ndarray:
-    """``(crystalline fraction, Q_6)`` of the prepared packing of each finished sample."""
-    from jamlab.analysis.order import bond_order
-    from jamlab.runs import RunDir
-    from jamlab.runs.load import prepared_packing, sample_key
-
-    rows = []
-    for index in np.flatnonzero(done):
-        p = prepared_packing(RunDir(run).sample_path(sample_key(label, n, int(index))))
-        o = bond_order(p.positions, p.box.length, p.box.strain, p.diameters, cutoff)
-        rows.append((o.crystalline_fraction, o.global_q))
-    return np.array(rows, dtype=float).reshape(-1, 2)
-
-
 def read(runs: list[Path], labels: list[str] | None, cutoff: float = 1.0) -> list[dict]:
     """Per run, label and N: the samples' order and counted sizes."""
+    from jamlab.reproduce.amorphous import prepared_order
     from jamlab.reproduce.ensembles import avalanche_set, finished
     from jamlab.runs import open_run
 
@@ -58,12 +44,11 @@ def read(runs: list[Path], labels: list[str] | None, cutoff: float = 1.0) -> lis
             if labels is not None and label not in labels:
                 continue
             for n in [int(x) for x in ds.N.values]:
-                done = finished(ds, label, n)
-                if not done.any():
+                if not finished(ds, label, n).any():
                     continue
                 a = avalanche_set(ds, label, n)
                 out.append({"run": run, "label": label, "n": n,
-                            "order": sample_order(run, label, n, done, cutoff),
+                            "order": prepared_order(ds, run, label, n, cutoff),
                             "sizes": [np.asarray(s) for s in a.per_sample]})
     return out
 

@@ -35,7 +35,7 @@ from jamlab.reproduce.scales import UNSAT_PHI, Scale
 from jamlab.reproduce.table import TAU_TITLES, fit_text
 
 __all__ = ["ORDER_CUTOFF", "ORDERED_FRACTION", "SECTION", "SECTION_TEXT", "EnsembleOrder",
-           "ensemble_order", "order_checks", "order_rows", "order_data"]
+           "ensemble_order", "order_checks", "order_rows", "order_data", "prepared_order"]
 
 ORDER_CUTOFF = 1.3
 """Bonds of the order check: pairs closer than ``1.3 σ_ij`` (the first shell: an fcc crystal
@@ -86,9 +86,11 @@ class EnsembleOrder:
                 sum(self.measured(n) for n in self.fractions))
 
 
-def crystalline_fractions(ds: Any, run_path: Path, label: str, n: int) -> np.ndarray:
-    """Ten Wolde's crystalline fraction of the prepared packing of each finished sample (NaN
-    where the box side is below twice the first shell, ≈ 20 spheres or fewer)."""
+def prepared_order(ds: Any, run_path: Path, label: str, n: int,
+                   cutoff: float = ORDER_CUTOFF) -> np.ndarray:
+    """``(crystalline fraction, Q_6)`` of the prepared packing of each finished sample, rows in
+    the order of the finished samples, bonds closer than ``cutoff · σ_ij`` (NaN where the box
+    side is below twice that distance, ≈ 20 spheres or fewer)."""
     from jamlab.analysis.order import bond_order
     from jamlab.runs import RunDir
     from jamlab.runs.load import prepared_packing, sample_key
@@ -98,11 +100,12 @@ def crystalline_fractions(ds: Any, run_path: Path, label: str, n: int) -> np.nda
     for index in np.flatnonzero(finished(ds, label, n)):
         p = prepared_packing(run.sample_path(sample_key(label, n, int(index))))
         try:
-            out.append(bond_order(p.positions, p.box.length, p.box.strain, p.diameters,
-                                  ORDER_CUTOFF).crystalline_fraction)
+            o = bond_order(p.positions, p.box.length, p.box.strain, p.diameters, cutoff)
         except ValueError:  # the box is too small for the minimum image of the first shell
-            out.append(float("nan"))
-    return np.array(out, dtype=float)
+            out.append((float("nan"), float("nan")))
+            continue
+        out.append((o.crystalline_fraction, o.global_q))
+    return np.array(out, dtype=float).reshape(-1, 2)
 
 
 def ensemble_order(ds: Any, run_path: Path, label: str, ns: tuple[int, ...], scale: Scale,
@@ -110,7 +113,7 @@ def ensemble_order(ds: Any, run_path: Path, label: str, ns: tuple[int, ...], sca
     """:class:`EnsembleOrder` of ``(label, ns)`` in the run ``ds`` at ``run_path``; with
     ``with_tau`` also τ of the counted avalanches of its amorphous samples (all N pooled)."""
     t0 = time.process_time()
-    fractions = {n: crystalline_fractions(ds, run_path, label, n) for n in ns}
+    fractions = {n: prepared_order(ds, run_path, label, n)[:, 0] for n in ns}
     if not with_tau:
         return EnsembleOrder(run_path.name, label, fractions,
                              seconds=time.process_time() - t0)
