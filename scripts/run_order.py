@@ -103,8 +103,9 @@ def tables(cells: list[dict], ordered: float, boot: int, min_tail: int) -> None:
                                   n_boot=0, seed=0).x_min
         for g in GROUPS:
             s = group_sizes[g]
+            # the cell without its x_min (the window's): "τ [95 %], tail"
             window = ("—" if g == "all" or x_all is None
-                      else ", ".join(fit_cell(s, boot, min_tail, x_all).split(", ")[:2]))
+                      else fit_cell(s, boot, min_tail, x_all).rsplit(", ", 1)[0])
             print(f"| {label} | {g} | {group_samples[g]} | {s.size} | "
                   f"{fit_cell(s, boot, min_tail)} | {window} |")
 
