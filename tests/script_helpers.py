@@ -41,3 +41,11 @@ def exit_code(module: ModuleType, argv: list[str], monkeypatch) -> int | str | N
     with pytest.raises(SystemExit) as e:
         module.main()
     return e.value.code
+
+
+def assert_out_kept(module: ModuleType, out: Path, monkeypatch) -> None:
+    """Finished data at ``out``: ``<script> --out out`` exits with code 2 and leaves the file as
+    it was (nothing finished is ever overwritten)."""
+    out.write_bytes(b"finished data")
+    assert exit_code(module, ["--out", str(out)], monkeypatch) == 2
+    assert out.read_bytes() == b"finished data"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.script_helpers import exit_code, script_module
+from tests.script_helpers import assert_out_kept, exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,4 @@ def test_bad_arguments_exit_2(so, monkeypatch, argv):
 
 
 def test_existing_out_is_not_overwritten(so, tmp_path, monkeypatch):
-    out = tmp_path / "o.npz"
-    out.write_bytes(b"finished data")
-    assert exit_code(so, ["--out", str(out)], monkeypatch) == 2
-    assert out.read_bytes() == b"finished data"
+    assert_out_kept(so, tmp_path / "o.npz", monkeypatch)

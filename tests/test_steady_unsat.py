@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from tests.script_helpers import exit_code, script_module
+from tests.script_helpers import assert_out_kept, exit_code, script_module
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +74,4 @@ def test_bad_arguments_exit_2(su, monkeypatch, argv):
 
 
 def test_existing_out_is_not_overwritten(su, tmp_path, monkeypatch):
-    out = tmp_path / "r.npz"
-    out.write_bytes(b"finished data")
-    assert exit_code(su, ["--out", str(out)], monkeypatch) == 2
-    assert out.read_bytes() == b"finished data"
+    assert_out_kept(su, tmp_path / "r.npz", monkeypatch)
