@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from jamlab.reproduce.amorphous import ORDERED_FRACTION
+
 GROUPS = ("all", "amorphous", "ordered")
 
 
@@ -114,7 +116,7 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("runs", type=Path, nargs="+", help="run directories")
     ap.add_argument("--phi", nargs="*", default=None, help="φ labels to read (default: all)")
-    ap.add_argument("--ordered", type=float, default=0.05)
+    ap.add_argument("--ordered", type=float, default=ORDERED_FRACTION)
     ap.add_argument("--cutoff", type=float, default=1.0,
                     help="bonds: pairs closer than cutoff · σ_ij (1: the contacts; near jamming, "
                          "where z ≈ 6 < 7 ordered bonds, take the first shell, ≈ 1.3)")

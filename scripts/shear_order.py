@@ -30,6 +30,8 @@ for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_
 
 import numpy as np  # noqa: E402
 
+from jamlab.reproduce.amorphous import ORDERED_FRACTION  # noqa: E402
+
 COLUMNS = ("gamma", "crystalline", "q6", "energy_per_particle", "stress")
 
 
@@ -80,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--dgamma", type=float, default=1e-3)
     ap.add_argument("--gamma-max", type=float, default=1.0)
     ap.add_argument("--every", type=float, default=0.1)
-    ap.add_argument("--ordered", type=float, default=0.05,
+    ap.add_argument("--ordered", type=float, default=ORDERED_FRACTION,
                     help="a sample with a larger crystalline fraction counts as ordered")
     ap.add_argument("--cutoff", type=float, default=1.0,
                     help="bonds: pairs closer than cutoff · σ_ij (1: the contacts; 1.3: the "
