@@ -18,9 +18,9 @@ prints the energy balance per particle and unit strain (work of the shear
 ``Σ (γ_n − γ_{n−1}) Σ_{n−1}``, energy the packings give up ``E_0 − E_last``, released by the
 avalanches ``Σ S``), ``⟨S⟩`` per N, and τ by the report's fit
 (:func:`jamlab.analysis.fit_power_law`, KS-chosen ``x_min``, truncated at the largest size,
-bootstrap 95 % interval; all N pooled) with its σ = interval width / 3.92. In the steady
-state the release should equal the work (no stored energy is left to give up); the question is
-whether τ then moves towards the predicted 1.
+bootstrap 95 % interval; all N pooled, and each N alone when there are several) with its σ =
+interval width / 3.92. In the steady state the release should equal the work (no stored energy
+is left to give up); the question is whether τ then moves towards the predicted 1.
 
 Monodisperse spheres (the paper's system, ``--sizes mono``) order under long shear: at φ = 0.8,
 N = 256 most particles are crystalline by γ ≈ 0.6 (docs/reproduce.md, "Are the packings
@@ -105,8 +105,9 @@ def one_sample(job: tuple) -> dict:
 
 
 def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> None:
-    """The balance per N and protocol, τ per protocol (all N pooled), and τ of both at each
-    fixed ``x_min`` of ``x_mins`` (the same window for both: the KS choice of each differs)."""
+    """The balance per N and protocol, τ per protocol (all N pooled and, with more than one N,
+    each N alone), and τ of both at each fixed ``x_min`` of ``x_mins`` (the same window for
+    both: the KS choice of each differs)."""
     from jamlab.analysis import fit_power_law
 
     sizes_n = sorted({r["n"] for r in results})
@@ -136,34 +137,42 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
                      f"{int(np.sum(o[:, k] > above))}" for k in (0, 2)]
             print(f"| {name} | {n} | {cells[0]} | {cells[1]} | "
                   f"{np.mean(o[:, 1]):.3f} → {np.mean(o[:, 3]):.3f} |")
+    # all N pooled, then (with more than one N) each N alone: does τ move with N?
+    groups = [("all", results)]
+    if len(sizes_n) > 1:
+        groups += [(str(n), [r for r in results if r["n"] == n]) for n in sizes_n]
     print()
-    print("| protocol | τ (95 %) | σ | x_min (ε) | tail |")
-    print("|---|---|---|---|---|")
+    print("| protocol | N | τ (95 %) | σ | x_min (ε) | tail |")
+    print("|---|---|---|---|---|---|")
     for name in PROTOCOLS:
-        s = np.concatenate([r[name]["sizes"] for r in results])
-        if s.size < min_tail:
-            print(f"| {name} | no data (fewer than {min_tail} avalanches) | | | |")
-            continue
-        fit = fit_power_law(s, x_max=float(s.max()), min_tail=min_tail, n_boot=boot, seed=0)
-        lo, hi = fit.ci_low, fit.ci_high
-        print(f"| {name} | {fit.tau:.3f} [{lo:.3f}, {hi:.3f}] | {(hi - lo) / 3.92:.3f} | "
-              f"{fit.x_min:.3g} | {fit.n_tail} |")
+        for label, rs in groups:
+            s = np.concatenate([r[name]["sizes"] for r in rs])
+            if s.size < min_tail:
+                print(f"| {name} | {label} | no data (fewer than {min_tail} avalanches) "
+                      "| | | |")
+                continue
+            fit = fit_power_law(s, x_max=float(s.max()), min_tail=min_tail, n_boot=boot,
+                                seed=0)
+            lo, hi = fit.ci_low, fit.ci_high
+            print(f"| {name} | {label} | {fit.tau:.3f} [{lo:.3f}, {hi:.3f}] | "
+                  f"{(hi - lo) / 3.92:.3f} | {fit.x_min:.3g} | {fit.n_tail} |")
     if not x_mins:
         return
-    print("\n| x_min (ε), fixed | " + " | ".join(f"τ {name} (95 %), tail, KS distance"
-                                               for name in PROTOCOLS) + " |")
-    print("|---|" + "---|" * len(PROTOCOLS))
+    print("\n| x_min (ε), fixed | N | " + " | ".join(f"τ {name} (95 %), tail, KS distance"
+                                                   for name in PROTOCOLS) + " |")
+    print("|---|---|" + "---|" * len(PROTOCOLS))
     for x_min in x_mins:
-        cells = []
-        for name in PROTOCOLS:
-            s = np.concatenate([r[name]["sizes"] for r in results])
-            if np.count_nonzero(s >= x_min) < min_tail:
-                cells.append(f"no data (fewer than {min_tail} sizes)")
-                continue
-            fit = fit_power_law(s, x_min=x_min, x_max=float(s.max()), n_boot=boot, seed=0)
-            cells.append(f"{fit.tau:.3f} [{fit.ci_low:.3f}, {fit.ci_high:.3f}], {fit.n_tail}, "
-                         f"{fit.ks_distance:.3f}")
-        print(f"| {x_min:.3g} | " + " | ".join(cells) + " |")
+        for label, rs in groups:
+            cells = []
+            for name in PROTOCOLS:
+                s = np.concatenate([r[name]["sizes"] for r in rs])
+                if np.count_nonzero(s >= x_min) < min_tail:
+                    cells.append(f"no data (fewer than {min_tail} sizes)")
+                    continue
+                fit = fit_power_law(s, x_min=x_min, x_max=float(s.max()), n_boot=boot, seed=0)
+                cells.append(f"{fit.tau:.3f} [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
+                             f"{fit.n_tail}, {fit.ks_distance:.3f}")
+            print(f"| {x_min:.3g} | {label} | " + " | ".join(cells) + " |")
 
 
 def save(path: Path, results: list[dict]) -> None:

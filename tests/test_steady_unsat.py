@@ -60,10 +60,31 @@ def test_tiny_run_end_to_end_and_round_trip(su, tmp_path, capsys):
     every = {name: np.concatenate([r[name]["sizes"] for r in results]) for name in su.PROTOCOLS}
     x_min = float(np.median(every["transient"])) if every["transient"].size else 1e-9
     su.main(["--load", str(out), "--min-tail", "2", "--boot", "5", "--x-min", str(x_min)])
-    row = capsys.readouterr().out.split(f"| {x_min:.3g} | ")[1].split("\n")[0]
+    row = capsys.readouterr().out.split(f"| {x_min:.3g} | all | ")[1].split("\n")[0]
     for name, cell in zip(su.PROTOCOLS, row.split(" | "), strict=True):
         tail = int(np.count_nonzero(every[name] >= x_min))
         assert (f"], {tail}, " in cell) if tail >= 2 else cell.startswith("no data")
+
+
+def test_each_size_alone(su, capsys):
+    """With two N the τ tables gain one row per N, fitted on that N's sizes alone: the tails
+    of the fixed window counted by hand for the pooled sizes and for each N."""
+    rng = np.random.default_rng(3)
+
+    def result(n, seed, scale):
+        sizes = scale * (1.0 - rng.random(60)) ** (-1.0 / 0.4)  # Pareto, τ = 1.4, x ≥ scale
+        return {"n": n, "seed": seed, "cpu": 0.0,
+                **{name: {"sizes": sizes, "balance": (1.0, 1.0, 0.1), "converged": True,
+                          "order": (0.0, 0.1, 0.0, 0.1)} for name in su.PROTOCOLS}}
+
+    results = [result(64, s, 1e-6) for s in range(3)] + [result(128, s, 1e-5) for s in range(3)]
+    su.table(results, boot=5, min_tail=10, x_mins=(2e-5,))
+    text = capsys.readouterr().out
+    for label, rs in (("all", results), ("64", results[:3]), ("128", results[3:])):
+        tail = sum(int(np.count_nonzero(r["steady"]["sizes"] >= 2e-5)) for r in rs)
+        row = text.split(f"| 2e-05 | {label} | ")[1].split("\n")[0]
+        assert row.count(f"], {tail}, ") == 2  # both protocols (the same sizes here)
+        assert f"| steady | {label} | " in text
 
 
 @pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--samples", "0"], ["--n", "4"],
