@@ -6,15 +6,17 @@ division, and a scatter of ``−F`` onto ``j``. LLVM leaves that loop scalar (th
 scatter). This benchmark times three splittings of the same sum that keep every floating-point
 operation and its order — so the same bits, checked — against the kernel itself:
 
-- ``two-pass``: per pair ``c·r_ij`` and ``V`` into a buffer (a loop without scatter), then the
-  accumulation and scatter in the kernel's order;
+- ``two-pass``: per pair ``c·r_ij`` and ``V`` into one ``(pairs, 4)`` buffer (a loop without
+  scatter), then the accumulation and scatter in the kernel's order;
 - ``two-pass SoA``: the same with one array per component;
 - ``three-pass``: the separations gathered into contiguous arrays first, so that the middle pass
   (square roots, divisions, the select) has no gather and vectorises (``vsqrtpd``/``vdivpd`` on
   ``ymm``; its assembly is counted below), then the scatter.
 
 Harmonic monodisperse spheres relaxed near jamming (``random_packing(N, 3, 0.645, seed)``, FIRE
-to ``1e-6``), the relaxations' skin (``RELAX_SKIN``), best of 5 rounds, µs per evaluation.
+to ``1e-6``), the relaxations' skin (``RELAX_SKIN``), best of 5 rounds
+(``bench_force_kernel.per_particle``'s timer), µs per evaluation. The pair law is the project's
+(``harmonic_terms_masked``), not a copy.
 Asserts nothing about time; exits non-zero if a splitting changes a bit.
 
 Run: ``python benchmarks/bench_pair_sum_split.py [--n 1000 2000] [--seeds 1 2]``
@@ -24,26 +26,34 @@ from __future__ import annotations
 
 import argparse
 import re
-import time
 
 import numpy as np
 from numba import njit
 
+from bench_force_kernel import per_particle  # benchmarks run as scripts
 from jamlab.spheres.fire import minimize
 from jamlab.spheres.kernels import pairs as P
 from jamlab.spheres.neighbors import RELAX_SKIN, NeighborList
+from jamlab.spheres.pair import harmonic_terms_masked
 from jamlab.spheres.state import random_packing
 
 
-@njit(cache=True)
-def owners(start):
-    """``i`` of every list entry ``k`` (the list's rows expanded)."""
-    n = start.shape[0] - 1
-    pi = np.empty(start[n], np.int64)
-    for i in range(n):
-        for k in range(start[i], start[i + 1]):
-            pi[k] = i
-    return pi
+@njit(cache=True, inline="always")
+def _separation(pos, shift, i, j, k):
+    """``r_ij`` of list entry ``k`` (as the kernel forms it)."""
+    return (pos[i, 0] - pos[j, 0] + shift[k, 0], pos[i, 1] - pos[j, 1] + shift[k, 1],
+            pos[i, 2] - pos[j, 2] + shift[k, 2])
+
+
+@njit(cache=True, inline="always")
+def _factor(dx, dy, dz):
+    """``(c·r_ij, V)`` with ``c = −V'/r``: the project's harmonic law with the contact test as a
+    select (:func:`jamlab.spheres.pair.harmonic_terms_masked`, σ = 1)."""
+    r2 = dx * dx + dy * dy + dz * dz
+    r = np.sqrt(r2)
+    v, dv = harmonic_terms_masked(r2, r, 1.0)
+    c = -dv / r
+    return c * dx, c * dy, c * dz, v
 
 
 @njit(cache=True)
@@ -73,66 +83,30 @@ def _scatter(start, nbr, forces, bx, by, bz, bv):
 
 @njit(cache=True)
 def two_pass(pos, start, nbr, shift, pi, forces, buf):
+    """Per-pair factors into one ``(m, 4)`` buffer, then the scatter."""
     for k in range(nbr.shape[0]):
-        i = pi[k]
-        j = nbr[k]
-        dx = pos[i, 0] - pos[j, 0] + shift[k, 0]
-        dy = pos[i, 1] - pos[j, 1] + shift[k, 1]
-        dz = pos[i, 2] - pos[j, 2] + shift[k, 2]
-        r2 = dx * dx + dy * dy + dz * dz
-        r = np.sqrt(r2)
-        h = 1.0 - r / 1.0
-        h = h if r2 < 1.0 else 0.0
-        c = -(-2.0 * h / 1.0) / r
-        buf[0, k] = c * dx
-        buf[1, k] = c * dy
-        buf[2, k] = c * dz
-        buf[3, k] = h * h
-    return _scatter(start, nbr, forces, buf[0], buf[1], buf[2], buf[3])
+        dx, dy, dz = _separation(pos, shift, pi[k], nbr[k], k)
+        buf[k, 0], buf[k, 1], buf[k, 2], buf[k, 3] = _factor(dx, dy, dz)
+    return _scatter(start, nbr, forces, buf[:, 0], buf[:, 1], buf[:, 2], buf[:, 3])
 
 
 @njit(cache=True)
 def two_pass_soa(pos, start, nbr, shift, pi, forces, bx, by, bz, bv):
+    """The same with one array per component."""
     for k in range(nbr.shape[0]):
-        i = pi[k]
-        j = nbr[k]
-        dx = pos[i, 0] - pos[j, 0] + shift[k, 0]
-        dy = pos[i, 1] - pos[j, 1] + shift[k, 1]
-        dz = pos[i, 2] - pos[j, 2] + shift[k, 2]
-        r2 = dx * dx + dy * dy + dz * dz
-        r = np.sqrt(r2)
-        h = 1.0 - r / 1.0
-        h = h if r2 < 1.0 else 0.0
-        c = -(-2.0 * h / 1.0) / r
-        bx[k] = c * dx
-        by[k] = c * dy
-        bz[k] = c * dz
-        bv[k] = h * h
+        dx, dy, dz = _separation(pos, shift, pi[k], nbr[k], k)
+        bx[k], by[k], bz[k], bv[k] = _factor(dx, dy, dz)
     return _scatter(start, nbr, forces, bx, by, bz, bv)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(error_model="numpy")  # not cached: numba gives no assembly for cached code
 def three_pass(pos, start, nbr, shift, pi, forces, bx, by, bz, bv):
+    """The separations gathered first, so the factors' pass reads contiguous arrays."""
     m = nbr.shape[0]
     for k in range(m):
-        i = pi[k]
-        j = nbr[k]
-        bx[k] = pos[i, 0] - pos[j, 0] + shift[k, 0]
-        by[k] = pos[i, 1] - pos[j, 1] + shift[k, 1]
-        bz[k] = pos[i, 2] - pos[j, 2] + shift[k, 2]
+        bx[k], by[k], bz[k] = _separation(pos, shift, pi[k], nbr[k], k)
     for k in range(m):
-        dx = bx[k]
-        dy = by[k]
-        dz = bz[k]
-        r2 = dx * dx + dy * dy + dz * dz
-        r = np.sqrt(r2)
-        h = 1.0 - r / 1.0
-        h = h if r2 < 1.0 else 0.0
-        c = -(-2.0 * h / 1.0) / r
-        bx[k] = c * dx
-        by[k] = c * dy
-        bz[k] = c * dz
-        bv[k] = h * h
+        bx[k], by[k], bz[k], bv[k] = _factor(bx[k], by[k], bz[k])
     return _scatter(start, nbr, forces, bx, by, bz, bv)
 
 
@@ -140,7 +114,7 @@ def make_cases(pos, start, nbr, shift, pi):
     """The force arrays and the four evaluations (the kernel and the three splittings)."""
     m = pi.size
     f = {k: np.empty_like(pos) for k in ("kernel", "two", "soa", "three")}
-    buf = np.empty((4, m))
+    buf = np.empty((m, 4))
     cols = [np.empty(m) for _ in range(4)]
     cases = {
         "kernel": lambda: P.energy_forces_3d(pos, start, nbr, shift, None, None, f["kernel"]),
@@ -149,17 +123,6 @@ def make_cases(pos, start, nbr, shift, pi):
         "three": lambda: three_pass(pos, start, nbr, shift, pi, f["three"], *cols),
     }
     return f, cases
-
-
-def best_us(fn, reps: int = 3000, rounds: int = 5) -> float:
-    fn()
-    best = np.inf
-    for _ in range(rounds):
-        t = time.perf_counter()
-        for _ in range(reps):
-            fn()
-        best = min(best, (time.perf_counter() - t) / reps)
-    return 1e6 * best
 
 
 def main() -> None:
@@ -176,14 +139,14 @@ def main() -> None:
             nl = NeighborList(pk, skin=RELAX_SKIN)
             pos = np.ascontiguousarray(nl.sorted(pk.positions))
             start, nbr, shift = nl.start, nl.nbr, nl.shift
-            pi = owners(start)
+            pi = np.repeat(np.arange(n), np.diff(start))  # i of every list entry
             m = pi.size
             f, cases = make_cases(pos, start, nbr, shift, pi)
             energies = {k: fn() for k, fn in cases.items()}
             for k in ("two", "soa", "three"):
                 if energies[k] != energies["kernel"] or not np.array_equal(f[k], f["kernel"]):
                     raise SystemExit(f"N={n} seed={seed}: {k} changed a bit")
-            t = {k: best_us(fn) for k, fn in cases.items()}
+            t = {k: 1e-3 * n * per_particle(fn, n, 5) for k, fn in cases.items()}  # µs
             best = min(t[k] for k in ("two", "soa", "three"))
             print(f"| {n} | {seed} | {m} | {t['kernel']:.1f} | {t['two']:.1f} | {t['soa']:.1f} | "
                   f"{t['three']:.1f} | {t['kernel'] / best:.2f} |", flush=True)
