@@ -141,12 +141,14 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
     groups = [("all", results)]
     if len(sizes_n) > 1:
         groups += [(str(n), [r for r in results if r["n"] == n]) for n in sizes_n]
+    pooled = {(name, label): np.concatenate([r[name]["sizes"] for r in rs])
+              for name in PROTOCOLS for label, rs in groups}
     print()
     print("| protocol | N | τ (95 %) | σ | x_min (ε) | tail |")
     print("|---|---|---|---|---|---|")
     for name in PROTOCOLS:
-        for label, rs in groups:
-            s = np.concatenate([r[name]["sizes"] for r in rs])
+        for label, _ in groups:
+            s = pooled[name, label]
             if s.size < min_tail:
                 print(f"| {name} | {label} | no data (fewer than {min_tail} avalanches) "
                       "| | | |")
@@ -162,10 +164,10 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
                                                    for name in PROTOCOLS) + " |")
     print("|---|---|" + "---|" * len(PROTOCOLS))
     for x_min in x_mins:
-        for label, rs in groups:
+        for label, _ in groups:
             cells = []
             for name in PROTOCOLS:
-                s = np.concatenate([r[name]["sizes"] for r in rs])
+                s = pooled[name, label]
                 if np.count_nonzero(s >= x_min) < min_tail:
                     cells.append(f"no data (fewer than {min_tail} sizes)")
                     continue
