@@ -14,7 +14,8 @@ script shears the same packings twice, per ``(N, seed)``:
 
 and per protocol pools the avalanches by the report's rule
 (:func:`jamlab.analysis.avalanche_sizes`: plastic flags, ``ΔE < 0``, both minima jammed),
-prints the energy balance per particle and unit strain (work of the shear
+prints the cut-off's scale ``⟨S²⟩/⟨S⟩`` per N (σ over packing resamples), the energy balance
+per particle and unit strain (work of the shear
 ``Σ (γ_n − γ_{n−1}) Σ_{n−1}``, energy the packings give up ``E_0 − E_last``, released by the
 avalanches ``Σ S``), ``⟨S⟩`` per N, and τ by the report's fit
 (:func:`jamlab.analysis.fit_power_law`, KS-chosen ``x_min``, truncated at the largest size,
@@ -30,7 +31,12 @@ Steinhardt's ``Q_6``), printed per protocol and N; ``--sizes bidisperse`` (50:50
 stays amorphous.
 
 ``--workers`` processes (one sample each at a time); ``--out F.npz`` keeps every size and
-balance (loadable with ``--load F.npz`` to reprint without shearing).
+balance (loadable with ``--load F.npz [G.npz ...]`` to reprint without shearing, each file's
+tables in turn; ``--pool`` pools the files' samples, e.g. the runs of one φ at other N).
+``--figure F.png`` draws, one panel per run (or loaded file), each N's
+steady-state avalanche rate per particle, unit strain and unit ``ln S``, ``S n(S)``, in log
+bins (Poisson errors) with the transient's dashed: a flat curve is τ = 1, a slope ``1 − τ``
+is τ (guides for 1 and 1.1).
 
     PYTHONPATH=src python scripts/steady_unsat.py --phi 0.75 --n 128 256 --samples 120 \\
         --workers 2 --out steady_075.npz
@@ -104,6 +110,22 @@ def one_sample(job: tuple) -> dict:
     return out
 
 
+def cutoff_scale(per_packing: list[np.ndarray], boot: int) -> tuple[float, float]:
+    """``⟨S²⟩/⟨S⟩`` of the pooled sizes — the cut-off's scale, whatever its shape, for τ < 2 —
+    and its σ over ``boot`` resamples of the packings (seed 0; 0 with one packing);
+    ``(nan, nan)`` without sizes."""
+    s = np.concatenate(per_packing) if per_packing else np.empty(0)
+    if s.size == 0 or not s.sum() > 0:
+        return float("nan"), float("nan")
+    second = np.array([(p**2).sum() for p in per_packing])
+    first = np.array([p.sum() for p in per_packing])
+    rng = np.random.default_rng(0)
+    draws = [second[i].sum() / first[i].sum()
+             for i in (rng.integers(0, len(first), len(first)) for _ in range(boot))
+             if first[i].sum() > 0]
+    return float(second.sum() / first.sum()), float(np.std(draws)) if len(draws) > 1 else 0.0
+
+
 def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> None:
     """The balance per N and protocol, τ per protocol (all N pooled and, with more than one N,
     each N alone), and τ of both at each fixed ``x_min`` of ``x_mins`` (the same window for
@@ -111,9 +133,9 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
     from jamlab.analysis import fit_power_law
 
     sizes_n = sorted({r["n"] for r in results})
-    print("| protocol | N (samples) | avalanches | ⟨S⟩ (ε) | work | given up | released "
-          "| released / work | all minima converged |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| protocol | N (samples) | avalanches | ⟨S⟩ (ε) | ⟨S²⟩/⟨S⟩ (ε) ± σ | work | given up "
+          "| released | released / work | all minima converged |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in PROTOCOLS:
         for n in sizes_n:
             rs = [r for r in results if r["n"] == n]
@@ -121,9 +143,10 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
             w, g, gam = np.array([r[name]["balance"] for r in rs]).sum(axis=0)
             exposure = n * gam
             mean = f"{s.mean():.3g}" if s.size else "—"
-            print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {w / exposure:.3g} | "
-                  f"{g / exposure:.3g} | {s.sum() / exposure:.3g} | {s.sum() / w:.2f} | "
-                  f"{all(r[name]['converged'] for r in rs)} |")
+            scale, err = cutoff_scale([r[name]["sizes"] for r in rs], boot)
+            print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {scale:.3g} ± {err:.2g} | "
+                  f"{w / exposure:.3g} | {g / exposure:.3g} | {s.sum() / exposure:.3g} | "
+                  f"{s.sum() / w:.2f} | {all(r[name]['converged'] for r in rs)} |")
     print("\n(work, given up, released: ε per particle per unit strain)\n")
     from jamlab.reproduce.amorphous import ORDERED_FRACTION as above
 
@@ -177,6 +200,71 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
             print(f"| {x_min:.3g} | {label} | " + " | ".join(cells) + " |")
 
 
+def rate_density(results: list[dict], name: str, n: int, bins_per_decade: int = 4
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(S, S n(S), error)`` of protocol ``name`` at size ``n``: the counted avalanches of
+    every sample of that N in log bins (:func:`jamlab.analysis.histograms.log_histogram` on
+    its universal grid), ``S n(S)`` the number per particle, unit strain and unit ``ln S`` at
+    the bin's geometric centre ``S`` (counts / (N · strain sheared · Δln S)), Poisson error;
+    empty bins left out."""
+    from jamlab.analysis.histograms import log_histogram
+
+    rs = [r for r in results if r["n"] == n]
+    s = np.concatenate([r[name]["sizes"] for r in rs] or [np.empty(0)])
+    exposure = n * sum(r[name]["balance"][2] for r in rs)
+    if s.size == 0 or not exposure > 0:
+        return np.empty(0), np.empty(0), np.empty(0)
+    h = log_histogram(s, bins_per_decade=bins_per_decade)
+    width = np.log(h.edges[1:] / h.edges[:-1])
+    keep = h.counts > 0
+    c = h.counts[keep]
+    return (h.centres[keep], c / (exposure * width[keep]),
+            np.sqrt(c) / (exposure * width[keep]))
+
+
+def figure(path: Path, panels: list[tuple[str, list[dict]]]) -> None:
+    """One panel per ``(title, results)``: each N's steady ``S n(S)`` (module docstring),
+    the transient's dashed, and guides of slope 0 (τ = 1) and −0.1 (τ = 1.1)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 3.9), squeeze=False,
+                             sharey=True)
+    for ax, (title, results) in zip(axes[0], panels, strict=True):
+        spans = []
+        for n in sorted({r["n"] for r in results}):
+            x, y, e = rate_density(results, "steady", n)
+            if x.size == 0:
+                continue
+            bar = ax.errorbar(x, y, yerr=e, fmt="o-", ms=3, lw=1, capsize=2,
+                              label=f"N = {n}, steady")
+            xt, yt, _ = rate_density(results, "transient", n)
+            ax.loglog(xt, yt, "--", lw=0.8, color=bar[0].get_color(), alpha=0.7,
+                      label=f"N = {n}, transient")
+            spans.append((x, y))
+        if spans:
+            x0 = np.sqrt(min(x.min() for x, _ in spans) * max(x.max() for x, _ in spans))
+            y0 = float(np.median(np.concatenate([y for _, y in spans])))
+            g = np.geomspace(min(x.min() for x, _ in spans), max(x.max() for x, _ in spans))
+            ax.loglog(g, y0 * (g / x0) ** 0.0, "k:", lw=1, label="τ = 1")
+            ax.loglog(g, y0 * (g / x0) ** -0.1, "k-.", lw=1, label="τ = 1.1")
+            ax.legend(fontsize=6)
+        else:
+            ax.text(0.5, 0.5, "no counted steady-state avalanche", ha="center",
+                    transform=ax.transAxes, fontsize=8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("S (ε)")
+    axes[0, 0].set_ylabel("S n(S): per particle, unit strain, unit ln S")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    print(f"\nfigure: {path}")
+
+
 def save(path: Path, results: list[dict]) -> None:
     """Every sample's sizes and balances in one ``.npz``."""
     arrays = {}
@@ -227,16 +315,39 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--x-min", type=float, nargs="*", default=[],
                     help="also τ of both protocols at these fixed x_min (ε)")
     ap.add_argument("--out", type=Path, default=None)
-    ap.add_argument("--load", type=Path, default=None)
+    ap.add_argument("--load", type=Path, nargs="+", default=None,
+                    help="reprint the tables of these --out files instead of shearing")
+    ap.add_argument("--pool", action="store_true",
+                    help="with several --load files (one φ, other N or seeds): one table and one "
+                         "panel of all their samples")
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="draw S n(S) per N, one panel per run or loaded file (.png/.pdf/.svg)")
     a = ap.parse_args(argv)
+    from jamlab.runs import check_figure_path
+
+    check_figure_path(ap, a.figure, [])
     if any(not x > 0 for x in a.x_min):
         ap.error("--x-min needs values > 0")
     if a.min_tail < 2:
         ap.error("--min-tail: at least 2 (a power-law fit needs two sizes)")
     if a.load is not None:
-        if not a.load.is_file():
-            ap.error(f"--load {a.load}: no such file")
-        table(load(a.load), a.boot, a.min_tail, tuple(a.x_min))
+        missing = [f for f in a.load if not f.is_file()]
+        if missing:
+            ap.error(f"--load {missing[0]}: no such file")
+        sets = [(f.stem, load(f)) for f in a.load]
+        if a.pool:
+            seen = [(r["n"], r["seed"]) for _, rs in sets for r in rs]
+            if len(set(seen)) < len(seen):
+                ap.error("--pool: a sample (N, seed) is in more than one --load file")
+            sets = [(" + ".join(name for name, _ in sets), [r for _, rs in sets for r in rs])]
+        panels = []
+        for name, results in sets:
+            if len(sets) > 1:
+                print(f"\n## {name}\n")
+            table(results, a.boot, a.min_tail, tuple(a.x_min))
+            panels.append((name, results))
+        if a.figure is not None:
+            figure(a.figure, panels)
         return
     if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
         ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
@@ -261,6 +372,8 @@ def main(argv: list[str] | None = None) -> None:
     if a.out is not None:
         save(a.out, results)
     table(results, a.boot, a.min_tail, tuple(a.x_min))
+    if a.figure is not None:
+        figure(a.figure, [(f"φ = {a.phi}, {a.sizes}", results)])
 
 
 if __name__ == "__main__":

@@ -56,6 +56,16 @@ def test_tiny_run_end_to_end_and_round_trip(su, tmp_path, capsys):
         assert r["transient"]["order"][:2] == (o.crystalline_fraction, o.global_q)
     su.main(["--load", str(out), "--min-tail", "2", "--boot", "5"])
     assert capsys.readouterr().out == text  # the file reprints the same table
+    # two files (here the same one twice): each table in turn; pooled they would count each
+    # sample twice, which is refused; the figure of the run is a PNG
+    su.main(["--load", str(out), str(out), "--min-tail", "2", "--boot", "5"])
+    assert capsys.readouterr().out.count("| steady | 16 (2) |") == 2
+    with pytest.raises(SystemExit) as e:
+        su.main(["--load", str(out), str(out), "--pool"])
+    assert e.value.code == 2
+    fig = tmp_path / "f.png"
+    su.main(["--load", str(out), "--min-tail", "2", "--boot", "5", "--figure", str(fig)])
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # τ at a fixed x_min: the tail counted by hand from the file's sizes
     every = {name: np.concatenate([r[name]["sizes"] for r in results]) for name in su.PROTOCOLS}
     x_min = float(np.median(every["transient"])) if every["transient"].size else 1e-9
@@ -87,9 +97,44 @@ def test_each_size_alone(su, capsys):
         assert f"| steady | {label} | " in text
 
 
+def test_cutoff_scale_by_hand(su):
+    """⟨S²⟩/⟨S⟩ of two packings' sizes, and its packing resamples: each resample is one of
+    the four ordered pairs, so σ lies within half their range."""
+    per = [np.array([1.0, 2.0]), np.array([3.0])]
+    scale, err = su.cutoff_scale(per, boot=200)
+    assert scale == pytest.approx((1 + 4 + 9) / (1 + 2 + 3))
+    pairs = [10 / 6, 14 / 6, 18 / 6]  # (first, first), mixed, (second, second)
+    assert 0 < err <= (pairs[2] - pairs[0]) / 2
+    assert su.cutoff_scale([np.array([2.0])], boot=50) == (2.0, 0.0)
+    assert all(np.isnan(su.cutoff_scale([np.empty(0)], boot=5)))
+
+
+def test_rate_density_by_hand(su):
+    """S n(S) in quarter-decade bins: counts / (N · strain · Δln S), the bins found from
+    floor(4 log10 S) by hand; the other protocol and the other N left out."""
+    import math
+
+    def result(n, sizes):
+        return {"n": n, "seed": 0, "cpu": 0.0,
+                "steady": {"sizes": np.array(sizes), "balance": (1.0, 0.0, 0.5)},
+                "transient": {"sizes": np.array([7.0]), "balance": (1.0, 0.0, 0.5)}}
+
+    results = [result(10, [1.5e-3, 2e-3]), result(10, [2.5e-3, 5e-2]), result(20, [1e-4])]
+    x, y, e = su.rate_density(results, "steady", 10, bins_per_decade=4)
+    bins = sorted({math.floor(4 * math.log10(v)) for v in (1.5e-3, 2e-3, 2.5e-3, 5e-2)})
+    counts = [1, 2, 1]
+    assert bins == [-12, -11, -6]
+    assert x == pytest.approx([10 ** ((k + 0.5) / 4) for k in bins])
+    exposure = 10 * (0.5 + 0.5)
+    assert y == pytest.approx([c / (exposure * math.log(10) / 4) for c in counts])
+    assert e == pytest.approx([math.sqrt(c) / (exposure * math.log(10) / 4) for c in counts])
+    assert all(a.size == 0 for a in su.rate_density(results, "steady", 40))
+
+
 @pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--samples", "0"], ["--n", "4"],
                                   ["--dgamma", "0.5"], ["--load", "/nonexistent.npz"],
-                                  ["--x-min", "0"], ["--min-tail", "1"]])
+                                  ["--x-min", "0"], ["--min-tail", "1"],
+                                  ["--figure", "f.txt"]])
 def test_bad_arguments_exit_2(su, monkeypatch, argv):
     assert exit_code(su, argv, monkeypatch) == 2
 
