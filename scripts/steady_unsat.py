@@ -32,7 +32,8 @@ stays amorphous.
 
 ``--workers`` processes (one sample each at a time); ``--out F.npz`` keeps every size and
 balance (loadable with ``--load F.npz [G.npz ...]`` to reprint without shearing, each file's
-tables in turn; ``--pool`` pools the files' samples, e.g. the runs of one φ at other N).
+tables in turn; with ``--pool`` the files of each ``--load`` are pooled into one set, e.g. the
+runs of one φ at other N, and ``--load`` may be repeated: one set per φ).
 ``--figure F.png`` draws, one panel per run (or loaded file), each N's
 steady-state avalanche rate per particle, unit strain and unit ``ln S``, ``S n(S)``, in log
 bins (Poisson errors) with the transient's dashed: a flat curve is τ = 1, a slope ``1 − τ``
@@ -315,11 +316,12 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--x-min", type=float, nargs="*", default=[],
                     help="also τ of both protocols at these fixed x_min (ε)")
     ap.add_argument("--out", type=Path, default=None)
-    ap.add_argument("--load", type=Path, nargs="+", default=None,
-                    help="reprint the tables of these --out files instead of shearing")
+    ap.add_argument("--load", type=Path, nargs="+", action="append", default=None,
+                    help="reprint the tables of these --out files instead of shearing "
+                         "(repeatable: with --pool, one set per --load)")
     ap.add_argument("--pool", action="store_true",
-                    help="with several --load files (one φ, other N or seeds): one table and one "
-                         "panel of all their samples")
+                    help="pool the files of each --load (one φ, other N or seeds): one table "
+                         "and one panel per --load")
     ap.add_argument("--figure", type=Path, default=None,
                     help="draw S n(S) per N, one panel per run or loaded file (.png/.pdf/.svg)")
     a = ap.parse_args(argv)
@@ -330,16 +332,23 @@ def main(argv: list[str] | None = None) -> None:
         ap.error("--x-min needs values > 0")
     if a.min_tail < 2:
         ap.error("--min-tail: at least 2 (a power-law fit needs two sizes)")
+    if a.pool and a.load is None:
+        ap.error("--pool pools the files of --load")
     if a.load is not None:
-        missing = [f for f in a.load if not f.is_file()]
+        files = [f for group in a.load for f in group]
+        missing = [f for f in files if not f.is_file()]
         if missing:
             ap.error(f"--load {missing[0]}: no such file")
-        sets = [(f.stem, load(f)) for f in a.load]
-        if a.pool:
-            seen = [(r["n"], r["seed"]) for _, rs in sets for r in rs]
-            if len(set(seen)) < len(seen):
-                ap.error("--pool: a sample (N, seed) is in more than one --load file")
-            sets = [(" + ".join(name for name, _ in sets), [r for _, rs in sets for r in rs])]
+        if not a.pool:
+            sets = [(f.stem, load(f)) for f in files]
+        else:  # one set per --load
+            sets = []
+            for group in a.load:
+                results = [r for f in group for r in load(f)]
+                seen = [(r["n"], r["seed"]) for r in results]
+                if len(set(seen)) < len(seen):
+                    ap.error("--pool: a sample (N, seed) is in more than one file of a --load")
+                sets.append((" + ".join(f.stem for f in group), results))
         panels = []
         for name, results in sets:
             if len(sets) > 1:

@@ -63,6 +63,8 @@ def test_tiny_run_end_to_end_and_round_trip(su, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         su.main(["--load", str(out), str(out), "--pool"])
     assert e.value.code == 2
+    su.main(["--load", str(out), "--load", str(out), "--pool", "--min-tail", "2", "--boot", "5"])
+    assert capsys.readouterr().out.count("| steady | 16 (2) |") == 2  # one set per --load
     fig = tmp_path / "f.png"
     su.main(["--load", str(out), "--min-tail", "2", "--boot", "5", "--figure", str(fig)])
     assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -134,7 +136,7 @@ def test_rate_density_by_hand(su):
 @pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--samples", "0"], ["--n", "4"],
                                   ["--dgamma", "0.5"], ["--load", "/nonexistent.npz"],
                                   ["--x-min", "0"], ["--min-tail", "1"],
-                                  ["--figure", "f.txt"]])
+                                  ["--figure", "f.txt"], ["--pool"]])
 def test_bad_arguments_exit_2(su, monkeypatch, argv):
     assert exit_code(su, argv, monkeypatch) == 2
 
