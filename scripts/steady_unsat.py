@@ -128,12 +128,15 @@ def cutoff_scale(per_packing: list[np.ndarray], boot: int) -> tuple[float, float
 
 
 def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> None:
-    """The balance per N and protocol, τ per protocol (all N pooled and, with more than one N,
-    each N alone), and τ of both at each fixed ``x_min`` of ``x_mins`` (the same window for
-    both: the KS choice of each differs)."""
+    """The balance and the cut-off's scale per N and protocol (with more than one N its
+    power of N, β, by :func:`jamlab.analysis.fit_log_slope`), τ per protocol (all N pooled and,
+    with more than one N, each N alone), and τ of both at each fixed ``x_min`` of ``x_mins``
+    (the same window for both: the KS choice of each differs)."""
     from jamlab.analysis import fit_power_law
 
     sizes_n = sorted({r["n"] for r in results})
+    scales = {(name, n): cutoff_scale([r[name]["sizes"] for r in results if r["n"] == n], boot)
+              for name in PROTOCOLS for n in sizes_n}
     print("| protocol | N (samples) | avalanches | ⟨S⟩ (ε) | ⟨S²⟩/⟨S⟩ (ε) ± σ | work | given up "
           "| released | released / work | all minima converged |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -144,11 +147,21 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
             w, g, gam = np.array([r[name]["balance"] for r in rs]).sum(axis=0)
             exposure = n * gam
             mean = f"{s.mean():.3g}" if s.size else "—"
-            scale, err = cutoff_scale([r[name]["sizes"] for r in rs], boot)
+            scale, err = scales[name, n]
             print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {scale:.3g} ± {err:.2g} | "
                   f"{w / exposure:.3g} | {g / exposure:.3g} | {s.sum() / exposure:.3g} | "
                   f"{s.sum() / w:.2f} | {all(r[name]['converged'] for r in rs)} |")
     print("\n(work, given up, released: ε per particle per unit strain)\n")
+    if len(sizes_n) > 1:
+        from jamlab.analysis import fit_log_slope
+
+        for name in PROTOCOLS:
+            ok = [(n, *scales[name, n]) for n in sizes_n if scales[name, n][1] > 0]
+            if len(ok) > 1:
+                f = fit_log_slope(*np.array(ok).T)
+                print(f"{name}: ⟨S²⟩/⟨S⟩ ∝ N^β, β = {f.slope:.2f} ± {f.slope_err:.2f} "
+                      f"(weighted by the resample σ, {len(ok)} sizes)")
+        print()
     from jamlab.reproduce.amorphous import ORDERED_FRACTION as above
 
     print(f"| protocol | N | crystalline fraction at the window's start: mean, max, samples "

@@ -111,6 +111,24 @@ def test_cutoff_scale_by_hand(su):
     assert all(np.isnan(su.cutoff_scale([np.empty(0)], boot=5)))
 
 
+def test_cutoff_exponent_of_sizes_scaled_by_hand(su, capsys):
+    """Every size of N = 256 is twice its N = 64 twin, so ⟨S²⟩/⟨S⟩ doubles over a factor 4 of
+    N: β = 1/2 exactly for both protocols."""
+    rng = np.random.default_rng(5)
+    base = [rng.pareto(0.3, 8) + 1e-6 for _ in range(6)]
+
+    def result(n, sizes):
+        return {"n": n, "seed": int(n), "cpu": 0.0,
+                **{name: {"sizes": sizes, "balance": (1.0, 1.0, 0.1), "converged": True,
+                          "order": (0.0, 0.1, 0.0, 0.1)} for name in su.PROTOCOLS}}
+
+    results = [result(64, b) for b in base] + [result(256, 2.0 * b) for b in base]
+    su.table(results, boot=50, min_tail=5)
+    text = capsys.readouterr().out
+    for name in su.PROTOCOLS:
+        assert f"{name}: ⟨S²⟩/⟨S⟩ ∝ N^β, β = 0.50 ± " in text
+
+
 def test_rate_density_by_hand(su):
     """S n(S) in quarter-decade bins: counts / (N · strain · Δln S), the bins found from
     floor(4 log10 S) by hand; the other protocol and the other N left out."""
