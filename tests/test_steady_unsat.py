@@ -3,6 +3,8 @@ the results file's round trip, a tiny run end to end, and the refusals."""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -161,3 +163,32 @@ def test_bad_arguments_exit_2(su, monkeypatch, argv):
 
 def test_existing_out_is_not_overwritten(su, tmp_path, monkeypatch):
     assert_out_kept(su, tmp_path / "r.npz", monkeypatch)
+
+
+STEADY = Path(__file__).resolve().parents[1] / "data" / "steady"
+
+
+def readme_rows() -> dict[str, dict[int, int]]:
+    """``{file: {N: samples}}`` from the table of ``data/README.md`` on ``data/steady``: the N
+    of its ``--n`` and the count of its ``--samples``."""
+    text = (STEADY.parent / "README.md").read_text()
+    rows = {}
+    for m in re.finditer(r"^\| `steady/(\S+\.npz)` \| `([^`]*)`", text, re.M):
+        argv = m.group(2).split()
+        ns = [int(v) for v in argv[argv.index("--n") + 1:argv.index("--samples")]]
+        rows[m.group(1)] = {n: int(argv[argv.index("--samples") + 1]) for n in ns}
+    return rows
+
+
+def test_committed_results_files_are_what_the_readme_says(su):
+    rows = readme_rows()
+    assert sorted(rows) == sorted(p.name for p in STEADY.glob("*.npz"))
+    for name, counts in rows.items():
+        results = su.load(STEADY / name)
+        keys = [(r["n"], r["seed"]) for r in results]
+        assert len(set(keys)) == len(keys), name
+        assert {n: sum(1 for k in keys if k[0] == n) for n in counts} == counts, name
+        assert {k[0] for k in keys} == set(counts), name
+        for r in results:
+            for p in su.PROTOCOLS:
+                assert r[p]["converged"] and np.all(r[p]["sizes"] > 0), (name, r["seed"])
