@@ -127,11 +127,13 @@ def cutoff_scale(per_packing: list[np.ndarray], boot: int) -> tuple[float, float
     return float(second.sum() / first.sum()), float(np.std(draws)) if len(draws) > 1 else 0.0
 
 
-def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> None:
+def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = (),
+          x_maxs: tuple = ()) -> None:
     """The balance and the cut-off's scale per N and protocol (with more than one N its
     power of N, β, by :func:`jamlab.analysis.fit_log_slope`), τ per protocol (all N pooled and,
     with more than one N, each N alone), and τ of both at each fixed ``x_min`` of ``x_mins``
-    (the same window for both: the KS choice of each differs)."""
+    (the same window for both: the KS choice of each differs), truncated at each set's largest
+    size or, one table each, at every ``x_max`` of ``x_maxs``."""
     from jamlab.analysis import fit_power_law
 
     sizes_n = sorted({r["n"] for r in results})
@@ -197,21 +199,25 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = ()) -> 
                   f"{(hi - lo) / 3.92:.3f} | {fit.x_min:.3g} | {fit.n_tail} |")
     if not x_mins:
         return
-    print("\n| x_min (ε), fixed | N | " + " | ".join(f"τ {name} (95 %), tail, KS distance"
-                                                   for name in PROTOCOLS) + " |")
-    print("|---|---|" + "---|" * len(PROTOCOLS))
-    for x_min in x_mins:
-        for label, _ in groups:
-            cells = []
-            for name in PROTOCOLS:
-                s = pooled[name, label]
-                if np.count_nonzero(s >= x_min) < min_tail:
-                    cells.append(f"no data (fewer than {min_tail} sizes)")
-                    continue
-                fit = fit_power_law(s, x_min=x_min, x_max=float(s.max()), n_boot=boot, seed=0)
-                cells.append(f"{fit.tau:.3f} [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
-                             f"{fit.n_tail}, {fit.ks_distance:.3f}")
-            print(f"| {x_min:.3g} | {label} | " + " | ".join(cells) + " |")
+    for x_max in x_maxs or (None,):
+        print("\n(each fit truncated at " + ("its set's largest size" if x_max is None else
+                                            f"x_max = {x_max:.3g} ε") + ")")
+        print("| x_min (ε), fixed | N | " + " | ".join(f"τ {name} (95 %), tail, KS distance"
+                                                     for name in PROTOCOLS) + " |")
+        print("|---|---|" + "---|" * len(PROTOCOLS))
+        for x_min in x_mins:
+            for label, _ in groups:
+                cells = []
+                for name in PROTOCOLS:
+                    s = pooled[name, label]
+                    top = float(s.max(initial=0.0)) if x_max is None else x_max
+                    if x_min >= top or np.count_nonzero((s >= x_min) & (s <= top)) < min_tail:
+                        cells.append(f"no data (fewer than {min_tail} sizes)")
+                        continue
+                    fit = fit_power_law(s, x_min=x_min, x_max=top, n_boot=boot, seed=0)
+                    cells.append(f"{fit.tau:.3f} [{fit.ci_low:.3f}, {fit.ci_high:.3f}], "
+                                 f"{fit.n_tail}, {fit.ks_distance:.3f}")
+                print(f"| {x_min:.3g} | {label} | " + " | ".join(cells) + " |")
 
 
 def rate_density(results: list[dict], name: str, n: int, bins_per_decade: int = 4
@@ -328,6 +334,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--min-tail", type=int, default=50)
     ap.add_argument("--x-min", type=float, nargs="*", default=[],
                     help="also τ of both protocols at these fixed x_min (ε)")
+    ap.add_argument("--x-max", type=float, nargs="*", default=[],
+                    help="with --x-min: those fits truncated at these x_max (ε) instead of at "
+                         "the largest size, a table each")
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--load", type=Path, nargs="+", action="append", default=None,
                     help="reprint the tables of these --out files instead of shearing "
@@ -341,8 +350,10 @@ def main(argv: list[str] | None = None) -> None:
     from jamlab.runs import check_figure_path
 
     check_figure_path(ap, a.figure, [])
-    if any(not x > 0 for x in a.x_min):
-        ap.error("--x-min needs values > 0")
+    if any(not x > 0 for x in a.x_min + a.x_max):
+        ap.error("--x-min and --x-max need values > 0")
+    if a.x_max and not a.x_min:
+        ap.error("--x-max truncates the fits of --x-min: give --x-min too")
     if a.min_tail < 2:
         ap.error("--min-tail: at least 2 (a power-law fit needs two sizes)")
     if a.pool and a.load is None:
@@ -366,7 +377,7 @@ def main(argv: list[str] | None = None) -> None:
         for name, results in sets:
             if len(sets) > 1:
                 print(f"\n## {name}\n")
-            table(results, a.boot, a.min_tail, tuple(a.x_min))
+            table(results, a.boot, a.min_tail, tuple(a.x_min), tuple(a.x_max))
             panels.append((name, results))
         if a.figure is not None:
             figure(a.figure, panels)
@@ -393,7 +404,7 @@ def main(argv: list[str] | None = None) -> None:
           file=sys.stderr)
     if a.out is not None:
         save(a.out, results)
-    table(results, a.boot, a.min_tail, tuple(a.x_min))
+    table(results, a.boot, a.min_tail, tuple(a.x_min), tuple(a.x_max))
     if a.figure is not None:
         figure(a.figure, [(f"φ = {a.phi}, {a.sizes}", results)])
 

@@ -99,6 +99,15 @@ def test_each_size_alone(su, capsys):
         row = text.split(f"| 2e-05 | {label} | ")[1].split("\n")[0]
         assert row.count(f"], {tail}, ") == 2  # both protocols (the same sizes here)
         assert f"| steady | {label} | " in text
+    assert "(each fit truncated at its set's largest size)" in text
+    # truncated at x_max: the tails of [2e-5, 1e-3] counted by hand
+    su.table(results, boot=5, min_tail=10, x_mins=(2e-5,), x_maxs=(1e-3,))
+    text = capsys.readouterr().out.split("(each fit truncated at x_max = 0.001 ε)")[1]
+    for label, rs in (("all", results), ("64", results[:3]), ("128", results[3:])):
+        s = np.concatenate([r["steady"]["sizes"] for r in rs])
+        tail = int(np.count_nonzero((s >= 2e-5) & (s <= 1e-3)))
+        row = text.split(f"| 2e-05 | {label} | ")[1].split("\n")[0]
+        assert row.count(f"], {tail}, ") == 2 if tail >= 10 else row.startswith("no data")
 
 
 def test_cutoff_scale_by_hand(su):
@@ -156,7 +165,8 @@ def test_rate_density_by_hand(su):
 @pytest.mark.parametrize("argv", [["--phi", "0.3"], ["--samples", "0"], ["--n", "4"],
                                   ["--dgamma", "0.5"], ["--load", "/nonexistent.npz"],
                                   ["--x-min", "0"], ["--min-tail", "1"],
-                                  ["--figure", "f.txt"], ["--pool"]])
+                                  ["--figure", "f.txt"], ["--pool"],
+                                  ["--x-max", "1e-3"], ["--x-min", "1e-5", "--x-max", "0"]])
 def test_bad_arguments_exit_2(su, monkeypatch, argv):
     assert exit_code(su, argv, monkeypatch) == 2
 
