@@ -14,7 +14,8 @@ script shears the same packings twice, per ``(N, seed)``:
 
 and per protocol pools the avalanches by the report's rule
 (:func:`jamlab.analysis.avalanche_sizes`: plastic flags, ``ΔE < 0``, both minima jammed),
-prints the cut-off's scale ``⟨S²⟩/⟨S⟩`` per N (σ over packing resamples), the energy balance
+prints the cut-off's scale ``⟨S²⟩/⟨S⟩`` per N (with several N its σ over packing resamples and
+its power β, :func:`jamlab.analysis.fit_cutoff_scaling`), the energy balance
 per particle and unit strain (work of the shear
 ``Σ (γ_n − γ_{n−1}) Σ_{n−1}``, energy the packings give up ``E_0 − E_last``, released by the
 avalanches ``Σ S``), ``⟨S⟩`` per N, and τ by the report's fit
@@ -111,34 +112,29 @@ def one_sample(job: tuple) -> dict:
     return out
 
 
-def cutoff_scale(per_packing: list[np.ndarray], boot: int) -> tuple[float, float]:
-    """``⟨S²⟩/⟨S⟩`` of the pooled sizes — the cut-off's scale, whatever its shape, for τ < 2 —
-    and its σ over ``boot`` resamples of the packings (seed 0; 0 with one packing);
-    ``(nan, nan)`` without sizes."""
-    s = np.concatenate(per_packing) if per_packing else np.empty(0)
-    if s.size == 0 or not s.sum() > 0:
-        return float("nan"), float("nan")
-    second = np.array([(p**2).sum() for p in per_packing])
-    first = np.array([p.sum() for p in per_packing])
-    rng = np.random.default_rng(0)
-    draws = [second[i].sum() / first[i].sum()
-             for i in (rng.integers(0, len(first), len(first)) for _ in range(boot))
-             if first[i].sum() > 0]
-    return float(second.sum() / first.sum()), float(np.std(draws)) if len(draws) > 1 else 0.0
-
-
 def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = (),
           x_maxs: tuple = ()) -> None:
-    """The balance and the cut-off's scale per N and protocol (with more than one N its
-    power of N, β, by :func:`jamlab.analysis.fit_log_slope`), τ per protocol (all N pooled and,
-    with more than one N, each N alone), and τ of both at each fixed ``x_min`` of ``x_mins``
-    (the same window for both: the KS choice of each differs), truncated at each set's largest
-    size or, one table each, at every ``x_max`` of ``x_maxs``."""
-    from jamlab.analysis import fit_power_law
+    """The balance and the cut-off's scale per N and protocol (with more than one N its σ and
+    its power of N, β, by :func:`jamlab.analysis.fit_cutoff_scaling`), τ per protocol (all N
+    pooled and, with more than one N, each N alone), and τ of both at each fixed ``x_min`` of
+    ``x_mins`` (the same window for both: the KS choice of each differs), truncated at each
+    set's largest size or, one table each, at every ``x_max`` of ``x_maxs``."""
+    from jamlab.analysis import cutoff_size, fit_cutoff_scaling, fit_power_law
 
     sizes_n = sorted({r["n"] for r in results})
-    scales = {(name, n): cutoff_scale([r[name]["sizes"] for r in results if r["n"] == n], boot)
-              for name in PROTOCOLS for n in sizes_n}
+    # the cut-off's scale per N; with two N or more its σ and β by fit_cutoff_scaling (packing
+    # resamples), with one N only the value (the fit needs two sizes)
+    by_n = {(name, n): [r[name]["sizes"] for r in results if r["n"] == n]
+            for name in PROTOCOLS for n in sizes_n}
+    scales = {key: (cutoff_size(np.concatenate(packs)), float("nan"))
+              for key, packs in by_n.items()}
+    scaling = {}
+    for name in PROTOCOLS:
+        mine = {n: by_n[name, n] for n in sizes_n}
+        if sum(any(p.size for p in packs) for packs in mine.values()) > 1:
+            f = scaling[name] = fit_cutoff_scaling(mine, n_boot=max(boot, 2), seed=0)
+            scales.update({(name, int(n)): (float(c), float(e))
+                           for n, c, e in zip(f.n, f.cutoff, f.cutoff_err, strict=True)})
     print("| protocol | N (samples) | avalanches | ⟨S⟩ (ε) | ⟨S²⟩/⟨S⟩ (ε) ± σ | work | given up "
           "| released | released / work | all minima converged |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -150,19 +146,15 @@ def table(results: list[dict], boot: int, min_tail: int, x_mins: tuple = (),
             exposure = n * gam
             mean = f"{s.mean():.3g}" if s.size else "—"
             scale, err = scales[name, n]
-            print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {scale:.3g} ± {err:.2g} | "
+            scale = f"{scale:.3g}" + (f" ± {err:.2g}" if np.isfinite(err) else "")
+            print(f"| {name} | {n} ({len(rs)}) | {s.size} | {mean} | {scale} | "
                   f"{w / exposure:.3g} | {g / exposure:.3g} | {s.sum() / exposure:.3g} | "
                   f"{s.sum() / w:.2f} | {all(r[name]['converged'] for r in rs)} |")
     print("\n(work, given up, released: ε per particle per unit strain)\n")
-    if len(sizes_n) > 1:
-        from jamlab.analysis import fit_log_slope
-
-        for name in PROTOCOLS:
-            ok = [(n, *scales[name, n]) for n in sizes_n if scales[name, n][1] > 0]
-            if len(ok) > 1:
-                f = fit_log_slope(*np.array(ok).T)
-                print(f"{name}: ⟨S²⟩/⟨S⟩ ∝ N^β, β = {f.slope:.2f} ± {f.slope_err:.2f} "
-                      f"(weighted by the resample σ, {len(ok)} sizes)")
+    for name, f in scaling.items():
+        print(f"{name}: ⟨S²⟩/⟨S⟩ ∝ N^β, β = {f.beta:.2f} ± {f.beta_err:.2f} "
+              f"(jamlab.analysis.fit_cutoff_scaling, {f.n.size} sizes)")
+    if scaling:
         print()
     from jamlab.reproduce.amorphous import ORDERED_FRACTION as above
 
@@ -265,9 +257,9 @@ def figure(path: Path, panels: list[tuple[str, list[dict]]]) -> None:
                       label=f"N = {n}, transient")
             spans.append((x, y))
         if spans:
-            x0 = np.sqrt(min(x.min() for x, _ in spans) * max(x.max() for x, _ in spans))
-            y0 = float(np.median(np.concatenate([y for _, y in spans])))
-            g = np.geomspace(min(x.min() for x, _ in spans), max(x.max() for x, _ in spans))
+            lo, hi = min(x.min() for x, _ in spans), max(x.max() for x, _ in spans)
+            x0, y0 = np.sqrt(lo * hi), float(np.median(np.concatenate([y for _, y in spans])))
+            g = np.geomspace(lo, hi)
             ax.loglog(g, y0 * (g / x0) ** 0.0, "k:", lw=1, label="τ = 1")
             ax.loglog(g, y0 * (g / x0) ** -0.1, "k-.", lw=1, label="τ = 1.1")
             ax.legend(fontsize=6)
@@ -373,14 +365,12 @@ def main(argv: list[str] | None = None) -> None:
                 if len(set(seen)) < len(seen):
                     ap.error("--pool: a sample (N, seed) is in more than one file of a --load")
                 sets.append((" + ".join(f.stem for f in group), results))
-        panels = []
         for name, results in sets:
             if len(sets) > 1:
                 print(f"\n## {name}\n")
             table(results, a.boot, a.min_tail, tuple(a.x_min), tuple(a.x_max))
-            panels.append((name, results))
         if a.figure is not None:
-            figure(a.figure, panels)
+            figure(a.figure, sets)
         return
     if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
         ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")

@@ -110,16 +110,30 @@ def test_each_size_alone(su, capsys):
         assert row.count(f"], {tail}, ") == 2 if tail >= 10 else row.startswith("no data")
 
 
-def test_cutoff_scale_by_hand(su):
-    """⟨S²⟩/⟨S⟩ of two packings' sizes, and its packing resamples: each resample is one of
-    the four ordered pairs, so σ lies within half their range."""
-    per = [np.array([1.0, 2.0]), np.array([3.0])]
-    scale, err = su.cutoff_scale(per, boot=200)
-    assert scale == pytest.approx((1 + 4 + 9) / (1 + 2 + 3))
-    pairs = [10 / 6, 14 / 6, 18 / 6]  # (first, first), mixed, (second, second)
-    assert 0 < err <= (pairs[2] - pairs[0]) / 2
-    assert su.cutoff_scale([np.array([2.0])], boot=50) == (2.0, 0.0)
-    assert all(np.isnan(su.cutoff_scale([np.empty(0)], boot=5)))
+def test_cutoff_scale_by_hand(su, capsys):
+    """⟨S²⟩/⟨S⟩ per N in the balance table: two packings' sizes by hand; its σ over packing
+    resamples lies within what the three possible resamples allow (log σ at most half their
+    log range); with one N the value alone."""
+    import math
+
+    def result(n, seed, sizes):
+        return {"n": n, "seed": seed, "cpu": 0.0,
+                **{name: {"sizes": np.array(sizes), "balance": (1.0, 1.0, 0.1),
+                          "converged": True, "order": (0.0, 0.1, 0.0, 0.1)}
+                   for name in su.PROTOCOLS}}
+
+    results = [result(64, 0, [1.0, 2.0]), result(64, 1, [3.0]),
+               result(128, 0, [2.0, 4.0]), result(128, 1, [6.0])]
+    su.table(results, boot=200, min_tail=50)
+    text = capsys.readouterr().out
+    for n, value in ((64, (1 + 4 + 9) / (1 + 2 + 3)), (128, (4 + 16 + 36) / (2 + 4 + 6))):
+        cell = text.split(f"| steady | {n} (2) | 3 | ")[1].split(" | ")[1]
+        shown, err = (float(v) for v in cell.split(" ± "))
+        assert shown == pytest.approx(value, rel=1e-2)
+        assert 0 < err <= value * math.log(18 / 10) / 2
+    su.table(results[:2], boot=50, min_tail=50)
+    cell = capsys.readouterr().out.split("| steady | 64 (2) | 3 | ")[1].split(" | ")[1]
+    assert cell == f"{14 / 6:.3g}"  # one N: no resample σ
 
 
 def test_cutoff_exponent_of_sizes_scaled_by_hand(su, capsys):
