@@ -49,6 +49,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import textwrap
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -268,7 +269,7 @@ def figure(path: Path, panels: list[tuple[str, list[dict]]]) -> None:
                     transform=ax.transAxes, fontsize=8)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_title(title, fontsize=9)
+        ax.set_title(textwrap.fill(title, 50), fontsize=8)  # a pooled set names every file
         ax.set_xlabel("S (ε)")
     axes[0, 0].set_ylabel("S n(S): per particle, unit strain, unit ln S")
     fig.tight_layout()
