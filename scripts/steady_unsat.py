@@ -388,7 +388,7 @@ def main(argv: list[str] | None = None) -> None:
         results = [one_sample(j) for j in jobs]
     else:
         with ProcessPoolExecutor(a.workers) as ex:
-            results = list(ex.map(one_sample, jobs, chunksize=4))
+            results = list(ex.map(one_sample, jobs, chunksize=1))
     print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
           f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
           f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",

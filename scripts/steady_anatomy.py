@@ -1,0 +1,271 @@
+"""How far the steady state's avalanches reach: the anatomy of every counted avalanche of the
+bidisperse glass above jamming, against its size and the box.
+
+The steady protocol of ``scripts/steady_unsat.py`` (``prepare(n, 3, φ, seed, sizes=...)``,
+pre-sheared to ``--pre-strain`` in steps of ``--pre-dgamma`` without classification, then
+``--steps`` steps of ``--dgamma``), the last run with ``keep_avalanches=True``: every plastic
+step's event field (its non-affine displacement without the linear elastic response of the
+minimum before; ``docs/criticality.md``, "Avalanche anatomy"). Kept for each *counted*
+avalanche (plastic, both minima jammed, ``S = −ΔE > 0``: the steps ``steady_unsat.py``
+counts): ``S``, ``N_eff = PR · N`` (participation of the event field), the largest
+displacement, the contacts opened and closed, the particles moved by more than 1e-3 mean
+diameters, the localized flag (``N_eff ≤ 10``) and the elastic fraction subtracted.
+
+Printed per N: the share of localized events (of the events and of the released energy), the
+median ``N_eff`` and ``N_eff / N`` of all counted avalanches and of the largest tenth by ``S``,
+and the least-squares slopes of ``ln N_eff`` and of ``ln (contacts changed)`` on ``ln S`` over
+``S ≥ --s-min`` (σ from ``--boot`` resamples of the packings); over the sizes, the slope of
+``ln`` (the largest tenth's median ``N_eff``) on ``ln N``. ``--check FILE ...`` compares each
+sample's counted sizes with the same (N, seed) of ``steady_unsat.py`` result files, bit for bit
+(keeping the anatomy must not change the run, and a rerun must reproduce the committed data).
+
+    PYTHONPATH=src python scripts/steady_anatomy.py --phi 0.75 --n 128 256 512 --samples 20 \\
+        --workers 2 --pre-strain 0.5 --out anatomy_075.npz --check data/steady/bi075_n128_256.npz \\
+        data/steady/bi075_n512.npz
+    PYTHONPATH=src python scripts/steady_anatomy.py --load anatomy_075.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import numpy as np  # noqa: E402
+
+# the anatomy columns kept per counted avalanche (``trace.avalanches``), and S
+COLUMNS = ("n_eff", "max_displacement", "n_opened", "n_closed", "n_moved", "localized",
+           "elastic_fraction")
+
+
+def counted_rows(trace) -> np.ndarray:
+    """Trace rows ``n ≥ 1`` of the counted avalanches: the steps
+    :func:`jamlab.analysis.avalanche_sizes` selects with the plastic and jammed flags (the rule of
+    ``steady_unsat.counted_sizes``)."""
+    from jamlab.analysis.avalanches import classify_steps
+
+    mask = classify_steps(np.asarray(trace.energy_jump)[1:], np.asarray(trace.plastic)[1:],
+                          jammed=np.asarray(trace.jammed))
+    return np.flatnonzero(mask) + 1
+
+
+def records(trace) -> dict[str, np.ndarray]:
+    """``S`` and the :data:`COLUMNS` of the counted avalanches of a run with
+    ``keep_avalanches=True`` (each counted row is a plastic step, so it has a record)."""
+    rows = counted_rows(trace)
+    av = trace.avalanches
+    where = {int(s): k for k, s in enumerate(np.asarray(av["step"]))}
+    missing = [int(r) for r in rows if int(r) not in where]
+    if missing:
+        raise RuntimeError(f"counted steps without an anatomy record: {missing[:5]}")
+    k = np.array([where[int(r)] for r in rows], dtype=np.int64)
+    out = {"S": -np.asarray(trace.energy_jump, dtype=np.float64)[rows]}
+    for c in COLUMNS:
+        out[c] = np.asarray(av[c])[k]
+    return out
+
+
+def one_sample(job: tuple) -> dict:
+    """The steady protocol of ``steady_unsat.one_sample`` with the anatomy kept."""
+    from jamlab.spheres import aqs, prepare
+
+    n, phi, seed, dgamma, steps, pre_dgamma, pre_strain, sizes = job
+    t0 = time.process_time()
+    start = prepare(n, 3, phi, seed, sizes=sizes).packing
+    pre = aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
+    run = aqs.shear(pre.packing, dgamma, n_steps=steps, keep_avalanches=True)
+    out = {"n": n, "seed": seed, **records(run.trace),
+           "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12))}
+    out["cpu"] = time.process_time() - t0
+    return out
+
+
+def save(path: Path, results: list[dict]) -> None:
+    arrays = {}
+    for i, r in enumerate(results):
+        arrays[f"s{i}_meta"] = np.array([r["n"], r["seed"], r["cpu"], float(r["converged"])])
+        for c in ("S", *COLUMNS):
+            arrays[f"s{i}_{c}"] = np.asarray(r[c])
+    np.savez(path, **arrays)
+
+
+def load(path: Path) -> list[dict]:
+    z = np.load(path)
+    out, i = [], 0
+    while f"s{i}_meta" in z:
+        n, seed, cpu, conv = z[f"s{i}_meta"]
+        r = {"n": int(n), "seed": int(seed), "cpu": float(cpu), "converged": bool(conv)}
+        for c in ("S", *COLUMNS):
+            r[c] = z[f"s{i}_{c}"]
+        out.append(r)
+        i += 1
+    return out
+
+
+def log_slope(x: np.ndarray, y: np.ndarray) -> float:
+    """Least-squares slope of ``ln y`` on ``ln x`` (NaN with fewer than 3 points or one ``x``)."""
+    if x.size < 3 or np.ptp(np.log(x)) == 0:
+        return float("nan")
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def packing_slope(samples: list[dict], ycol, s_min: float, boot: int,
+                  rng: np.random.Generator) -> tuple[float, float, int]:
+    """``(slope, σ, points)``: :func:`log_slope` of ``ycol(sample)`` on ``S`` over the samples'
+    avalanches with ``S ≥ s_min`` and ``y > 0``; σ the standard deviation over ``boot``
+    resamples of the packings (with replacement)."""
+    parts = []
+    for r in samples:
+        s, y = np.asarray(r["S"], float), np.asarray(ycol(r), float)
+        keep = (s >= s_min) & (y > 0)
+        parts.append((s[keep], y[keep]))
+
+    def slope(idx):
+        s = np.concatenate([parts[i][0] for i in idx])
+        y = np.concatenate([parts[i][1] for i in idx])
+        return log_slope(s, y), s.size
+
+    best, points = slope(range(len(parts)))
+    draws = [slope(rng.integers(0, len(parts), len(parts)))[0] for _ in range(boot)]
+    draws = np.asarray(draws)
+    draws = draws[np.isfinite(draws)]
+    sigma = float(np.std(draws, ddof=1)) if draws.size > 1 else float("nan")
+    return best, sigma, points
+
+
+def changes(r: dict) -> np.ndarray:
+    """Contacts opened and closed in each counted avalanche of sample ``r``."""
+    return np.asarray(r["n_opened"]) + np.asarray(r["n_closed"])
+
+
+def top_tenth(samples: list[dict], ycol=lambda r: r["n_eff"]) -> np.ndarray:
+    """``ycol`` (default ``N_eff``) of the largest tenth of the pooled counted avalanches by
+    ``S``."""
+    s = np.concatenate([r["S"] for r in samples])
+    y = np.concatenate([np.asarray(ycol(r), float) for r in samples])
+    if s.size == 0:
+        return y
+    return y[s >= np.quantile(s, 0.9)]
+
+
+def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
+    rng = np.random.default_rng(seed)
+    ns = sorted({r["n"] for r in results})
+    print(f"| N (packings) | counted | localized: events / of S | median N_eff (N_eff/N) | "
+          f"largest tenth by S: median N_eff (N_eff/N) | median contacts changed | "
+          f"d ln N_eff / d ln S, S ≥ {s_min:g} (points) | d ln(changes) / d ln S |")
+    print("|---|---|---|---|---|---|---|---|")
+    tops, top_changes = [], []
+    for n in ns:
+        g = [r for r in results if r["n"] == n]
+        s = np.concatenate([r["S"] for r in g])
+        ne = np.concatenate([r["n_eff"] for r in g])
+        loc = np.concatenate([r["localized"] for r in g]).astype(bool)
+        ch = np.concatenate([changes(r) for r in g])
+        top = top_tenth(g)
+        tops.append(float(np.median(top)) if top.size else float("nan"))
+        top_changes.append(float(np.median(top_tenth(g, changes))) if top.size else float("nan"))
+        a, sa, m = packing_slope(g, lambda r: r["n_eff"], s_min, boot, rng)
+        b, sb, _ = packing_slope(g, changes, s_min, boot, rng)
+        shares = (f"{np.mean(loc):.1%} / {np.sum(s[loc]) / np.sum(s):.1%}" if s.size else "—")
+        med = f"{np.median(ne):.1f} ({np.median(ne) / n:.3f})" if s.size else "—"
+        medtop = f"{tops[-1]:.1f} ({tops[-1] / n:.3f})" if top.size else "—"
+        medch = f"{np.median(ch):.0f}" if s.size else "—"
+        print(f"| {n} ({len(g)}) | {s.size} | {shares} | {med} | {medtop} | {medch} | "
+              f"{a:.3f} ± {sa:.3f} ({m}) | {b:.3f} ± {sb:.3f} |")
+    if len(ns) >= 2 and all(np.isfinite(tops + top_changes)):
+        x = np.array(ns, float)
+        print(f"\nover N = {', '.join(map(str, ns))}, the largest tenth by S: slope of ln (median "
+              f"N_eff) on ln N {log_slope(x, np.array(tops)):.3f}, of ln (median contacts "
+              f"changed) {log_slope(x, np.array(top_changes)):.3f}")
+    bad = sum(not r["converged"] for r in results)
+    print(f"\nall minima converged: {bad == 0} ({bad} samples with a minimum at max|F| ≥ 1e-12)")
+
+
+def check(results: list[dict], files: list[Path]) -> int:
+    """Print how many samples' counted sizes equal those of the same (N, seed) in ``files``
+    (``steady_unsat.py`` results), bit for bit; returns the number that differ."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import steady_unsat
+
+    ref = {(r["n"], r["seed"]): r["steady"]["sizes"] for f in files for r in steady_unsat.load(f)}
+    same = differ = absent = 0
+    for r in results:
+        key = (r["n"], r["seed"])
+        if key not in ref:
+            absent += 1
+        elif np.array_equal(np.asarray(r["S"]), np.asarray(ref[key])):
+            same += 1
+        else:
+            differ += 1
+            print(f"N = {key[0]}, seed {key[1]}: counted sizes differ from the reference "
+                  f"({np.asarray(r['S']).size} against {np.asarray(ref[key]).size})")
+    print(f"--check: {same} samples identical bit for bit, {differ} differ, {absent} not in "
+          f"the reference files")
+    return differ
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--phi", type=float, default=0.75)
+    ap.add_argument("--n", type=int, nargs="+", default=[128, 256])
+    ap.add_argument("--samples", type=int, default=20)
+    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--dgamma", type=float, default=1e-4)
+    ap.add_argument("--steps", type=int, default=200)
+    ap.add_argument("--pre-dgamma", type=float, default=1e-3)
+    ap.add_argument("--pre-strain", type=float, default=0.5)
+    ap.add_argument("--sizes", default="bidisperse", choices=["mono", "bidisperse"])
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--boot", type=int, default=500)
+    ap.add_argument("--s-min", type=float, default=1e-5,
+                    help="the slopes use S ≥ this (ε): above the counting rule's rise")
+    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--load", type=Path, nargs="+", default=None,
+                    help="reprint the table of these --out files (pooled) instead of shearing")
+    ap.add_argument("--check", type=Path, nargs="+", default=None,
+                    help="steady_unsat.py result files: compare the counted sizes, same (N, seed)")
+    a = ap.parse_args(argv)
+    if not a.s_min > 0 or a.boot < 2:
+        ap.error("need --s-min > 0 and --boot >= 2")
+    for f in (a.load or []) + (a.check or []):
+        if not f.is_file():
+            ap.error(f"{f}: no such file")
+    if a.load is not None:
+        results = [r for f in a.load for r in load(f)]
+    else:
+        if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
+            ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
+        if not (0 < a.dgamma < a.pre_strain and 0 < a.pre_dgamma < a.pre_strain):
+            ap.error("need 0 < --dgamma, --pre-dgamma < --pre-strain")
+        if any(n < 8 for n in a.n):
+            ap.error("--n: at least 8 spheres")
+        if a.out is not None and a.out.exists():
+            ap.error(f"--out {a.out} exists (finished data is never overwritten)")
+        jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
+                for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
+        t0 = time.time()
+        if a.workers == 1:
+            results = [one_sample(j) for j in jobs]
+        else:
+            with ProcessPoolExecutor(a.workers) as ex:
+                results = list(ex.map(one_sample, jobs))
+        print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
+              f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
+              f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
+              file=sys.stderr)
+        if a.out is not None:
+            save(a.out, results)
+    table(results, a.s_min, a.boot)
+    if a.check is not None and check(results, a.check):
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,121 @@
+"""``scripts/steady_anatomy.py``: the counted avalanches equal those of ``steady_unsat.py``'s run
+without the anatomy (the same protocol by another path), the anatomy's records are those of the
+counted steps, the slopes against exact power laws, the file round trip, ``--check`` and the
+refusals."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from tests.script_helpers import assert_out_kept, exit_code, script_module
+
+
+@pytest.fixture(scope="module")
+def sa():
+    return script_module("steady_anatomy")
+
+
+@pytest.fixture(scope="module")
+def su():
+    return script_module("steady_unsat")
+
+
+JOB = (48, 0.8, 3, 1e-3, 60, 2e-3, 0.1, "bidisperse")
+
+
+@pytest.fixture(scope="module")
+def sample(sa):
+    return sa.one_sample(JOB)
+
+
+def test_counted_sizes_equal_steady_unsat(sa, su, sample):
+    """Keeping the anatomy changes nothing of the run: the counted sizes are bit for bit those
+    ``steady_unsat.one_sample`` counts on the same job (its run without ``keep_avalanches``)."""
+    ref = su.one_sample(JOB)["steady"]["sizes"]
+    assert ref.size >= 1  # the case has avalanches to compare
+    assert np.array_equal(sample["S"], ref)
+    n = JOB[0]
+    for c in sa.COLUMNS:
+        assert np.asarray(sample[c]).shape == sample["S"].shape
+    assert np.all((sample["n_eff"] >= 1 - 1e-12) & (sample["n_eff"] <= n + 1e-12))
+    assert np.array_equal(sample["localized"], sample["n_eff"] <= 10)
+    assert np.all(sample["n_moved"] <= n) and sample["converged"]
+
+
+def test_records_pick_the_counted_rows(sa):
+    """Rows 1–4: plastic drop (counted), plastic rise, elastic drop, plastic drop ending unjammed:
+    only row 1 counted, and its record found among the plastic rows' records."""
+    av = {"step": np.array([1, 2, 4])}
+    for k, c in enumerate(sa.COLUMNS):
+        av[c] = np.array([10.0 + k, 20.0 + k, 40.0 + k])
+    tr = SimpleNamespace(energy_jump=np.array([0.0, -2.0, 1.0, -3.0, -4.0]),
+                         plastic=np.array([False, True, True, False, True]),
+                         jammed=np.array([True, True, True, True, False]), avalanches=av)
+    assert sa.counted_rows(tr).tolist() == [1]
+    rec = sa.records(tr)
+    assert rec["S"].tolist() == [2.0]
+    assert [rec[c][0] for c in sa.COLUMNS] == [10.0 + k for k in range(len(sa.COLUMNS))]
+    tr.avalanches = {k: v[1:] for k, v in av.items()}  # the counted step's record missing
+    with pytest.raises(RuntimeError, match="without an anatomy record"):
+        sa.records(tr)
+
+
+def test_slopes_of_exact_power_laws(sa):
+    rng = np.random.default_rng(1)
+    s = 10.0 ** rng.uniform(-6, -1, 200)
+    assert sa.log_slope(s, 3.0 * s**0.5) == pytest.approx(0.5, abs=1e-12)
+    assert np.isnan(sa.log_slope(s[:2], s[:2]))
+    # packings with y = S^0.7 exactly: the slope, and σ zero to rounding whatever the resample;
+    # points below s_min or with y = 0 are left out
+    samples = []
+    for k in range(6):
+        ss = s[k * 30:(k + 1) * 30]
+        y = ss**0.7
+        y[0] = 0.0
+        samples.append({"S": ss, "n_eff": y})
+    slope, sigma, points = sa.packing_slope(samples, lambda r: r["n_eff"], 1e-5, 20, rng)
+    assert slope == pytest.approx(0.7, abs=1e-12) and sigma < 1e-10
+    assert points == sum(int(np.count_nonzero((r["S"] >= 1e-5) & (r["n_eff"] > 0)))
+                         for r in samples)
+
+
+def test_round_trip_table_and_check(sa, su, sample, tmp_path, capsys):
+    out = tmp_path / "a.npz"
+    sa.save(out, [sample])
+    back = sa.load(out)[0]
+    assert (back["n"], back["seed"], back["converged"]) == (JOB[0], JOB[2], True)
+    for c in ("S", *sa.COLUMNS):
+        assert np.array_equal(back[c], sample[c])
+    sa.table([back, {**back, "seed": 4}], 1e-9, 10)
+    text = capsys.readouterr().out
+    assert f"| {JOB[0]} (2) | {2 * sample['S'].size} |" in text
+    # --check against steady_unsat result files: the same sizes, then one changed
+    ref = tmp_path / "ref.npz"
+    entry = {"sizes": sample["S"], "balance": (0.0, 0.0, 0.0), "converged": True,
+             "order": (0.0,) * 4}
+    su.save(ref, [{"n": JOB[0], "seed": JOB[2], "cpu": 0.0,
+                   "transient": entry, "steady": entry}])
+    assert sa.check([back], [ref]) == 0
+    assert "1 samples identical bit for bit, 0 differ" in capsys.readouterr().out
+    changed = {**back, "S": back["S"] * (1 + 1e-15) + 1e-300}
+    assert sa.check([changed, {**back, "seed": 99}], [ref]) == 1
+    assert "0 samples identical bit for bit, 1 differ, 1 not in" in capsys.readouterr().out
+
+
+def test_refusals(sa, tmp_path, monkeypatch):
+    assert_out_kept(sa, tmp_path / "kept.npz", monkeypatch)
+    assert exit_code(sa, ["--load", str(tmp_path / "none.npz")], monkeypatch) == 2
+    assert exit_code(sa, ["--s-min", "0"], monkeypatch) == 2
+    assert exit_code(sa, ["--n", "4"], monkeypatch) == 2
+
+
+def test_top_tenth_by_hand(sa):
+    """The largest tenth by S of two packings' pooled avalanches (S = 1 … 20): S ≥ the 90 %
+    quantile 18.1, i.e. S = 19 and 20, whose N_eff and contacts changed are returned."""
+    s = np.arange(1.0, 21.0)
+    samples = [{"S": s[:10], "n_eff": 2 * s[:10], "n_opened": s[:10], "n_closed": 0 * s[:10]},
+               {"S": s[10:], "n_eff": 2 * s[10:], "n_opened": s[10:], "n_closed": 1 + 0 * s[10:]}]
+    assert sa.top_tenth(samples).tolist() == [38.0, 40.0]
+    assert sa.top_tenth(samples, sa.changes).tolist() == [20.0, 21.0]
