@@ -109,8 +109,8 @@ def load(path: Path) -> list[dict]:
 
 
 def log_slope(x: np.ndarray, y: np.ndarray) -> float:
-    """Least-squares slope of ``ln y`` on ``ln x`` (NaN with fewer than 3 points or one ``x``)."""
-    if x.size < 3 or np.ptp(np.log(x)) == 0:
+    """Least-squares slope of ``ln y`` on ``ln x`` (NaN with fewer than 2 points or one ``x``)."""
+    if x.size < 2 or np.ptp(np.log(x)) == 0:
         return float("nan")
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
@@ -154,6 +154,22 @@ def top_tenth(samples: list[dict], ycol=lambda r: r["n_eff"]) -> np.ndarray:
     return y[s >= np.quantile(s, 0.9)]
 
 
+def top_slope(groups: list[list[dict]], ycol, boot: int,
+              rng: np.random.Generator) -> tuple[float, float]:
+    """``(slope, σ)`` of ``ln`` (median ``ycol`` of the largest tenth by ``S``,
+    :func:`top_tenth`) on ``ln N`` over ``groups`` (the samples of one N each); σ the standard
+    deviation over ``boot`` draws that resample each group's packings (with replacement)."""
+    x = np.array([g[0]["n"] for g in groups], float)
+
+    def slope(gs):
+        return log_slope(x, np.array([np.median(top_tenth(g, ycol)) for g in gs]))
+
+    draws = np.array([slope([[g[i] for i in rng.integers(0, len(g), len(g))] for g in groups])
+                      for _ in range(boot)])
+    draws = draws[np.isfinite(draws)]
+    return slope(groups), float(np.std(draws, ddof=1)) if draws.size > 1 else float("nan")
+
+
 def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
     rng = np.random.default_rng(seed)
     ns = sorted({r["n"] for r in results})
@@ -180,10 +196,13 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
         print(f"| {n} ({len(g)}) | {s.size} | {shares} | {med} | {medtop} | {medch} | "
               f"{a:.3f} ± {sa:.3f} ({m}) | {b:.3f} ± {sb:.3f} |")
     if len(ns) >= 2 and all(np.isfinite(tops + top_changes)):
-        x = np.array(ns, float)
-        print(f"\nover N = {', '.join(map(str, ns))}, the largest tenth by S: slope of ln (median "
-              f"N_eff) on ln N {log_slope(x, np.array(tops)):.3f}, of ln (median contacts "
-              f"changed) {log_slope(x, np.array(top_changes)):.3f}")
+        groups = [[r for r in results if r["n"] == n] for n in ns]
+        parts = []
+        for name, ycol in (("N_eff", lambda r: r["n_eff"]), ("contacts changed", changes)):
+            b, sb = top_slope(groups, ycol, boot, rng)
+            parts.append(f"of ln (median {name}) {b:.3f} ± {sb:.3f}")
+        print(f"\nover N = {', '.join(map(str, ns))}, the largest tenth by S (σ: {boot} "
+              f"resamples of each N's packings): slope on ln N " + ", ".join(parts))
     bad = sum(not r["converged"] for r in results)
     print(f"\nall minima converged: {bad == 0} ({bad} samples with a minimum at max|F| ≥ 1e-12)")
 

@@ -66,7 +66,9 @@ def test_slopes_of_exact_power_laws(sa):
     rng = np.random.default_rng(1)
     s = 10.0 ** rng.uniform(-6, -1, 200)
     assert sa.log_slope(s, 3.0 * s**0.5) == pytest.approx(0.5, abs=1e-12)
-    assert np.isnan(sa.log_slope(s[:2], s[:2]))
+    assert sa.log_slope(np.array([1.0, 4.0]), np.array([3.0, 6.0])) == pytest.approx(0.5)
+    assert np.isnan(sa.log_slope(s[:1], s[:1]))
+    assert np.isnan(sa.log_slope(np.array([2.0, 2.0]), np.array([1.0, 3.0])))
     # packings with y = S^0.7 exactly: the slope, and σ zero to rounding whatever the resample;
     # points below s_min or with y = 0 are left out
     samples = []
@@ -119,3 +121,21 @@ def test_top_tenth_by_hand(sa):
                {"S": s[10:], "n_eff": 2 * s[10:], "n_opened": s[10:], "n_closed": 1 + 0 * s[10:]}]
     assert sa.top_tenth(samples).tolist() == [38.0, 40.0]
     assert sa.top_tenth(samples, sa.changes).tolist() == [20.0, 21.0]
+
+
+def test_top_slope_of_scaled_groups(sa):
+    """Each N's packings alike, N_eff = N/4 for every avalanche and contacts changed = 2 √N: the
+    slopes on ln N are 1 and 0.5 exactly, and every resample gives the same (σ 0)."""
+    rng = np.random.default_rng(2)
+    s = 10.0 ** rng.uniform(-6, -1, 30)
+
+    def group(n):
+        one = {"n": n, "S": s, "n_eff": np.full(30, n / 4), "n_opened": np.full(30, np.sqrt(n)),
+               "n_closed": np.full(30, np.sqrt(n))}
+        return [dict(one) for _ in range(4)]
+
+    groups = [group(64), group(256), group(1024)]
+    b, sb = sa.top_slope(groups, lambda r: r["n_eff"], 20, rng)
+    assert b == pytest.approx(1.0, abs=1e-12) and sb < 1e-12
+    b, sb = sa.top_slope(groups, sa.changes, 20, rng)
+    assert b == pytest.approx(0.5, abs=1e-12) and sb < 1e-12
