@@ -5,6 +5,8 @@ refusals."""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -139,3 +141,33 @@ def test_top_slope_of_scaled_groups(sa):
     assert b == pytest.approx(1.0, abs=1e-12) and sb < 1e-12
     b, sb = sa.top_slope(groups, sa.changes, 20, rng)
     assert b == pytest.approx(0.5, abs=1e-12) and sb < 1e-12
+
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def anatomy_rows() -> dict[str, tuple[dict[int, int], list[str]]]:
+    """``{file: ({N: samples}, --check files)}`` from the table of ``data/README.md`` on
+    ``data/anatomy``."""
+    rows = {}
+    text = (DATA / "README.md").read_text()
+    for m in re.finditer(r"^\| `anatomy/(\S+\.npz)` \| `([^`]*)`", text, re.M):
+        argv = m.group(2).split()
+        ns = [int(v) for v in argv[argv.index("--n") + 1:argv.index("--samples")]]
+        checks = argv[argv.index("--check") + 1:]
+        rows[m.group(1)] = ({n: int(argv[argv.index("--samples") + 1]) for n in ns}, checks)
+    return rows
+
+
+def test_committed_anatomy_files_are_what_the_readme_says(sa, capsys):
+    rows = anatomy_rows()
+    assert rows and sorted(rows) == sorted(p.name for p in (DATA / "anatomy").glob("*.npz"))
+    root = DATA.parent
+    for name, (counts, checks) in rows.items():
+        results = sa.load(DATA / "anatomy" / name)
+        keys = [(r["n"], r["seed"]) for r in results]
+        assert len(set(keys)) == len(keys), name
+        assert {n: sum(1 for k in keys if k[0] == n) for n in counts} == counts, name
+        assert all(r["converged"] for r in results), name
+        assert sa.check(results, [root / c for c in checks]) == 0, name
+        assert f"{len(results)} samples identical bit for bit" in capsys.readouterr().out
