@@ -15,9 +15,11 @@ Printed per N: the share of localized events (of the events and of the released 
 median ``N_eff`` and ``N_eff / N`` of all counted avalanches and of the largest tenth by ``S``,
 and the least-squares slopes of ``ln N_eff`` and of ``ln (contacts changed)`` on ``ln S`` over
 ``S ≥ --s-min`` (σ from ``--boot`` resamples of the packings); over the sizes, the slope of
-``ln`` (the largest tenth's median ``N_eff``) on ``ln N``. ``--check FILE ...`` compares each
-sample's counted sizes with the same (N, seed) of ``steady_unsat.py`` result files, bit for bit
-(keeping the anatomy must not change the run, and a rerun must reproduce the committed data).
+``ln`` (the largest tenth's median ``N_eff`` and contacts changed) on ``ln N``; then per N and
+decade of ``S`` the medians of ``N_eff``, contacts changed and the largest displacement.
+``--check FILE ...`` compares each sample's counted sizes with the same (N, seed) of
+``steady_unsat.py`` result files, bit for bit (keeping the anatomy must not change the run, and a
+rerun must reproduce the committed data).
 
     PYTHONPATH=src python scripts/steady_anatomy.py --phi 0.75 --n 128 256 512 --samples 20 \\
         --workers 2 --pre-strain 0.5 --out anatomy_075.npz --check data/steady/bi075_n128_256.npz \\
@@ -207,6 +209,27 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
     print(f"\nall minima converged: {bad == 0} ({bad} samples with a minimum at max|F| ≥ 1e-12)")
 
 
+def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
+    """Per N and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last − 1``): the counted
+    avalanches, and their median ``N_eff``, contacts changed and largest displacement."""
+    ks = range(first, last)
+    print("\n| N | " + " | ".join(f"S in [1e{k}, 1e{k + 1})" for k in ks) + " |")
+    print("|---" * (len(ks) + 1) + "|")
+    for n in sorted({r["n"] for r in results}):
+        g = [r for r in results if r["n"] == n]
+        s = np.concatenate([r["S"] for r in g])
+        cols = [np.concatenate([r["n_eff"] for r in g]), np.concatenate([changes(r) for r in g]),
+                np.concatenate([r["max_displacement"] for r in g])]
+        cells = []
+        for k in ks:
+            m = (s >= 10.0**k) & (s < 10.0 ** (k + 1))
+            cells.append(f"{m.sum()}: {np.median(cols[0][m]):.0f} / {np.median(cols[1][m]):.0f} "
+                         f"/ {np.median(cols[2][m]):.2g}" if m.any() else "0")
+        print(f"| {n} | " + " | ".join(cells) + " |")
+    print("\n(each cell: avalanches: median N_eff / contacts changed / largest displacement, "
+          "mean diameters)")
+
+
 def check(results: list[dict], files: list[Path]) -> int:
     """Print how many samples' counted sizes equal those of the same (N, seed) in ``files``
     (``steady_unsat.py`` results), bit for bit; returns the number that differ."""
@@ -282,6 +305,7 @@ def main(argv: list[str] | None = None) -> None:
         if a.out is not None:
             save(a.out, results)
     table(results, a.s_min, a.boot)
+    decades(results)
     if a.check is not None and check(results, a.check):
         sys.exit(1)
 

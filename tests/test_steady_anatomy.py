@@ -171,3 +171,14 @@ def test_committed_anatomy_files_are_what_the_readme_says(sa, capsys):
         assert all(r["converged"] for r in results), name
         assert sa.check(results, [root / c for c in checks]) == 0, name
         assert f"{len(results)} samples identical bit for bit" in capsys.readouterr().out
+
+
+def test_decades_by_hand(sa, capsys):
+    """Three avalanches of one N: two in [1e-3, 1e-2) (medians of 10 and 30, 4 and 8, 0.1 and
+    0.3), one in [1e-1, 1); the other decades empty."""
+    r = {"n": 64, "S": np.array([2e-3, 5e-3, 0.5]), "n_eff": np.array([10.0, 30.0, 60.0]),
+         "n_opened": np.array([3, 5, 9]), "n_closed": np.array([1, 3, 1]),
+         "max_displacement": np.array([0.1, 0.3, 0.9])}
+    sa.decades([r], -3, 0)
+    row = capsys.readouterr().out.split("| 64 | ")[1].split("\n")[0]
+    assert row == "2: 20 / 6 / 0.2 | 0 | 1: 60 / 10 / 0.9 |"
