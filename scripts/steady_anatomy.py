@@ -176,7 +176,8 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
     rng = np.random.default_rng(seed)
     ns = sorted({r["n"] for r in results})
     print(f"| N (packings) | counted | localized: events / of S | median N_eff (N_eff/N) | "
-          f"largest tenth by S: median N_eff (N_eff/N) | median contacts changed | "
+          f"largest tenth by S: median N_eff (N_eff/N) | median contacts changed: all / largest "
+          f"tenth | "
           f"d ln N_eff / d ln S, S ≥ {s_min:g} (points) | d ln(changes) / d ln S |")
     print("|---|---|---|---|---|---|---|---|")
     tops, top_changes = [], []
@@ -194,7 +195,7 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
         shares = (f"{np.mean(loc):.1%} / {np.sum(s[loc]) / np.sum(s):.1%}" if s.size else "—")
         med = f"{np.median(ne):.1f} ({np.median(ne) / n:.3f})" if s.size else "—"
         medtop = f"{tops[-1]:.1f} ({tops[-1] / n:.3f})" if top.size else "—"
-        medch = f"{np.median(ch):.0f}" if s.size else "—"
+        medch = f"{np.median(ch):.0f} / {top_changes[-1]:.0f}" if s.size else "—"
         print(f"| {n} ({len(g)}) | {s.size} | {shares} | {med} | {medtop} | {medch} | "
               f"{a:.3f} ± {sa:.3f} ({m}) | {b:.3f} ± {sb:.3f} |")
     if len(ns) >= 2 and all(np.isfinite(tops + top_changes)):
