@@ -231,6 +231,44 @@ def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
           "mean diameters)")
 
 
+def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> None:
+    """Two panels against ``S``: ``N_eff`` and the contacts changed of every counted avalanche
+    (points, one colour per N) with their medians per decade of ``S`` (lines)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.9))
+    cols = (("N_eff = PR · N", lambda r: np.asarray(r["n_eff"], float)),
+            ("contacts opened + closed", lambda r: changes(r).astype(float)))
+    edges = 10.0 ** np.arange(first, last + 1)
+    for ax, (label, ycol) in zip(axes, cols, strict=True):
+        for n in sorted({r["n"] for r in results}):
+            g = [r for r in results if r["n"] == n]
+            s = np.concatenate([r["S"] for r in g])
+            y = np.concatenate([ycol(r) for r in g])
+            keep = y > 0
+            dots = ax.loglog(s[keep], y[keep], ".", ms=2.5, alpha=0.35)[0]
+            mid, med = [], []
+            for a, b in zip(edges[:-1], edges[1:], strict=True):
+                m = (s >= a) & (s < b) & keep
+                if m.sum() >= 3:
+                    mid.append(np.sqrt(a * b))
+                    med.append(np.median(y[m]))
+            ax.loglog(mid, med, "o-", ms=4, lw=1.2, color=dots.get_color(),
+                      label=f"N = {n} ({s.size}), median per decade")
+        ax.set_xlabel("S (ε)")
+        ax.set_ylabel(label)
+        ax.legend(fontsize=7)
+    fig.suptitle("counted avalanches of the steady state: event field's extent against size",
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    print(f"\nfigure: {path}")
+
+
 def check(results: list[dict], files: list[Path]) -> int:
     """Print how many samples' counted sizes equal those of the same (N, seed) in ``files``
     (``steady_unsat.py`` results), bit for bit; returns the number that differ."""
@@ -272,9 +310,14 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--load", type=Path, nargs="+", default=None,
                     help="reprint the table of these --out files (pooled) instead of shearing")
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="draw N_eff and the contacts changed against S (.png/.pdf/.svg)")
     ap.add_argument("--check", type=Path, nargs="+", default=None,
                     help="steady_unsat.py result files: compare the counted sizes, same (N, seed)")
     a = ap.parse_args(argv)
+    from jamlab.runs import check_figure_path
+
+    check_figure_path(ap, a.figure, [])
     if not a.s_min > 0 or a.boot < 2:
         ap.error("need --s-min > 0 and --boot >= 2")
     for f in (a.load or []) + (a.check or []):
@@ -307,6 +350,8 @@ def main(argv: list[str] | None = None) -> None:
             save(a.out, results)
     table(results, a.s_min, a.boot)
     decades(results)
+    if a.figure is not None:
+        figure(a.figure, results)
     if a.check is not None and check(results, a.check):
         sys.exit(1)
 

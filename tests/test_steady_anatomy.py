@@ -92,6 +92,10 @@ def test_round_trip_table_and_check(sa, su, sample, tmp_path, capsys):
     assert (back["n"], back["seed"], back["converged"]) == (JOB[0], JOB[2], True)
     for c in ("S", *sa.COLUMNS):
         assert np.array_equal(back[c], sample[c])
+    fig = tmp_path / "f.png"
+    sa.main(["--load", str(out), "--boot", "5", "--figure", str(fig)])
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    capsys.readouterr()
     sa.table([back, {**back, "seed": 4}], 1e-9, 10)
     text = capsys.readouterr().out
     assert f"| {JOB[0]} (2) | {2 * sample['S'].size} |" in text
@@ -113,6 +117,7 @@ def test_refusals(sa, tmp_path, monkeypatch):
     assert exit_code(sa, ["--load", str(tmp_path / "none.npz")], monkeypatch) == 2
     assert exit_code(sa, ["--s-min", "0"], monkeypatch) == 2
     assert exit_code(sa, ["--n", "4"], monkeypatch) == 2
+    assert exit_code(sa, ["--figure", str(tmp_path / "f.txt")], monkeypatch) == 2
 
 
 def test_top_tenth_by_hand(sa):
