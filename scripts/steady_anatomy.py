@@ -33,13 +33,16 @@ import argparse
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ.setdefault(_v, "1")
 
 import numpy as np  # noqa: E402
+
+# the steady protocol, its arguments, its job runner and its result files: one implementation
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import steady_unsat  # noqa: E402
 
 # the anatomy columns kept per counted avalanche (``trace.avalanches``), and S
 COLUMNS = ("n_eff", "max_displacement", "n_opened", "n_closed", "n_moved", "localized",
@@ -75,12 +78,11 @@ def records(trace) -> dict[str, np.ndarray]:
 
 def one_sample(job: tuple) -> dict:
     """The steady protocol of ``steady_unsat.one_sample`` with the anatomy kept."""
-    from jamlab.spheres import aqs, prepare
+    from jamlab.spheres import aqs
 
-    n, phi, seed, dgamma, steps, pre_dgamma, pre_strain, sizes = job
+    n, _, seed, dgamma, steps, _, _, _ = job
     t0 = time.process_time()
-    start = prepare(n, 3, phi, seed, sizes=sizes).packing
-    pre = aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
+    _, pre = steady_unsat.steady_start(job)
     run = aqs.shear(pre.packing, dgamma, n_steps=steps, keep_avalanches=True)
     out = {"n": n, "seed": seed, **records(run.trace),
            "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12))}
@@ -272,9 +274,6 @@ def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> N
 def check(results: list[dict], files: list[Path]) -> int:
     """Print how many samples' counted sizes equal those of the same (N, seed) in ``files``
     (``steady_unsat.py`` results), bit for bit; returns the number that differ."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import steady_unsat
-
     ref = {(r["n"], r["seed"]): r["steady"]["sizes"] for f in files for r in steady_unsat.load(f)}
     same = differ = absent = 0
     for r in results:
@@ -294,16 +293,7 @@ def check(results: list[dict], files: list[Path]) -> int:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--phi", type=float, default=0.75)
-    ap.add_argument("--n", type=int, nargs="+", default=[128, 256])
-    ap.add_argument("--samples", type=int, default=20)
-    ap.add_argument("--first-seed", type=int, default=1)
-    ap.add_argument("--dgamma", type=float, default=1e-4)
-    ap.add_argument("--steps", type=int, default=200)
-    ap.add_argument("--pre-dgamma", type=float, default=1e-3)
-    ap.add_argument("--pre-strain", type=float, default=0.5)
-    ap.add_argument("--sizes", default="bidisperse", choices=["mono", "bidisperse"])
-    ap.add_argument("--workers", type=int, default=1)
+    steady_unsat.add_protocol_arguments(ap, samples=20, pre_strain=0.5, sizes="bidisperse")
     ap.add_argument("--boot", type=int, default=500)
     ap.add_argument("--s-min", type=float, default=1e-5,
                     help="the slopes use S ≥ this (ε): above the counting rule's rise")
@@ -326,26 +316,7 @@ def main(argv: list[str] | None = None) -> None:
     if a.load is not None:
         results = [r for f in a.load for r in load(f)]
     else:
-        if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
-            ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
-        if not (0 < a.dgamma < a.pre_strain and 0 < a.pre_dgamma < a.pre_strain):
-            ap.error("need 0 < --dgamma, --pre-dgamma < --pre-strain")
-        if any(n < 8 for n in a.n):
-            ap.error("--n: at least 8 spheres")
-        if a.out is not None and a.out.exists():
-            ap.error(f"--out {a.out} exists (finished data is never overwritten)")
-        jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
-                for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
-        t0 = time.time()
-        if a.workers == 1:
-            results = [one_sample(j) for j in jobs]
-        else:
-            with ProcessPoolExecutor(a.workers) as ex:
-                results = list(ex.map(one_sample, jobs))
-        print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
-              f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
-              f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
-              file=sys.stderr)
+        results = steady_unsat.run_jobs(ap, a, one_sample)
         if a.out is not None:
             save(a.out, results)
     table(results, a.s_min, a.boot)

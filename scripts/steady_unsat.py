@@ -91,17 +91,28 @@ def order_of(packing) -> tuple[float, float]:
     return o.crystalline_fraction, o.global_q
 
 
+def steady_start(job: tuple):
+    """``(start, pre)``: the quench ``prepare(n, 3, phi, seed, sizes=sizes)`` and its pre-shear
+    to ``pre_strain`` in steps of ``pre_dgamma`` without classification (the steady window
+    starts from ``pre.packing``); ``job`` as :func:`one_sample`'s. Shared with
+    ``steady_anatomy.py``."""
+    from jamlab.spheres import aqs, prepare
+
+    n, phi, seed, _, _, pre_dgamma, pre_strain, sizes = job
+    start = prepare(n, 3, phi, seed, sizes=sizes).packing
+    return start, aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
+
+
 def one_sample(job: tuple) -> dict:
     """Both protocols on ``prepare(n, 3, phi, seed, sizes=sizes)``: per protocol the counted
     sizes, the balance and the order at the window's start and end, and the CPU seconds."""
-    from jamlab.spheres import aqs, prepare
+    from jamlab.spheres import aqs
 
     n, phi, seed, dgamma, steps, pre_dgamma, pre_strain, sizes = job
     t0 = time.process_time()
-    start = prepare(n, 3, phi, seed, sizes=sizes).packing
+    start, pre = steady_start(job)
     out = {"n": n, "seed": seed}
     transient = aqs.shear(start, dgamma, n_steps=steps)
-    pre = aqs.shear(start, pre_dgamma, gamma_max=pre_strain, classify=False)
     steady = aqs.shear(pre.packing, dgamma, n_steps=steps)
     for name, first, run in zip(PROTOCOLS, (start, pre.packing), (transient, steady),
                                 strict=True):
@@ -310,19 +321,53 @@ def load(path: Path) -> list[dict]:
     return out
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def add_protocol_arguments(ap: argparse.ArgumentParser, *, samples: int, pre_strain: float,
+                           sizes: str) -> None:
+    """The protocol's arguments (φ, N, seeds, strain steps, pre-shear, sizes, workers), with the
+    defaults that differ between this script and ``steady_anatomy.py`` given."""
     ap.add_argument("--phi", type=float, default=0.75)
     ap.add_argument("--n", type=int, nargs="+", default=[128, 256])
-    ap.add_argument("--samples", type=int, default=120)
+    ap.add_argument("--samples", type=int, default=samples)
     ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--dgamma", type=float, default=1e-4)
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--pre-dgamma", type=float, default=1e-3)
-    ap.add_argument("--pre-strain", type=float, default=0.2)
-    ap.add_argument("--sizes", default="mono", choices=["mono", "bidisperse"],
+    ap.add_argument("--pre-strain", type=float, default=pre_strain)
+    ap.add_argument("--sizes", default=sizes, choices=["mono", "bidisperse"],
                     help="diameters of the prepared packings (SPEC §5)")
     ap.add_argument("--workers", type=int, default=1)
+
+
+def run_jobs(ap: argparse.ArgumentParser, a: argparse.Namespace, sample) -> list[dict]:
+    """``sample(job)`` for every (N, seed) of the arguments of :func:`add_protocol_arguments`
+    (refused with ``ap.error`` where they are out of range, or ``a.out`` exists), on
+    ``a.workers`` processes one job at a time, in order; the run's cost printed to stderr."""
+    if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
+        ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
+    if not (0 < a.dgamma < a.pre_strain and 0 < a.pre_dgamma < a.pre_strain):
+        ap.error("need 0 < --dgamma, --pre-dgamma < --pre-strain")
+    if any(n < 8 for n in a.n):
+        ap.error("--n: at least 8 spheres")
+    if a.out is not None and a.out.exists():
+        ap.error(f"--out {a.out} exists (finished data is never overwritten)")
+    jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
+            for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
+    t0 = time.time()
+    if a.workers == 1:
+        results = [sample(j) for j in jobs]
+    else:
+        with ProcessPoolExecutor(a.workers) as ex:
+            results = list(ex.map(sample, jobs, chunksize=1))
+    print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
+          f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
+          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
+          file=sys.stderr)
+    return results
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_protocol_arguments(ap, samples=120, pre_strain=0.2, sizes="mono")
     ap.add_argument("--boot", type=int, default=200)
     ap.add_argument("--min-tail", type=int, default=50)
     ap.add_argument("--x-min", type=float, nargs="*", default=[],
@@ -373,26 +418,7 @@ def main(argv: list[str] | None = None) -> None:
         if a.figure is not None:
             figure(a.figure, sets)
         return
-    if not (0.5 < a.phi < 1.0) or a.samples < 1 or a.steps < 1 or a.workers < 1:
-        ap.error("need 0.5 < --phi < 1, --samples, --steps and --workers >= 1")
-    if not (0 < a.dgamma < a.pre_strain and 0 < a.pre_dgamma < a.pre_strain):
-        ap.error("need 0 < --dgamma, --pre-dgamma < --pre-strain")
-    if any(n < 8 for n in a.n):
-        ap.error("--n: at least 8 spheres")
-    if a.out is not None and a.out.exists():
-        ap.error(f"--out {a.out} exists (finished data is never overwritten)")
-    jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
-            for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
-    t0 = time.time()
-    if a.workers == 1:
-        results = [one_sample(j) for j in jobs]
-    else:
-        with ProcessPoolExecutor(a.workers) as ex:
-            results = list(ex.map(one_sample, jobs, chunksize=1))
-    print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
-          f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
-          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
-          file=sys.stderr)
+    results = run_jobs(ap, a, one_sample)
     if a.out is not None:
         save(a.out, results)
     table(results, a.boot, a.min_tail, tuple(a.x_min), tuple(a.x_max))
