@@ -9,14 +9,19 @@ minimum before; ``docs/criticality.md``, "Avalanche anatomy"). Kept for each *co
 avalanche (plastic, both minima jammed, ``S = −ΔE > 0``: the steps ``steady_unsat.py``
 counts): ``S``, ``N_eff = PR · N`` (participation of the event field), the largest
 displacement, the contacts opened and closed, the particles moved by more than 1e-3 mean
-diameters, the localized flag (``N_eff ≤ 10``) and the elastic fraction subtracted.
+diameters, the localized flag (``N_eff ≤ 10``), the elastic fraction subtracted, and the extent
+(principal radii of gyration ``r1 ≥ r2 ≥ r3`` weighted by ``|u|⁴``, and the axis of ``r3``:
+``jamlab.analysis.anatomy.event_extent``) beside the radii of the same weights and distances
+at random directions (:func:`isotropised`), and the box side.
 
 Printed per N: the share of localized events (of the events and of the released energy), the
 median ``N_eff`` and ``N_eff / N`` of all counted avalanches and of the largest tenth by ``S``,
 and the least-squares slopes of ``ln N_eff`` and of ``ln (contacts changed)`` on ``ln S`` over
 ``S ≥ --s-min`` (σ from ``--boot`` resamples of the packings); over the sizes, the slope of
 ``ln`` (the largest tenth's median ``N_eff`` and contacts changed) on ``ln N``; then per N and
-decade of ``S`` the medians of ``N_eff``, contacts changed and the largest displacement.
+decade of ``S`` the medians of ``N_eff``, contacts changed and the largest displacement; then
+the shapes (:func:`shapes`): ``r1/L``, ``r2/r1`` and ``r3/r1`` against the isotropised
+reference, and the thin axis's direction.
 ``--check FILE ...`` compares each sample's counted sizes with the same (N, seed) of
 ``steady_unsat.py`` result files, bit for bit (keeping the anatomy must not change the run, and a
 rerun must reproduce the committed data).
@@ -46,7 +51,9 @@ import steady_unsat  # noqa: E402
 
 # the anatomy columns kept per counted avalanche (``trace.avalanches``), and S
 COLUMNS = ("n_eff", "max_displacement", "n_opened", "n_closed", "n_moved", "localized",
-           "elastic_fraction")
+           "elastic_fraction", "radii", "thin_axis")
+# per counted avalanche: the radii of its own weights at random directions (the reference)
+NULL = "isotropised_radii"
 
 
 def counted_rows(trace) -> np.ndarray:
@@ -76,16 +83,58 @@ def records(trace) -> dict[str, np.ndarray]:
     return out
 
 
+def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
+    """``(radii, n_moved)`` of the counted avalanches: the reference radii
+    (:func:`jamlab.analysis.anatomy.isotropised_radii`) of each event field, rebuilt from the
+    trace's stored displacements (a run with ``avalanche_threshold=0``: every particle that
+    moved) at the positions of the minimum before (``before[row] = (positions, box side,
+    strain)``), and the particles with ``|u| >`` :data:`~jamlab.spheres.aqs.anatomy.
+    MOVED_THRESHOLD` (the recorder's ``n_moved`` at its default). The extent recomputed from the
+    same field must equal the recorded one (``RuntimeError`` otherwise: the field or the
+    positions would not be the recorder's)."""
+    from jamlab.analysis.anatomy import event_extent, isotropised_radii
+    from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
+
+    av = trace.avalanches
+    where = {int(s): k for k, s in enumerate(np.asarray(av["step"]))}
+    off = np.asarray(av["moved_offsets"])
+    radii, moved = [], []
+    for row in counted_rows(trace):
+        k = where[int(row)]
+        pos, length, strain = before[int(row)]
+        u = np.zeros_like(pos)
+        u[av["moved_index"][off[k]:off[k + 1]]] = av["moved_displacement"][off[k]:off[k + 1]]
+        if not np.allclose(event_extent(u, pos, length, strain)[0], av["radii"][k],
+                           rtol=1e-12, atol=0.0, equal_nan=True):
+            raise RuntimeError(f"row {row}: the rebuilt field does not give the recorded extent")
+        radii.append(isotropised_radii(u, pos, length, strain, rng))
+        moved.append(int(np.count_nonzero(np.sqrt(np.einsum("ij,ij->i", u, u))
+                                          > MOVED_THRESHOLD)))
+    dim = np.asarray(av["moved_displacement"]).reshape(off[-1], -1).shape[1] if off[-1] else 3
+    return np.asarray(radii, dtype=np.float64).reshape(-1, dim), np.asarray(moved)
+
+
 def one_sample(job: tuple) -> dict:
-    """The steady protocol of ``steady_unsat.one_sample`` with the anatomy kept."""
+    """The steady protocol of ``steady_unsat.one_sample`` with the anatomy kept (every moved
+    particle's displacement, and the minima before the plastic steps: :func:`isotropised`)."""
     from jamlab.spheres import aqs
 
     n, _, seed, dgamma, steps, _, _, _ = job
     t0 = time.process_time()
     _, pre = steady_unsat.steady_start(job)
-    run = aqs.shear(pre.packing, dgamma, n_steps=steps, keep_avalanches=True)
+    before, row = {}, [0]
+
+    def keep_before(prev, new, step):
+        row[0] += 1
+        if step.plastic:
+            before[row[0]] = (np.array(prev.positions), prev.box.length, prev.strain)
+
+    run = aqs.shear(pre.packing, dgamma, n_steps=steps, keep_avalanches=True,
+                    avalanche_threshold=0.0, after_step=keep_before)
     out = {"n": n, "seed": seed, **records(run.trace),
-           "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12))}
+           "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12)),
+           "length": float(run.packing.box.length)}
+    out[NULL], out["n_moved"] = isotropised(run.trace, before, np.random.default_rng(seed))
     out["cpu"] = time.process_time() - t0
     return out
 
@@ -93,8 +142,9 @@ def one_sample(job: tuple) -> dict:
 def save(path: Path, results: list[dict]) -> None:
     arrays = {}
     for i, r in enumerate(results):
-        arrays[f"s{i}_meta"] = np.array([r["n"], r["seed"], r["cpu"], float(r["converged"])])
-        for c in ("S", *COLUMNS):
+        arrays[f"s{i}_meta"] = np.array([r["n"], r["seed"], r["cpu"], float(r["converged"]),
+                                         r["length"]])
+        for c in ("S", *COLUMNS, NULL):
             arrays[f"s{i}_{c}"] = np.asarray(r[c])
     np.savez(path, **arrays)
 
@@ -103,10 +153,14 @@ def load(path: Path) -> list[dict]:
     z = np.load(path)
     out, i = [], 0
     while f"s{i}_meta" in z:
-        n, seed, cpu, conv = z[f"s{i}_meta"]
-        r = {"n": int(n), "seed": int(seed), "cpu": float(cpu), "converged": bool(conv)}
-        for c in ("S", *COLUMNS):
-            r[c] = z[f"s{i}_{c}"]
+        meta = z[f"s{i}_meta"]
+        n, seed, cpu, conv = meta[:4]
+        r = {"n": int(n), "seed": int(seed), "cpu": float(cpu), "converged": bool(conv),
+             "length": float(meta[4]) if meta.size > 4 else float("nan")}
+        for c in ("S", *COLUMNS, NULL):
+            # files written before the extent existed: NaN radii and axes
+            r[c] = (z[f"s{i}_{c}"] if f"s{i}_{c}" in z
+                    else np.full((z[f"s{i}_S"].size, 3), np.nan))
         out.append(r)
         i += 1
     return out
@@ -212,6 +266,55 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
     print(f"\nall minima converged: {bad == 0} ({bad} samples with a minimum at max|F| ≥ 1e-12)")
 
 
+def shape_rows(samples: list[dict], top: bool = False) -> dict[str, np.ndarray]:
+    """Pooled over ``samples`` (the largest tenth by ``S`` if ``top``): ``r1/L`` (largest
+    radius over the box side), the ratios ``r2/r1``, ``r3/r1`` of the avalanches and of their
+    isotropised references (``null2``, ``null3``), and ``|n|`` the thin axis's components (rows
+    with finite radii only)."""
+    s = np.concatenate([r["S"] for r in samples])
+    radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in samples])
+    null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in samples])
+    axis = np.concatenate([np.asarray(r["thin_axis"], float).reshape(-1, 3) for r in samples])
+    length = np.concatenate([np.full(np.asarray(r["S"]).size, r["length"]) for r in samples])
+    keep = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+    if top and s.size:
+        keep &= s >= np.quantile(s, 0.9)
+    radii, null, axis, length = radii[keep], null[keep], axis[keep], length[keep]
+    return {"r1L": radii[:, 0] / length, "r1": radii[:, 0], "r2": radii[:, 1] / radii[:, 0],
+            "r3": radii[:, 2] / radii[:, 0], "null2": null[:, 1] / null[:, 0],
+            "null3": null[:, 2] / null[:, 0], "axis": np.abs(axis)}
+
+
+def shapes(results: list[dict]) -> None:
+    """Per N, all counted avalanches and the largest tenth by ``S``: the medians of ``r1/L``,
+    ``r2/r1`` and ``r3/r1`` against those of the isotropised references (the same weights and
+    distances at random directions; Mann–Whitney p of ``r3/r1`` below the reference's), and the
+    median ``|n_a|`` of
+    the thin axis along flow ``x``, gradient ``y`` and vorticity ``z`` (uniform on [0, 1] for no
+    preferred direction: median 0.5; KS p of ``|n_y|`` against it)."""
+    from scipy import stats
+
+    print("\n| N | which (events) | median r1/L | r2/r1: avalanches / isotropised | r3/r1: "
+          "avalanches / isotropised (p, one-sided) | thin axis median |n_x|, |n_y|, |n_z| "
+          "(KS p of |n_y|) |")
+    print("|---|---|---|---|---|---|")
+    for n in sorted({r["n"] for r in results}):
+        g = [r for r in results if r["n"] == n]
+        for top in (False, True):
+            v = shape_rows(g, top)
+            which = "largest tenth" if top else "all"
+            if v["r1"].size < 3:
+                print(f"| {n} | {which} ({v['r1'].size}) | — | — | — | — |")
+                continue
+            p3 = stats.mannwhitneyu(v["r3"], v["null3"], alternative="less").pvalue
+            ks = stats.kstest(v["axis"][:, 1], "uniform").pvalue
+            ax = " / ".join(f"{np.median(v['axis'][:, a]):.2f}" for a in range(3))
+            print(f"| {n} | {which} ({v['r1'].size}) | {np.median(v['r1L']):.3f} | "
+                  f"{np.median(v['r2']):.2f} / {np.median(v['null2']):.2f} | "
+                  f"{np.median(v['r3']):.2f} / {np.median(v['null3']):.2f} ({p3:.2g}) | "
+                  f"{ax} ({ks:.2g}) |")
+
+
 def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
     """Per N and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last − 1``): the counted
     avalanches, and their median ``N_eff``, contacts changed and largest displacement."""
@@ -234,18 +337,20 @@ def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
 
 
 def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> None:
-    """Two panels against ``S``: ``N_eff`` and the contacts changed of every counted avalanche
-    (points, one colour per N) with their medians per decade of ``S`` (lines)."""
+    """Three panels against ``S``: ``N_eff`` and the contacts changed of every counted avalanche
+    (points, one colour per N) with their medians per decade of ``S`` (lines), and the shape
+    ``r3/r1`` (:func:`shape_panel`)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.9))
+    fig, axes = plt.subplots(1, 3, figsize=(13.5, 3.9))
     cols = (("N_eff = PR · N", lambda r: np.asarray(r["n_eff"], float)),
             ("contacts opened + closed", lambda r: changes(r).astype(float)))
     edges = 10.0 ** np.arange(first, last + 1)
-    for ax, (label, ycol) in zip(axes, cols, strict=True):
+    shape_panel(axes[2], results, edges)
+    for ax, (label, ycol) in zip(axes[:2], cols, strict=True):
         for n in sorted({r["n"] for r in results}):
             g = [r for r in results if r["n"] == n]
             s = np.concatenate([r["S"] for r in g])
@@ -269,6 +374,32 @@ def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> N
     fig.savefig(path, dpi=120)
     plt.close(fig)
     print(f"\nfigure: {path}")
+
+
+def shape_panel(ax, results: list[dict], edges: np.ndarray) -> None:
+    """``r3/r1`` of the counted avalanches against ``S``: medians per decade (≥ 3 avalanches),
+    solid, and those of their isotropised references, dashed, one colour per N."""
+    for n in sorted({r["n"] for r in results}):
+        g = [r for r in results if r["n"] == n]
+        s = np.concatenate([r["S"] for r in g])
+        radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in g])
+        null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in g])
+        ok = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+        mid, med, ref = [], [], []
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            m = (s >= a) & (s < b) & ok
+            if m.sum() >= 3:
+                mid.append(np.sqrt(a * b))
+                med.append(np.median(radii[m, 2] / radii[m, 0]))
+                ref.append(np.median(null[m, 2] / null[m, 0]))
+        if mid:
+            line = ax.semilogx(mid, med, "o-", ms=4, lw=1.2, label=f"N = {n}")[0]
+            ax.semilogx(mid, ref, "--", lw=1, color=line.get_color())
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("S (ε)")
+    ax.set_ylabel("r3 / r1 (median per decade)")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, title="dashed: isotropised", title_fontsize=7)
 
 
 def check(results: list[dict], files: list[Path]) -> int:
@@ -301,7 +432,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--load", type=Path, nargs="+", default=None,
                     help="reprint the table of these --out files (pooled) instead of shearing")
     ap.add_argument("--figure", type=Path, default=None,
-                    help="draw N_eff and the contacts changed against S (.png/.pdf/.svg)")
+                    help="draw N_eff, the contacts changed and r3/r1 against S (.png/.pdf/.svg)")
     ap.add_argument("--check", type=Path, nargs="+", default=None,
                     help="steady_unsat.py result files: compare the counted sizes, same (N, seed)")
     a = ap.parse_args(argv)
@@ -321,6 +452,7 @@ def main(argv: list[str] | None = None) -> None:
             save(a.out, results)
     table(results, a.s_min, a.boot)
     decades(results)
+    shapes(results)
     if a.figure is not None:
         figure(a.figure, results)
     if a.check is not None and check(results, a.check):

@@ -40,7 +40,15 @@ def test_counted_sizes_equal_steady_unsat(sa, su, sample):
     assert np.array_equal(sample["S"], ref)
     n = JOB[0]
     for c in sa.COLUMNS:
-        assert np.asarray(sample[c]).shape == sample["S"].shape
+        assert np.asarray(sample[c]).shape[0] == sample["S"].size
+    for c in ("radii", "thin_axis", sa.NULL):  # (avalanches, d)
+        assert np.asarray(sample[c]).shape == (sample["S"].size, 3)
+    assert sample["length"] > 0 and np.all(np.diff(sample["radii"], axis=1) <= 0)
+    # the reference turns the same offsets: Σ r_a² (the trace of G) is kept to rounding, and
+    # the recomputed extent equalled the recorded one (or one_sample would have raised)
+    np.testing.assert_allclose(np.sum(sample[sa.NULL] ** 2, axis=1),
+                               np.sum(sample["radii"] ** 2, axis=1), rtol=1e-12)
+    assert np.all(np.diff(sample[sa.NULL], axis=1) <= 0)
     assert np.all((sample["n_eff"] >= 1 - 1e-12) & (sample["n_eff"] <= n + 1e-12))
     assert np.array_equal(sample["localized"], sample["n_eff"] <= 10)
     assert np.all(sample["n_moved"] <= n) and sample["converged"]
@@ -90,7 +98,8 @@ def test_round_trip_table_and_check(sa, su, sample, tmp_path, capsys):
     sa.save(out, [sample])
     back = sa.load(out)[0]
     assert (back["n"], back["seed"], back["converged"]) == (JOB[0], JOB[2], True)
-    for c in ("S", *sa.COLUMNS):
+    assert back["length"] == sample["length"]
+    for c in ("S", *sa.COLUMNS, sa.NULL):
         assert np.array_equal(back[c], sample[c])
     fig = tmp_path / "f.png"
     sa.main(["--load", str(out), "--boot", "5", "--figure", str(fig)])
@@ -187,3 +196,30 @@ def test_decades_by_hand(sa, capsys):
     sa.decades([r], -3, 0)
     row = capsys.readouterr().out.split("| 64 | ")[1].split("\n")[0]
     assert row == "2: 20 / 6 / 0.2 | 0 | 1: 60 / 10 / 0.9 |"
+
+
+def test_shape_rows_and_old_files(sa, tmp_path, capsys):
+    """``shape_rows`` by hand (ratios, r1/L, |thin axis|, the largest tenth), and a file written
+    before the extent existed loads with NaN radii, which the shape table leaves out."""
+    s = np.arange(1.0, 21.0)
+    radii = np.column_stack([2 * s, s, 0.5 * s])
+    null = np.column_stack([s, s, s])
+    axis = np.tile([0.0, -1.0, 0.0], (20, 1))
+    r = {"n": 64, "S": s, "radii": radii, "thin_axis": axis, sa.NULL: null, "length": 4.0}
+    v = sa.shape_rows([r])
+    np.testing.assert_allclose(v["r1L"], 0.5 * s)
+    np.testing.assert_allclose(v["r2"], 0.5)
+    np.testing.assert_allclose(v["r3"], 0.25)
+    np.testing.assert_allclose(v["null3"], 1.0)
+    np.testing.assert_allclose(v["axis"], np.abs(axis))
+    assert sa.shape_rows([r], top=True)["r1"].tolist() == [38.0, 40.0]
+    sa.shapes([r])
+    assert "| 64 | all (20) | 5.250 | 0.50 / 1.00 | 0.25 / 1.00 (" in capsys.readouterr().out
+    old = tmp_path / "old.npz"
+    np.savez(old, s0_meta=np.array([64, 1, 2.0, 1.0]), s0_S=s,
+             **{f"s0_{c}": np.ones(20) for c in sa.COLUMNS if c not in ("radii", "thin_axis")})
+    back = sa.load(old)[0]
+    assert np.isnan(back["length"]) and np.all(np.isnan(back["radii"]))
+    assert back["radii"].shape == (20, 3)
+    sa.shapes([back])
+    assert "| 64 | all (0) | — |" in capsys.readouterr().out

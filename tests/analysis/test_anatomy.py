@@ -12,14 +12,16 @@ from jamlab.analysis.anatomy import (
     buckler_mask,
     contact_changes,
     event_anatomy,
+    event_extent,
     event_field,
     is_localized,
+    isotropised_radii,
     moved_particles,
     nonaffine_displacements,
     only_bucklers_rattlers,
     participation_ratio,
 )
-from jamlab.lees_edwards import minimum_image
+from jamlab.lees_edwards import minimum_image, wrap
 
 
 def explicit_image(dr, L, gamma):
@@ -177,3 +179,113 @@ def test_avalanche_figure_draws_the_scaled_field(tmp_path):
     got = sorted(zip(q.U, q.V, strict=True))
     np.testing.assert_allclose(got, sorted(zip(scale * u[:, 0], scale * u[:, 2], strict=True)))
     assert (tmp_path / "a.png").stat().st_size > 0
+
+
+def pairwise_radii(u, x, L, gamma):
+    """The radii from ``G = ½ Σ_ij w_i w_j d_ij d_ijᵀ`` (``w = |u|⁴`` normalised; pairs with
+    ``w > 1e-13``), ``d_ij`` the shortest of ``x_i − x_j − t`` over the lattice vectors ``t`` of
+    :func:`explicit_image`: no centre needed; equal to the centred second moment when the weight
+    lies within ``L/4`` of one point."""
+    s2 = (u**2).sum(axis=1)
+    w = s2**2 / (s2**2).sum()
+    idx = np.flatnonzero(w > 1e-13)
+    k = int(np.ceil(abs(gamma))) + 3
+    t = np.array([[nx * L + ny * gamma * L, ny * L, nz * L] for nx, ny, nz in
+                  itertools.product(range(-k, k + 1), range(-3, 4), range(-3, 4))])
+    g = np.zeros((3, 3))
+    for i in idx:
+        c = (x[i] - x[idx])[:, None, :] - t[None, :, :]
+        d = c[np.arange(idx.size), np.argmin((c**2).sum(axis=2), axis=1)]
+        g += 0.5 * w[i] * (d * w[idx, None]).T @ d
+    return np.sqrt(np.clip(np.linalg.eigvalsh(g)[::-1], 0, None))
+
+
+@pytest.mark.parametrize("gamma", [0.0, 0.3, -1.45])
+def test_event_extent_of_a_blob_across_the_boundary_against_pairwise_images(gamma):
+    """An anisotropic Gaussian blob centred near a corner of a Lees–Edwards box (so its weight
+    straddles the x, y and z boundaries): the radii equal the pairwise explicit-image ones, the
+    thin axis is the blob's narrow direction, and a rigid translation of every position (wrapped
+    back into the box by the Lees–Edwards rule) changes nothing."""
+    rng = np.random.default_rng(5)
+    L, n = 6.0, 4000
+    x = rng.uniform(0, L, (n, 3))
+    centre = np.array([5.8, 0.1, 5.9])
+    d = minimum_image(x - centre, L, gamma)
+    widths = np.array([0.6, 0.4, 0.2])  # of |u|; the thin direction z
+    u = np.zeros((n, 3))
+    u[:, 0] = np.exp(-0.5 * np.sum((d / widths) ** 2, axis=1))
+    radii, axis = event_extent(u, x, L, gamma)
+    np.testing.assert_allclose(radii, pairwise_radii(u, x, L, gamma), rtol=1e-9)
+    assert radii[0] >= radii[1] >= radii[2]
+    assert abs(axis[2]) > 0.95 and axis[int(np.argmax(np.abs(axis)))] > 0
+    shifted = wrap(x + [2.2, 3.1, -1.7], L, gamma)  # the same configuration, moved
+    np.testing.assert_allclose(event_extent(u, shifted, L, gamma)[0], radii, rtol=1e-9)
+
+
+def test_event_extent_of_a_slab_and_limits():
+    """A slab of uniform |u| between y = 9.5 and y = 10.5 across the y boundary of a box of side
+    10, on a cubic lattice of spacing 0.1: its radii are the lattice's second moments —
+    thickness 11 planes ``0.1·√(Σ k²/11)`` (k = −5 … 5) = 0.1 √10, and across the box the
+    100-point periodic spread ``0.1·√((100² − 1)/12)`` = 2.8866… — its thin axis ``e_y``; a zero
+    field gives NaN, mismatched shapes raise."""
+    L, h = 10.0, 0.1
+    grid = (np.arange(100) + 0.5) * h
+    x = np.stack(np.meshgrid(grid, grid, grid, indexing="ij"), axis=-1).reshape(-1, 3)
+    dy = (x[:, 1] - 0.05 + L / 2) % L - L / 2  # distance from the plane y = 0.05 (periodic)
+    u = np.zeros_like(x)
+    u[np.abs(dy) < 0.5 + 1e-9, 0] = 1e-2
+    radii, axis = event_extent(u, x, L, 0.0)
+    thin = h * np.sqrt(np.mean(np.arange(-5, 6) ** 2.0))
+    wide = h * np.sqrt((100**2 - 1) / 12)
+    np.testing.assert_allclose(radii, [wide, wide, thin], rtol=1e-9)
+    np.testing.assert_allclose(axis, [0, 1, 0], atol=1e-9)
+    r0, a0 = event_extent(np.zeros((4, 3)), np.eye(4, 3), L, 0.0)
+    assert np.all(np.isnan(r0)) and np.all(np.isnan(a0))
+    with pytest.raises(ValueError, match="same shape"):
+        event_extent(np.zeros((4, 3)), np.zeros((5, 3)), L, 0.0)
+
+
+def test_event_anatomy_carries_the_extent():
+    """``event_anatomy``'s radii and thin axis are those of its event field at the positions
+    before the step."""
+    rng = np.random.default_rng(2)
+    L = 4.0
+    xb = rng.uniform(0, L, (50, 3))
+    xa = xb.copy()
+    xa[:5] += rng.normal(0, 0.05, (5, 3))
+    pairs = (np.array([0]), np.array([1]))
+    keep = np.ones(50, bool)
+    an = event_anatomy(xb, xa, L, 0.1, 0.1, pairs, pairs, keep, keep)
+    radii, axis = event_extent(an.u, xb, L, 0.1)
+    np.testing.assert_array_equal(an.radii, radii)
+    np.testing.assert_array_equal(an.thin_axis, axis)
+
+
+def test_isotropised_radii_keep_the_trace_and_the_rank():
+    """Turning each offset to a random direction keeps ``Σ w |r|²`` (the trace of ``G``) in
+    every draw, so ``Σ r_a²`` equals :func:`event_extent`'s; two equal dominant particles give a
+    rank-2 tensor (``r3 = 0``) whatever the draw; a many-particle isotropic field, averaged over
+    draws, has equal eigenvalues (2 %); ``u = 0`` gives NaN."""
+    rng = np.random.default_rng(3)
+    L, n = 8.0, 20000
+    x = rng.uniform(0, L, (n, 3))
+    d = minimum_image(x - [7.5, 0.2, 4.0], L, 0.4)
+    u = np.zeros((n, 3))
+    u[:, 1] = np.exp(-0.5 * np.sum((d / [1.2, 0.9, 1.0]) ** 2, axis=1))
+    radii = event_extent(u, x, L, 0.4)[0]
+    g = []
+    for _ in range(200):
+        iso = isotropised_radii(u, x, L, 0.4, rng)
+        assert np.sum(iso**2) == pytest.approx(np.sum(radii**2), rel=1e-12)
+        assert iso[0] >= iso[1] >= iso[2]
+        g.append(iso**2)
+    mean = np.mean(g, axis=0)
+    # the eigenvalues of each draw, averaged: sampling anisotropy only, small for a field spread
+    # over ≈ 10³ particles (here the event itself is anisotropic: r3/r1 ≈ 0.75)
+    assert mean[2] / mean[0] > 0.85 and radii[2] / radii[0] < 0.8
+    two = np.zeros((n, 3))
+    two[:2, 0] = 1.0
+    for _ in range(5):
+        iso = isotropised_radii(two, x, L, 0.0, rng)
+        assert iso[2] < 1e-6 * iso[0] and iso[1] > 1e-3 * iso[0]  # λ3 zero to rounding
+    assert np.all(np.isnan(isotropised_radii(np.zeros((5, 3)), x[:5], L, 0.0, rng)))

@@ -10,6 +10,7 @@ import pytest
 from spheres_brute import brute_elastic_response, brute_force, image_shifts, pair_terms, wrap
 
 import jamlab.spheres as sp
+from jamlab.analysis.anatomy import event_extent
 from jamlab.spheres.aqs import checkpoint_paths, shear
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.trace import read_trace
@@ -129,6 +130,11 @@ def check_records(trace, config, pressure: float = 0.0, allow_ambiguous: bool = 
             assert av["n_opened"][row] == len(c0 - c1)
             assert av["n_closed"][row] == len(c1 - c0)
             assert bool(av["only_bucklers_rattlers"][row]) == only
+        # the extent: event_extent (tested on exact cases in tests/analysis) of this event field
+        # at the positions before the step, in the box after it
+        radii, axis = event_extent(u, np.asarray(b.positions) * (La / L), La, g0)
+        np.testing.assert_allclose(av["radii"][row], radii, rtol=1e-6)
+        np.testing.assert_allclose(np.abs(av["thin_axis"][row] @ axis), 1.0, atol=1e-6)
         moved = np.flatnonzero(np.sqrt(s2) > thr)
         np.testing.assert_array_equal(av["moved_index"][offs[row] : offs[row + 1]], moved)
         np.testing.assert_allclose(
@@ -229,8 +235,9 @@ def test_cli_keep_avalanches_writes_the_same_group(run, tmp_path):
 
 
 def test_resume_from_a_trace_without_elastic_fraction(run, tmp_path):
-    """A trace written before ``elastic_fraction`` existed still loads and resumes: its rows get
-    NaN there (their fields were not corrected), the new rows are those of the whole run."""
+    """A trace written before ``elastic_fraction`` and the extent (``radii``, ``thin_axis``)
+    existed still loads and resumes: its rows get NaN there, the new rows are those of the
+    whole run."""
     import h5py
 
     res, trace, _ = run
@@ -238,9 +245,10 @@ def test_resume_from_a_trace_without_elastic_fraction(run, tmp_path):
     out = tmp_path / "old.h5"
     shear(packing, 2e-3, n_steps=30, keep_avalanches=True, out=out, save_every=1)
     with h5py.File(out, "r+") as f:
-        del f["avalanches/elastic_fraction"]
+        for key in ("elastic_fraction", "radii", "thin_axis"):
+            del f[f"avalanches/{key}"]
     old = read_trace(out)
-    assert "elastic_fraction" not in old.avalanches
+    assert "elastic_fraction" not in old.avalanches and "radii" not in old.avalanches
     n_old = old.avalanches["step"].size
     last, _ = checkpoint_paths(out)
     shear(read_packing(last), 2e-3, n_steps=60, keep_avalanches=True, out=out, save_every=1,
@@ -253,6 +261,11 @@ def test_resume_from_a_trace_without_elastic_fraction(run, tmp_path):
                                rtol=1e-6)  # fmt: skip
     np.testing.assert_allclose(got["participation"], ref["participation"], rtol=1e-6)
     assert np.all(np.isfinite(ref["elastic_fraction"]))
+    for key in ("radii", "thin_axis"):  # the same for the extent, (rows, d)
+        assert got[key].shape == ref[key].shape == (ref["step"].size, 3)
+        assert np.all(np.isnan(got[key][:n_old]))
+        np.testing.assert_allclose(got[key][n_old:], ref[key][n_old:], rtol=1e-6)
+        assert np.all(np.isfinite(ref[key]))
 
 
 def test_cli_keep_avalanches_at_fixed_pressure(run_at_pressure, tmp_path):

@@ -16,7 +16,12 @@ optionally, the buckler mask before the step:
 - the **largest displacement** ``max_i |u_i|``;
 - the contacts **opened** (in the list before, not after) and **closed** (after, not before);
 - whether it **involves only bucklers/rattlers** (:func:`only_bucklers_rattlers`);
-- a **localized/extended** class (:func:`is_localized`).
+- a **localized/extended** class (:func:`is_localized`);
+- the **extent**: the principal radii of gyration of the event, the positions before the step
+  weighted by ``|u_i|⁴`` (the weight of the denominator of ``PR``, so the particles that make
+  ``N_eff``), and the axis of the smallest one (:func:`event_extent`). A compact event has
+  three alike radii; a slip plane one small radius (its thickness) with the plane's normal as
+  the thin axis, a box-spanning one two radii near the ``L/√12`` of a uniform spread.
 
 **Rules.** *Buckler* (``SPEC.md`` §6): a backbone particle with exactly ``d + 1`` contacts with
 backbone particles (:func:`buckler_mask`). *Only bucklers/rattlers*: at least one contact changed,
@@ -61,7 +66,9 @@ __all__ = [
     "elastic_response",
     "event_field",
     "event_anatomy",
+    "event_extent",
     "is_localized",
+    "isotropised_radii",
     "moved_particles",
     "nonaffine_displacements",
     "only_bucklers_rattlers",
@@ -169,6 +176,71 @@ def moved_particles(
     return idx.astype(np.int64), u[idx]
 
 
+def event_extent(
+    u: ArrayLike, positions: ArrayLike, length: float, strain: float, rounds: int = 3
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(radii, thin_axis)`` of a displacement field ``u`` ``(N, d)`` at ``positions`` (the
+    minimum before the step; Lees–Edwards box of side ``length`` at ``strain``).
+
+    With weights ``w_i = |u_i|⁴``: the centre ``c`` is the weighted mean of the minimum images
+    ``r_i = x_i − c`` about the current centre (started at the heaviest particle, ``rounds``
+    times), and the gyration tensor ``G = Σ w_i r_i r_iᵀ / Σ w_i``. ``radii``: the square roots
+    of its eigenvalues, descending; ``thin_axis``: the unit eigenvector of the smallest, its
+    largest component positive. Periodic: valid while the weight sits within ``L/2`` of the
+    centre (a field spread over the box gives radii near ``L/√12``). ``u = 0``: NaN."""
+    centred = _centred(u, positions, length, strain, rounds)
+    if centred is None:
+        dim = np.shape(u)[1]
+        return np.full(dim, np.nan), np.full(dim, np.nan)
+    r, w = centred
+    lam, vec = np.linalg.eigh((r * w[:, None]).T @ r)
+    axis = vec[:, 0]
+    if axis[int(np.argmax(np.abs(axis)))] < 0:
+        axis = -axis
+    return np.sqrt(np.clip(lam[::-1], 0.0, None)), axis
+
+
+def isotropised_radii(
+    u: ArrayLike, positions: ArrayLike, length: float, strain: float, rng: np.random.Generator,
+    rounds: int = 3,
+) -> NDArray[np.float64]:
+    """The radii of :func:`event_extent` after each particle's offset ``r_i`` from the centre is
+    turned to a direction drawn uniformly at random (same ``|r_i|``, same weight): what the
+    event's own weights and distances give with no preferred direction — the reference for the
+    radii's ratios, with the anisotropy that a few dominant particles give by chance. NaN for
+    ``u = 0``."""
+    centred = _centred(u, positions, length, strain, rounds)
+    if centred is None:
+        return np.full(np.shape(u)[1], np.nan)
+    r, w = centred
+    v = rng.standard_normal(r.shape)
+    v *= (np.sqrt(np.einsum("ij,ij->i", r, r)) / np.sqrt(np.einsum("ij,ij->i", v, v)))[:, None]
+    return np.sqrt(np.clip(np.linalg.eigvalsh((v * w[:, None]).T @ v)[::-1], 0.0, None))
+
+
+def _centred(
+    u: ArrayLike, positions: ArrayLike, length: float, strain: float, rounds: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """``(r, w)``: the minimum images ``r_i = x_i − c`` about the weighted centre ``c`` and the
+    normalised weights ``|u_i|⁴`` of :func:`event_extent`; ``None`` for ``u = 0``."""
+    u = np.asarray(u, dtype=np.float64)
+    x = np.asarray(positions, dtype=np.float64)
+    if u.shape != x.shape or u.ndim != 2:
+        raise ValueError(f"u and positions must have the same shape (N, d), got {u.shape} and "
+                         f"{x.shape}")
+    s2 = np.einsum("ij,ij->i", u, u)
+    w = s2 * s2
+    total = float(np.sum(w))
+    if not total > 0:
+        return None
+    w = w / total
+    centre = x[int(np.argmax(w))]
+    for _ in range(max(1, int(rounds))):
+        r = minimum_image(x - centre, length, strain)
+        centre = centre + w @ r
+    return minimum_image(x - centre, length, strain), w
+
+
 def elastic_response(
     hessian: object, xi: ArrayLike, dgamma: float, backbone: ArrayLike
 ) -> NDArray[np.float64]:
@@ -236,7 +308,8 @@ class EventAnatomy:
     """The anatomy of one event (module docstring): event field ``u`` ``(N, d)`` (``u^ev``;
     the raw non-affine field when no elastic response was given), ``raw`` (the non-affine
     field of the step), ``elastic_fraction``, ``participation`` ratio, ``max_displacement``,
-    ``opened``/``closed`` pairs ``(k, 2)``, ``only_bucklers_rattlers``, ``localized``."""
+    ``opened``/``closed`` pairs ``(k, 2)``, ``only_bucklers_rattlers``, ``localized``, the
+    principal ``radii`` (descending) and ``thin_axis`` of :func:`event_extent`."""
 
     u: NDArray[np.float64]
     raw: NDArray[np.float64]
@@ -247,6 +320,8 @@ class EventAnatomy:
     closed: NDArray[np.int64]
     only_bucklers_rattlers: bool
     localized: bool
+    radii: NDArray[np.float64]
+    thin_axis: NDArray[np.float64]
 
     @property
     def n_eff(self) -> float:
@@ -282,6 +357,7 @@ def event_anatomy(
         bucklers_before = buckler_mask(*pairs_before, backbone_before, dim)
     opened, closed = contact_changes(pairs_before, pairs_after, n)
     pr = participation_ratio(u)
+    radii, axis = event_extent(u, before, length, strain_before)
     return EventAnatomy(
         u=u,
         raw=raw,
@@ -294,4 +370,6 @@ def event_anatomy(
             opened, closed, backbone_before, backbone_after, bucklers_before
         ),
         localized=is_localized(pr, n, n_eff_max),
+        radii=radii,
+        thin_axis=axis,
     )

@@ -19,6 +19,7 @@ from jamlab.spheres.potential import Packing, dforce_dstrain, hessian
 
 __all__ = [
     "AVALANCHE_COLUMNS",
+    "EXTENT_COLUMNS",
     "MOVED_THRESHOLD",
     "AvalancheRecorder",
     "elastic_nonaffine_response",
@@ -42,6 +43,9 @@ AVALANCHE_COLUMNS: tuple[str, ...] = (
     "n_moved",
     "elastic_fraction",
 )
+
+# one row per plastic step, ``d`` values each (:func:`jamlab.analysis.anatomy.event_extent`)
+EXTENT_COLUMNS: tuple[str, ...] = ("radii", "thin_axis")
 
 
 def elastic_nonaffine_response(
@@ -67,7 +71,8 @@ class AvalancheRecorder:
     ``threshold``: event displacements ``|u_i| > threshold`` are kept (CSR: ``moved_offsets``,
     ``moved_index``, ``moved_displacement``); ``n_eff_max``: the localized/extended rule.
     ``previous``: the group of a resumed trace; rows written before ``elastic_fraction``
-    existed get NaN there (their fields were not corrected)."""
+    existed get NaN there (their fields were not corrected), and so do rows written before the
+    :data:`EXTENT_COLUMNS` existed."""
 
     def __init__(
         self,
@@ -83,12 +88,16 @@ class AvalancheRecorder:
         self.rows: dict[str, list] = {k: [] for k in AVALANCHE_COLUMNS}
         self.index: list[np.ndarray] = []
         self.vectors: list[np.ndarray] = []
+        self.extent: dict[str, list] = {k: [] for k in EXTENT_COLUMNS}
         self.dim: int | None = None
         if previous is not None:
             offsets = np.asarray(previous["moved_offsets"])
             rows = offsets.size - 1
             for k in AVALANCHE_COLUMNS:
                 self.rows[k] = list(previous[k]) if k in previous else [np.nan] * rows
+            for k in EXTENT_COLUMNS:  # (rows without them: NaN in ``table``)
+                self.extent[k] = (list(np.asarray(previous[k], dtype=np.float64))
+                                  if k in previous else [np.zeros(0)] * rows)
             for a, b in zip(offsets[:-1], offsets[1:], strict=True):
                 self.index.append(np.asarray(previous["moved_index"][a:b]))
                 self.vectors.append(np.asarray(previous["moved_displacement"][a:b]))
@@ -143,6 +152,8 @@ class AvalancheRecorder:
         r["localized"].append(an.localized)
         r["n_moved"].append(idx.size)
         r["elastic_fraction"].append(an.elastic_fraction)
+        self.extent["radii"].append(an.radii)
+        self.extent["thin_axis"].append(an.thin_axis)
         self.index.append(idx)
         self.vectors.append(vec)
 
@@ -158,6 +169,10 @@ class AvalancheRecorder:
                 else (np.int64 if k.startswith("n_") and k != "n_eff" else np.float64)
             )
             out[k] = np.asarray(self.rows[k], dtype=dtype)
+        for k in EXTENT_COLUMNS:
+            # rows resumed from a trace written before these columns existed: NaN
+            rows = [v if v.size == dim else np.full(dim, np.nan) for v in self.extent[k]]
+            out[k] = np.asarray(rows, dtype=np.float64).reshape(-1, dim)
         out["energy_jump"] = np.asarray(energy_jump, dtype=np.float64)[steps]
         out["stress_jump"] = np.asarray(stress_jump, dtype=np.float64)[steps]
         sizes = np.array([i.size for i in self.index], dtype=np.int64)
