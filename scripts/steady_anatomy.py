@@ -315,6 +315,28 @@ def shapes(results: list[dict]) -> None:
                   f"{ax} ({ks:.2g}) |")
 
 
+def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
+    """Per N and decade of ``S``: the counted avalanches with an extent, and their median ``r1``
+    and ``r3`` (mean diameters) and ``r3/r1`` against the isotropised reference's."""
+    ks = range(first, last)
+    print("\n| N | " + " | ".join(f"S in [1e{k}, 1e{k + 1})" for k in ks) + " |")
+    print("|---" * (len(ks) + 1) + "|")
+    for n in sorted({r["n"] for r in results}):
+        g = [r for r in results if r["n"] == n]
+        s = np.concatenate([r["S"] for r in g])
+        radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in g])
+        null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in g])
+        ok = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+        cells = []
+        for k in ks:
+            m = (s >= 10.0**k) & (s < 10.0 ** (k + 1)) & ok
+            cells.append(f"{m.sum()}: {np.median(radii[m, 0]):.2f} / {np.median(radii[m, 2]):.2f}"
+                         f" / {np.median(radii[m, 2] / radii[m, 0]):.2f} "
+                         f"({np.median(null[m, 2] / null[m, 0]):.2f})" if m.any() else "0")
+        print(f"| {n} | " + " | ".join(cells) + " |")
+    print("\n(each cell: avalanches: median r1 / r3 (mean diameters) / r3/r1 (isotropised))")
+
+
 def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
     """Per N and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last − 1``): the counted
     avalanches, and their median ``N_eff``, contacts changed and largest displacement."""
@@ -453,6 +475,7 @@ def main(argv: list[str] | None = None) -> None:
     table(results, a.s_min, a.boot)
     decades(results)
     shapes(results)
+    shape_decades(results)
     if a.figure is not None:
         figure(a.figure, results)
     if a.check is not None and check(results, a.check):

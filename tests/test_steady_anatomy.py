@@ -223,3 +223,15 @@ def test_shape_rows_and_old_files(sa, tmp_path, capsys):
     assert back["radii"].shape == (20, 3)
     sa.shapes([back])
     assert "| 64 | all (0) | — |" in capsys.readouterr().out
+
+
+def test_shape_decades_by_hand(sa, capsys):
+    """Three avalanches of one N: two in [1e-3, 1e-2) (r1 2 and 4, r3 1 and 1: medians 3, 1,
+    r3/r1 median of 0.5 and 0.25 = 0.375, reference 1.0), one in [1e-1, 1); a row with NaN
+    radii is left out."""
+    radii = np.array([[2.0, 1.5, 1.0], [4.0, 2.0, 1.0], [8.0, 8.0, 8.0], [np.nan] * 3])
+    r = {"n": 64, "S": np.array([2e-3, 5e-3, 0.5, 6e-3]), "radii": radii,
+         sa.NULL: np.ones((4, 3))}
+    sa.shape_decades([r], -3, 0)
+    row = capsys.readouterr().out.split("| 64 | ")[1].split("\n")[0]
+    assert row == "2: 3.00 / 1.00 / 0.38 (1.00) | 0 | 1: 8.00 / 8.00 / 1.00 (1.00) |"
