@@ -285,13 +285,15 @@ def shape_rows(samples: list[dict], top: bool = False) -> dict[str, np.ndarray]:
             "null3": null[:, 2] / null[:, 0], "axis": np.abs(axis)}
 
 
-def shapes(results: list[dict]) -> None:
+def shapes(results: list[dict], boot: int = 500, seed: int = 0) -> None:
     """Per N, all counted avalanches and the largest tenth by ``S``: the medians of ``r1/L``,
     ``r2/r1`` and ``r3/r1`` against those of the isotropised references (the same weights and
     distances at random directions; Mann–Whitney p of ``r3/r1`` below the reference's), and the
     median ``|n_a|`` of
     the thin axis along flow ``x``, gradient ``y`` and vorticity ``z`` (uniform on [0, 1] for no
-    preferred direction: median 0.5; KS p of ``|n_y|`` against it)."""
+    preferred direction: median 0.5; KS p of ``|n_y|`` against it); then over the sizes the
+    slopes on ``ln N`` of the largest tenth's median radii (σ: ``boot`` resamples of each N's
+    packings) and the thin axis pooled over every N."""
     from scipy import stats
 
     print("\n| N | which (events) | median r1/L | r2/r1: avalanches / isotropised | r3/r1: "
@@ -313,6 +315,22 @@ def shapes(results: list[dict]) -> None:
                   f"{np.median(v['r2']):.2f} / {np.median(v['null2']):.2f} | "
                   f"{np.median(v['r3']):.2f} / {np.median(v['null3']):.2f} ({p3:.2g}) | "
                   f"{ax} ({ks:.2g}) |")
+    ns = sorted({r["n"] for r in results})
+    groups = [[r for r in results if r["n"] == n] for n in ns]
+    if len(ns) >= 2 and all(shape_rows(g)["r1"].size for g in groups):
+        rng = np.random.default_rng(seed)
+        parts = []
+        for a in range(3):
+            b, sb = top_slope(groups, lambda r, a=a: np.asarray(r["radii"], float)[:, a], boot,
+                              rng)
+            parts.append(f"r{a + 1} {b:.3f} ± {sb:.3f}")
+        print(f"\nover N = {', '.join(map(str, ns))}, the largest tenth by S: slope on ln N of "
+              f"ln (median radius) " + ", ".join(parts))
+        axis = np.concatenate([shape_rows(g)["axis"] for g in groups])
+        cells = [f"|n_{c}| {np.median(axis[:, a]):.3f} "
+                 f"(KS p {stats.kstest(axis[:, a], 'uniform').pvalue:.2g})"
+                 for a, c in enumerate("xyz")]
+        print(f"thin axis pooled over N ({axis.shape[0]} avalanches): " + ", ".join(cells))
 
 
 def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
@@ -474,7 +492,7 @@ def main(argv: list[str] | None = None) -> None:
             save(a.out, results)
     table(results, a.s_min, a.boot)
     decades(results)
-    shapes(results)
+    shapes(results, a.boot)
     shape_decades(results)
     if a.figure is not None:
         figure(a.figure, results)

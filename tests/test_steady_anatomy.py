@@ -235,3 +235,20 @@ def test_shape_decades_by_hand(sa, capsys):
     sa.shape_decades([r], -3, 0)
     row = capsys.readouterr().out.split("| 64 | ")[1].split("\n")[0]
     assert row == "2: 3.00 / 1.00 / 0.38 (1.00) | 0 | 1: 8.00 / 8.00 / 1.00 (1.00) |"
+
+
+def test_shape_slopes_of_scaled_groups(sa, capsys):
+    """Radii ∝ N^(1/3), N^(1/3), N^0 in every avalanche of every packing: the slopes on ln N are
+    1/3, 1/3 and 0 with σ 0; thin axes all e_y: pooled median |n_y| 1."""
+    s = np.arange(1.0, 11.0)
+
+    def group(n):
+        c = n ** (1 / 3)
+        one = {"n": n, "S": s, "radii": np.tile([2 * c, c, 1.0], (10, 1)), "length": c,
+               "thin_axis": np.tile([0.0, 1.0, 0.0], (10, 1)), sa.NULL: np.ones((10, 3))}
+        return [dict(one) for _ in range(3)]
+
+    sa.shapes(group(64) + group(512), boot=10)
+    out = capsys.readouterr().out
+    assert "r1 0.333 ± 0.000, r2 0.333 ± 0.000, r3 0.000 ± 0.000" in out
+    assert "thin axis pooled over N (60 avalanches): |n_x| 0.000" in out and "|n_y| 1.000" in out
