@@ -333,45 +333,58 @@ def shapes(results: list[dict], boot: int = 500, seed: int = 0) -> None:
         print(f"thin axis pooled over N ({axis.shape[0]} avalanches): " + ", ".join(cells))
 
 
-def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
-    """Per N and decade of ``S``: the counted avalanches with an extent, and their median ``r1``
-    and ``r3`` (mean diameters) and ``r3/r1`` against the isotropised reference's."""
+def decade_table(results: list[dict], first: int, last: int, pool, cell) -> None:
+    """A table per N (rows) and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last −
+    1``; columns): ``pool(samples)`` gives the pooled arrays of one N, ``cell(arrays, mask)``
+    the text of a decade (``mask`` over the pooled avalanches)."""
     ks = range(first, last)
     print("\n| N | " + " | ".join(f"S in [1e{k}, 1e{k + 1})" for k in ks) + " |")
     print("|---" * (len(ks) + 1) + "|")
     for n in sorted({r["n"] for r in results}):
         g = [r for r in results if r["n"] == n]
         s = np.concatenate([r["S"] for r in g])
+        arrays = pool(g)
+        cells = [cell(arrays, (s >= 10.0**k) & (s < 10.0 ** (k + 1))) for k in ks]
+        print(f"| {n} | " + " | ".join(cells) + " |")
+
+
+def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
+    """Per N and decade of ``S``: the counted avalanches with an extent, and their median ``r1``
+    and ``r3`` (mean diameters) and ``r3/r1`` against the isotropised reference's."""
+
+    def pool(g):
         radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in g])
         null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in g])
-        ok = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
-        cells = []
-        for k in ks:
-            m = (s >= 10.0**k) & (s < 10.0 ** (k + 1)) & ok
-            cells.append(f"{m.sum()}: {np.median(radii[m, 0]):.2f} / {np.median(radii[m, 2]):.2f}"
-                         f" / {np.median(radii[m, 2] / radii[m, 0]):.2f} "
-                         f"({np.median(null[m, 2] / null[m, 0]):.2f})" if m.any() else "0")
-        print(f"| {n} | " + " | ".join(cells) + " |")
+        return radii, null, np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+
+    def cell(arrays, m):
+        radii, null, ok = arrays
+        m = m & ok
+        if not m.any():
+            return "0"
+        return (f"{m.sum()}: {np.median(radii[m, 0]):.2f} / {np.median(radii[m, 2]):.2f} / "
+                f"{np.median(radii[m, 2] / radii[m, 0]):.2f} "
+                f"({np.median(null[m, 2] / null[m, 0]):.2f})")
+
+    decade_table(results, first, last, pool, cell)
     print("\n(each cell: avalanches: median r1 / r3 (mean diameters) / r3/r1 (isotropised))")
 
 
 def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
-    """Per N and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last − 1``): the counted
-    avalanches, and their median ``N_eff``, contacts changed and largest displacement."""
-    ks = range(first, last)
-    print("\n| N | " + " | ".join(f"S in [1e{k}, 1e{k + 1})" for k in ks) + " |")
-    print("|---" * (len(ks) + 1) + "|")
-    for n in sorted({r["n"] for r in results}):
-        g = [r for r in results if r["n"] == n]
-        s = np.concatenate([r["S"] for r in g])
-        cols = [np.concatenate([r["n_eff"] for r in g]), np.concatenate([changes(r) for r in g]),
+    """Per N and decade of ``S`` (:func:`decade_table`): the counted avalanches, and their median
+    ``N_eff``, contacts changed and largest displacement."""
+
+    def pool(g):
+        return [np.concatenate([r["n_eff"] for r in g]), np.concatenate([changes(r) for r in g]),
                 np.concatenate([r["max_displacement"] for r in g])]
-        cells = []
-        for k in ks:
-            m = (s >= 10.0**k) & (s < 10.0 ** (k + 1))
-            cells.append(f"{m.sum()}: {np.median(cols[0][m]):.0f} / {np.median(cols[1][m]):.0f} "
-                         f"/ {np.median(cols[2][m]):.2g}" if m.any() else "0")
-        print(f"| {n} | " + " | ".join(cells) + " |")
+
+    def cell(cols, m):
+        if not m.any():
+            return "0"
+        return (f"{m.sum()}: {np.median(cols[0][m]):.0f} / {np.median(cols[1][m]):.0f} "
+                f"/ {np.median(cols[2][m]):.2g}")
+
+    decade_table(results, first, last, pool, cell)
     print("\n(each cell: avalanches: median N_eff / contacts changed / largest displacement, "
           "mean diameters)")
 
