@@ -92,7 +92,7 @@ def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tu
     MOVED_THRESHOLD` (the recorder's ``n_moved`` at its default). The extent recomputed from the
     same field must equal the recorded one (``RuntimeError`` otherwise: the field or the
     positions would not be the recorder's)."""
-    from jamlab.analysis.anatomy import event_extent, isotropised_radii
+    from jamlab.analysis.anatomy import event_extent, isotropised_radii, moved_particles
     from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
 
     av = trace.avalanches
@@ -108,9 +108,8 @@ def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tu
                            rtol=1e-12, atol=0.0, equal_nan=True):
             raise RuntimeError(f"row {row}: the rebuilt field does not give the recorded extent")
         radii.append(isotropised_radii(u, pos, length, strain, rng))
-        moved.append(int(np.count_nonzero(np.sqrt(np.einsum("ij,ij->i", u, u))
-                                          > MOVED_THRESHOLD)))
-    dim = np.asarray(av["moved_displacement"]).reshape(off[-1], -1).shape[1] if off[-1] else 3
+        moved.append(moved_particles(u, MOVED_THRESHOLD)[0].size)
+    dim = np.asarray(av["radii"]).shape[1]
     return np.asarray(radii, dtype=np.float64).reshape(-1, dim), np.asarray(moved)
 
 
@@ -266,17 +265,24 @@ def table(results: list[dict], s_min: float, boot: int, seed: int = 0) -> None:
     print(f"\nall minima converged: {bad == 0} ({bad} samples with a minimum at max|F| ≥ 1e-12)")
 
 
-def shape_rows(samples: list[dict], top: bool = False) -> dict[str, np.ndarray]:
-    """Pooled over ``samples`` (the largest tenth by ``S`` if ``top``): ``r1/L`` (largest
-    radius over the box side), the ratios ``r2/r1``, ``r3/r1`` of the avalanches and of their
-    isotropised references (``null2``, ``null3``), and ``|n|`` the thin axis's components (rows
-    with finite radii only)."""
+def pooled_extent(samples: list[dict]) -> tuple[np.ndarray, ...]:
+    """``(S, radii, reference radii, thin axes, box sides, finite)`` of the counted avalanches
+    pooled over ``samples`` (``finite``: rows whose radii and reference are both finite)."""
     s = np.concatenate([r["S"] for r in samples])
     radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in samples])
     null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in samples])
     axis = np.concatenate([np.asarray(r["thin_axis"], float).reshape(-1, 3) for r in samples])
     length = np.concatenate([np.full(np.asarray(r["S"]).size, r["length"]) for r in samples])
-    keep = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+    finite = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+    return s, radii, null, axis, length, finite
+
+
+def shape_rows(samples: list[dict], top: bool = False) -> dict[str, np.ndarray]:
+    """Pooled over ``samples`` (the largest tenth by ``S`` if ``top``): ``r1/L`` (largest
+    radius over the box side), the ratios ``r2/r1``, ``r3/r1`` of the avalanches and of their
+    isotropised references (``null2``, ``null3``), and ``|n|`` the thin axis's components (rows
+    with finite radii only)."""
+    s, radii, null, axis, length, keep = pooled_extent(samples)
     if top and s.size:
         keep &= s >= np.quantile(s, 0.9)
     radii, null, axis, length = radii[keep], null[keep], axis[keep], length[keep]
@@ -352,13 +358,8 @@ def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
     """Per N and decade of ``S``: the counted avalanches with an extent, and their median ``r1``
     and ``r3`` (mean diameters) and ``r3/r1`` against the isotropised reference's."""
 
-    def pool(g):
-        radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in g])
-        null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in g])
-        return radii, null, np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
-
     def cell(arrays, m):
-        radii, null, ok = arrays
+        _, radii, null, _, _, ok = arrays
         m = m & ok
         if not m.any():
             return "0"
@@ -366,7 +367,7 @@ def shape_decades(results: list[dict], first: int = -7, last: int = 0) -> None:
                 f"{np.median(radii[m, 2] / radii[m, 0]):.2f} "
                 f"({np.median(null[m, 2] / null[m, 0]):.2f})")
 
-    decade_table(results, first, last, pool, cell)
+    decade_table(results, first, last, pooled_extent, cell)
     print("\n(each cell: avalanches: median r1 / r3 (mean diameters) / r3/r1 (isotropised))")
 
 
@@ -434,10 +435,7 @@ def shape_panel(ax, results: list[dict], edges: np.ndarray) -> None:
     solid, and those of their isotropised references, dashed, one colour per N."""
     for n in sorted({r["n"] for r in results}):
         g = [r for r in results if r["n"] == n]
-        s = np.concatenate([r["S"] for r in g])
-        radii = np.concatenate([np.asarray(r["radii"], float).reshape(-1, 3) for r in g])
-        null = np.concatenate([np.asarray(r[NULL], float).reshape(-1, 3) for r in g])
-        ok = np.all(np.isfinite(radii), axis=1) & np.all(np.isfinite(null), axis=1)
+        s, radii, null, _, _, ok = pooled_extent(g)
         mid, med, ref = [], [], []
         for a, b in zip(edges[:-1], edges[1:], strict=True):
             m = (s >= a) & (s < b) & ok

@@ -231,7 +231,7 @@ def test_shape_decades_by_hand(sa, capsys):
     radii is left out."""
     radii = np.array([[2.0, 1.5, 1.0], [4.0, 2.0, 1.0], [8.0, 8.0, 8.0], [np.nan] * 3])
     r = {"n": 64, "S": np.array([2e-3, 5e-3, 0.5, 6e-3]), "radii": radii,
-         sa.NULL: np.ones((4, 3))}
+         sa.NULL: np.ones((4, 3)), "thin_axis": np.zeros((4, 3)), "length": 1.0}
     sa.shape_decades([r], -3, 0)
     row = capsys.readouterr().out.split("| 64 | ")[1].split("\n")[0]
     assert row == "2: 3.00 / 1.00 / 0.38 (1.00) | 0 | 1: 8.00 / 8.00 / 1.00 (1.00) |"
