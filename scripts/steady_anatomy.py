@@ -145,6 +145,8 @@ def save(path: Path, results: list[dict]) -> None:
                                          r["length"]])
         for c in ("S", *COLUMNS, NULL):
             arrays[f"s{i}_{c}"] = np.asarray(r[c])
+        if "rows" in r:  # optional: the trace rows of the counted avalanches
+            arrays[f"s{i}_rows"] = np.asarray(r["rows"], dtype=np.int64)
     np.savez(path, **arrays)
 
 
@@ -160,6 +162,8 @@ def load(path: Path) -> list[dict]:
             # files written before the extent existed: NaN radii and axes
             r[c] = (z[f"s{i}_{c}"] if f"s{i}_{c}" in z
                     else np.full((z[f"s{i}_S"].size, 3), np.nan))
+        if f"s{i}_rows" in z:
+            r["rows"] = z[f"s{i}_rows"]
         out.append(r)
         i += 1
     return out
@@ -339,6 +343,31 @@ def shapes(results: list[dict], boot: int = 500, seed: int = 0) -> None:
         print(f"thin axis pooled over N ({axis.shape[0]} avalanches): " + ", ".join(cells))
 
 
+def shape_excess(results: list[dict], boot: int = 500, seed: int = 0) -> None:
+    """Per N: how far the avalanches' shape lies from their isotropised references,
+    ``Δ_a = median(r_a/r1) − median(reference r_a/r1)`` for ``a = 2, 3`` (all counted
+    avalanches; negative: flatter or thinner than the same weights at random directions), with
+    σ the standard deviation over ``boot`` resamples of the packings — the number that compares
+    one ensemble's anisotropy with another's (the reference itself depends on ``N_eff``)."""
+    rng = np.random.default_rng(seed)
+
+    def excess(g):
+        v = shape_rows(g)
+        return [float(np.median(v[f"r{a}"]) - np.median(v[f"null{a}"])) for a in (2, 3)]
+
+    print("\n| N (packings) | Δ2 = r2/r1 − isotropised (σ) | Δ3 = r3/r1 − isotropised (σ) |")
+    print("|---|---|---|")
+    for n in sorted({r["n"] for r in results}):
+        g = [r for r in results if r["n"] == n]
+        if shape_rows(g)["r1"].size < 3:
+            continue
+        best = excess(g)
+        draws = np.array([excess([g[i] for i in rng.integers(0, len(g), len(g))])
+                          for _ in range(boot)])
+        sig = np.nanstd(draws, axis=0, ddof=1)
+        print(f"| {n} ({len(g)}) | {best[0]:+.3f} ({sig[0]:.3f}) | {best[1]:+.3f} ({sig[1]:.3f}) |")
+
+
 def decade_table(results: list[dict], first: int, last: int, pool, cell) -> None:
     """A table per N (rows) and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last −
     1``; columns): ``pool(samples)`` gives the pooled arrays of one N, ``cell(arrays, mask)``
@@ -390,7 +419,9 @@ def decades(results: list[dict], first: int = -7, last: int = 0) -> None:
           "mean diameters)")
 
 
-def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> None:
+def figure(path: Path, results: list[dict], first: int = -7, last: int = 0,
+           title: str = "counted avalanches of the steady state: event field's extent against "
+                        "size") -> None:
     """Three panels against ``S``: ``N_eff`` and the contacts changed of every counted avalanche
     (points, one colour per N) with their medians per decade of ``S`` (lines), and the shape
     ``r3/r1`` (:func:`shape_panel`)."""
@@ -422,8 +453,7 @@ def figure(path: Path, results: list[dict], first: int = -7, last: int = 0) -> N
         ax.set_xlabel("S (ε)")
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
-    fig.suptitle("counted avalanches of the steady state: event field's extent against size",
-                 fontsize=9)
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -504,6 +534,7 @@ def main(argv: list[str] | None = None) -> None:
     table(results, a.s_min, a.boot)
     decades(results)
     shapes(results, a.boot)
+    shape_excess(results, a.boot)
     shape_decades(results)
     if a.figure is not None:
         figure(a.figure, results)

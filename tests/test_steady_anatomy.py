@@ -252,3 +252,18 @@ def test_shape_slopes_of_scaled_groups(sa, capsys):
     out = capsys.readouterr().out
     assert "r1 0.333 ± 0.000, r2 0.333 ± 0.000, r3 0.000 ± 0.000" in out
     assert "thin axis pooled over N (60 avalanches): |n_x| 0.000" in out and "|n_y| 1.000" in out
+
+
+def test_shape_excess_by_hand(sa, capsys):
+    """Two packings of one N, every avalanche r = (4, 2, 1) against a reference (1, 1, 0.75):
+    Δ2 = 0.5 − 1 = −0.5, Δ3 = 0.25 − 0.75 = −0.5, σ 0 (every resample the same); a second N
+    with too few avalanches (2 < 3) is left out."""
+    one = {"n": 64, "S": np.arange(1.0, 6.0), "radii": np.tile([4.0, 2.0, 1.0], (5, 1)),
+           sa.NULL: np.tile([1.0, 1.0, 0.75], (5, 1)), "thin_axis": np.zeros((5, 3)),
+           "length": 10.0}
+    few = {**one, "n": 128, "S": one["S"][:2], "radii": one["radii"][:2],
+           sa.NULL: one[sa.NULL][:2], "thin_axis": one["thin_axis"][:2]}
+    sa.shape_excess([one, dict(one), few], boot=10)
+    out = capsys.readouterr().out
+    assert "| 64 (2) | -0.500 (0.000) | -0.500 (0.000) |" in out
+    assert "| 128 (" not in out

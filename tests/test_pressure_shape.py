@@ -1,0 +1,94 @@
+"""``scripts/pressure_shape.py``: its run equals ``shear(..., pressure=P, keep_avalanches=True,
+avalanche_threshold=0)`` (the driver's path, by the library's own entry), its reference is the
+recorded extent's, the file round trip, ``--check`` by hand, and the refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tests.script_helpers import assert_out_kept, exit_code, script_module
+
+JOB = (48, 1e-3, 1, 80, 2e-4)  # N, p, seed, steps, δγ: six counted avalanches
+
+
+@pytest.fixture(scope="module")
+def ps():
+    return script_module("pressure_shape")
+
+
+@pytest.fixture(scope="module")
+def sample(ps):
+    return ps.one_sample(JOB)
+
+
+def test_run_equals_the_shear_entry(ps, sample):
+    """The script keeps the minima itself (``on_candidate``) and records the plastic steps as the
+    driver does; every column equals that of ``shear(..., pressure=P, keep_avalanches=True)`` on
+    the same packing, bit for bit (``n_moved`` aside: the script counts it at the recorder's
+    default threshold, the run records every particle), and the counted rows are the steps
+    between jammed minima with ``S = −ΔH > 0``."""
+    from jamlab.analysis.anatomy import moved_particles
+    from jamlab.spheres import jam
+    from jamlab.spheres.aqs import shear
+    from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
+
+    n, p, seed, steps, dgamma = JOB
+    res = shear(jam(n, 3, seed, p_target=p).packing, dgamma, n_steps=steps, pressure=p,
+                keep_avalanches=True, avalanche_threshold=0.0)
+    tr = res.trace
+    ref = ps.sa.records(tr)
+    assert ref["S"].size >= 3  # the case has avalanches to compare
+    for c in ref:
+        if c != "n_moved":
+            assert np.array_equal(np.asarray(ref[c]), np.asarray(sample[c]), equal_nan=True), c
+    jm = np.asarray(tr.jammed, bool)
+    h = np.asarray(tr.energy_jump)
+    rows = [k for k in range(1, h.size) if tr.plastic[k] and jm[k - 1] and jm[k] and h[k] < 0]
+    assert list(sample["rows"]) == rows
+    assert np.array_equal(sample["S"], -h[rows])
+    # n_moved: the particles of the full stored field above the default threshold
+    av = tr.avalanches
+    where = {int(s): k for k, s in enumerate(av["step"])}
+    off = av["moved_offsets"]
+    for row, moved in zip(rows, sample["n_moved"], strict=True):
+        k = where[row]
+        u = np.zeros((n, 3))
+        u[av["moved_index"][off[k]:off[k + 1]]] = av["moved_displacement"][off[k]:off[k + 1]]
+        assert moved == moved_particles(u, MOVED_THRESHOLD)[0].size
+    # the reference turns the recorded offsets: Σ r_a² kept (and the extent recomputed from the
+    # kept minima equalled the recorded one, or one_sample would have raised)
+    np.testing.assert_allclose(np.sum(sample[ps.sa.NULL] ** 2, axis=1),
+                               np.sum(sample["radii"] ** 2, axis=1), rtol=1e-12)
+    lengths = np.asarray(tr.fixed_pressure["box_length"])
+    assert lengths.min() <= sample["length"] <= lengths.max() and sample["converged"]
+
+
+def test_round_trip_and_check(ps, sample, tmp_path, capsys):
+    out = tmp_path / "a.npz"
+    ps.sa.save(out, [sample])
+    back = ps.sa.load(out)[0]
+    assert np.array_equal(back["rows"], sample["rows"])
+    for c in ("S", *ps.sa.COLUMNS, ps.sa.NULL):
+        assert np.array_equal(back[c], sample[c])
+    # an earlier run by hand: the first counted step with the same S, the second with S changed
+    # by 1e-3, the third absent, one step counted there only, and another seed (ignored)
+    n, seed = JOB[0], JOB[2]
+    rows, s = [int(r) for r in sample["rows"]], sample["S"]
+    ref = tmp_path / "events.npz"
+    np.savez(ref, N=np.array([n, n, n, n, n]), seed=np.array([seed] * 4 + [seed + 1]),
+             step=np.array([rows[0], rows[1], 10_000, rows[2], rows[0]]),
+             S=np.array([s[0], s[1] * 1.001, 1e-9, s[2], s[0]]),
+             jammed=np.array([True, True, True, False, True]))
+    capsys.readouterr()
+    ps.main(["--load", str(out), "--boot", "5", "--check", str(ref)])
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith(f"| {n} | ")][-1]
+    assert line.startswith(f"| {n} | {s.size} / 3 | 2 | 1 | ")
+
+
+def test_refusals(ps, tmp_path, monkeypatch):
+    assert_out_kept(ps, tmp_path / "kept.npz", monkeypatch)
+    assert exit_code(ps, ["--load", str(tmp_path / "none.npz")], monkeypatch) == 2
+    assert exit_code(ps, ["--n", "250", "500", "--samples", "4"], monkeypatch) == 2
+    assert exit_code(ps, ["--pressure", "0"], monkeypatch) == 2
+    assert exit_code(ps, ["--n", "4", "--samples", "1"], monkeypatch) == 2
+    assert exit_code(ps, ["--figure", str(tmp_path / "f.txt")], monkeypatch) == 2
