@@ -80,8 +80,39 @@ def one_sample(job: tuple) -> dict:
            "converged": bool(np.all(np.asarray(trace.max_force) < 1e-12)),
            "length": float(np.median(trace.fixed_pressure["box_length"]))}
     out[sa.NULL], out["n_moved"] = sa.isotropised(trace, before, np.random.default_rng(seed))
+    out["scattered_radii"], out["scattered_null"] = scattered(
+        trace, before, np.random.default_rng([seed, 1]))
     out["cpu"] = time.process_time() - t0
     return out
+
+
+def scattered(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
+    """The control of the reference for box-filling events: each counted avalanche's field
+    (``steady_anatomy.event_fields``) with its values moved to a random permutation of the
+    packing's particles — the same weights spread over the box with no spatial structure, the
+    periodic box and the minimum-image centring kept — and ``(its radii, their isotropised
+    reference)``. If the reference is fair to a field that fills the box, the control's shape
+    lies at its reference (``Δ3 ≈ 0``)."""
+    from jamlab.analysis.anatomy import event_extent, isotropised_radii
+
+    radii, null = [], []
+    for u, pos, length, strain in sa.event_fields(trace, before):
+        moved = u[rng.permutation(u.shape[0])]
+        radii.append(event_extent(moved, pos, length, strain)[0])
+        null.append(isotropised_radii(moved, pos, length, strain, rng))
+    return (np.asarray(radii, dtype=np.float64).reshape(-1, 3),
+            np.asarray(null, dtype=np.float64).reshape(-1, 3))
+
+
+def control(results: list[dict], boot: int) -> None:
+    """``steady_anatomy.shape_excess`` of the control (:func:`scattered`), for the samples that
+    have it."""
+    have = [{**r, "radii": r["scattered_radii"], sa.NULL: r["scattered_null"]}
+            for r in results if "scattered_radii" in r]
+    if have:
+        print("\ncontrol: the same values scattered over the packing's particles (Δ of the "
+              "control against its own isotropised reference)")
+        sa.shape_excess(have, boot)
 
 
 def check(results: list[dict], files: list[Path]) -> None:
@@ -167,6 +198,7 @@ def main(argv: list[str] | None = None) -> None:
     sa.decades(results, *DECADES)
     sa.shapes(results, a.boot)
     sa.shape_excess(results, a.boot)
+    control(results, a.boot)
     sa.shape_decades(results, *DECADES)
     if a.figure is not None:
         sa.figure(a.figure, results, *DECADES,

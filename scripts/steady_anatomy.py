@@ -54,6 +54,10 @@ COLUMNS = ("n_eff", "max_displacement", "n_opened", "n_closed", "n_moved", "loca
            "elastic_fraction", "radii", "thin_axis")
 # per counted avalanche: the radii of its own weights at random directions (the reference)
 NULL = "isotropised_radii"
+# kept where a script gives them: the trace rows of the counted avalanches, and the control of
+# ``scripts/pressure_shape.py`` (the field's values scattered over the packing's particles: its
+# radii and their isotropised reference)
+OPTIONAL = ("rows", "scattered_radii", "scattered_null")
 
 
 def counted_rows(trace) -> np.ndarray:
@@ -83,22 +87,17 @@ def records(trace) -> dict[str, np.ndarray]:
     return out
 
 
-def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
-    """``(radii, n_moved)`` of the counted avalanches: the reference radii
-    (:func:`jamlab.analysis.anatomy.isotropised_radii`) of each event field, rebuilt from the
-    trace's stored displacements (a run with ``avalanche_threshold=0``: every particle that
-    moved) at the positions of the minimum before (``before[row] = (positions, box side,
-    strain)``), and the particles with ``|u| >`` :data:`~jamlab.spheres.aqs.anatomy.
-    MOVED_THRESHOLD` (the recorder's ``n_moved`` at its default). The extent recomputed from the
-    same field must equal the recorded one (``RuntimeError`` otherwise: the field or the
-    positions would not be the recorder's)."""
-    from jamlab.analysis.anatomy import event_extent, isotropised_radii, moved_particles
-    from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
+def event_fields(trace, before: dict[int, tuple]):
+    """``(u, positions, box side, strain)`` of each counted avalanche in order: the event field
+    rebuilt from the trace's stored displacements (a run with ``avalanche_threshold=0``: every
+    particle that moved) at the positions of the minimum before (``before[row] = (positions,
+    box side, strain)``). The extent recomputed from the field must equal the recorded one
+    (``RuntimeError`` otherwise: the field or the positions would not be the recorder's)."""
+    from jamlab.analysis.anatomy import event_extent
 
     av = trace.avalanches
     where = {int(s): k for k, s in enumerate(np.asarray(av["step"]))}
     off = np.asarray(av["moved_offsets"])
-    radii, moved = [], []
     for row in counted_rows(trace):
         k = where[int(row)]
         pos, length, strain = before[int(row)]
@@ -107,9 +106,22 @@ def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tu
         if not np.allclose(event_extent(u, pos, length, strain)[0], av["radii"][k],
                            rtol=1e-12, atol=0.0, equal_nan=True):
             raise RuntimeError(f"row {row}: the rebuilt field does not give the recorded extent")
+        yield u, pos, length, strain
+
+
+def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
+    """``(radii, n_moved)`` of the counted avalanches: the reference radii
+    (:func:`jamlab.analysis.anatomy.isotropised_radii`) of each event field
+    (:func:`event_fields`), and the particles with ``|u| >`` :data:`~jamlab.spheres.aqs.
+    anatomy.MOVED_THRESHOLD` (the recorder's ``n_moved`` at its default)."""
+    from jamlab.analysis.anatomy import isotropised_radii, moved_particles
+    from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
+
+    radii, moved = [], []
+    for u, pos, length, strain in event_fields(trace, before):
         radii.append(isotropised_radii(u, pos, length, strain, rng))
         moved.append(moved_particles(u, MOVED_THRESHOLD)[0].size)
-    dim = np.asarray(av["radii"]).shape[1]
+    dim = np.asarray(trace.avalanches["radii"]).shape[1]
     return np.asarray(radii, dtype=np.float64).reshape(-1, dim), np.asarray(moved)
 
 
@@ -145,8 +157,9 @@ def save(path: Path, results: list[dict]) -> None:
                                          r["length"]])
         for c in ("S", *COLUMNS, NULL):
             arrays[f"s{i}_{c}"] = np.asarray(r[c])
-        if "rows" in r:  # optional: the trace rows of the counted avalanches
-            arrays[f"s{i}_rows"] = np.asarray(r["rows"], dtype=np.int64)
+        for c in OPTIONAL:
+            if c in r:
+                arrays[f"s{i}_{c}"] = np.asarray(r[c])
     np.savez(path, **arrays)
 
 
@@ -162,8 +175,9 @@ def load(path: Path) -> list[dict]:
             # files written before the extent existed: NaN radii and axes
             r[c] = (z[f"s{i}_{c}"] if f"s{i}_{c}" in z
                     else np.full((z[f"s{i}_S"].size, 3), np.nan))
-        if f"s{i}_rows" in z:
-            r["rows"] = z[f"s{i}_rows"]
+        for c in OPTIONAL:
+            if f"s{i}_{c}" in z:
+                r[c] = z[f"s{i}_{c}"]
         out.append(r)
         i += 1
     return out

@@ -59,15 +59,39 @@ def test_run_equals_the_shear_entry(ps, sample):
     # kept minima equalled the recorded one, or one_sample would have raised)
     np.testing.assert_allclose(np.sum(sample[ps.sa.NULL] ** 2, axis=1),
                                np.sum(sample["radii"] ** 2, axis=1), rtol=1e-12)
+    # the control turns its own offsets too, and is sorted like the radii
+    for c in ("scattered_radii", "scattered_null"):
+        assert sample[c].shape == (ref["S"].size, 3) and np.all(np.diff(sample[c], axis=1) <= 0)
+    np.testing.assert_allclose(np.sum(sample["scattered_null"] ** 2, axis=1),
+                               np.sum(sample["scattered_radii"] ** 2, axis=1), rtol=1e-12)
     lengths = np.asarray(tr.fixed_pressure["box_length"])
     assert lengths.min() <= sample["length"] <= lengths.max() and sample["converged"]
+
+
+def test_scattered_control_of_a_uniform_field(ps, monkeypatch):
+    """A field whose particles all move alike is unchanged by the scattering: the control's radii
+    are the field's own (a packing of random positions, a sheared box), and its reference keeps
+    Σ r_a²; a field on one particle has radii 0."""
+    from jamlab.analysis.anatomy import event_extent
+
+    rng = np.random.default_rng(5)
+    pos = rng.uniform(0.0, 4.0, (30, 3))
+    one = np.zeros((30, 3))
+    one[7] = [0.1, 0.0, 0.0]
+    fields = [(np.full((30, 3), 0.01), pos, 4.0, 0.3), (one, pos, 4.0, 0.3)]
+    monkeypatch.setattr(ps.sa, "event_fields", lambda trace, before: iter(fields))
+    radii, null = ps.scattered(None, {}, np.random.default_rng(1))
+    np.testing.assert_array_equal(radii[0], event_extent(*fields[0])[0])
+    np.testing.assert_allclose(np.sum(null**2, axis=1), np.sum(radii**2, axis=1), rtol=1e-12)
+    assert np.all(radii[1] == 0.0)
 
 
 def test_round_trip_and_check(ps, sample, tmp_path, capsys):
     out = tmp_path / "a.npz"
     ps.sa.save(out, [sample])
     back = ps.sa.load(out)[0]
-    assert np.array_equal(back["rows"], sample["rows"])
+    for c in ps.sa.OPTIONAL:
+        assert np.array_equal(back[c], sample[c])
     for c in ("S", *ps.sa.COLUMNS, ps.sa.NULL):
         assert np.array_equal(back[c], sample[c])
     # an earlier run by hand: the first counted step with the same S, the second with S changed
@@ -81,7 +105,9 @@ def test_round_trip_and_check(ps, sample, tmp_path, capsys):
              jammed=np.array([True, True, True, False, True]))
     capsys.readouterr()
     ps.main(["--load", str(out), "--boot", "5", "--check", str(ref)])
-    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith(f"| {n} | ")][-1]
+    text = capsys.readouterr().out
+    assert "control: the same values scattered" in text
+    line = [x for x in text.splitlines() if x.startswith(f"| {n} | ")][-1]
     assert line.startswith(f"| {n} | {s.size} / 3 | 2 | 1 | ")
 
 
