@@ -4,6 +4,9 @@ recorded extent's, the file round trip, ``--check`` by hand, and the refusals.""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 from tests.script_helpers import assert_out_kept, exit_code, script_module
@@ -118,3 +121,61 @@ def test_refusals(ps, tmp_path, monkeypatch):
     assert exit_code(ps, ["--pressure", "0"], monkeypatch) == 2
     assert exit_code(ps, ["--n", "4", "--samples", "1"], monkeypatch) == 2
     assert exit_code(ps, ["--figure", str(tmp_path / "f.txt")], monkeypatch) == 2
+
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def shape_rows() -> dict[str, dict]:
+    """``{file: {"pressure", "counts" {N: samples}, "check" [files]}}`` from the table of
+    ``data/README.md`` on ``data/pressure_shape``."""
+    rows = {}
+    text = (DATA / "README.md").read_text()
+    for m in re.finditer(r"^\| `pressure_shape/(\S+\.npz)` \| `([^`]*)`", text, re.M):
+        argv = m.group(2).split()
+        ns = [int(v) for v in argv[argv.index("--n") + 1:argv.index("--samples")]]
+        ks = [int(argv[argv.index("--samples") + 1 + i]) for i in range(len(ns))]
+        checks = argv[argv.index("--check") + 1:] if "--check" in argv else []
+        rows[m.group(1)] = {"pressure": float(argv[argv.index("--pressure") + 1]),
+                            "counts": dict(zip(ns, ks, strict=True)), "check": checks}
+    return rows
+
+
+def test_committed_files_are_what_the_readme_says(ps):
+    """Every file of ``data/pressure_shape`` is listed, holds seeds 1 … k of each N, every
+    minimum converged, the reference keeps Σ r_a²; the counted steps are, for the most part,
+    those the earlier run of the same pressure counted (``--check``: ≥ 80 % of its (seed, step)
+    pairs; the code has changed minima in their last digits since); and a file rerun with the
+    control holds the same samples, bit for bit, as the one without it."""
+    rows = shape_rows()
+    assert rows and sorted(rows) == sorted(p.name for p in (DATA / "pressure_shape").glob("*.npz"))
+    loaded = {name: ps.sa.load(DATA / "pressure_shape" / name) for name in rows}
+    for name, spec in rows.items():
+        results = loaded[name]
+        keys = sorted((r["n"], r["seed"]) for r in results)
+        assert keys == sorted((n, s) for n, k in spec["counts"].items()
+                              for s in range(1, k + 1)), name
+        assert all(r["converged"] for r in results), name
+        for r in results:
+            np.testing.assert_allclose(np.sum(r[ps.sa.NULL] ** 2, axis=1),
+                                       np.sum(r["radii"] ** 2, axis=1), rtol=1e-12)
+        for f in spec["check"]:
+            with np.load(DATA.parent / f) as z:
+                ok = z["jammed"].astype(bool) & (z["S"] > 0)
+                there = {(int(n), int(s), int(t)) for n, s, t in
+                         zip(z["N"][ok], z["seed"][ok], z["step"][ok], strict=True)
+                         if (int(n), int(s)) in set(keys)}
+            here = {(r["n"], r["seed"], int(t)) for r in results for t in r["rows"]}
+            assert there and len(here & there) >= 0.8 * len(there), name
+    by_key = {(spec["pressure"], r["n"], r["seed"]): r
+              for name, spec in rows.items() for r in loaded[name] if "scattered_radii" not in r}
+    compared = 0
+    for name, spec in rows.items():
+        for r in loaded[name]:
+            if "scattered_radii" in r and (spec["pressure"], r["n"], r["seed"]) in by_key:
+                o = by_key[(spec["pressure"], r["n"], r["seed"])]
+                for c in ("S", "rows", *ps.sa.COLUMNS, ps.sa.NULL):
+                    assert np.array_equal(np.asarray(r[c]), np.asarray(o[c]), equal_nan=True)
+                compared += 1
+    with_control = sum("scattered_radii" in r for res in loaded.values() for r in res)
+    assert compared == with_control  # every sample with the control has its twin
