@@ -21,7 +21,8 @@ and the least-squares slopes of ``ln N_eff`` and of ``ln (contacts changed)`` on
 ``ln`` (the largest tenth's median ``N_eff`` and contacts changed) on ``ln N``; then per N and
 decade of ``S`` the medians of ``N_eff``, contacts changed and the largest displacement; then
 the shapes (:func:`shapes`): ``r1/L``, ``r2/r1`` and ``r3/r1`` against the isotropised
-reference, and the thin axis's direction.
+reference, and the thin axis's direction; per N the distance of the shape from its reference
+(:func:`shape_excess`, ``Δ_a`` with σ over packings: the number that compares ensembles).
 ``--check FILE ...`` compares each sample's counted sizes with the same (N, seed) of
 ``steady_unsat.py`` result files, bit for bit (keeping the anatomy must not change the run, and a
 rerun must reproduce the committed data).
