@@ -31,7 +31,6 @@ import argparse
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 for _v in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
@@ -70,13 +69,14 @@ def one_sample(job: tuple) -> dict:
             raise RuntimeError(f"step {int(row)} is plastic but its minima were not kept")
         recorder.record(int(row), *kept[int(row)])
     trace = trace.with_avalanches(recorder.table(trace.energy_jump, trace.stress_jump, 3))
+    rows = sa.counted_rows(trace)
     before = {}
-    for row in sa.counted_rows(trace):
+    for row in rows:
         b, a = kept[int(row)]
         # the recorder's frame: the positions before rescaled to the box after the step
         before[int(row)] = (np.asarray(b.positions) * (a.box.length / b.box.length),
                             a.box.length, b.strain)
-    out = {"n": n, "seed": seed, "rows": sa.counted_rows(trace), **sa.records(trace),
+    out = {"n": n, "seed": seed, "rows": rows, **sa.records(trace),
            "converged": bool(np.all(np.asarray(trace.max_force) < 1e-12)),
            "length": float(np.median(trace.fixed_pressure["box_length"]))}
     out[sa.NULL], out["n_moved"] = sa.isotropised(trace, before, np.random.default_rng(seed))
@@ -154,27 +154,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=200)
     ap.add_argument("--dgamma", type=float, default=1e-5)
     ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--boot", type=int, default=500)
-    ap.add_argument("--s-min", type=float, default=1.2e-8,
-                    help="the slopes use S ≥ this (ε): the p = 1e-4 comparison floor")
-    ap.add_argument("--out", type=Path, default=None)
-    ap.add_argument("--load", type=Path, nargs="+", default=None,
-                    help="reprint the tables of these --out files (pooled) instead of shearing")
-    ap.add_argument("--figure", type=Path, default=None,
-                    help="draw N_eff, the contacts changed and r3/r1 against S (.png/.pdf/.svg)")
-    ap.add_argument("--check", type=Path, nargs="+", default=None,
-                    help="avalanche_anatomy.py events.npz files: the counted sizes, same (N, seed)")
+    sa.add_report_arguments(
+        ap, 1.2e-8, "the slopes use S ≥ this (ε): the p = 1e-4 comparison floor",
+        "avalanche_anatomy.py events.npz files: the counted sizes, same (N, seed)")
     a = ap.parse_args(argv)
-    from jamlab.runs import check_figure_path
-
-    check_figure_path(ap, a.figure, [])
-    if not a.s_min > 0 or a.boot < 2:
-        ap.error("need --s-min > 0 and --boot >= 2")
-    for f in (a.load or []) + (a.check or []):
-        if not f.is_file():
-            ap.error(f"{f}: no such file")
+    sa.check_report_arguments(ap, a)
     if a.load is not None:
         results = [r for f in a.load for r in sa.load(f)]
+        if a.check is not None and any("rows" not in r for r in results):
+            ap.error("--check needs the trace rows of the counted avalanches (files of this "
+                     "script)")
     else:
         if len(a.samples) != len(a.n):
             ap.error("--samples needs one count per --n")
@@ -186,27 +175,14 @@ def main(argv: list[str] | None = None) -> None:
             ap.error(f"--out {a.out} exists (finished data is never overwritten)")
         jobs = [(n, a.pressure, s, a.steps, a.dgamma)
                 for n, k in zip(a.n, a.samples, strict=True) for s in range(1, k + 1)]
-        t0 = time.time()
-        with ProcessPoolExecutor(a.workers) as ex:
-            results = list(ex.map(one_sample, jobs, chunksize=1))
-        print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
-              f"{time.time() - t0:.0f} s wall; p = {a.pressure}, δγ = {a.dgamma}, "
-              f"{a.steps} steps\n", file=sys.stderr)
+        results = sa.steady_unsat.map_jobs(one_sample, jobs, a.workers,
+                                           f"p = {a.pressure}, δγ = {a.dgamma}, {a.steps} steps")
         if a.out is not None:
             sa.save(a.out, results)
-    sa.table(results, a.s_min, a.boot)
-    sa.decades(results, *DECADES)
-    sa.shapes(results, a.boot)
-    sa.shape_excess(results, a.boot)
-    control(results, a.boot)
-    sa.shape_decades(results, *DECADES)
-    if a.figure is not None:
-        sa.figure(a.figure, results, *DECADES,
-                  title="counted avalanches at fixed pressure: event field's extent against size")
+    sa.report(results, a, *DECADES,
+              title="counted avalanches at fixed pressure: event field's extent against size",
+              after_shapes=lambda res: control(res, a.boot))
     if a.check is not None:
-        if any("rows" not in r for r in results):
-            ap.error("--check needs the trace rows of the counted avalanches (files of this "
-                     "script)")
         check(results, a.check)
 
 

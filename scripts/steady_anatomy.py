@@ -518,20 +518,22 @@ def check(results: list[dict], files: list[Path]) -> int:
     return differ
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    steady_unsat.add_protocol_arguments(ap, samples=20, pre_strain=0.5, sizes="bidisperse")
+def add_report_arguments(ap: argparse.ArgumentParser, s_min: float, s_min_help: str,
+                         check_help: str) -> None:
+    """The arguments of the tables and their inputs, shared with ``pressure_shape.py``:
+    ``--boot``, ``--s-min``, ``--out``, ``--load``, ``--figure``, ``--check``."""
     ap.add_argument("--boot", type=int, default=500)
-    ap.add_argument("--s-min", type=float, default=1e-5,
-                    help="the slopes use S ≥ this (ε): above the counting rule's rise")
+    ap.add_argument("--s-min", type=float, default=s_min, help=s_min_help)
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--load", type=Path, nargs="+", default=None,
-                    help="reprint the table of these --out files (pooled) instead of shearing")
+                    help="reprint the tables of these --out files (pooled) instead of shearing")
     ap.add_argument("--figure", type=Path, default=None,
                     help="draw N_eff, the contacts changed and r3/r1 against S (.png/.pdf/.svg)")
-    ap.add_argument("--check", type=Path, nargs="+", default=None,
-                    help="steady_unsat.py result files: compare the counted sizes, same (N, seed)")
-    a = ap.parse_args(argv)
+    ap.add_argument("--check", type=Path, nargs="+", default=None, help=check_help)
+
+
+def check_report_arguments(ap: argparse.ArgumentParser, a: argparse.Namespace) -> None:
+    """Refuse (``ap.error``: exit code 2) what :func:`add_report_arguments` cannot use."""
     from jamlab.runs import check_figure_path
 
     check_figure_path(ap, a.figure, [])
@@ -540,19 +542,40 @@ def main(argv: list[str] | None = None) -> None:
     for f in (a.load or []) + (a.check or []):
         if not f.is_file():
             ap.error(f"{f}: no such file")
+
+
+def report(results: list[dict], a: argparse.Namespace, first: int = -7, last: int = 0,
+           title: str | None = None, after_shapes=None) -> None:
+    """The tables (participation, per decade of ``S`` from ``1e{first}`` to ``1e{last}``,
+    shapes and their distance from the reference, radii per decade) and, with ``--figure``, the
+    figure (``title``: its heading, default :func:`figure`'s); ``after_shapes(results)``, if
+    given, prints its own table after the shapes' distance."""
+    table(results, a.s_min, a.boot)
+    decades(results, first, last)
+    shapes(results, a.boot)
+    shape_excess(results, a.boot)
+    if after_shapes is not None:
+        after_shapes(results)
+    shape_decades(results, first, last)
+    if a.figure is not None:
+        figure(a.figure, results, first, last, **({} if title is None else {"title": title}))
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    steady_unsat.add_protocol_arguments(ap, samples=20, pre_strain=0.5, sizes="bidisperse")
+    add_report_arguments(
+        ap, 1e-5, "the slopes use S ≥ this (ε): above the counting rule's rise",
+        "steady_unsat.py result files: compare the counted sizes, same (N, seed)")
+    a = ap.parse_args(argv)
+    check_report_arguments(ap, a)
     if a.load is not None:
         results = [r for f in a.load for r in load(f)]
     else:
         results = steady_unsat.run_jobs(ap, a, one_sample)
         if a.out is not None:
             save(a.out, results)
-    table(results, a.s_min, a.boot)
-    decades(results)
-    shapes(results, a.boot)
-    shape_excess(results, a.boot)
-    shape_decades(results)
-    if a.figure is not None:
-        figure(a.figure, results)
+    report(results, a)
     if a.check is not None and check(results, a.check):
         sys.exit(1)
 

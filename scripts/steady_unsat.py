@@ -352,16 +352,23 @@ def run_jobs(ap: argparse.ArgumentParser, a: argparse.Namespace, sample) -> list
         ap.error(f"--out {a.out} exists (finished data is never overwritten)")
     jobs = [(n, a.phi, s, a.dgamma, a.steps, a.pre_dgamma, a.pre_strain, a.sizes)
             for n in a.n for s in range(a.first_seed, a.first_seed + a.samples)]
+    return map_jobs(sample, jobs, a.workers,
+                    f"φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, steady after "
+                    f"{a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}")
+
+
+def map_jobs(sample, jobs: list, workers: int, protocol: str) -> list[dict]:
+    """``sample(job)`` for every job, in order, on ``workers`` processes one job at a time (in
+    this process if 1); the results' CPU time (their ``cpu``), the wall time and ``protocol``
+    printed to stderr."""
     t0 = time.time()
-    if a.workers == 1:
+    if workers == 1:
         results = [sample(j) for j in jobs]
     else:
-        with ProcessPoolExecutor(a.workers) as ex:
+        with ProcessPoolExecutor(workers) as ex:
             results = list(ex.map(sample, jobs, chunksize=1))
     print(f"{len(results)} samples, {sum(r['cpu'] for r in results):.0f} CPU s, "
-          f"{time.time() - t0:.0f} s wall; φ = {a.phi}, δγ = {a.dgamma}, {a.steps} steps, "
-          f"steady after {a.pre_strain} in steps of {a.pre_dgamma}; sizes {a.sizes}\n",
-          file=sys.stderr)
+          f"{time.time() - t0:.0f} s wall; {protocol}\n", file=sys.stderr)
     return results
 
 
