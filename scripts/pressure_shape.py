@@ -80,6 +80,7 @@ def one_sample(job: tuple) -> dict:
            "converged": bool(np.all(np.asarray(trace.max_force) < 1e-12)),
            "length": float(np.median(trace.fixed_pressure["box_length"]))}
     out[sa.NULL], out["n_moved"] = sa.isotropised(trace, before, np.random.default_rng(seed))
+    out["long_axis"] = sa.long_axes(trace, before)
     out["scattered_radii"], out["scattered_null"] = scattered(
         trace, before, np.random.default_rng([seed, 1]))
     out["cpu"] = time.process_time() - t0

@@ -22,7 +22,9 @@ and the least-squares slopes of ``ln N_eff`` and of ``ln (contacts changed)`` on
 decade of ``S`` the medians of ``N_eff``, contacts changed and the largest displacement; then
 the shapes (:func:`shapes`): ``r1/L``, ``r2/r1`` and ``r3/r1`` against the isotropised
 reference, and the thin axis's direction; per N the distance of the shape from its reference
-(:func:`shape_excess`, ``Δ_a`` with σ over packings: the number that compares ensembles).
+(:func:`shape_excess`, ``Δ_a`` with σ over packings: the number that compares ensembles); the
+orientation tensor of the thin and the long axis (:func:`orientation`; the long axis,
+:func:`long_axes`, in files from 2026-12-06 on).
 ``--check FILE ...`` compares each sample's counted sizes with the same (N, seed) of
 ``steady_unsat.py`` result files, bit for bit (keeping the anatomy must not change the run, and a
 rerun must reproduce the committed data).
@@ -55,10 +57,14 @@ COLUMNS = ("n_eff", "max_displacement", "n_opened", "n_closed", "n_moved", "loca
            "elastic_fraction", "radii", "thin_axis")
 # per counted avalanche: the radii of its own weights at random directions (the reference)
 NULL = "isotropised_radii"
-# kept where a script gives them: the trace rows of the counted avalanches, and the control of
+# kept where a script gives them: the trace rows of the counted avalanches, the control of
 # ``scripts/pressure_shape.py`` (the field's values scattered over the packing's particles: its
-# radii and their isotropised reference)
-OPTIONAL = ("rows", "scattered_radii", "scattered_null")
+# radii and their isotropised reference), and the long axis (:func:`long_axes`; runs from
+# 2026-12-06, a new session, on)
+OPTIONAL = ("rows", "scattered_radii", "scattered_null", "long_axis")
+# the components of the orientation tensor printed by :func:`orientation`
+Q_COMPONENTS = ((0, 0, "xx"), (1, 1, "yy"), (2, 2, "zz"), (0, 1, "xy"), (0, 2, "xz"),
+                (1, 2, "yz"))
 
 
 def counted_rows(trace) -> np.ndarray:
@@ -126,6 +132,17 @@ def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tu
     return np.asarray(radii, dtype=np.float64).reshape(-1, dim), np.asarray(moved)
 
 
+def long_axes(trace, before: dict[int, tuple]) -> np.ndarray:
+    """The long axis (row 0 of :func:`jamlab.analysis.anatomy.principal_axes`) of each counted
+    avalanche's event field (:func:`event_fields`), ``(avalanches, d)``."""
+    from jamlab.analysis.anatomy import principal_axes
+
+    axes = [principal_axes(u, pos, length, strain)[1][0]
+            for u, pos, length, strain in event_fields(trace, before)]
+    return np.asarray(axes, dtype=np.float64).reshape(-1, np.asarray(trace.avalanches["radii"])
+                                                      .shape[1])
+
+
 def one_sample(job: tuple) -> dict:
     """The steady protocol of ``steady_unsat.one_sample`` with the anatomy kept (every moved
     particle's displacement, and the minima before the plastic steps: :func:`isotropised`)."""
@@ -147,6 +164,7 @@ def one_sample(job: tuple) -> dict:
            "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12)),
            "length": float(run.packing.box.length)}
     out[NULL], out["n_moved"] = isotropised(run.trace, before, np.random.default_rng(seed))
+    out["long_axis"] = long_axes(run.trace, before)
     out["cpu"] = time.process_time() - t0
     return out
 
@@ -383,6 +401,48 @@ def shape_excess(results: list[dict], boot: int = 500, seed: int = 0) -> None:
         print(f"| {n} ({len(g)}) | {best[0]:+.3f} ({sig[0]:.3f}) | {best[1]:+.3f} ({sig[1]:.3f}) |")
 
 
+def orientation(results: list[dict], boot: int = 500, seed: int = 0) -> None:
+    """Per N and pooled over the sizes: the orientation tensor ``Q = ⟨n nᵀ⟩ − I/3``
+    (:func:`jamlab.analysis.anatomy.orientation_tensor`) of the counted avalanches' thin axis,
+    and of the long axis where every sample has it; each component with σ over ``boot``
+    resamples of the packings (pooled: each N's packings resampled apart) and ``Q/σ``; and the
+    direction in the flow–gradient plane of the xy block's larger eigenvector (degrees from
+    ``x`` toward ``y``; 45°: the stretching diagonal of ``x += δγ y``, δγ > 0)."""
+    from jamlab.analysis.anatomy import orientation_tensor
+
+    rng = np.random.default_rng(seed)
+    cols = [("thin", "thin_axis")]
+    if all("long_axis" in r for r in results):
+        cols.append(("long", "long_axis"))
+    ns = sorted({r["n"] for r in results})
+    groups = [(str(n), [[r for r in results if r["n"] == n]]) for n in ns]
+    if len(ns) > 1:
+        groups.append(("pooled " + ", ".join(map(str, ns)),
+                       [[r for r in results if r["n"] == n] for n in ns]))
+    print("\n| N | axis (avalanches) | " + " | ".join(f"Q_{c}" for *_, c in Q_COMPONENTS)
+          + " | xy-plane direction (°) |")
+    print("|---" * (len(Q_COMPONENTS) + 3) + "|")
+    for label, parts in groups:
+        for name, col in cols:
+            def tensor(ps, col=col):
+                return orientation_tensor(np.concatenate(
+                    [np.asarray(r[col], float).reshape(-1, 3) for g in ps for r in g]))
+
+            q = tensor(parts)
+            draws = np.array([tensor([[g[i] for i in rng.integers(0, len(g), len(g))]
+                                      for g in parts]) for _ in range(boot)])
+            sig = np.nanstd(draws, axis=0, ddof=1)
+            count = sum(np.all(np.isfinite(np.asarray(r[col], float).reshape(-1, 3)), axis=1)
+                        .sum() for g in parts for r in g)
+            cells = [f"{q[a, b]:+.3f} ± {sig[a, b]:.3f} "
+                     + (f"({q[a, b] / sig[a, b]:+.1f}σ)" if sig[a, b] > 1e-9 else "(—)")
+                     for a, b, _ in Q_COMPONENTS]
+            angle = 0.5 * np.degrees(np.arctan2(2 * q[0, 1], q[0, 0] - q[1, 1]))
+            print(f"| {label} | {name} ({count}) | " + " | ".join(cells) + f" | {angle:+.0f} |")
+    print("\n(Q = ⟨n nᵀ⟩ − I/3: 0 for no preferred direction; Q_xy > 0 toward the stretching "
+          "diagonal (1, 1, 0)/√2; Q_xz, Q_yz vanish by the shear's mirror z → −z)")
+
+
 def decade_table(results: list[dict], first: int, last: int, pool, cell) -> None:
     """A table per N (rows) and decade of ``S`` (``[10^k, 10^(k+1))`` ε, ``k = first … last −
     1``; columns): ``pool(samples)`` gives the pooled arrays of one N, ``cell(arrays, mask)``
@@ -556,6 +616,7 @@ def report(results: list[dict], a: argparse.Namespace, first: int = -7, last: in
     shape_excess(results, a.boot)
     if after_shapes is not None:
         after_shapes(results)
+    orientation(results, a.boot)
     shape_decades(results, first, last)
     if a.figure is not None:
         figure(a.figure, results, first, last, **({} if title is None else {"title": title}))

@@ -19,7 +19,9 @@ from jamlab.analysis.anatomy import (
     moved_particles,
     nonaffine_displacements,
     only_bucklers_rattlers,
+    orientation_tensor,
     participation_ratio,
+    principal_axes,
 )
 from jamlab.lees_edwards import minimum_image, wrap
 
@@ -289,3 +291,51 @@ def test_isotropised_radii_keep_the_trace_and_the_rank():
         iso = isotropised_radii(two, x, L, 0.0, rng)
         assert iso[2] < 1e-6 * iso[0] and iso[1] > 1e-3 * iso[0]  # λ3 zero to rounding
     assert np.all(np.isnan(isotropised_radii(np.zeros((5, 3)), x[:5], L, 0.0, rng)))
+
+
+@pytest.mark.parametrize("gamma", [0.0, 0.7])
+def test_principal_axes_of_a_rotated_blob(gamma):
+    """A Gaussian blob of widths 0.7, 0.45, 0.25 along the columns of a random rotation,
+    across the box's corner: the long, middle and thin axes are those columns (to the sampling
+    of 20,000 points), the rows are orthonormal with their largest component positive, the radii
+    and the thin row equal :func:`event_extent`'s bit for bit."""
+    rng = np.random.default_rng(11)
+    L, n = 7.0, 20000
+    x = rng.uniform(0, L, (n, 3))
+    rot, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    d = minimum_image(x - [6.9, 0.2, 6.8], L, gamma) @ rot  # coordinates along the columns
+    u = np.zeros((n, 3))
+    u[:, 1] = np.exp(-0.125 * np.sum((d / [0.7, 0.45, 0.25]) ** 2, axis=1))  # |u|⁴: widths
+    radii, axes = principal_axes(u, x, L, gamma)
+    for a in range(3):
+        assert abs(axes[a] @ rot[:, a]) > 0.995
+        assert axes[a][int(np.argmax(np.abs(axes[a])))] > 0
+    np.testing.assert_allclose(axes @ axes.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(radii, [0.7, 0.45, 0.25], rtol=0.03)
+    r, thin = event_extent(u, x, L, gamma)
+    np.testing.assert_array_equal(r, radii)
+    np.testing.assert_array_equal(thin, axes[-1])
+    assert np.all(np.isnan(principal_axes(np.zeros((4, 3)), x[:4], L, gamma)[1]))
+
+
+def test_orientation_tensor_exact_cases_and_uniform_directions():
+    """Exact values: every vector along x gives diag(2/3, −1/3, −1/3); the two diagonals of the
+    xy plane give Q_xy = +1/2 and −1/2, their mixture 0; a sign flip or a NaN row changes
+    nothing. 200,000 uniform directions give |Q_ab| below 5 standard errors (the variance of
+    n_a n_b over the sphere: 4/45 on the diagonal of Q, 1/15 off it)."""
+    ex = np.tile([1.0, 0.0, 0.0], (5, 1))
+    np.testing.assert_allclose(orientation_tensor(ex), np.diag([2, -1, -1]) / 3, atol=1e-15)
+    plus = np.tile([1.0, 1.0, 0.0], (4, 1)) / np.sqrt(2)
+    minus = plus * [1.0, -1.0, 1.0]
+    assert orientation_tensor(plus)[0, 1] == pytest.approx(0.5, abs=1e-15)
+    assert orientation_tensor(-minus)[0, 1] == pytest.approx(-0.5, abs=1e-15)
+    both = np.vstack([plus, minus, [[np.nan] * 3]])
+    assert orientation_tensor(both)[0, 1] == pytest.approx(0.0, abs=1e-15)
+    v = np.random.default_rng(3).standard_normal((200000, 3))
+    q = orientation_tensor(v / np.linalg.norm(v, axis=1)[:, None])
+    se = np.sqrt(np.where(np.eye(3) > 0, 4 / 45, 1 / 15) / 200000)
+    assert np.all(np.abs(q) < 5 * se)
+    assert np.trace(q) == pytest.approx(0.0, abs=1e-12)
+    assert np.all(np.isnan(orientation_tensor(np.full((2, 3), np.nan))))
+    with pytest.raises(ValueError):
+        orientation_tensor(np.ones(3))

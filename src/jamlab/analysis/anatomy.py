@@ -72,7 +72,9 @@ __all__ = [
     "moved_particles",
     "nonaffine_displacements",
     "only_bucklers_rattlers",
+    "orientation_tensor",
     "participation_ratio",
+    "principal_axes",
 ]
 
 N_EFF_LOCALIZED = 10.0
@@ -188,16 +190,42 @@ def event_extent(
     of its eigenvalues, descending; ``thin_axis``: the unit eigenvector of the smallest, its
     largest component positive. Periodic: valid while the weight sits within ``L/2`` of the
     centre (a field spread over the box gives radii near ``L/√12``). ``u = 0``: NaN."""
+    radii, axes = principal_axes(u, positions, length, strain, rounds)
+    return radii, axes[-1]
+
+
+def principal_axes(
+    u: ArrayLike, positions: ArrayLike, length: float, strain: float, rounds: int = 3
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(radii, axes)`` of the gyration tensor of :func:`event_extent`: the radii descending
+    and ``axes`` ``(d, d)``, row ``a`` the unit eigenvector of radius ``a`` (row 0 the long
+    axis, the last the thin axis of :func:`event_extent`), each with its largest component
+    positive. ``u = 0``: NaN."""
     centred = _centred(u, positions, length, strain, rounds)
     if centred is None:
         dim = np.shape(u)[1]
-        return np.full(dim, np.nan), np.full(dim, np.nan)
+        return np.full(dim, np.nan), np.full((dim, dim), np.nan)
     r, w = centred
     lam, vec = np.linalg.eigh((r * w[:, None]).T @ r)
-    axis = vec[:, 0]
-    if axis[int(np.argmax(np.abs(axis)))] < 0:
-        axis = -axis
-    return np.sqrt(np.clip(lam[::-1], 0.0, None)), axis
+    axes = vec[:, ::-1].T.copy()
+    for axis in axes:
+        if axis[int(np.argmax(np.abs(axis)))] < 0:
+            axis *= -1.0
+    return np.sqrt(np.clip(lam[::-1], 0.0, None)), axes
+
+
+def orientation_tensor(axes: ArrayLike) -> NDArray[np.float64]:
+    """``Q = ⟨n nᵀ⟩ − I/d`` of unit vectors ``axes`` ``(k, d)`` (rows with a NaN left out):
+    zero for directions uniform on the sphere, traceless, unchanged by ``n → −n``. NaN when no
+    row is finite."""
+    n = np.asarray(axes, dtype=np.float64)
+    if n.ndim != 2:
+        raise ValueError(f"axes must be (k, d), got shape {n.shape}")
+    n = n[np.all(np.isfinite(n), axis=1)]
+    dim = n.shape[1]
+    if n.shape[0] == 0:
+        return np.full((dim, dim), np.nan)
+    return n.T @ n / n.shape[0] - np.eye(dim) / dim
 
 
 def isotropised_radii(
