@@ -4,12 +4,9 @@ against its isotropised reference, per N — the fixed-pressure counterpart of
 
 The packings and protocol of ``scripts/avalanche_anatomy.py --states p<P>`` (and of
 ``docs/anatomy_pressure``): ``jam(N, 3, seed, p_target=P)`` for seeds ``1 … k``, sheared at
-fixed pressure ``P`` (``shear_at_pressure`` with the defaults of ``shear(..., pressure=P)``) for
-``--steps`` steps of ``--dgamma``. The avalanche records are those of
-``shear(..., pressure=P, keep_avalanches=True, avalanche_threshold=0)``: the
-minima before and after every candidate step are kept (``on_candidate``) and the steps the run
-flags plastic are recorded by :class:`jamlab.spheres.aqs.anatomy.AvalancheRecorder` at its end,
-as the driver does; kept here as well, the minima before give the positions for the isotropised
+fixed pressure ``P`` (``shear(..., pressure=P)``) for ``--steps`` steps of ``--dgamma``, with
+``keep_avalanches=True, avalanche_threshold=0`` (every moved particle recorded); the minima
+before the plastic steps (``shear``'s ``on_plastic``) give the positions for the isotropised
 reference (``steady_anatomy.isotropised``, which checks the extent it recomputes against the
 recorded one to 1e-12). Counted: plastic steps between two jammed minima with ``S = −ΔH > 0``.
 
@@ -50,32 +47,20 @@ def one_sample(job: tuple) -> dict:
     """One packing (``job = (N, P, seed, steps, δγ)``) sheared at fixed pressure with every
     plastic step's record (``avalanche_threshold=0``) and the reference radii."""
     from jamlab.spheres import jam
-    from jamlab.spheres.aqs.anatomy import AvalancheRecorder
-    from jamlab.spheres.pressure_shear import shear_at_pressure
+    from jamlab.spheres.aqs import shear
 
     n, p, seed, steps, dgamma = job
     t0 = time.process_time()
-    kept: dict[int, tuple] = {}
+    before: dict[int, tuple] = {}
 
-    def keep(row, before, after):
-        kept[row] = (before, after)
-
-    res = shear_at_pressure(jam(n, 3, seed, p_target=p).packing, dgamma, pressure=p,
-                            n_steps=steps, on_candidate=keep)
-    trace = res.trace()
-    recorder = AvalancheRecorder(1, 0.0)
-    for row in np.flatnonzero(trace.plastic):
-        if int(row) not in kept:  # on_candidate's floor is a necessary condition of the flag
-            raise RuntimeError(f"step {int(row)} is plastic but its minima were not kept")
-        recorder.record(int(row), *kept[int(row)])
-    trace = trace.with_avalanches(recorder.table(trace.energy_jump, trace.stress_jump, 3))
-    rows = sa.counted_rows(trace)
-    before = {}
-    for row in rows:
-        b, a = kept[int(row)]
+    def keep(row, b, a):
         # the recorder's frame: the positions before rescaled to the box after the step
-        before[int(row)] = (np.asarray(b.positions) * (a.box.length / b.box.length),
-                            a.box.length, b.strain)
+        before[row] = (np.asarray(b.positions) * (a.box.length / b.box.length), a.box.length,
+                       b.strain)
+
+    trace = shear(jam(n, 3, seed, p_target=p).packing, dgamma, n_steps=steps, pressure=p,
+                  keep_avalanches=True, avalanche_threshold=0.0, on_plastic=keep).trace
+    rows = sa.counted_rows(trace)
     out = {"n": n, "seed": seed, "rows": rows, **sa.records(trace),
            "converged": bool(np.all(np.asarray(trace.max_force) < 1e-12)),
            "length": float(np.median(trace.fixed_pressure["box_length"]))}

@@ -151,15 +151,13 @@ def one_sample(job: tuple) -> dict:
     n, _, seed, dgamma, steps, _, _, _ = job
     t0 = time.process_time()
     _, pre = steady_unsat.steady_start(job)
-    before, row = {}, [0]
+    before = {}
 
-    def keep_before(prev, new, step):
-        row[0] += 1
-        if step.plastic:
-            before[row[0]] = (np.array(prev.positions), prev.box.length, prev.strain)
+    def keep_before(row, prev, new):
+        before[row] = (np.array(prev.positions), prev.box.length, prev.strain)
 
     run = aqs.shear(pre.packing, dgamma, n_steps=steps, keep_avalanches=True,
-                    avalanche_threshold=0.0, after_step=keep_before)
+                    avalanche_threshold=0.0, on_plastic=keep_before)
     out = {"n": n, "seed": seed, **records(run.trace),
            "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12)),
            "length": float(run.packing.box.length)}

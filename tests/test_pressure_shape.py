@@ -25,11 +25,12 @@ def sample(ps):
 
 
 def test_run_equals_the_shear_entry(ps, sample):
-    """The script keeps the minima itself (``on_candidate``) and records the plastic steps as the
-    driver does; every column equals that of ``shear(..., pressure=P, keep_avalanches=True)`` on
-    the same packing, bit for bit (``n_moved`` aside: the script counts it at the recorder's
-    default threshold, the run records every particle), and the counted rows are the steps
-    between jammed minima with ``S = −ΔH > 0``."""
+    """The script's run is ``shear(..., pressure=P, keep_avalanches=True,
+    avalanche_threshold=0)`` with ``on_plastic`` keeping the minima: every column equals that of
+    the same call without the hook, bit for bit (``n_moved`` aside: the script counts it at the
+    recorder's default threshold, the run records every particle); the counted rows are the
+    steps between jammed minima with ``S = −ΔH > 0``; the long axis is a unit vector orthogonal
+    to the thin one."""
     from jamlab.analysis.anatomy import moved_particles
     from jamlab.spheres import jam
     from jamlab.spheres.aqs import shear
@@ -58,6 +59,8 @@ def test_run_equals_the_shear_entry(ps, sample):
         u = np.zeros((n, 3))
         u[av["moved_index"][off[k]:off[k + 1]]] = av["moved_displacement"][off[k]:off[k + 1]]
         assert moved == moved_particles(u, MOVED_THRESHOLD)[0].size
+        long, thin = (sample[c][list(rows).index(row)] for c in ("long_axis", "thin_axis"))
+        assert abs(long @ thin) < 1e-12 and long @ long == pytest.approx(1.0, abs=1e-12)
     # the reference turns the recorded offsets: Σ r_a² kept (and the extent recomputed from the
     # kept minima equalled the recorded one, or one_sample would have raised)
     np.testing.assert_allclose(np.sum(sample[ps.sa.NULL] ** 2, axis=1),

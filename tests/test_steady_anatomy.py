@@ -267,3 +267,50 @@ def test_shape_excess_by_hand(sa, capsys):
     out = capsys.readouterr().out
     assert "| 64 (2) | -0.500 (0.000) | -0.500 (0.000) |" in out
     assert "| 128 (" not in out
+
+
+def test_orientation_by_hand(sa, capsys):
+    """Two packings of one N whose thin axes are all e_y and long axes all (1, 1, 0)/√2, and a
+    second N with thin axes e_x, long axes (1, −1, 0)/√2 (signs flipped on half of them):
+    Q_yy = 2/3 (thin) and Q_xy = +1/2 / −1/2 (long), σ 0; pooled, the thin axes give
+    Q_xx = Q_yy = 1/6 and the long axes Q_xy = 0; the xy-plane direction +45° and −45°; a sample
+    without ``long_axis`` drops the long rows."""
+    d = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    one = {"n": 64, "S": np.ones(4), "thin_axis": np.tile([0.0, 1.0, 0.0], (4, 1)),
+           "long_axis": np.tile(d, (4, 1))}
+    other = {"n": 128, "S": np.ones(4), "thin_axis": np.tile([1.0, 0.0, 0.0], (4, 1)),
+             "long_axis": np.tile(d * [1, -1, 1], (4, 1)) * [[1], [-1], [1], [-1]]}
+    sa.orientation([one, dict(one), other, dict(other)], boot=10)
+    out = capsys.readouterr().out
+    row = [x for x in out.splitlines() if x.startswith("| 64 | thin (8) |")][0]
+    assert "| +0.667 ± 0.000 (—) |" in row and row.endswith("| +90 |")
+    row = [x for x in out.splitlines() if x.startswith("| 64 | long (8) |")][0]
+    assert row.split(" | ")[5] == "+0.500 ± 0.000 (—)" and row.endswith("| +45 |")
+    row = [x for x in out.splitlines() if x.startswith("| 128 | long (8) |")][0]
+    assert row.split(" | ")[5] == "-0.500 ± 0.000 (—)" and row.endswith("| -45 |")
+    row = [x for x in out.splitlines() if x.startswith("| pooled 64, 128 | thin (16) |")][0]
+    assert row.split(" | ")[2:4] == ["+0.167 ± 0.000 (—)", "+0.167 ± 0.000 (—)"]
+    row = [x for x in out.splitlines() if x.startswith("| pooled 64, 128 | long (16) |")][0]
+    assert abs(float(row.split(" | ")[5].split(" ± ")[0])) < 1e-12
+    sa.orientation([one, {k: v for k, v in other.items() if k != "long_axis"}], boot=10)
+    assert "long (" not in capsys.readouterr().out
+
+
+def test_long_axes_of_a_rotated_blob(sa, monkeypatch):
+    """``long_axes`` gives row 0 of the gyration tensor's axes for each rebuilt field: a blob
+    elongated along (1, 1, 1)/√3 gives that direction."""
+    rng = np.random.default_rng(2)
+    x = rng.uniform(0, 6.0, (6000, 3))
+    d = x - 3.0
+    e = np.ones(3) / np.sqrt(3)
+    along = d @ e
+    across = d - along[:, None] * e
+    u = np.zeros_like(x)
+    u[:, 0] = np.exp(-0.125 * (along**2 / 1.0 + np.sum(across**2, axis=1) / 0.09))
+    monkeypatch.setattr(sa, "event_fields", lambda trace, before: iter([(u, x, 6.0, 0.0)]))
+
+    class Trace:
+        avalanches = {"radii": np.ones((1, 3))}
+
+    axes = sa.long_axes(Trace(), {})
+    assert axes.shape == (1, 3) and abs(axes[0] @ e) > 0.999

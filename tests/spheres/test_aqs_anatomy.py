@@ -200,6 +200,36 @@ def test_fixed_pressure_refuses_options_it_cannot_honour(run_at_pressure, tmp_pa
         shear(packing, 1e-3, n_steps=2, pressure=1e-3, classify=False)
     with pytest.raises(ValueError, match="cannot resume"):
         shear(packing, 1e-3, n_steps=70, pressure=1e-3, keep_avalanches=True, previous=trace)
+    short = shear(packing, 1e-3, n_steps=2, pressure=1e-3)  # a run without records
+    with pytest.raises(ValueError, match="cannot resume"):
+        shear(short.packing, 1e-3, n_steps=4, pressure=1e-3, on_plastic=lambda *a: None,
+              previous=short.trace)
+
+
+@pytest.mark.parametrize("protocol", ["constant volume", "fixed pressure"])
+def test_on_plastic_hands_out_the_stored_minima_of_the_plastic_steps(
+    protocol, run, run_at_pressure, tmp_path
+):
+    """``on_plastic(row, before, after)``: the same run again (same checkpoints, since they are
+    restart points) with the hook sees exactly the rows flagged plastic, in order, and its two
+    minima are the stored snapshots of rows ``row − 1`` and ``row``, bit for bit; the hook
+    changes nothing in the trace."""
+    res, trace, config = run if protocol == "constant volume" else run_at_pressure
+    if protocol == "constant volume":
+        start, dgamma, extra = sp.prepare(64, 3, 0.8, seed=3).packing, 2e-3, {}
+    else:
+        start, dgamma, extra = sp.jam(64, 3, 3, p_target=1e-3).packing, 1e-3, {"pressure": 1e-3}
+    seen = []
+    again = shear(start, dgamma, n_steps=60, keep_avalanches=True, out=tmp_path / "t.h5",
+                  save_every=1, on_plastic=lambda n, b, a: seen.append((n, b, a)), **extra)
+    rows = [int(n) for n in np.flatnonzero(trace.plastic)]
+    assert rows and [n for n, _, _ in seen] == rows
+    for n, b, a in seen:
+        for got, want in ((b, config(n - 1)), (a, config(n))):
+            np.testing.assert_array_equal(got.positions, want.positions)
+            assert got.box.length == want.box.length and got.strain == want.strain
+    for column in ("gamma", "energy", "shear_stress", "plastic"):
+        np.testing.assert_array_equal(getattr(again.trace, column), getattr(trace, column))
 
 
 def test_hook_sees_every_step_and_records_equal_in_memory(run):

@@ -95,6 +95,7 @@ def shear(
     source: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     after_step: Callable[[Packing, Packing, Step], None] | None = None,
+    on_plastic: Callable[[int, Packing, Packing], None] | None = None,
     keep_avalanches: bool = False,
     avalanche_threshold: float | None = None,
     pressure: float | None = None,
@@ -118,6 +119,10 @@ def shear(
     ``after_step(previous minimum, new minimum, step)``: called after every strain step (``step``
     a :class:`~jamlab.spheres.aqs.steps.Step`, ``step.plastic`` its verdict; constant volume
     only: at fixed pressure the verdicts exist only at the end of the run, and it is refused).
+    ``on_plastic(row, minimum before, minimum after)``: called for every step flagged plastic,
+    in order — at constant volume as the step ends, at fixed pressure once the run's verdicts
+    are known (the minima of the steps that may be plastic are then kept in memory, as for
+    ``keep_avalanches``, and such a run cannot be resumed); ``row`` is the step's trace row.
     ``keep_avalanches``: the trace gets the group ``avalanches`` (one row per plastic step, the
     anatomy of :mod:`jamlab.spheres.aqs.anatomy`; displacements above ``avalanche_threshold``,
     default :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD`); it is written with every
@@ -147,7 +152,7 @@ def shear(
         Give exactly one: the final strain or the number of steps.
     minimizer, ftol, classify, params, fire_params
         The step method and its tolerances (see above and :class:`AQSParameters`).
-    save_every, out, previous, source, progress, after_step, keep_avalanches, \
+    save_every, out, previous, source, progress, after_step, on_plastic, keep_avalanches, \
 avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         Checkpoints, resume, bookkeeping and options (see above).
 
@@ -217,6 +222,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
             confirm_below,
             keep_avalanches,
             avalanche_threshold,
+            on_plastic,
             validation.DEFAULT_VOLUME_GUESS if volume_guess is None else volume_guess,
         )
     if minimizer not in MINIMIZERS:
@@ -336,6 +342,8 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         cur, row, backbone, iterations, cleaned = stepper.settle(step)
         for hook in hooks:
             hook(before, cur, step)
+        if on_plastic is not None and step.plastic:
+            on_plastic(n, before, cur)
         append_row(rows, target, row, iterations, step.plastic)
         stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total)
         if progress is not None:
@@ -412,13 +420,15 @@ def _shear_at_pressure(
     confirm_below,
     keep_avalanches,
     avalanche_threshold,
+    on_plastic,
     volume_guess,
 ) -> ShearResult:
     """The fixed-pressure protocol behind :func:`shear` (its docstring): ``minimizer``
     ``linear`` is the Newton inner minimiser at fixed pressure (``newton``), ``fire`` plain
-    FIRE. ``keep_avalanches``: the minima of every step that may end up plastic are kept in
-    memory during the run (``on_candidate`` of :func:`shear_at_pressure`), and the avalanche
-    rows of the steps flagged plastic are measured on them once the verdicts are known."""
+    FIRE. ``keep_avalanches`` or ``on_plastic``: the minima of every step that may end up
+    plastic are kept in memory during the run (``on_candidate`` of :func:`shear_at_pressure`);
+    once the verdicts are known the avalanche rows of the steps flagged plastic are measured on
+    them and ``on_plastic`` sees them."""
     from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
     validation.positive("pressure", pressure)
@@ -426,10 +436,10 @@ def _shear_at_pressure(
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
     if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
         raise ValueError("the trace to resume is not a fixed-pressure run")
-    if keep_avalanches and previous is not None:
-        raise ValueError("keep_avalanches cannot resume a fixed-pressure run: the plastic flags "
-                         "of its earlier steps are judged again on the whole run and their minima "
-                         "are not stored; run it uninterrupted")
+    if (keep_avalanches or on_plastic is not None) and previous is not None:
+        raise ValueError("keep_avalanches and on_plastic cannot resume a fixed-pressure run: "
+                         "the plastic flags of its earlier steps are judged again on the whole "
+                         "run and their minima are not stored; run it uninterrupted")
     kept: dict[int, tuple[Packing, Packing]] = {}
 
     def keep(n: int, before: Packing, after: Packing) -> None:
@@ -474,17 +484,21 @@ def _shear_at_pressure(
         previous=previous,
         save_every=save_every,
         on_save=save if out is not None else None,
-        on_candidate=keep if keep_avalanches else None,
+        on_candidate=keep if keep_avalanches or on_plastic is not None else None,
     )
     trace = finished(res)
-    if keep_avalanches:
+    if keep_avalanches or on_plastic is not None:
         recorder = AvalancheRecorder(
             1, MOVED_THRESHOLD if avalanche_threshold is None else avalanche_threshold
         )
         for n in np.flatnonzero(trace.plastic):
             if int(n) not in kept:  # on_candidate's floor is a necessary condition of the flag
                 raise RuntimeError(f"step {int(n)} is plastic but its minima were not kept")
-            recorder.record(int(n), *kept[int(n)])
+            if keep_avalanches:
+                recorder.record(int(n), *kept[int(n)])
+            if on_plastic is not None:
+                on_plastic(int(n), *kept[int(n)])
+    if keep_avalanches:
         trace = trace.with_avalanches(
             recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
         )
