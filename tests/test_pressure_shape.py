@@ -150,8 +150,9 @@ def test_committed_files_are_what_the_readme_says(ps):
     those the earlier run of the same pressure counted (``--check``: ≥ 50 % of its (seed, step)
     pairs, where a plastic step at random would share ≈ 18 %; the code has changed minima in
     their last digits since, and a run's trajectory leaves the earlier one's at the first step
-    decided differently: N = 2000 seed 2 at step 2, 129 of 217 shared); and a file rerun with the
-    control holds the same samples, bit for bit, as the one without it."""
+    decided differently: N = 2000 seed 2 at step 2, 129 of 217 shared); a file rerun with the
+    control (and the long axis) holds the same samples, bit for bit, as the one without it; the
+    long axes are unit vectors orthogonal to the thin ones."""
     rows = shape_rows()
     assert rows and sorted(rows) == sorted(p.name for p in (DATA / "pressure_shape").glob("*.npz"))
     loaded = {name: ps.sa.load(DATA / "pressure_shape" / name) for name in rows}
@@ -164,6 +165,10 @@ def test_committed_files_are_what_the_readme_says(ps):
         for r in results:
             np.testing.assert_allclose(np.sum(r[ps.sa.NULL] ** 2, axis=1),
                                        np.sum(r["radii"] ** 2, axis=1), rtol=1e-12)
+            if "long_axis" in r:  # unit vectors orthogonal to the thin axis
+                long, thin = np.asarray(r["long_axis"]), np.asarray(r["thin_axis"])
+                np.testing.assert_allclose(np.einsum("ij,ij->i", long, long), 1.0, atol=1e-12)
+                assert np.all(np.abs(np.einsum("ij,ij->i", long, thin)) < 1e-12), name
         for f in spec["check"]:
             with np.load(DATA.parent / f) as z:
                 ok = z["jammed"].astype(bool) & (z["S"] > 0)
