@@ -12,7 +12,8 @@ recorded one to 1e-12). Counted: plastic steps between two jammed minima with ``
 
 Printed (``steady_anatomy``'s tables): per N the participation and contacts changed, per decade
 of ``S`` their medians, the shapes (``r1/L``, ``r2/r1``, ``r3/r1`` against the isotropised
-reference, the thin axis's direction), and per decade of ``S`` the radii. ``--check FILE``
+reference, the thin axis's direction), the orientation tensor of the thin and long axes, and
+per decade of ``S`` the radii. ``--check FILE``
 compares each sample's counted sizes with the same (N, seed) rows of an ``avalanche_anatomy.py``
 ``events.npz`` (the committed ``docs/anatomy_pressure/p*/events.npz``), bit for bit.
 
