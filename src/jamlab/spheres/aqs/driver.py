@@ -436,7 +436,14 @@ def _shear_at_pressure(
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
     if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
         raise ValueError("the trace to resume is not a fixed-pressure run")
-    if (keep_avalanches or on_plastic is not None) and previous is not None:
+    recorder = AvalancheRecorder(
+        1, MOVED_THRESHOLD if avalanche_threshold is None else avalanche_threshold
+    ) if keep_avalanches else None
+    # what sees each plastic step's minima once the verdicts are known: (row, before, after)
+    plastic_hooks = [] if recorder is None else [recorder.record]
+    if on_plastic is not None:
+        plastic_hooks.append(on_plastic)
+    if plastic_hooks and previous is not None:
         raise ValueError("keep_avalanches and on_plastic cannot resume a fixed-pressure run: "
                          "the plastic flags of its earlier steps are judged again on the whole "
                          "run and their minima are not stored; run it uninterrupted")
@@ -484,21 +491,15 @@ def _shear_at_pressure(
         previous=previous,
         save_every=save_every,
         on_save=save if out is not None else None,
-        on_candidate=keep if keep_avalanches or on_plastic is not None else None,
+        on_candidate=keep if plastic_hooks else None,
     )
     trace = finished(res)
-    if keep_avalanches or on_plastic is not None:
-        recorder = AvalancheRecorder(
-            1, MOVED_THRESHOLD if avalanche_threshold is None else avalanche_threshold
-        )
-        for n in np.flatnonzero(trace.plastic):
-            if int(n) not in kept:  # on_candidate's floor is a necessary condition of the flag
-                raise RuntimeError(f"step {int(n)} is plastic but its minima were not kept")
-            if keep_avalanches:
-                recorder.record(int(n), *kept[int(n)])
-            if on_plastic is not None:
-                on_plastic(int(n), *kept[int(n)])
-    if keep_avalanches:
+    for n in np.flatnonzero(trace.plastic) if plastic_hooks else ():
+        if int(n) not in kept:  # on_candidate's floor is a necessary condition of the flag
+            raise RuntimeError(f"step {int(n)} is plastic but its minima were not kept")
+        for hook in plastic_hooks:
+            hook(int(n), *kept[int(n)])
+    if recorder is not None:
         trace = trace.with_avalanches(
             recorder.table(trace.energy_jump, trace.stress_jump, packing.dim)
         )
