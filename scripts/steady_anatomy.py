@@ -412,26 +412,27 @@ def orientation(results: list[dict], boot: int = 500, seed: int = 0) -> None:
     cols = [("thin", "thin_axis")]
     if all("long_axis" in r for r in results):
         cols.append(("long", "long_axis"))
-    ns = sorted({r["n"] for r in results})
-    groups = [(str(n), [[r for r in results if r["n"] == n]]) for n in ns]
-    if len(ns) > 1:
-        groups.append(("pooled " + ", ".join(map(str, ns)),
-                       [[r for r in results if r["n"] == n] for n in ns]))
+    by_n = {n: [r for r in results if r["n"] == n] for n in sorted({r["n"] for r in results})}
+    groups = [(str(n), [g]) for n, g in by_n.items()]
+    if len(by_n) > 1:
+        groups.append(("pooled " + ", ".join(map(str, by_n)), list(by_n.values())))
     print("\n| N | axis (avalanches) | " + " | ".join(f"Q_{c}" for *_, c in Q_COMPONENTS)
           + " | xy-plane direction (°) |")
     print("|---" * (len(Q_COMPONENTS) + 3) + "|")
     for label, parts in groups:
         for name, col in cols:
-            def tensor(ps, col=col):
-                return orientation_tensor(np.concatenate(
-                    [np.asarray(r[col], float).reshape(-1, 3) for g in ps for r in g]))
+            # each packing's axes (avalanches, 3), one list per N of the group
+            axes = [[np.asarray(r[col], float).reshape(-1, 3) for r in g] for g in parts]
 
-            q = tensor(parts)
-            draws = np.array([tensor([[g[i] for i in rng.integers(0, len(g), len(g))]
-                                      for g in parts]) for _ in range(boot)])
+            def tensor(picks, axes=axes):  # picks[k]: the packings taken from the k-th N
+                return orientation_tensor(np.concatenate(
+                    [axes[k][i] for k, idx in enumerate(picks) for i in idx]))
+
+            q = tensor([range(len(g)) for g in axes])
+            draws = np.array([tensor([rng.integers(0, len(g), len(g)) for g in axes])
+                              for _ in range(boot)])
             sig = np.nanstd(draws, axis=0, ddof=1)
-            count = sum(np.all(np.isfinite(np.asarray(r[col], float).reshape(-1, 3)), axis=1)
-                        .sum() for g in parts for r in g)
+            count = int(sum(np.all(np.isfinite(a), axis=1).sum() for g in axes for a in g))
             cells = [f"{q[a, b]:+.3f} ± {sig[a, b]:.3f} "
                      + (f"({q[a, b] / sig[a, b]:+.1f}σ)" if sig[a, b] > 1e-9 else "(—)")
                      for a, b, _ in Q_COMPONENTS]
