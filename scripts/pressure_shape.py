@@ -65,17 +65,18 @@ def one_sample(job: tuple) -> dict:
     out = {"n": n, "seed": seed, "rows": rows, **sa.records(trace),
            "converged": bool(np.all(np.asarray(trace.max_force) < 1e-12)),
            "length": float(np.median(trace.fixed_pressure["box_length"]))}
-    out[sa.NULL], out["n_moved"] = sa.isotropised(trace, before, np.random.default_rng(seed))
-    out["long_axis"] = sa.long_axes(trace, before)
+    fields = list(sa.event_fields(trace, before))  # rebuilt and checked once, used thrice
+    out[sa.NULL], out["n_moved"] = sa.isotropised(fields, np.random.default_rng(seed), 3)
+    out["long_axis"] = sa.long_axes(fields, 3)
     out["scattered_radii"], out["scattered_null"] = scattered(
-        trace, before, np.random.default_rng([seed, 1]))
+        fields, np.random.default_rng([seed, 1]))
     out["cpu"] = time.process_time() - t0
     return out
 
 
-def scattered(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
+def scattered(fields: list, rng: np.random.Generator) -> tuple:
     """The control of the reference for box-filling events: each counted avalanche's field
-    (``steady_anatomy.event_fields``) with its values moved to a random permutation of the
+    (``steady_anatomy.event_fields``, a list) with its values moved to a random permutation of the
     packing's particles — the same weights spread over the box with no spatial structure, the
     periodic box and the minimum-image centring kept — and ``(its radii, their isotropised
     reference)``. If the reference is fair to a field that fills the box, the control's shape
@@ -83,7 +84,7 @@ def scattered(trace, before: dict[int, tuple], rng: np.random.Generator) -> tupl
     from jamlab.analysis.anatomy import event_extent, isotropised_radii
 
     radii, null = [], []
-    for u, pos, length, strain in sa.event_fields(trace, before):
+    for u, pos, length, strain in fields:
         moved = u[rng.permutation(u.shape[0])]
         radii.append(event_extent(moved, pos, length, strain)[0])
         null.append(isotropised_radii(moved, pos, length, strain, rng))

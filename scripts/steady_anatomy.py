@@ -116,31 +116,28 @@ def event_fields(trace, before: dict[int, tuple]):
         yield u, pos, length, strain
 
 
-def isotropised(trace, before: dict[int, tuple], rng: np.random.Generator) -> tuple:
-    """``(radii, n_moved)`` of the counted avalanches: the reference radii
-    (:func:`jamlab.analysis.anatomy.isotropised_radii`) of each event field
-    (:func:`event_fields`), and the particles with ``|u| >`` :data:`~jamlab.spheres.aqs.
-    anatomy.MOVED_THRESHOLD` (the recorder's ``n_moved`` at its default)."""
+def isotropised(fields: list, rng: np.random.Generator, dim: int) -> tuple:
+    """``(radii, n_moved)`` of the counted avalanches' event fields (:func:`event_fields`, a
+    list): the reference radii (:func:`jamlab.analysis.anatomy.isotropised_radii`) of each, and
+    the particles with ``|u| >`` :data:`~jamlab.spheres.aqs.anatomy.MOVED_THRESHOLD` (the
+    recorder's ``n_moved`` at its default)."""
     from jamlab.analysis.anatomy import isotropised_radii, moved_particles
     from jamlab.spheres.aqs.anatomy import MOVED_THRESHOLD
 
     radii, moved = [], []
-    for u, pos, length, strain in event_fields(trace, before):
+    for u, pos, length, strain in fields:
         radii.append(isotropised_radii(u, pos, length, strain, rng))
         moved.append(moved_particles(u, MOVED_THRESHOLD)[0].size)
-    dim = np.asarray(trace.avalanches["radii"]).shape[1]
     return np.asarray(radii, dtype=np.float64).reshape(-1, dim), np.asarray(moved)
 
 
-def long_axes(trace, before: dict[int, tuple]) -> np.ndarray:
+def long_axes(fields: list, dim: int) -> np.ndarray:
     """The long axis (row 0 of :func:`jamlab.analysis.anatomy.principal_axes`) of each counted
-    avalanche's event field (:func:`event_fields`), ``(avalanches, d)``."""
+    avalanche's event field (:func:`event_fields`, a list), ``(avalanches, dim)``."""
     from jamlab.analysis.anatomy import principal_axes
 
-    axes = [principal_axes(u, pos, length, strain)[1][0]
-            for u, pos, length, strain in event_fields(trace, before)]
-    return np.asarray(axes, dtype=np.float64).reshape(-1, np.asarray(trace.avalanches["radii"])
-                                                      .shape[1])
+    axes = [principal_axes(u, pos, length, strain)[1][0] for u, pos, length, strain in fields]
+    return np.asarray(axes, dtype=np.float64).reshape(-1, dim)
 
 
 def one_sample(job: tuple) -> dict:
@@ -161,8 +158,10 @@ def one_sample(job: tuple) -> dict:
     out = {"n": n, "seed": seed, **records(run.trace),
            "converged": bool(np.all(np.asarray(run.trace.max_force) < 1e-12)),
            "length": float(run.packing.box.length)}
-    out[NULL], out["n_moved"] = isotropised(run.trace, before, np.random.default_rng(seed))
-    out["long_axis"] = long_axes(run.trace, before)
+    fields = list(event_fields(run.trace, before))  # rebuilt and checked once
+    dim = run.packing.positions.shape[1]
+    out[NULL], out["n_moved"] = isotropised(fields, np.random.default_rng(seed), dim)
+    out["long_axis"] = long_axes(fields, dim)
     out["cpu"] = time.process_time() - t0
     return out
 

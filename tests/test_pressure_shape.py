@@ -74,7 +74,7 @@ def test_run_equals_the_shear_entry(ps, sample):
     assert lengths.min() <= sample["length"] <= lengths.max() and sample["converged"]
 
 
-def test_scattered_control_of_a_uniform_field(ps, monkeypatch):
+def test_scattered_control_of_a_uniform_field(ps):
     """A field whose particles all move alike is unchanged by the scattering: the control's radii
     are the field's own (a packing of random positions, a sheared box), and its reference keeps
     Σ r_a²; a field on one particle has radii 0."""
@@ -85,8 +85,7 @@ def test_scattered_control_of_a_uniform_field(ps, monkeypatch):
     one = np.zeros((30, 3))
     one[7] = [0.1, 0.0, 0.0]
     fields = [(np.full((30, 3), 0.01), pos, 4.0, 0.3), (one, pos, 4.0, 0.3)]
-    monkeypatch.setattr(ps.sa, "event_fields", lambda trace, before: iter(fields))
-    radii, null = ps.scattered(None, {}, np.random.default_rng(1))
+    radii, null = ps.scattered(fields, np.random.default_rng(1))
     np.testing.assert_array_equal(radii[0], event_extent(*fields[0])[0])
     np.testing.assert_allclose(np.sum(null**2, axis=1), np.sum(radii**2, axis=1), rtol=1e-12)
     assert np.all(radii[1] == 0.0)

@@ -311,7 +311,7 @@ def test_orientation_by_hand(sa, capsys):
     assert "long (" not in capsys.readouterr().out
 
 
-def test_long_axes_of_a_rotated_blob(sa, monkeypatch):
+def test_long_axes_of_a_rotated_blob(sa):
     """``long_axes`` gives row 0 of the gyration tensor's axes for each rebuilt field: a blob
     elongated along (1, 1, 1)/√3 gives that direction."""
     rng = np.random.default_rng(2)
@@ -322,10 +322,5 @@ def test_long_axes_of_a_rotated_blob(sa, monkeypatch):
     across = d - along[:, None] * e
     u = np.zeros_like(x)
     u[:, 0] = np.exp(-0.125 * (along**2 / 1.0 + np.sum(across**2, axis=1) / 0.09))
-    monkeypatch.setattr(sa, "event_fields", lambda trace, before: iter([(u, x, 6.0, 0.0)]))
-
-    class Trace:
-        avalanches = {"radii": np.ones((1, 3))}
-
-    axes = sa.long_axes(Trace(), {})
+    axes = sa.long_axes([(u, x, 6.0, 0.0)], 3)
     assert axes.shape == (1, 3) and abs(axes[0] @ e) > 0.999
