@@ -22,3 +22,23 @@ def test_curve_round_trip_is_exact(tmp_path):
     for k in CURVE_ARRAYS:
         got, want = getattr(back, k), getattr(curve, k)
         assert got.dtype == want.dtype and np.array_equal(got, want), k
+
+
+def test_a_damaged_entry_is_named(tmp_path):
+    """A truncated file, a text file and an ``.npz`` without the curve's fields each give a
+    ``ValueError`` naming the file (a one-line error of ``jamlab reproduce``), not a traceback."""
+    import pytest
+
+    curve = CoordinationCurve(phi_j=0.64, dim=3, n=8,
+                              **{k: np.arange(3, dtype=float) for k in CURVE_ARRAYS})
+    good = cache_file(tmp_path, 8, 1, 3)
+    save_curve(good, curve)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(good.read_bytes()[:100])
+    text = tmp_path / "text.npz"
+    text.write_text("not a cache entry")
+    other = tmp_path / "other.npz"
+    np.savez(other, x=np.ones(2))
+    for path in (cut, text, other):
+        with pytest.raises(ValueError, match=f"unreadable cached coordination curve {path}"):
+            load_curve(path)

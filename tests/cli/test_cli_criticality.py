@@ -85,6 +85,12 @@ def test_user_errors(packings, tmp_path):
     not_h5 = tmp_path / "x.h5"
     not_h5.write_text("hello")
     assert "HDF5" in one_line_error(jamlab("criticality", not_h5, "--out", out, *WINDOWS))
+    # packings of two dimensions are not pooled into one fit
+    flat = tmp_path / "flat.h5"
+    res2 = jam(64, 2, 1, p_target=1e-4)
+    write_packing(flat, res2.packing, **res2.attrs())
+    err = one_line_error(jamlab("criticality", paths[0], flat, "--out", out, *WINDOWS))
+    assert "is 2D" in err and "3D" in err and not out.exists()
     # the automatic window needs statistics: one small packing has none for the localized forces
     err = one_line_error(jamlab("criticality", paths[0], "--out", tmp_path / "p", "--n-boot", "5"))
     assert "window" in err

@@ -288,6 +288,19 @@ def test_resume_keeps_the_avalanche_threshold(packing08, tmp_path, capsys):
     assert run([*args, "--gamma-max", "0.15", "--resume"]) == 0
 
 
+def test_avalanche_threshold_needs_keep_avalanches(packing08, tmp_path, capsys):
+    """A threshold without the records it labels is refused (CLI and library), not ignored."""
+    from jamlab.spheres import read_packing
+    from jamlab.spheres.aqs import shear
+
+    assert run(["shear", packing08, "--out", tmp_path / "o.h5", "--dgamma", "0.01",
+                "--gamma-max", "0.02", "--avalanche-threshold", "0.5"]) == 2  # fmt: skip
+    assert "--avalanche-threshold applies to --keep-avalanches" in error_line(capsys)
+    assert not (tmp_path / "o.h5").exists()
+    with pytest.raises(ValueError, match="avalanche_threshold applies to keep_avalanches"):
+        shear(read_packing(packing08), 0.01, n_steps=1, avalanche_threshold=0.5)
+
+
 @pytest.mark.parametrize("bad", [["--ptol", "-1"], ["--ptol", "nan"], ["--ptol", "0"]])
 def test_ptol_is_checked_without_pressure(packing08, tmp_path, capsys, bad):
     assert run(["shear", packing08, "--out", tmp_path / "o.h5", "--dgamma", "0.01",
@@ -409,3 +422,20 @@ def test_a_file_size_limit_leaves_the_earlier_csv_and_figure_whole(tmp_path):
     assert r.returncode == 2 and "File too large" in r.stderr and "c.png" in r.stderr, r.stderr
     assert {p.name: digest(p) for p in (png, csv)} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.csv", "c.png"]
+
+
+def test_a_packing_flagged_failed_is_named_where_it_is_used(packing08, tmp_path, capsys):
+    """A configuration ``prepare`` wrote with ``ok = False`` (its stopping rule failed) is
+    shown as such by ``inspect`` and ``shear`` (a warning naming the reason), not used silently;
+    the unflagged one gets no warning."""
+    from jamlab.spheres.io import read_packing, write_packing
+
+    bad = tmp_path / "bad.h5"
+    write_packing(bad, read_packing(packing08), ok=False, reason="hyperstatic (test)")
+    for args in (["inspect", bad], ["shear", bad, "--out", tmp_path / "t.h5", "--dgamma", "0.01",
+                                    "--gamma-max", "0.02"]):
+        assert run(args) == 0
+        err = capsys.readouterr().err
+        assert f"{bad} is flagged ok=False by prepare (hyperstatic (test))" in err, err
+    assert run(["inspect", packing08]) == 0
+    assert "ok=False" not in capsys.readouterr().err

@@ -50,3 +50,19 @@ def test_dgamma_expansion():
     assert expand_dgamma(["--dgamma", "1e-2", "-3e-3", "--mu", "0.5"]) == [
         "--dgamma", "1e-2", "--dgamma", "-3e-3", "--mu", "0.5",
     ]  # fmt: skip
+
+
+def test_theory_refuses_a_figure_without_its_jumps(tmp_path):
+    """``--amplitude 0`` (``y ≡ 0``: no jumps) and a ``δγ`` whose jumps all lie above the drawn
+    range ``|ΔE| ≤ 20|δγ|`` (the printed formula at ``μ_J``, ``A = 1``: the cdf at ``−20δγ`` is
+    1 for δγ = 10) are refused in one line, and no figure is written; δγ = 1, whose jumps lie
+    inside the range, is drawn."""
+    dist = jump_distribution(ParisiFunction.power_law(0.706346), 10.0)
+    assert dist.cdf(-200.0) > 0.99  # the case the refusal is for
+    for args in (["--amplitude", "0"], ["--dgamma", "10"], ["--dgamma", "1e-3", "100"]):
+        r = jamlab("theory", "--mu", "0.706346", *args, "--out", "x.png", cwd=tmp_path)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1, (args, r.stderr)
+        assert not (tmp_path / "x.png").exists()
+    r = jamlab("theory", "--mu", "0.706346", "--dgamma", "1", "--points", "20", "--out", "x.png",
+               cwd=tmp_path)
+    assert r.returncode == 0 and (tmp_path / "x.png").exists(), r.stderr

@@ -75,18 +75,21 @@ def analyse(
         packing_observables,
     )
     from jamlab.files import check_distinct_inputs
-    from jamlab.spheres.io import read_packing
+    from jamlab.spheres.io import failed_preparation, read_packing
 
     check_distinct_inputs(paths, "packing")
     observables, warnings, resolution, pressures, alphas = [], [], [], [], []
     for path in paths:
         packing = read_packing(path)
         with h5py.File(path, "r") as h5:
-            ok = bool(h5.attrs.get("ok", True))
             ftol = float(h5.attrs.get("param_ftol", math.nan))
             pressures.append(float(h5.attrs.get("pressure", math.nan)))
-        if not ok:
-            warnings.append(f"{path} is flagged ok=False")
+        failed = failed_preparation(path)
+        if failed is not None:
+            warnings.append(f"{path} is flagged ok=False by prepare ({failed})")
+        if observables and packing.dim != observables[0].dim:
+            raise ValueError(f"{path} is {packing.dim}D, {paths[0]} {observables[0].dim}D: "
+                             "the fits pool one dimension at a time")
         if alpha is not None and alpha != packing.alpha:
             raise ValueError(f"--alpha {alpha} differs from the pair exponent of {path} "
                              f"({packing.alpha})")

@@ -3,9 +3,9 @@
 click options take one value each, so the command line is rewritten before click parses it:
 ``--phi a b c`` becomes ``--phi a --phi b --phi c``. Values run until the next option (a token
 starting with ``-`` that is not a negative number), ``--`` or a ``*.toml`` file name (the study
-file of ``jamlab run`` may follow the values). An option given with no value at all is kept as it
-is, so that click refuses it (``Option '--dgamma' requires an argument``, or the next token as
-its value) instead of the command silently using its default.
+file of ``jamlab run`` may follow the values). An option given with no value at all is refused
+(``ValueError`` naming it: a one-line error of the command) instead of the command silently
+using its default, or click taking the next option as its value.
 """
 
 from __future__ import annotations
@@ -21,15 +21,15 @@ _NUMBER = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
 
 
 def expand_multi_values(args: list[str], options: tuple[str, ...]) -> list[str]:
-    """``args`` with every option of ``options`` repeated once per value (module docstring)."""
+    """``args`` with every option of ``options`` repeated once per value (module docstring);
+    ``ValueError`` for an option of ``options`` given without a value."""
     out: list[str] = []
     current: str | None = None
     values = 0
 
     def close() -> None:
-        # an option that got no value stays on the command line, bare, for click to refuse
         if current is not None and values == 0:
-            out.append(current)
+            raise ValueError(f"option {current} requires a value")
 
     for token in args:
         if token in options:

@@ -165,12 +165,13 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
         avalanche_threshold: Annotated[
-            float,
+            float | None,
             typer.Option(
                 "--avalanche-threshold",
-                help="Keep the event displacements |u| above this (units of the mean diameter).",
+                help="With --keep-avalanches: keep the event displacements |u| above this "
+                "(units of the mean diameter; default 1e-3).",
             ),
-        ] = 1e-3,
+        ] = None,
         pressure: Annotated[
             float | None,
             typer.Option(
@@ -236,7 +237,7 @@ def register(app: typer.Typer) -> None:
             recover_replacement,
             snapshot_files,
         )
-        from jamlab.spheres.io import read_packing
+        from jamlab.spheres.io import failed_preparation, read_packing
         from jamlab.spheres.trace import read_trace
 
         if minimizer not in ("linear", "fire"):
@@ -246,7 +247,10 @@ def register(app: typer.Typer) -> None:
             raise ValueError("--floppy project applies to constant volume with --minimizer "
                              "linear (not with --pressure or plain FIRE)")
         validation.positive("--ftol", ftol)
-        validation.positive("--avalanche-threshold", avalanche_threshold)
+        if avalanche_threshold is not None:
+            if not keep_avalanches:
+                raise ValueError("--avalanche-threshold applies to --keep-avalanches: give it too")
+            validation.positive("--avalanche-threshold", avalanche_threshold)
         validation.positive("--ptol", ptol)
         if pressure is not None:
             validation.positive("--pressure", pressure)
@@ -320,6 +324,10 @@ def register(app: typer.Typer) -> None:
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, packing.strain, names=("--dgamma", "--gamma-max")
             )
+        failed = failed_preparation(config)
+        if failed is not None:
+            typer.echo(f"jamlab: warning: {config} is flagged ok=False by prepare ({failed})",
+                       err=True)
         # only now, with every argument checked and the input read, is the earlier run's
         # replacement armed; it happens at the new run's first save (spheres.aqs.checkpoint):
         # until the new trace replaces --out, the earlier run stays whole with its snapshots

@@ -42,9 +42,10 @@ def theory(
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
     from jamlab import validation
+    from jamlab.cli import UserError
     from jamlab.files import check_outputs
-    from jamlab.plots.theory import plot_jump_distributions
-    from jamlab.theory import ParisiFunction, mu_jamming
+    from jamlab.plots.theory import JUMP_RANGE_TOP, plot_jump_distributions
+    from jamlab.theory import ParisiFunction, jump_distribution, mu_jamming
 
     mu = mu_jamming() if mu is None else mu
     dgammas = list(dgamma) if dgamma else [1e-2, 1e-3, 1e-4]
@@ -52,7 +53,19 @@ def theory(
         # a strain step is a small number: |δγ| in [1e-30, 1e6] (beyond, the formula overflows)
         validation.number("|--dgamma|", abs(dg), low=THEORY_DGAMMA[0], high=THEORY_DGAMMA[1])
     validation.integer("--points", points, minimum=2, maximum=1_000_000)
-    ParisiFunction.power_law(mu, amplitude=amplitude, q_max=q_max)  # validates the parameters
+    pf = ParisiFunction.power_law(mu, amplitude=amplitude, q_max=q_max)  # validates them
+    if amplitude == 0.0:
+        raise UserError("--amplitude 0: y(q) = 0 has no jumps (P(no jump) = 1), nothing to draw")
+    for dg in dgammas:
+        # the figure draws |ΔE| up to JUMP_RANGE_TOP·|δγ|: refuse a δγ whose jumps lie beyond
+        dist = jump_distribution(pf, dg)
+        jumps = 1.0 - dist.p_no_jump
+        beyond = float(dist.cdf(-JUMP_RANGE_TOP * abs(dg)))
+        if jumps == 0.0 or beyond > 0.01 * jumps:
+            raise UserError(
+                f"--dgamma {dg:g}: {beyond / jumps if jumps else 0.0:.3g} of the jump probability "
+                f"(P(jump) = {jumps:.3g}) lies above |ΔE| = {JUMP_RANGE_TOP:g}|δγ|, the figure's "
+                "range (drawn for small steps): give a smaller |δγ| or --amplitude")
     check_outputs({"--out": out, "--csv": csv}, force=force, figures=("--out",))
     table = plot_jump_distributions(
         mu, dgammas, out, q_max=q_max, amplitude=amplitude, n_points=points, csv=csv

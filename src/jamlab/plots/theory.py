@@ -17,6 +17,10 @@ from jamlab.files import atomic_savefig, atomic_write_text
 # theory: the mean-field jump distribution (paper Fig. 3)
 
 
+#: the drawn range of ``|ΔE|`` ends at ``JUMP_RANGE_TOP·|δγ|``
+JUMP_RANGE_TOP = 20.0
+
+
 def jump_distribution_table(
     mu: float,
     dgammas: Sequence[float],
@@ -27,7 +31,8 @@ def jump_distribution_table(
 ) -> dict[float, dict[str, NDArray[np.float64]]]:
     """``P(ΔE|δγ)`` of the printed formula for ``y = amplitude·((1-q)^-μ - 1)``.
 
-    For each ``δγ``: ``|ΔE|`` log-spaced from ``|δγ|·10^-decades`` to ``20|δγ|`` and the
+    For each ``δγ``: ``|ΔE|`` log-spaced from ``|δγ|·10^-decades`` to ``JUMP_RANGE_TOP·|δγ|``
+    (:data:`JUMP_RANGE_TOP`) and the
     corresponding ``pdf``, ``cdf`` (see :class:`jamlab.theory.PrintedJumpDistribution`).
     """
     from jamlab.theory import ParisiFunction, jump_distribution
@@ -36,7 +41,7 @@ def jump_distribution_table(
     out: dict[float, dict[str, NDArray[np.float64]]] = {}
     for dg in dgammas:
         dist = jump_distribution(pf, dg)
-        abs_dE = abs(dg) * np.logspace(-decades, np.log10(20.0), n_points)
+        abs_dE = abs(dg) * np.logspace(-decades, np.log10(JUMP_RANGE_TOP), n_points)
         out[float(dg)] = {
             "abs_dE": abs_dE,
             "pdf": np.asarray(dist.pdf(-abs_dE)),

@@ -10,6 +10,7 @@ name and renamed, so an interrupted write never leaves a truncated entry.
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -34,13 +35,18 @@ def cache_file(
 
 
 def load_curve(path: Path) -> Any:
-    """The :class:`~jamlab.spheres.packing.CoordinationCurve` stored in ``path``."""
+    """The :class:`~jamlab.spheres.packing.CoordinationCurve` stored in ``path``
+    (``ValueError`` naming the file if it is not one: written by something else, or damaged)."""
     from jamlab.spheres.packing import CoordinationCurve
 
-    with np.load(path) as z:
-        d = {k: z[k] for k in z.files}
-    return CoordinationCurve(phi_j=float(d.pop("phi_j")), dim=int(d.pop("dim")),
-                             n=int(d.pop("n")), **{k: v for k, v in d.items()})
+    try:
+        with np.load(path) as z:
+            d = {k: z[k] for k in z.files}
+        return CoordinationCurve(phi_j=float(d.pop("phi_j")), dim=int(d.pop("dim")),
+                                 n=int(d.pop("n")), **{k: v for k, v in d.items()})
+    except (OSError, EOFError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"unreadable cached coordination curve {path} ({type(exc).__name__}: "
+                         f"{exc}); remove it to compute the curve again") from None
 
 
 def save_curve(path: Path, curve: Any) -> None:

@@ -32,7 +32,7 @@ from jamlab.files import atomic_write_hdf5, check_links
 from jamlab.spheres.box import Box
 from jamlab.spheres.state import Packing
 
-__all__ = ["write_packing", "read_packing", "read_lammps_positions"]
+__all__ = ["write_packing", "read_packing", "failed_preparation", "read_lammps_positions"]
 
 FORMAT = "jamlab-configuration"
 FORMAT_VERSION = 1
@@ -127,6 +127,19 @@ def read_packing(path: str | os.PathLike) -> Packing:
             f"inconsistent file {path}: phi={phi} but sum v_d(D_i/2)/L^d = {packing.phi}"
         )
     return packing
+
+
+def failed_preparation(path: str | os.PathLike) -> str | None:
+    """Why ``jamlab prepare`` flagged the configuration at ``path`` as failing its stopping rule
+    (its attributes ``ok = False`` and ``reason``), or ``None`` when it is not so flagged (or
+    is not an HDF5 file: :func:`read_packing` reports that)."""
+    try:
+        with h5py.File(path, "r") as h5:
+            if bool(h5.attrs.get("ok", True)):
+                return None
+            return str(h5.attrs.get("reason", "")) or "no reason recorded"
+    except OSError:
+        return None
 
 
 def positions_meta(path: str | os.PathLike, box_length: float | None = None) -> Path | None:

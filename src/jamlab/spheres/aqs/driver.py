@@ -192,6 +192,9 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
             # one threshold labels the whole table: its earlier rows used the recorded one
             raise ValueError(f"avalanche_threshold={asked!r} differs from the run being resumed "
                              f"({kept!r}); resume it with the same --avalanche-threshold")
+    if avalanche_threshold is not None and not keep_avalanches:
+        raise ValueError("avalanche_threshold applies to keep_avalanches (--keep-avalanches): "
+                         "give it too")
     if pressure is None and volume_guess is not None:
         raise ValueError("volume_guess applies to fixed-pressure shear only: give pressure too")
     if pressure is not None:
