@@ -109,7 +109,9 @@ def brute_force(
 def brute_jammed_state(packing, ftol: float) -> dict:
     """The jammed verdict by brute force: contacts from :func:`pair_terms` (every pair, every
     image, σ_ij from the diameters), rattlers removed one particle at a time from a work queue,
-    the virial pressure of ``V = (1 − r/σ_ij)^α`` written out, the floor ``10 ftol N / L^d``."""
+    the virial pressure of ``V = (1 − r/σ_ij)^α`` written out, the floor ``10 ftol N / L^d``, and
+    the net forces summed pair by pair (a configuration with ``max_i |F_i| ≥ ftol`` is not a
+    minimum: not jammed)."""
     from collections import deque
 
     pos = packing.wrapped().positions
@@ -120,6 +122,11 @@ def brute_jammed_state(packing, ftol: float) -> dict:
     r = np.sqrt((dr * dr).sum(axis=1))
     sig = (diam[i] + diam[j]) / 2
     p = float(np.sum(alpha / sig * (1.0 - r / sig) ** (alpha - 1) * r) / (d * L**d))
+    push = (alpha / sig * (1.0 - r / sig) ** (alpha - 1) / r)[:, None] * dr
+    net = np.zeros((n, d))
+    np.add.at(net, i, push)
+    np.add.at(net, j, -push)
+    fmax = float(np.sqrt((net * net).sum(axis=1)).max()) if n else 0.0
     nbrs: list[list[int]] = [[] for _ in range(n)]
     for a, b in zip(i, j, strict=True):
         nbrs[a].append(b)
@@ -140,9 +147,10 @@ def brute_jammed_state(packing, ftol: float) -> dict:
     n_kept = int(alive.sum())
     n_c = int(np.sum(alive[i] & alive[j]))
     floor = 10.0 * ftol * n / L**d
-    jammed = n_kept > 0 and n_c >= d * (n_kept - 1) + 1 and p > floor
+    jammed = fmax < ftol and n_kept > 0 and n_c >= d * (n_kept - 1) + 1 and p > floor
     return {
         "n_kept": n_kept, "n_c": n_c, "p": p, "floor": floor, "jammed": jammed, "backbone": alive,
+        "max_force": fmax,
     }  # fmt: skip
 
 

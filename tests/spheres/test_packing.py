@@ -259,3 +259,13 @@ def test_jammed_n1000_ensemble() -> None:
         assert n_c == 3 * (n_kept - 1) + 1, seed
         assert P_TARGET / 2 <= sp.pressure(res.packing) <= 2 * P_TARGET, seed
         assert 0.63 <= res.phi_j <= 0.65, (seed, res.phi_j)
+
+
+@pytest.mark.parametrize("bad", [{"max_minimizations": 0}, {"max_minimizations": -3},
+                                 {"max_iter": 0}, {"max_minimizations": 2.5}])
+def test_jam_refuses_a_budget_that_cannot_run(bad):
+    """A budget of no minimisation used to run all its attempts and report a failed packing;
+    it is a bad argument."""
+    name = next(iter(bad))
+    with pytest.raises(ValueError, match=f"{name} must be an integer >= 1"):
+        jam(16, 2, seed=0, p_target=1e-3, **bad)

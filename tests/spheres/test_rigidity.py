@@ -14,7 +14,7 @@ from spheres_brute import pair_terms
 
 from jamlab.spheres import Box, Packing, jam, minimize
 from jamlab.spheres.packing import rescale
-from jamlab.spheres.rigidity import is_jammed, pressure_floor
+from jamlab.spheres.rigidity import is_jammed, jammed_verdict, pressure_floor
 
 
 def check_against_brute(packing: Packing, ftol: float = 1e-12):
@@ -85,6 +85,24 @@ def test_hypostatic_backbone_is_not_jammed(jammed32):
     s = check_against_brute(smaller)
     assert b["jammed"] and not s.jammed
     assert s.excess == -1 and s.pressure > s.p_floor
+    # with a particle gone its neighbours' forces no longer balance: not a minimum either; the
+    # count alone (condition 2) rejects it as well
+    assert "not a minimum" in s.reason
+    assert "hypostatic" in jammed_verdict(3, s.n_backbone, s.n_contacts_backbone, s.pressure,
+                                         s.p_floor)
+
+
+def test_a_configuration_that_is_not_a_minimum_is_not_judged():
+    """Overlapping random spheres: a dense backbone above isostatic and a large pressure pass
+    conditions 1–3, but the forces do not balance (max|F_i| ≫ ftol), so no verdict of rigidity
+    is given: not jammed, "not a minimum" (the brute force sums the pair forces)."""
+    from jamlab.spheres import random_packing
+
+    p = random_packing(16, 2, 1.2, 0)
+    s = check_against_brute(p)
+    b = brute_state(p, 1e-12)
+    assert b["max_force"] > 1.0 and b["n_c"] >= 2 * (b["n_kept"] - 1) + 1 and b["p"] > b["floor"]
+    assert not s.jammed and s.reason.startswith("not a minimum")
 
 
 def test_pressure_below_the_floor_of_a_coarse_ftol(jammed32):

@@ -16,6 +16,7 @@ The names of :mod:`~jamlab.spheres.relax`, :mod:`~jamlab.spheres.describe` and
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field, replace
 
@@ -252,6 +253,9 @@ confirm_ftol_factor
         raise ValueError(f"compress_factor must be in (1, 2), got {compress_factor!r}")
     if not (isinstance(max_restarts, int) and max_restarts >= 0):
         raise ValueError(f"max_restarts must be an integer >= 0, got {max_restarts!r}")
+    for name, value in (("max_minimizations", max_minimizations), ("max_iter", max_iter)):
+        if not (isinstance(value, numbers.Integral) and value >= 1):
+            raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     if not (isinstance(confirm_ftol_factor, int | float) and 0 < confirm_ftol_factor <= 1):
         raise ValueError(f"confirm_ftol_factor must be in (0, 1], got {confirm_ftol_factor!r}")
     t0 = time.perf_counter()

@@ -22,6 +22,9 @@ A minimum is **jammed** when all three hold (``SPEC.md`` §3, §6; derivation in
    1e-12`` have ``p ≤ 0.16 ftol N / L^d``. With ``ftol = 1e-12``, N/L^d ≈ 1.22: ``p_floor ≈
    1.2e-11`` (the value :func:`jamlab.spheres.packing.jam` uses, 1e-11 at ``p_target = 1e-7``).
 
+The verdict is of a minimum: a configuration with ``max_i |F_i| ≥ ftol`` is not judged, it is
+reported not jammed with the reason "not a minimum" (:func:`is_jammed`).
+
 Condition 2 is a count, necessary for rigidity, not sufficient (a hyperstatic subcluster next to a
 floppy one passes it); together with 3 it is what can be decided from one minimum without a
 Hessian.
@@ -32,7 +35,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from jamlab.spheres.potential import NeighborList, Packing, pressure, remove_rattlers
+from jamlab.spheres.potential import (
+    NeighborList,
+    Packing,
+    max_force,
+    pressure,
+    remove_rattlers,
+)
 
 __all__ = [
     "JammedState",
@@ -97,14 +106,20 @@ def is_jammed(
     packing: Packing, ftol: float = 1e-12, neighbors: NeighborList | None = None
 ) -> JammedState:
     """Whether the minimum ``packing`` (converged to ``max_i |F_i| < ftol``) is jammed: non-empty
-    backbone, ``N_c' ≥ d(N' − 1) + 1``, ``p > p_floor(ftol)`` (module docstring)."""
+    backbone, ``N_c' ≥ d(N' − 1) + 1``, ``p > p_floor(ftol)`` (module docstring). A
+    configuration that is not such a minimum (``max_i |F_i| ≥ ftol``) is not judged: it is
+    reported not jammed, with the reason "not a minimum" (the counts are still filled)."""
     p_floor = pressure_floor(packing.n, packing.dim, packing.box.length, ftol)
     rr = remove_rattlers(packing, neighbors)
     p = pressure(packing, neighbors)
     n_kept = packing.n - rr.n_rattlers
     n_iso = packing.dim * (n_kept - 1) + 1 if n_kept > 0 else 0
     excess = rr.n_contacts_nr - n_iso
-    reason = jammed_verdict(packing.dim, n_kept, rr.n_contacts_nr, p, p_floor)
+    fmax = max_force(packing, neighbors)
+    if not fmax < ftol:
+        reason = f"not a minimum (max|F_i| = {fmax:.3g} >= ftol = {ftol:g})"
+    else:
+        reason = jammed_verdict(packing.dim, n_kept, rr.n_contacts_nr, p, p_floor)
     return JammedState(
         jammed=not reason,
         pressure=float(p),

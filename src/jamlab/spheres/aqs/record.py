@@ -64,13 +64,15 @@ def jammed_flag(value: tuple | bool | None, ftol: float) -> bool | None:
 
 
 def jammed_flags(rows: dict[str, list], ftol: float) -> np.ndarray | None:
-    """The ``jammed`` column: :func:`jammed_flag` of each row; ``None`` if a row is unknown."""
+    """The ``jammed`` column: :func:`jammed_flag` of each row, and ``False`` for a row that is
+    not a minimum (``max_force ≥ ftol``: as :func:`~jamlab.spheres.rigidity.is_jammed`);
+    ``None`` if a row is unknown."""
     out = []
-    for value in rows.get("jammed", []):
+    for value, fmax in zip(rows.get("jammed", []), rows["max_force"], strict=True):
         flag = jammed_flag(value, ftol)
         if flag is None:
             return None
-        out.append(flag)
+        out.append(flag and fmax < ftol)
     return np.asarray(out, dtype=bool)
 
 
