@@ -61,7 +61,8 @@ def jumps_from_trace(
 
     ``ΔE_n = E_{n+1} − E_n − δγ_n Σ_n``, ``ΔΣ_n = Σ_{n+1} − Σ_n``, ``δγ_n = γ_{n+1} − γ_n``
     (SPEC §3; E and Σ extensive). Works along the last axis, so ``(samples, steps+1)`` arrays
-    give ``(samples, steps)`` results.
+    give ``(samples, steps)`` results. Two minima at the same strain (``δγ_n = 0``) raise
+    ``ValueError``; NaN (a missing step) passes through.
     """
     strain = np.asarray(strain, dtype=np.float64)
     energy = np.asarray(energy, dtype=np.float64)
@@ -72,6 +73,9 @@ def jumps_from_trace(
             f"axis; got {strain.shape}, {energy.shape}, {stress.shape}"
         )
     dgamma = np.diff(strain, axis=-1)
+    if np.any(dgamma == 0):
+        raise ValueError(f"the strain repeats at step {int(np.argwhere(dgamma == 0)[0][-1])}: "
+                         "each step needs δγ_n ≠ 0")
     energy_jump = np.diff(energy, axis=-1) - dgamma * stress[..., :-1]
     return energy_jump, np.diff(stress, axis=-1), dgamma
 
@@ -206,9 +210,14 @@ def classify_steps(
     ``stress_jump`` and ``strain_step`` are given (recommended: immune to continuous branches
     with negative modulus) and ``−ΔE_n`` otherwise. At least one of ``plastic`` and
     ``threshold`` is required. Steps with ``−ΔE_n ≤ 0`` are never avalanches. With ``jammed``
-    (one flag per minimum) steps that start or end unjammed are never avalanches.
+    (one flag per minimum) steps that start or end unjammed are never avalanches. A NaN ``ΔE_n``
+    is a step that is not there (the padding of ensembles of unequal length,
+    :func:`jamlab.runs.open_run`) and is never counted; ``±inf`` raises ``ValueError``.
     """
     energy_jump = np.asarray(energy_jump, dtype=np.float64)
+    if np.any(np.isinf(energy_jump)):
+        raise ValueError("energy_jump holds inf: a trace's jumps are finite (NaN marks a "
+                         "missing step)")
     jmask = _jammed_mask(jammed, energy_jump.shape)
     if plastic is None and threshold is None:
         raise ValueError("give plastic flags, a threshold, or both (threshold=None uses flags)")

@@ -21,6 +21,7 @@ for ``a = 0``, the upward recurrence ``Γ(a, z) = (Γ(a+1, z) − z^a e^(−z))/
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +53,10 @@ FloatArray = NDArray[np.float64]
 _SMALL_A = 1e-5
 _ASYMPTOTIC_Z = 50.0
 _MIN_TAIL = 10
+
+TAU_BOUNDS = (-1.0, 5.0)
+"""The search interval of ``τ`` in the cut-off fits; a fit on either end has no interior
+maximum (``CutoffPowerLawFit.tau_at_bound``)."""
 
 
 def _scaled_upper_gamma(a: float, z: float) -> float:
@@ -212,7 +217,9 @@ class CutoffPowerLawFit:
     without). ``at_bound`` is True when ``x_c`` ended on its search bound (``x_c`` beyond
     ``e^7`` times the largest datum: no cut-off resolved, and its error is meaningless).
     ``ks_distance``: Kolmogorov–Smirnov distance between the tail and the fitted model;
-    ``x_min_fixed``: whether ``x_min`` was given (else chosen by the KS rule)."""
+    ``x_min_fixed``: whether ``x_min`` was given (else chosen by the KS rule);
+    ``tau_at_bound``: ``τ`` ended on an end of its search interval :data:`TAU_BOUNDS` (no
+    interior maximum: the data do not fix ``τ``, and its value is the bound's)."""
 
     tau: float
     tau_stderr: float
@@ -228,6 +235,7 @@ class CutoffPowerLawFit:
     ci_high: float = math.nan
     ci_level: float = math.nan
     n_boot: int = 0
+    tau_at_bound: bool = False
 
 
 def _nll(params: NDArray, log_y: FloatArray, y: FloatArray) -> float:
@@ -269,7 +277,7 @@ def _mle(y: FloatArray, stretch: float = 1.0) -> tuple[float, float, float, bool
     exponential one in ``(y/y_c)^a``, the same numbers at ``a = 1``)."""
     log_y = np.log(y)
     lo, hi = log_yc_bounds(y, stretch)
-    bounds = np.array([[-1.0, 5.0], [lo, hi]])
+    bounds = np.array([TAU_BOUNDS, [lo, hi]])
     mean_log = float(log_y.mean())
     tau0 = 1.0 + 1.0 / mean_log if mean_log > 0 else 1.5
     fun, args = tail_objective(y, log_y, stretch)
@@ -347,6 +355,13 @@ def _choose(xs: FloatArray, min_tail: int, max_candidates: int) -> tuple[float, 
     return best
 
 
+def _check_spread(tail: FloatArray, x_min: float) -> None:
+    """``ValueError`` when the tail holds a single value: no exponent can be fitted to it."""
+    if tail.size and float(tail.min()) == float(tail.max()):
+        raise ValueError(f"every datum at or above x_min={x_min:g} equals {float(tail[0]):g}: "
+                         "a single value fixes no exponent")
+
+
 def fit_cutoff_power_law(
     x: ArrayLike, x_min: float | None = None, *, min_tail: int = 50,
     max_candidates: int = 40, n_boot: int = 0, ci_level: float = 0.95, seed: int = 0,
@@ -363,11 +378,11 @@ def fit_cutoff_power_law(
     if not np.all(np.isfinite(x)):
         raise ValueError("the data hold NaN or inf")
     fixed = x_min is not None
-    if fixed and not (isinstance(x_min, int | float) and math.isfinite(x_min) and x_min > 0):
+    if fixed and not (isinstance(x_min, numbers.Real) and math.isfinite(x_min) and x_min > 0):
         raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
-    if not (isinstance(n_boot, int) and n_boot >= 0):
+    if not (isinstance(n_boot, numbers.Integral) and n_boot >= 0):
         raise ValueError(f"n_boot must be an integer >= 0, got {n_boot!r}")
-    if not (isinstance(min_tail, int) and min_tail >= _MIN_TAIL):
+    if not (isinstance(min_tail, numbers.Integral) and min_tail >= _MIN_TAIL):
         raise ValueError(f"min_tail must be an integer >= {_MIN_TAIL}, got {min_tail!r}")
     if not 0 < ci_level < 1:
         raise ValueError(f"ci_level must lie in (0, 1), got {ci_level!r}")
@@ -378,6 +393,7 @@ def fit_cutoff_power_law(
         if n_tail < need:
             raise ValueError(f"need at least {need} data at or above x_min={x_min:g}, "
                              f"got {n_tail}")
+        _check_spread(xs[xs >= x_min], x_min)
         fit = _fit_at(xs, float(x_min))
     else:
         if xs.size < min_tail + 1:
@@ -413,6 +429,7 @@ def fit_cutoff_power_law(
         x_min_fixed=fixed,
         ci_low=lo,
         ci_high=hi,
+        tau_at_bound=not TAU_BOUNDS[0] + 1e-6 < tau < TAU_BOUNDS[1] - 1e-6,
         ci_level=float(ci_level) if n_boot else math.nan,
         n_boot=int(n_boot),
     )
@@ -520,6 +537,7 @@ def cutoff_shape_profile(x: ArrayLike, x_min: float,
     if tail.size < _MIN_TAIL:
         raise ValueError(f"need at least {_MIN_TAIL} data at or above x_min={x_min:g}, "
                          f"got {tail.size}")
+    _check_spread(tail, x_min)
     y = tail / x_min
     log_x_min = math.log(x_min)
     fits = [_mle(y, a) for a in grid]

@@ -23,6 +23,7 @@ correction that makes it unbiased for independent stationary increments (``docs/
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,11 +161,12 @@ def moduli_from_trace(
         # unjammed_before[:, k]: unjammed minima among 0 … k−1
         unjammed_before = np.zeros((stress.shape[0], stress.shape[1] + 1), dtype=np.int64)
         np.cumsum(~flags.astype(bool), axis=1, out=unjammed_before[:, 1:])
-    if not strain_step > 0:
-        raise ValueError(f"strain_step={strain_step!r} must be > 0")
+    if not (strain_step > 0 and math.isfinite(strain_step)):
+        raise ValueError(f"strain_step={strain_step!r} must be finite and > 0")
     lags = np.atleast_1d(np.asarray(lags))
     n_points = stress.shape[1]
-    if lags.size == 0 or np.any(lags < 1) or np.any(lags >= n_points):
+    if (lags.size == 0 or not np.all(np.isfinite(lags)) or np.any(lags != np.round(lags))
+            or np.any(lags < 1) or np.any(lags >= n_points)):
         raise ValueError(f"lags must be integers in [1, {n_points - 1}], got {lags}")
     out = []
     counts = []

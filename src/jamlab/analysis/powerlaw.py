@@ -260,10 +260,13 @@ def mle_tau(x: ArrayLike, x_min: float, x_max: float | None = None) -> tuple[flo
     Uses the data in ``[x_min, x_max]`` (``[x_min, ∞)`` when ``x_max`` is None). Pure model:
     ``τ̂ = 1 + n/Σ log(x_i/x_min)``, ``σ = (τ̂−1)/√n``. Truncated model: root of the score
     equation ``h'((1−τ)L) = mean(log(x/x_min))/L``, ``σ = 1/(L √(n h''))`` (module docstring).
-    Returns ``(tau, stderr)``.
+    Returns ``(tau, stderr)``: ``(nan, nan)`` when there is no estimate (no data in the support,
+    or all at ``x_min``). NaN/inf data raise ``ValueError``.
     """
     _check_cutoffs(2.0, x_min, x_max)
     x = np.asarray(x, dtype=np.float64)
+    if not np.all(np.isfinite(x)):
+        raise ValueError("data contain NaN or inf; remove them before fitting")
     inside = x >= x_min if x_max is None else (x >= x_min) & (x <= x_max)
     return _mle_tail(np.sort(x[inside]), x_min, x_max)
 
@@ -407,7 +410,9 @@ def fit_power_law(
     Raises
     ------
     ValueError
-        For NaN/inf data, bad cut-offs or options, or fewer than ``min_tail`` data in the tail.
+        For NaN/inf data, bad cut-offs or options, or too few data in the tail: fewer than
+        ``min_tail`` when ``x_min`` is chosen, fewer than 2 when it is given (``min_tail``
+        bounds the candidates of the choice only).
 
     Examples
     --------
@@ -439,6 +444,9 @@ def fit_power_law(
         raise ValueError(f"x_max={x_max!r} must be positive and finite")
     xs = _prepare(x, x_max)
     found_min, tau, err, n_tail, d = _fit_sorted(xs, x_min, x_max, min_tail, max_candidates)
+    if x_min is not None and n_tail < 2:
+        where = f"[{x_min:g}, {x_max:g}]" if x_max is not None else f"x >= {x_min:g}"
+        raise ValueError(f"{n_tail} datum in {where}: an exponent needs at least 2")
     if not math.isfinite(tau):
         raise ValueError(
             f"no valid fit: {xs.size} positive data, need a tail of at least min_tail={min_tail}"
