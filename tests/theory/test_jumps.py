@@ -250,3 +250,59 @@ def test_rvs_follows_cdf_with_atom():
     v = np.random.default_rng(7).random(n)
     jumped = v < 1 - p0
     np.testing.assert_allclose(dist.C(x[jumped]), -np.log1p(-v[jumped]), rtol=1e-10)
+
+
+LIN_DIST = jump_distribution(ParisiFunction.linear(2.5, 0.0, 0.9), 0.1)  # C(0) = 0.1015...
+
+
+@pytest.mark.parametrize("method", ["pdf", "cdf", "sf", "logpdf", "C", "dC", "R"])
+def test_nan_dE_is_refused(method):
+    """A NaN ΔE is a ValueError for every method (it used to give pdf 0, cdf 1, sf 0, logpdf
+    -inf); its finite neighbours, numpy scalars included, still give the same numbers."""
+    f = getattr(LIN_DIST, method)
+    for bad in (math.nan, np.float32("nan"), np.array([-0.05, np.nan])):
+        with pytest.raises(ValueError, match="dE must not be NaN, got nan"):
+            f(bad)
+    good = np.array([-0.5, -0.05, -1e-6])
+    vals = np.asarray(f(good))
+    assert vals.shape == (3,) and np.all(np.isfinite(vals))
+    for x, val in zip(good, vals, strict=True):
+        assert f(np.float64(x)) == val and f(float(x)) == val
+    assert f(np.float32(-0.05)) == f(float(np.float32(-0.05)))
+
+
+def test_cdf_sf_pdf_at_nonnegative_and_infinite_dE_unchanged():
+    d = LIN_DIST
+    assert d.cdf(0.0) == 1.0 and d.sf(0.0) == 0.0 and d.pdf(0.0) == 0.0
+    assert d.cdf(2.0) == 1.0 and d.sf(np.inf) == 0.0 and d.logpdf(1.0) == -math.inf
+    assert d.cdf(-np.inf) == 0.0 and d.sf(-np.inf) == 1.0 and d.pdf(-np.inf) == 0.0
+
+
+@pytest.mark.parametrize("bad", [1e6, 0.2, 0.0, -1.0, math.nan, math.inf, -math.inf])
+def test_ppf_log_refuses_c_without_a_root(bad):
+    """``C(ΔE) = c`` has a root ``ΔE <= 0`` only for ``0 < c <= C(0)``: outside it (and for NaN)
+    ppf_log used to return -1e-305, -3.45 or NaN; now a ValueError naming c."""
+    with pytest.raises(ValueError, match=r"c must lie in \(0, C\(0\)\].*got"):
+        LIN_DIST.ppf_log([bad])
+    with pytest.raises(ValueError, match=r"c must lie in"):
+        LIN_DIST.ppf_log([0.05, bad])
+    # just above C(0) (one ulp) is refused, C(0) itself is the root ΔE → 0⁻
+    c0 = LIN_DIST.C(0.0)
+    with pytest.raises(ValueError, match=r"c must lie in"):
+        LIN_DIST.ppf_log(np.nextafter(c0, 1.0))
+    root0 = LIN_DIST.ppf_log([c0])
+    assert root0.shape == (1,) and -1e-300 < root0[0] <= 0.0
+
+
+def test_ppf_log_in_range_solves_C():
+    c = np.array([1e-3, 0.05, np.float32(0.1)])
+    dE = LIN_DIST.ppf_log(c)
+    assert np.all(dE < 0.0)
+    np.testing.assert_allclose(LIN_DIST.C(dE), c, rtol=1e-10)
+    np.testing.assert_array_equal(LIN_DIST.ppf_log(np.float64(0.05)), dE[1:2])
+    # without a cut-off (μ = 1/2) C(0) = inf: every finite c > 0 has a root
+    half = jump_distribution(ParisiFunction.power_law(0.5), 1e-3)
+    root = half.ppf_log([0.01])
+    assert root[0] < 0.0 and half.C(root) == pytest.approx([0.01], rel=1e-10)
+    with pytest.raises(ValueError, match=r"C\(0\)\] = \(0, inf\]"):
+        half.ppf_log([math.inf])

@@ -13,9 +13,14 @@ from jamlab.paper import THETA_JAMMING as THETA_JAMMING  # θ, written once (jam
 
 
 def _check_theta(theta: float) -> float:
+    """``θ`` must be finite and ``> -1``: a normalisable force distribution ``P(f) ~ f^θ``, and
+    exactly where ``μ_J = 1/2 + 1/(2(2+θ))`` lies in ``(1/2, 1)``, the range of :func:`tau_from_mu`
+    (``θ = -1`` gives ``μ = 1``, ``-2 < θ < -1`` gives ``μ > 1``, ``θ < -2`` gives ``μ < 1/2``)."""
     theta = float(theta)
-    if not math.isfinite(theta) or theta <= -2.0:
-        raise ValueError(f"theta must be a finite number > -2, got {theta}")
+    if not math.isfinite(theta) or theta <= -1.0:
+        raise ValueError(
+            f"theta must be a finite number > -1 (so that 1/2 < mu_J < 1), got {theta}"
+        )
     return theta
 
 
@@ -26,10 +31,17 @@ def mu_jamming(theta: float = THETA_JAMMING) -> float:
 
 
 def tau_from_mu(mu: float) -> float:
-    """Avalanche exponent ``τ = 2μ`` (valid for ``1/2 <= μ < 1``; ``μ = 1/2`` gives ``τ = 1``)."""
+    """Avalanche exponent ``τ = 2μ`` (valid for ``1/2 <= μ < 1``; ``μ = 1/2`` gives ``τ = 1``).
+
+    Any other ``μ`` (NaN included) is a ValueError: below ``1/2`` the jump distribution is not
+    the power law ``|ΔE/δγ|^(-2μ)`` (SPEC §1 states ``τ = 2μ`` for ``μ > 1/2`` and ``τ = 1`` at
+    ``μ = 1/2``).
+    """
     mu = float(mu)
-    if not (math.isfinite(mu) and 0.0 < mu < 1.0):
-        raise ValueError(f"mu must lie in (0, 1), got {mu}")
+    if not (math.isfinite(mu) and 0.5 <= mu < 1.0):
+        raise ValueError(
+            f"mu must lie in [1/2, 1) (tau = 2 mu holds only there, SPEC §1), got {mu}"
+        )
     return 2.0 * mu
 
 

@@ -145,6 +145,7 @@ class PrintedJumpDistribution:
         self._atoms_q, self._atoms_m = parisi.atoms()
         self._has_density = parisi.has_density()
         self._p0: float | None = None
+        self._c0: float | None = None
 
     # ------------------------------------------------------------------ core integrals
     def _x(self, dE: FloatArray, s: FloatArray) -> FloatArray:
@@ -277,8 +278,7 @@ class PrintedJumpDistribution:
         return C
 
     def _check_nonpositive(self, dE: FloatArray) -> None:
-        if np.any(np.isnan(dE)):
-            raise ValueError("dE must not be NaN")
+        _check_not_nan(dE)
         if np.any(dE > 0.0):
             raise ValueError(f"C and R are defined for dE <= 0 only, got {dE[dE > 0][0]}")
 
@@ -323,6 +323,7 @@ class PrintedJumpDistribution:
     def logpdf(self, dE: ArrayLike) -> FloatArray | float:
         """``log P(ΔE|δγ) = log ∂C/∂ΔE - C`` for ``ΔE < 0`` (``-inf`` for ``ΔE >= 0``)."""
         arr = np.asarray(dE, dtype=np.float64)
+        _check_not_nan(arr)
         out = np.full(arr.shape, -np.inf)
         neg = arr < 0.0
         if np.any(neg):
@@ -334,6 +335,7 @@ class PrintedJumpDistribution:
     def pdf(self, dE: ArrayLike) -> FloatArray | float:
         """Continuous part of ``P``: ``R(ΔE) ∂C/∂ΔE`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
         arr = np.asarray(dE, dtype=np.float64)
+        _check_not_nan(arr)
         out = np.zeros(arr.shape)
         neg = arr < 0.0
         if np.any(neg):
@@ -345,6 +347,7 @@ class PrintedJumpDistribution:
     def cdf(self, dE: ArrayLike) -> FloatArray | float:
         """``P(ΔE' <= ΔE)``: ``1 - R(ΔE) = -expm1(-C)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
         arr = np.asarray(dE, dtype=np.float64)
+        _check_not_nan(arr)
         out = np.ones(arr.shape)
         neg = arr < 0.0
         if np.any(neg):
@@ -355,6 +358,7 @@ class PrintedJumpDistribution:
     def sf(self, dE: ArrayLike) -> FloatArray | float:
         """``P(ΔE' > ΔE)``: ``R(ΔE)`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
         arr = np.asarray(dE, dtype=np.float64)
+        _check_not_nan(arr)
         out = np.zeros(arr.shape)
         neg = arr < 0.0
         if np.any(neg):
@@ -363,8 +367,30 @@ class PrintedJumpDistribution:
         return _ret(out)
 
     def ppf_log(self, c: ArrayLike) -> FloatArray:
-        """``ΔE < 0`` with ``C(ΔE) = c`` (``c > 0``), solved in ``log|ΔE|``; see :meth:`rvs`."""
+        """``ΔE < 0`` with ``C(ΔE) = c``, solved in ``log|ΔE|``; see :meth:`rvs`.
+
+        ``C`` falls from ``C(0) = -log R(0)`` (``inf`` for ``μ >= 1/2``
+        without cut-off) to 0 as ``ΔE → -∞``, so a root exists for ``0 < c <= C(0)`` only
+        (``c = C(0)`` gives ``ΔE → 0⁻``); any other ``c`` (NaN included) is a ValueError.
+        """
         c = np.asarray(c, dtype=np.float64).ravel()
+        bad = ~((c > 0.0) & (c <= self._C0()) & np.isfinite(c))
+        if np.any(bad):
+            raise ValueError(
+                f"c must lie in (0, C(0)] = (0, {self._C0()!r}] (C(ΔE) = c has no root ΔE < 0 "
+                f"elsewhere), got {float(c[bad][0])!r}"
+            )
+        return self._ppf_log(c)
+
+    def _C0(self) -> float:  # noqa: N802
+        """``C(0, δγ)``, computed once."""
+        if self._c0 is None:
+            self._c0 = self._C_zero()
+        return self._c0
+
+    def _ppf_log(self, c: FloatArray) -> FloatArray:
+        """:meth:`ppf_log` without the range check (for :meth:`rvs`, whose ``c < -log R(0)``
+        may exceed ``C(0)`` by a rounding error; the root is then ``ΔE → 0⁻``)."""
         a = self._a
         # monotone table of C over log|ΔE|, then Newton steps on the exact C
         t_grid = np.linspace(math.log(a) - 700.0, math.log(a) + math.log(200.0), 1200)
@@ -401,8 +427,14 @@ class PrintedJumpDistribution:
         jump = flat < 1.0 - p0
         if np.any(jump):
             c = -np.log1p(-flat[jump])
-            out[jump] = self.ppf_log(c)
+            out[jump] = self._ppf_log(c)
         return out.reshape(np.shape(v))
+
+
+def _check_not_nan(dE: FloatArray) -> None:
+    """ValueError if any ``ΔE`` is NaN (the one check of every method taking ``dE``)."""
+    if np.any(np.isnan(dE)):
+        raise ValueError(f"dE must not be NaN, got {float(dE[np.isnan(dE)].ravel()[0])!r}")
 
 
 def _ret(x: FloatArray) -> FloatArray | float:
