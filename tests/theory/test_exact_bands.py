@@ -108,3 +108,47 @@ def test_large_dgamma_strong_top_level():
     other = exact_energy_jump_law(pf, 0.5, q_cut=1 - 1e-8)
     xs = -0.5 * np.array([0.03, 0.1, 0.3, 1.0])
     assert np.max(np.abs(np.asarray(other.R(xs)) - np.asarray(law.R(xs)))) < 1e-5
+
+
+@pytest.mark.parametrize(("q1", "y", "dg"), [(0.0, 2.0, 0.5), (0.3, 1.0, -1.3)])
+def test_energy_law_far_below_against_one_level_R(q1, y, dg):
+    """The bands lose precision far below the law (R = 1 + 1e-11 at x = -1e5 for k = 2, 4.3 at
+    -1e16, 0 at -1e18 and -∞, cdf(-∞) = 1): below -24ℓ_1 - 2δγ²Y(q_1) + 12σ_k (the edge of
+    CascadeRecursion's grid; P(ΔE < x_lo) < 1e-14) R = 1 and the density 0; one_level_R (the
+    quadrature of the closed form) is the reference; above it the bands' own values."""
+    levels = (np.array([q1]), np.array([y]))
+    law = exact_energy_jump_law(levels, dg)
+    band = BandedRecursion(*levels, dg)
+    lo = 12.0 * (band.sigma[-1] - 2.0 * band.ell[0]) - 2.0 * band.tilt[0]
+    x = np.array([0.0, -0.3 * abs(dg), -abs(dg), lo, lo - 1e-9, -50.0, -1e5, -1e16, -1e18, -1e300,
+                  -np.inf])
+    ref = np.array([one_level_R(v, y, dg, v=1.0 - q1) for v in x])
+    R = np.asarray(law.R(x))
+    np.testing.assert_allclose(R, ref, rtol=0.0, atol=1e-12)
+    assert ref[-1] == pytest.approx(1.0, abs=1e-15)
+    np.testing.assert_array_equal(R[x < lo], 1.0)
+    np.testing.assert_array_equal(np.asarray(law.pdf(x))[x < lo], 0.0)
+    np.testing.assert_array_equal(np.asarray(law.cdf(x))[x < lo], 0.0)
+    assert law.R(-np.inf) == 1.0 and law.cdf(-np.inf) == 0.0 and law.sf(-np.inf) == 1.0
+    # the valid neighbours: x >= lo keep the bands' values bit for bit, also mixed with x below
+    inside = x >= lo
+    Rb, Pb = band.R_and_pdf(x[inside])
+    np.testing.assert_array_equal(R[inside], Rb)
+    np.testing.assert_array_equal(np.asarray(law.pdf(x[1:]))[inside[1:]], Pb[1:])
+    np.testing.assert_array_equal(np.asarray(law.R(x[inside])), Rb)
+    assert np.all(np.diff(R) >= -1e-15)
+
+
+def test_energy_law_refuses_nan():
+    """R(nan) gave nan, pdf/cdf/sf(nan) 0, 1, 0; each now refuses it, naming the argument."""
+    for law in (exact_energy_jump_law((np.array([0.0, 0.5]), np.array([0.8, 2.0])), 0.5),
+                exact_energy_jump_law(ParisiFunction.linear(2.5, 0.0, 0.9), 0.1, levels=8)):
+        for method in ("R", "pdf", "cdf", "sf"):
+            f = getattr(law, method)
+            for bad in (np.nan, [-0.1, np.nan], np.full((2, 3), np.nan)):
+                with pytest.raises(ValueError, match="^dE must not be NaN, got dE = nan$"):
+                    f(bad)
+            v = f(-0.1)
+            assert isinstance(v, float) and np.isfinite(v) and v >= 0.0
+            np.testing.assert_allclose(f([-0.1, -0.2]), [v, f(-0.2)], rtol=1e-14, atol=1e-15)
+        assert 0.0 < law.R(-0.1) < 1.0 and law.cdf(-0.1) == pytest.approx(1.0 - law.R(-0.1))

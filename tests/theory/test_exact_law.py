@@ -157,3 +157,175 @@ def test_continuum_first_order_jump_rate(pf):
     rates = [(1 - exact_jump_law(pf, d).p_no_jump) / d for d in (2e-3, 4e-3)]
     extrapolated = 2 * rates[0] - rates[1]
     assert extrapolated == pytest.approx(jump_rate_first_order(pf), rel=2e-4)
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "match"),
+    [
+        ((1.0, 2.0, 0.1), {}, r"x must be <= 0, got max x = 1\.0"),  # R(x > 0): ΔE <= 0 always
+        ((math.nan, 2.0, 0.1), {}, "x must not be NaN, got x = nan"),
+        ((-1.0, math.nan, 0.1), {}, "y must be finite and > 0, got nan"),
+        ((-1.0, 0.0, 0.1), {}, "y must be finite and > 0, got 0.0"),
+        ((-1.0, -2.0, 0.1), {}, "y must be finite and > 0, got -2.0"),
+        ((-1.0, 2.0, math.nan), {}, "dgamma must be finite, got nan"),
+        ((-1.0, 2.0, math.inf), {}, "dgamma must be finite, got inf"),
+        ((-1.0, 2.0, 0.1), {"v": -1.0}, "v must be finite and > 0, got -1.0"),
+        ((-1.0, 2.0, 0.1), {"v": 0.0}, "v must be finite and > 0, got 0.0"),
+        ((-1.0, 2.0, 0.1), {"v": math.nan}, "v must be finite and > 0, got nan"),
+        ((-1.0, 2.0, 0.1), {"v": 1.5}, r"v = 1 - q_1 must lie in \(0, 1\], got 1\.5"),
+        ((-1.0, 2.0, 0.0), {"v": 0.0}, "v must be finite and > 0"),  # checked before δγ = 0
+    ],
+)
+def test_one_level_R_refuses_bad_input(args, kwargs, match):
+    """one_level_R used to return 0.135 for x = 1 > 0, NaN for v = -1 or a NaN argument and 0
+    for v = 0; it now refuses what exact_jump_R refuses (q = [1 - v], y = [y])."""
+    with pytest.raises(ValueError, match=match):
+        one_level_R(*args, **kwargs)
+
+
+def test_one_level_R_valid_neighbours():
+    from jamlab.theory.exact import exact_jump_R
+
+    r0 = one_level_R(0.0, 2.0, 0.1)
+    assert 0.0 < r0 < 1.0
+    assert one_level_R(-0.0, 2.0, 0.1) == r0
+    assert one_level_R(np.float64(0.0), np.int64(2), np.float32(0.1)) == one_level_R(
+        0.0, 2.0, float(np.float32(0.1)))
+    assert one_level_R(-1.0, 2.0, 0.1, v=1.0) == pytest.approx(1.0, abs=1e-12)
+    assert one_level_R(-0.01, 1.7, -0.3, v=0.6) == pytest.approx(
+        exact_jump_R([0.4], [1.7], 0.3, -0.01)[0], abs=1e-6)
+    assert one_level_R(-0.5, 2.0, 0.0) == 1.0  # δγ = 0: no jump
+
+
+def test_exact_jump_R_refuses_nan_x():
+    """exact_jump_R([0, .5], [1, 2], .1, [nan]) used to return [nan] (and [1.] at δγ = 0)."""
+    from jamlab.theory.exact import exact_jump_R
+
+    for x in ([math.nan], [-0.1, math.nan], np.float32("nan")):
+        for dg in (0.1, 0.0):
+            with pytest.raises(ValueError, match="x must not be NaN, got x = nan"):
+                exact_jump_R([0.0, 0.5], [1.0, 2.0], dg, x)
+    with pytest.raises(ValueError, match=r"x must be <= 0, got max x = 0\.5"):
+        exact_jump_R([0.0, 0.5], [1.0, 2.0], 0.1, [-0.1, 0.5])
+    r = exact_jump_R([0.0, 0.5], [1.0, 2.0], 0.1, [-0.1, 0.0])
+    assert r.shape == (2,) and np.all((r > 0.0) & (r <= 1.0)) and r[0] >= r[1]
+    np.testing.assert_array_equal(exact_jump_R([0.0, 0.5], [1.0, 2.0], 0.0, [-0.1, 0.0]), 1.0)
+
+
+# (q_1, y, δγ) of one level: exact_jump_R([q_1], [y], δγ) is one_level_R(·, y, δγ, v = 1 - q_1)
+ONE_LEVEL = [(0.0, 2.0, 0.5), (0.3, 1.0, -1.3)]
+
+
+def _grid_points(q1, y, dg):
+    """x from the law's bulk to below the grid's start z_0 (down to -∞), and the edge
+    z_0 + 12 σ_k below which the grid's Gaussian sum for R missed mass (R ≈ ½ at z_0, 0 below)."""
+    rec = CascadeRecursion([q1], [y], dg)
+    z0, edge = rec.z[0], rec.z[0] + 12.0 * rec.sigma[-1]
+    x = np.array([0.0, -0.2 * abs(dg), -abs(dg), rec.x_lo, edge, edge - 1e-9, z0 + rec.sigma[-1],
+                  z0, z0 - 1.0, -50.0, -1e300, -np.inf])
+    return rec, edge, x
+
+
+@pytest.mark.parametrize(("q1", "y", "dg"), ONE_LEVEL)
+def test_exact_jump_R_below_grid_against_one_level_R(q1, y, dg):
+    """exact_jump_R (k = 1, δγ = 0.5) gave 0.55 at the grid's first point z_0 = -13 and 0 at
+    x = -50 and -∞, where R(x) = P(ΔE >= x) -> 1 (one_level_R, the quadrature of the closed form,
+    gives 1). Below z_0 + 12 σ_k it is now 1; above, the grid's own value, bit for bit."""
+    from jamlab.theory.exact import exact_jump_R
+
+    rec, edge, x = _grid_points(q1, y, dg)
+    got = exact_jump_R([q1], [y], dg, x)
+    ref = np.array([one_level_R(v, y, dg, v=1.0 - q1) for v in x])
+    np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-12)
+    assert ref[-1] == pytest.approx(1.0, abs=1e-15)  # the reference itself: R(-∞) = 1
+    np.testing.assert_array_equal(got[x < edge], 1.0)
+    assert exact_jump_R([q1], [y], dg, -np.inf)[0] == 1.0
+    # the diagnostic variants: the Poisson one summed on the same grid (gave 0 there too), the
+    # decoupled one extended by the edge values (unchanged); both -> 1 as x -> -∞
+    for kw in ({"poisson_clusters": True}, {"decouple_path": True}):
+        far = exact_jump_R([q1], [y], dg, [rec.z[0], -50.0, -np.inf], **kw)
+        np.testing.assert_allclose(far, 1.0, rtol=0.0, atol=1e-12)
+    # the valid neighbours: x >= edge keep the grid's value bit for bit, alone or mixed with x
+    # below it, and R stays monotone (grows as x falls)
+    inside = x >= edge
+    np.testing.assert_array_equal(got[inside], rec.R(x[inside]))
+    np.testing.assert_array_equal(exact_jump_R([q1], [y], dg, x[inside]), rec.R(x[inside]))
+    assert np.all(np.diff(got) >= -1e-15)
+
+
+@pytest.mark.parametrize(("q1", "y", "dg"), ONE_LEVEL)
+def test_exact_law_below_grid_against_one_level_R(q1, y, dg):
+    """ExactJumpLaw.R summed on the same grid: 0 below it (cdf 1, sf 0), now R = 1, cdf = 0."""
+    rec, edge, x = _grid_points(q1, y, dg)
+    law = exact_jump_law((np.array([q1]), np.array([y])), dg)
+    ref = np.array([one_level_R(v, y, dg, v=1.0 - q1) for v in x])
+    np.testing.assert_allclose(np.asarray(law.R(x)), ref, rtol=0.0, atol=1e-12)
+    below = x < edge
+    np.testing.assert_array_equal(np.asarray(law.R(x))[below], 1.0)
+    np.testing.assert_array_equal(np.asarray(law.cdf(x))[below], 0.0)
+    np.testing.assert_array_equal(np.asarray(law.sf(x))[below], 1.0)
+    assert law.R(-np.inf) == 1.0 and law.cdf(-np.inf) == 0.0 and law.pdf(-np.inf) == 0.0
+    inside = x >= edge
+    np.testing.assert_array_equal(np.asarray(law.R(x))[inside], rec.R(x[inside]))
+    np.testing.assert_array_equal(np.asarray(law.cdf(x[1:]))[inside[1:]],
+                                  1.0 - rec.R(x[1:][inside[1:]]))
+
+
+def test_exact_law_below_grid_many_levels():
+    """k = 2, 16 and the continuum (Richardson of two grids): R = 1 below each grid's start,
+    the grid's value above; R(x_lo) is 1 to 1e-14 (P(ΔE < x_lo) < 1e-14), so the two meet."""
+    for levels, dg in [(K2, 0.5), (LINEAR.discretise(16), 0.3)]:
+        rec = CascadeRecursion(*levels, dg)
+        law = exact_jump_law(levels, dg)
+        assert abs(float(rec.R(rec.x_lo)[0]) - 1.0) < 1e-14
+        x = np.array([-np.inf, -1e300, -50.0, rec.z[0], rec.x_lo, -0.1 * dg])
+        R = np.asarray(law.R(x))
+        np.testing.assert_array_equal(R[:4], 1.0)
+        np.testing.assert_array_equal(R[4:], rec.R(x[4:]))
+    cont = exact_jump_law(LINEAR, 0.05, levels=16)
+    R = np.asarray(cont.R([-np.inf, -50.0, -0.05]))
+    assert R[0] == 1.0 and R[1] == 1.0 and 0.0 < R[2] < 1.0
+    assert R[2] == cont.R(-0.05)
+
+
+@pytest.fixture(scope="module")
+def nan_laws():
+    return {"k2": exact_jump_law(K2, 0.5), "k2-neg": exact_jump_law(K2, -0.2),
+            "continuum": exact_jump_law(LINEAR, 0.05, levels=16),
+            "trivial": exact_jump_law(K2, 0.0)}
+
+
+@pytest.mark.parametrize("which", ["k2", "k2-neg", "continuum", "trivial"])
+@pytest.mark.parametrize(
+    ("part", "method", "name", "valid"),
+    [("", "R", "dE", -0.1), ("", "pdf", "dE", -0.1), ("", "cdf", "dE", -0.1),
+     ("", "sf", "dE", -0.1), ("du", "pdf", "s", 0.1), ("du", "cdf", "s", 0.1),
+     ("dsigma", "pdf", "s", 0.1), ("dsigma", "cdf", "s", -0.1),
+     ("overlap", "pdf", "q", 0.3), ("overlap", "cdf", "q", 0.3)],
+)
+def test_exact_law_refuses_nan(nan_laws, which, part, method, name, valid):
+    """pdf/cdf/sf(nan) of the law gave 0, 1, 0, R(nan) nan, du.pdf(nan) 0, overlap.cdf(nan)
+    0.393 (the masses below q = nan); each now refuses it, naming the argument."""
+    law = nan_laws[which]
+    f = getattr(getattr(law, part) if part else law, method)
+    for bad in (math.nan, [valid, math.nan], np.full((2, 2), np.nan), None):
+        with pytest.raises(ValueError, match=f"^{name} must not be NaN, got {name} = nan$"):
+            f(bad)
+    # the valid neighbour: a number in [0, 1] (densities: finite, >= 0), arrays elementwise
+    v = f(valid)
+    assert isinstance(v, float) and math.isfinite(v) and v >= 0.0
+    if method != "pdf":
+        assert v <= 1.0
+    np.testing.assert_allclose(f([valid, valid]), [v, v], rtol=1e-14, atol=1e-15)
+
+
+def test_trivial_law_refuses_what_the_law_refuses():
+    """δγ = 0: ΔE = 0 always, so R(x) = P(ΔE >= x) = 0 at x > 0; R(0.5) gave 1 (now refused
+    as by every exact law), R(x <= 0) = 1, cdf the atom at 0."""
+    law = exact_jump_law(K2, 0.0)
+    with pytest.raises(ValueError, match="R is defined for dE <= 0 only"):
+        law.R(0.5)
+    assert law.R(-1.0) == 1.0 and law.R(0.0) == 1.0 and law.R(-np.inf) == 1.0
+    assert law.pdf(-1.0) == 0.0 and law.pdf(0.5) == 0.0
+    np.testing.assert_array_equal(law.cdf([-np.inf, -1.0, -0.0, 0.0, 2.0]), [0, 0, 1, 1, 1])
+    np.testing.assert_array_equal(law.sf([-1.0, 0.0]), [1.0, 0.0])

@@ -83,13 +83,43 @@ def one_level_A(x: float, sigma0: np.ndarray, y: float, d: float, v: float = 1.0
     return np.exp(log1) - ndtr(-s_star / sd)
 
 
+def _check_x(x: Any) -> np.ndarray:
+    """``x`` as a float64 array (at least 1-d); ValueError if any ``x`` is NaN or ``> 0``
+    (``R(x) = P(ΔE >= x)`` is asked of ``x <= 0`` only, ``ΔE <= 0``)."""
+    xa = np.atleast_1d(np.asarray(x, dtype=np.float64))
+    if np.any(np.isnan(xa)):
+        raise ValueError(f"x must not be NaN, got x = {float(xa[np.isnan(xa)][0])!r}")
+    if np.any(xa > 0):
+        raise ValueError(f"x must be <= 0, got max x = {float(xa.max())!r}")
+    return xa
+
+
+def _check_finite(name: str, value: Any, positive: bool = False) -> None:
+    """ValueError naming ``name`` unless ``value`` is a finite real (and ``> 0`` if asked)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(v) or (positive and not v > 0.0):
+        raise ValueError(f"{name} must be finite{' and > 0' if positive else ''}, got {v!r}")
+
+
 def one_level_R(x: float, y: float, dgamma: float, v: float = 1.0) -> float:
     """Exact ``R(x) = P(ΔE >= x)`` for one level (``k = 1``, stress variance ``v = 1 - q_1``).
 
     Given the ground state's stress ``σ0 ~ N(0, v)``, the other states are a Poisson process on
     ``u > u_0`` mixed by ``λ = e^{y u_0}/y ~ Exp(1)``, so
     ``R(x) = ∫ φ_v(σ0) / (1 + A_x(σ0)) dσ0`` (:func:`one_level_A`).
+
+    Arguments as for :func:`exact_jump_R` with ``q = [1 - v]``, ``y = [y]``: ``x <= 0``, ``y > 0``,
+    ``0 < v <= 1``, ``dgamma`` finite (``R = 1`` at ``dgamma = 0``); others are a ValueError.
     """
+    _check_x(x)
+    _check_finite("y", y, positive=True)
+    _check_finite("dgamma", dgamma)
+    _check_finite("v", v, positive=True)
+    if float(v) > 1.0:
+        raise ValueError(f"v = 1 - q_1 must lie in (0, 1], got {float(v)!r}")
     d = abs(float(dgamma))
     if d == 0.0:
         return 1.0
@@ -357,7 +387,8 @@ def exact_jump_R(
     poisson_clusters: bool = False,
     **grid: Any,
 ) -> np.ndarray:
-    """Exact ``R(x) = P(ΔE >= x)`` of the ``k``-level cascade (module docstring), ``x <= 0``.
+    """Exact ``R(x) = P(ΔE >= x)`` of the ``k``-level cascade (module docstring), ``x <= 0``;
+    ``R = 1`` below the grid's range (``x < z_0 + 12 σ_k <= x_lo``, ``-∞`` included).
 
     ``decouple_path=True`` replaces the ground state's correlated stress path by independent
     ``S_i ~ N(0, 1 - q_i)`` per level (``R ≈ Π_i E[exp(-(Δy_i/y_i) f_i(x - d S_i))]``): the
@@ -368,9 +399,7 @@ def exact_jump_R(
     ``exp(-(Δy_i/y_i) A_i)`` (clusters seen from the ground state taken as plain Poisson
     processes); for diagnosis only. ``grid``: options of :class:`CascadeRecursion`.
     """
-    xa = np.atleast_1d(np.asarray(x, dtype=np.float64))
-    if np.any(xa > 0):
-        raise ValueError(f"x must be <= 0, got max x = {xa.max()!r}")
+    xa = _check_x(x)
     if float(dgamma) == 0.0:
         from jamlab.theory.cascade import validate_levels
 
@@ -378,7 +407,7 @@ def exact_jump_R(
         return np.ones_like(xa)
     rec = CascadeRecursion(q, y, dgamma, **grid)
     if not (decouple_path or poisson_clusters):
-        return rec.R(xa)
+        return _one_below_grid(rec, xa, rec.R)
     k, d, qa = rec.k, rec.d, rec.q
     if poisson_clusters:
         F = np.exp(-rec.alpha[:, None] * np.expm1(np.minimum(rec.f, 700.0)))
@@ -396,4 +425,17 @@ def exact_jump_R(
     B = np.ones(rec.z.size)
     for i in range(k - 1):
         B = _conv(F[i] * B, rec._kern[i])
-    return rec._last(F[k - 1] * B, xa.ravel()).reshape(xa.shape)
+    g = F[k - 1] * B
+    return _one_below_grid(rec, xa, lambda xs: rec._last(g, xs.ravel()).reshape(xs.shape))
+
+
+def _one_below_grid(rec: CascadeRecursion, xa: np.ndarray, on_grid: Any) -> np.ndarray:
+    """``on_grid(x)`` (the grid's sum for ``R``) at ``x >= z_0 + 12 σ_k``, 1 below.
+
+    The grid starts at ``z_0 <= x_lo - 12 L`` (``L = d√(1 - q_1) >= σ_k``): below
+    ``z_0 + 12 σ_k`` its Gaussian sum misses the mass past that end (``R ≈ ½`` at ``x = z_0``, 0
+    below), while there ``R = 1`` within the grid's accuracy (``P(ΔE < x_lo) < 1e-14``; ``R(-∞) =
+    1`` exactly). The sum is taken at ``max(x, z_0 + 12 σ_k)``: every ``x`` above keeps its value.
+    """
+    edge = rec.z[0] + 12.0 * rec.sigma[-1]
+    return np.where(xa < edge, 1.0, on_grid(np.maximum(xa, edge)))

@@ -82,11 +82,11 @@ class ScalarJumpLaw:
 
     def pdf(self, s: Any) -> np.ndarray | float:
         """Density of the jumps' part at ``s`` (0 on the wrong side of 0)."""
-        return _ret(_one_sided(s, self.sign, lambda v: self._pdf(self.sign * v), 0.0))
+        return _ret(_one_sided(s, "s", self.sign, lambda v: self._pdf(self.sign * v), 0.0))
 
     def cdf(self, s: Any) -> np.ndarray | float:
         """``P(X <= s)``, the atom at 0 included."""
-        a = np.asarray(s, dtype=np.float64)
+        a = _floats("s", s)
         flat = a.ravel()
         out = np.empty(flat.size)
         jumps_total = 1.0 - self.p_no_jump
@@ -132,7 +132,7 @@ class JumpOverlapLaw:
 
     def pdf(self, q: Any) -> np.ndarray | float:
         """Density of ``q`` (continuum; 0 for a discrete cascade)."""
-        qa = np.asarray(q, dtype=np.float64)
+        qa = _floats("q", q)
         if not self.continuum:
             return _ret(np.zeros(qa.shape))
         edges = np.append(self.levels, self.q_max)
@@ -145,7 +145,7 @@ class JumpOverlapLaw:
 
     def cdf(self, q: Any) -> np.ndarray | float:
         """``P(q_jump <= q)`` (the atom at ``q = 1`` included at ``q = 1``)."""
-        qa = np.asarray(q, dtype=np.float64)
+        qa = _floats("q", q)
         if not self.continuum:
             cum = np.cumsum(self.masses)
             idx = np.searchsorted(self.levels, qa, side="right")
@@ -164,10 +164,18 @@ def _ret(x: np.ndarray) -> np.ndarray | float:
     return float(x) if x.ndim == 0 else x
 
 
-def _one_sided(x: Any, side: int, values: Any, fill: float) -> np.ndarray:
+def _floats(name: str, x: Any) -> np.ndarray:
+    """``x`` as float64; ValueError naming the argument if any value is NaN."""
+    a = np.asarray(x, dtype=np.float64)
+    if np.any(np.isnan(a)):
+        raise ValueError(f"{name} must not be NaN, got {name} = nan")
+    return a
+
+
+def _one_sided(x: Any, name: str, side: int, values: Any, fill: float) -> np.ndarray:
     """``values(x_i)`` where ``side · x_i > 0``, ``fill`` elsewhere (the shape of ``x``): a law
     given on one side of 0 only."""
-    a = np.asarray(x, dtype=np.float64)
+    a = _floats(name, x)
     flat = a.ravel()
     out = np.full(flat.size, fill)
     on = side * flat > 0
@@ -182,6 +190,7 @@ class _DiscreteLaw:
     def __init__(self, q: np.ndarray, y: np.ndarray, dgamma: float, grid: dict) -> None:
         self.rec = rec = CascadeRecursion(q, y, dgamma, **grid)
         self.p_no_jump = float(rec.R(0.0)[0])
+        self.edge = float(rec.z[0] + 12.0 * rec.sigma[-1])  # R = 1 below: see _R_values
         self._sig_cheb: C.Chebyshev | None = None
 
     # ΔΣ (|ΔΣ| = (w - x)/d), from the joint density of (ΔE, ΔU) on Chebyshev nodes
@@ -341,19 +350,19 @@ class _EnergyLaw:
         raise NotImplementedError
 
     def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
-        """``R(x) = P(ΔE >= x)`` for ``x <= 0``."""
-        a = np.asarray(dE, dtype=np.float64)
+        """``R(x) = P(ΔE >= x)`` for ``x <= 0`` (1 at ``-∞``)."""
+        a = _floats("dE", dE)
         if np.any(a > 0):
             raise ValueError(f"R is defined for dE <= 0 only, got {a[a > 0].ravel()[0]}")
         return _ret(self._R_values(a.ravel()).reshape(a.shape))
 
     def pdf(self, dE: Any) -> np.ndarray | float:
         """Density of ``ΔE`` at ``ΔE < 0`` (``-R'``), 0 for ``ΔE >= 0``."""
-        return _ret(_one_sided(dE, -1, self._pdf_values, 0.0))
+        return _ret(_one_sided(dE, "dE", -1, self._pdf_values, 0.0))
 
     def cdf(self, dE: Any) -> np.ndarray | float:
         """``P(ΔE' <= ΔE)``: ``1 - R(ΔE)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
-        out = _one_sided(dE, -1, lambda v: 1.0 - self._R_values(v), 1.0)
+        out = _one_sided(dE, "dE", -1, lambda v: 1.0 - self._R_values(v), 1.0)
         return _ret(np.clip(out, 0.0, 1.0))
 
     def sf(self, dE: Any) -> np.ndarray | float:
@@ -403,7 +412,9 @@ class ExactJumpLaw(_EnergyLaw):
         return _richardson([np.asarray(get(p), dtype=np.float64) for p in self._parts])
 
     def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
-        return self._combine(lambda p: p.rec.R(x))
+        # 1 below z_0 + 12σ_k <= x_lo (P(ΔE < x_lo) < 1e-14), where the grid's sum misses the
+        # mass past its first point z_0 (R ≈ ½ at z_0, 0 below; as exact.exact_jump_R)
+        return self._combine(lambda p: np.where(x < p.edge, 1.0, p.rec.R(np.maximum(x, p.edge))))
 
     def _pdf_values(self, x: np.ndarray) -> np.ndarray:
         return self._combine(lambda p: p.rec.dE_pdf(x))
@@ -427,14 +438,11 @@ class _TrivialLaw(ExactJumpLaw):
     def _combine(self, get: Any) -> np.ndarray:  # pragma: no cover - never reached
         raise AssertionError
 
-    def R(self, dE: Any) -> np.ndarray | float:  # noqa: N802
-        return _ret(np.ones(np.shape(dE)))
+    def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
+        return np.ones(x.shape)
 
-    def pdf(self, dE: Any) -> np.ndarray | float:
-        return _ret(np.zeros(np.shape(dE)))
-
-    def cdf(self, dE: Any) -> np.ndarray | float:
-        return _ret(np.where(np.asarray(dE, dtype=np.float64) >= 0, 1.0, 0.0))
+    def _pdf_values(self, x: np.ndarray) -> np.ndarray:
+        return np.zeros(x.shape)
 
 
 def exact_jump_law(
@@ -535,8 +543,11 @@ class ExactEnergyJumpLaw(_EnergyLaw):
         return _richardson(list(vals))
 
     def _both(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = [r.R_and_pdf(x) for r in self._recs]
-        return (self._mix(np.array([o[0] for o in out])), self._mix(np.array([o[1] for o in out])))
+        # R = 1, density 0 below ExactJumpLaw's edge (bands lose precision: R(-1e16) was 4.3)
+        lo = max(12.0 * (r.sigma[-1] - 2.0 * r.ell[0]) - 2.0 * r.tilt[0] for r in self._recs)
+        out = [r.R_and_pdf(np.maximum(x, lo)) for r in self._recs]  # x >= lo: their own value
+        R, P = (self._mix(np.array([o[j] for o in out])) for j in (0, 1))
+        return np.where(x < lo, 1.0, R), np.where(x < lo, 0.0, P)
 
     def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
         return self._both(x)[0]
