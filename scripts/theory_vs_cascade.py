@@ -44,7 +44,7 @@ def printed_chi_one_level(y: float, d: float) -> float:
 def first_order_exp(parisi: ParisiFunction, d: float) -> float:
     """``exp(-|δγ| (1/√π) ∫ dq y'(q) √(1-q))`` = the printed formula at ``ΔE = 0`` without the
     ``δγ² Y`` term."""
-    from jamlab.theory.jumps import jump_rate_first_order
+    from jamlab.theory.first_order import jump_rate_first_order
 
     return float(np.exp(-d * jump_rate_first_order(parisi)))
 

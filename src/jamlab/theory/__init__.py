@@ -1,14 +1,13 @@
 """Mean-field theory: Parisi functions, the static jump distribution, the exact cascade sampler."""
 
 from jamlab.theory.exponents import THETA_JAMMING, kappa, mu_jamming, tau_from_mu, tau_jamming
-from jamlab.theory.jumps import (
-    PrintedJumpDistribution,
-    jump_distribution,
+from jamlab.theory.first_order import (
     jump_rate_first_order,
     overlap_atoms_first_order,
     overlap_density_first_order,
     stress_jump_density_first_order,
 )
+from jamlab.theory.jumps import PrintedJumpDistribution, jump_distribution
 from jamlab.theory.parisi import ParisiFunction
 
 __all__ = [

@@ -17,7 +17,11 @@ possibly within a tiny range of ``q``. The ``q`` integrals are therefore done in
 ``s = -log(1 - q)`` (so ``dq = e^{-s} ds``) with fixed composite Gauss–Legendre panels: uniform
 panels of width ``<= 0.5`` on ``[0, s_end]``, panels graded geometrically towards ``s*``, and panel
 edges at the kinks of ``y'``. ``s_end`` is where ``x <= -20`` (beyond it ``ρ`` and ``erfc(-x/2)``
-are below ``1e-40``) or the cut-off ``s_max = -log(1 - q_max)``. ``ρ`` is evaluated in a form free
+are below ``1e-40``) or the cut-off ``s_max = -log(1 - q_max)``. Rows of one call share those
+panels in blocks, except in the far tail (``x(q=0) < -9`` or so, ``C`` below ~1e-13): there the
+integrands fall as ``e^{-x(0)² s/4}`` from ``s = 0`` and each row gets panels of its own graded in
+``x(0)² s/4`` (see ``PrintedJumpDistribution._steep``), so that ``C`` keeps its relative accuracy
+down to ``1e-300`` whatever the other rows of the call. ``ρ`` is evaluated in a form free
 of cancellation for ``x < 0`` (see :func:`rho_and_erfc`). ``1 - R`` is computed as
 ``-expm1(-C)`` so that the cdf keeps its relative accuracy where it is small.
 """
@@ -42,6 +46,16 @@ _GL_ORDER = 10
 _GL_T, _GL_W = np.polynomial.legendre.leggauss(_GL_ORDER)
 _CHUNK = 400_000  # quadrature nodes per vectorised block (memory bound)
 _S_LIMIT = 700.0  # deepest s = -log(1-q) used: 1 - q = e^-700 ~ 1e-304 is still a normal float
+# Rows whose integrands fall from q = 0 at a rate k0 > _K_STEEP in s (x(0) < -9, C below ~1e-13
+# for the usual y and δγ) get panels graded in τ = k0 (e^s - 1) ~ x²/4 - x(0)²/4 (the integrands
+# go as e^{-τ}): Gauss–Legendre of order 10 is exact to rounding on e^{-τ} over a width 5; beyond
+# τ = 80 the integrands are below e^{-80} of their value at s = 0.
+_K_STEEP = 20.0
+_STEEP_TAU = np.array(
+    [0, 0.5, 1, 1.5, 2, 2.5, 3, 4, 5, 6, 7, 8, 10, 12, 14, 16, 19, 22, 26, 30, 35, 40, 46, 52, 60]
+    + [70, 80],
+    dtype=np.float64,
+)
 
 # coefficients of 1 - √π z erfcx(z) = Σ_{n>=1} (-1)^{n+1} (2n-1)!! / (2z²)^n  (asymptotic, z >= 10)
 _ASYM_N = 16
@@ -78,12 +92,12 @@ def rho_and_erfc(x: ArrayLike) -> tuple[FloatArray, FloatArray]:
     return rho, ec
 
 
-def _s_of_q(q: FloatArray) -> FloatArray:
+def s_of_q(q: FloatArray) -> FloatArray:
     with np.errstate(divide="ignore"):  # q = 1 maps to s = inf on purpose
         return -np.log1p(-q)
 
 
-def _panel_nodes(edges: FloatArray) -> tuple[FloatArray, FloatArray]:
+def panel_nodes(edges: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Gauss–Legendre nodes and weights for sorted panel edges of shape (rows, P+1)."""
     a = edges[:, :-1, None]
     b = edges[:, 1:, None]
@@ -93,11 +107,12 @@ def _panel_nodes(edges: FloatArray) -> tuple[FloatArray, FloatArray]:
     return s, w
 
 
-def _edges(pf: ParisiFunction, s_end: FloatArray, extra: FloatArray | None = None) -> FloatArray:
+def panel_edges(pf: ParisiFunction, s_end: FloatArray,
+                extra: FloatArray | None = None) -> FloatArray:
     """Sorted panel edges per row: uniform in ``[0, s_end]``, plus ``extra`` and ``y'`` kinks."""
     n_uni = max(1, int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)))
     parts = [s_end[:, None] * np.linspace(0.0, 1.0, n_uni + 1)[None, :]]
-    kinks = _s_of_q(pf.breakpoints_q())
+    kinks = s_of_q(pf.breakpoints_q())
     if kinks.size:
         parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
     if extra is not None:
@@ -121,6 +136,21 @@ def _grading(s_star: FloatArray, width: FloatArray) -> FloatArray:
     )
 
 
+def _steep_edges(pf: ParisiFunction, k0: FloatArray, s_end: FloatArray) -> FloatArray:
+    """Panel edges of the steep rows (:meth:`PrintedJumpDistribution._steep`): ``s`` with
+    ``k0 (e^s - 1) = τ`` for ``τ`` in :data:`_STEEP_TAU` (``x²/4`` grows by about ``τ`` from
+    ``s = 0``; the integrands fall as ``e^{-τ}``), the ``y'`` kinks and ``s_end``; clipped to
+    ``[0, s_end]``. The same number of edges for every row: a row's panels do not depend on the
+    other rows of the call."""
+    parts = [np.log1p(_STEEP_TAU[None, :] / k0[:, None]), s_end[:, None]]
+    kinks = s_of_q(pf.breakpoints_q())
+    if kinks.size:
+        parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
+    edges = np.concatenate(parts, axis=1)
+    edges = np.minimum(np.maximum(edges, 0.0), s_end[:, None])
+    return np.sort(edges, axis=1)
+
+
 class PrintedJumpDistribution:
     """``P(ΔE | δγ)`` exactly as printed in Franz & Spigler (2017), eqs. (final)–(functionr).
 
@@ -141,7 +171,7 @@ class PrintedJumpDistribution:
         self.parisi = parisi
         self.dgamma = dgamma
         self._a = abs(dgamma)
-        self._s_max = float(_s_of_q(np.float64(parisi.q_max)))
+        self._s_max = float(s_of_q(np.float64(parisi.q_max)))
         self._atoms_q, self._atoms_m = parisi.atoms()
         self._has_density = parisi.has_density()
         self._p0: float | None = None
@@ -224,7 +254,7 @@ class PrintedJumpDistribution:
         if np.any(deep):
             hi = np.minimum(s_star[deep], _S_LIMIT)
             edges = hi[:, None] - np.linspace(30.0, 0.0, 16)[None, :]
-            sb, wb = _panel_nodes(edges)
+            sb, wb = panel_nodes(edges)
             ub = np.exp(-sb)
             bound = a * _INV_SQRT_PI * np.sum(self.parisi.dy_u(ub) * ub * np.sqrt(ub) * wb, axis=1)
             huge[deep] = 0.5 * bound > 800.0
@@ -237,24 +267,72 @@ class PrintedJumpDistribution:
         s_end = self._s_end(dE, s_star)
         unresolved = s_end > _S_LIMIT
         s_end = np.minimum(s_end, _S_LIMIT)
+        steep, k0 = self._steep(dE)
         order = np.argsort(s_end)  # rows of similar length share a block
         n_guess = int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)) + 110
         rows_per_block = max(16, _CHUNK // (n_guess * _GL_ORDER))
         for start in range(0, dE.size, rows_per_block):
             idx = order[start : start + rows_per_block]
-            edges = _edges(self.parisi, s_end[idx], _grading(s_star[idx], width[idx]))
-            s, w = _panel_nodes(edges)
+            edges = panel_edges(self.parisi, s_end[idx], _grading(s_star[idx], width[idx]))
+            # steep rows take part in the block's layout (so that the other rows keep their
+            # panels whatever the call) but get their own panels below
+            keep = ~steep[idx]
+            if not np.any(keep):
+                continue
+            if not np.all(keep):
+                idx, edges = idx[keep], edges[keep]
+            # (inline, not by _panel_sums: the arrays of one block alive while the next is
+            # allocated keep the allocator from returning and re-faulting their pages)
+            s, w = panel_nodes(edges)
             u = np.exp(-s)
             dens = self.parisi.dy_u(u) * u * w  # y'(q) dq
             x = (dE[idx, None] + self.dgamma**2 * self.parisi.Y_u(u)) / (np.sqrt(u) * a)
             rho, ec = rho_and_erfc(x)
             C[rows[idx]] += a * np.sum(dens * np.sqrt(u) * rho, axis=1)
             dC[rows[idx]] += 0.5 * np.sum(dens * ec, axis=1)
+        if np.any(steep):
+            sub = np.flatnonzero(steep)
+            n_kinks = s_of_q(self.parisi.breakpoints_q()).size
+            per_block = max(16, _CHUNK // ((_STEEP_TAU.size + n_kinks + 1) * _GL_ORDER))
+            for start in range(0, sub.size, per_block):
+                idx = sub[start : start + per_block]
+                edges = _steep_edges(self.parisi, k0[idx], s_end[idx])
+                c_add, dc_add = self._panel_sums(dE[idx], edges)
+                C[rows[idx]] += c_add
+                dC[rows[idx]] += dc_add
         if np.any(unresolved):
             # features beyond 1 - q = e^-700 cannot be resolved in float64
             C[rows[unresolved]] = np.nan
             dC[rows[unresolved]] = np.nan
         return C, dC
+
+    def _panel_sums(self, dE: FloatArray, edges: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The density parts of ``(C, ∂C/∂ΔE)`` by Gauss–Legendre on the panels ``edges`` (one
+        row of edges per ``ΔE``; each row's sums depend on that row only). The same arithmetic as
+        the shared-panel loop of :meth:`_integrals`."""
+        a = self._a
+        s, w = panel_nodes(edges)
+        u = np.exp(-s)
+        dens = self.parisi.dy_u(u) * u * w  # y'(q) dq
+        x = (dE[:, None] + self.dgamma**2 * self.parisi.Y_u(u)) / (np.sqrt(u) * a)
+        rho, ec = rho_and_erfc(x)
+        return a * np.sum(dens * np.sqrt(u) * rho, axis=1), 0.5 * np.sum(dens * ec, axis=1)
+
+    def _steep(self, dE: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Rows whose integrands fall steeply from ``q = 0`` (the far tail, where ``C`` is tiny),
+        and the rate ``k0`` of that fall.
+
+        With ``x0 = x(q = 0) < 0`` (no crossing) ``ρ(x)`` and ``erfc(-x/2)`` behave as
+        ``e^{-x²/4}`` and ``x²/4`` grows at the rate ``k0 = x0²/4 + |δγ| y(0) |x0|/2`` in ``s``
+        at ``s = 0``: the integrals' mass lies within ``s ~ 1/k0`` of 0. The shared panels (width
+        up to 1/2 in ``s``) resolve that for ``k0 <= _K_STEEP`` only (their error grows from
+        1e-12 at ``k0 = 35`` to 80 % at ``k0 = 700``, i.e. ``C ~ 1e-300``, and depends on the
+        other rows of the block); the steeper rows get panels of their own, graded in ``k0 s``.
+        """
+        x0 = (dE + self.dgamma**2 * float(self.parisi.Y_u(np.float64(1.0)))) / self._a
+        y0 = float(self.parisi.y_u(np.float64(1.0)))
+        k0 = 0.25 * x0 * x0 + 0.5 * self._a * y0 * np.abs(x0)
+        return (x0 < 0.0) & (k0 > _K_STEEP), k0
 
     def _C_zero(self) -> float:
         """``C(0, δγ)``; ``inf`` if ``∫ y' √(1-q)`` diverges (``μ >= 1/2`` without cut-off)."""
@@ -269,8 +347,8 @@ class PrintedJumpDistribution:
         s_end = min(self._s_max, self.parisi.density_tail_s(1e-18))
         if not math.isfinite(s_end):
             return math.inf
-        edges = _edges(self.parisi, np.array([s_end]))
-        s, w = _panel_nodes(edges)
+        edges = panel_edges(self.parisi, np.array([s_end]))
+        s, w = panel_nodes(edges)
         u = np.exp(-s)
         dens = self.parisi.dy_u(u) * u * w
         x = self.dgamma**2 * self.parisi.Y_u(u) / (np.sqrt(u) * a)
@@ -301,17 +379,17 @@ class PrintedJumpDistribution:
         """``C(ΔE, δγ) = -log R = |δγ| ∫ dq y'(q) √(1-q) ρ(x(q))`` for ``ΔE <= 0``."""
         arr = np.asarray(dE, dtype=np.float64)
         self._check_nonpositive(arr)
-        return _ret(self._C_dC(arr)[1])
+        return scalar_or_array(self._C_dC(arr)[1])
 
     def dC(self, dE: ArrayLike) -> FloatArray | float:  # noqa: N802
         """``∂C/∂ΔE = ½ ∫ dq y'(q) erfc(-x(q)/2)`` for ``ΔE < 0``."""
         arr = np.asarray(dE, dtype=np.float64)
         self._check_nonpositive(arr)
-        return _ret(self._C_dC(arr)[2])
+        return scalar_or_array(self._C_dC(arr)[2])
 
     def R(self, dE: ArrayLike) -> FloatArray | float:  # noqa: N802
         """``R(ΔE, δγ) = exp(-C)``: probability that the new ground state lies above ``ΔE``."""
-        return _ret(np.exp(-np.asarray(self.C(dE))))
+        return scalar_or_array(np.exp(-np.asarray(self.C(dE))))
 
     @property
     def p_no_jump(self) -> float:
@@ -330,7 +408,7 @@ class PrintedJumpDistribution:
             _, C, dC = self._C_dC(arr[neg])
             with np.errstate(divide="ignore", invalid="ignore"):
                 out[neg] = np.where(np.isinf(C), -np.inf, np.log(dC) - C)
-        return _ret(out)
+        return scalar_or_array(out)
 
     def pdf(self, dE: ArrayLike) -> FloatArray | float:
         """Continuous part of ``P``: ``R(ΔE) ∂C/∂ΔE`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
@@ -342,7 +420,7 @@ class PrintedJumpDistribution:
             _, C, dC = self._C_dC(arr[neg])
             with np.errstate(invalid="ignore"):
                 out[neg] = np.where(np.isinf(C), 0.0, np.exp(-C) * dC)
-        return _ret(out)
+        return scalar_or_array(out)
 
     def cdf(self, dE: ArrayLike) -> FloatArray | float:
         """``P(ΔE' <= ΔE)``: ``1 - R(ΔE) = -expm1(-C)`` for ``ΔE < 0``, 1 for ``ΔE >= 0``."""
@@ -353,7 +431,7 @@ class PrintedJumpDistribution:
         if np.any(neg):
             _, C, _ = self._C_dC(arr[neg])
             out[neg] = -np.expm1(-C)
-        return _ret(out)
+        return scalar_or_array(out)
 
     def sf(self, dE: ArrayLike) -> FloatArray | float:
         """``P(ΔE' > ΔE)``: ``R(ΔE)`` for ``ΔE < 0``, 0 for ``ΔE >= 0``."""
@@ -364,7 +442,7 @@ class PrintedJumpDistribution:
         if np.any(neg):
             _, C, _ = self._C_dC(arr[neg])
             out[neg] = np.exp(-C)
-        return _ret(out)
+        return scalar_or_array(out)
 
     def ppf_log(self, c: ArrayLike) -> FloatArray:
         """``ΔE < 0`` with ``C(ΔE) = c``, solved in ``log|ΔE|``; see :meth:`rvs`.
@@ -407,7 +485,54 @@ class PrintedJumpDistribution:
             step = (Cv - c) / (-np.exp(t) * dCv)
             step = np.where(np.isfinite(step), np.clip(step, -2.0, 2.0), 0.0)
             t = t - step
+        # far in the tail (small c: C falls faster than exponentially there) the four steps
+        # on C stop short; those roots only are finished by Newton on log C (the others keep
+        # their bits)
+        _, Cv, _ = self._C_dC(-np.exp(t))
+        short = ~(np.abs(Cv / c - 1.0) <= 1e-12)
+        if np.any(short):
+            t[short] = self._newton_log_c(t[short], c[short])
         return -np.exp(t)
+
+    def _newton_log_c(self, t: FloatArray, c: FloatArray) -> FloatArray:
+        """Roots ``t = log|ΔE|`` of ``log C(−e^t) = log c``, from ``t``: Newton on ``log C``
+        kept inside a bracket (``C`` decreases with ``t``; a step that leaves the bracket, or
+        an underflow of ``C`` to 0, is replaced by bisection) until ``log C`` is within
+        ``1e-14·max(1, |log c|)`` or the bracket is at the resolution of ``t``."""
+        log_c = np.log(c)
+        tol = 1e-14 * np.maximum(1.0, np.abs(log_c))
+
+        def log_C(u: FloatArray) -> tuple[FloatArray, FloatArray]:
+            _, Cv, dCv = self._C_dC(-np.exp(u))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                # d log C / dt = −|ΔE| ∂C/∂ΔE / C  (< 0)
+                return np.log(Cv) - log_c, -np.exp(u) * dCv / Cv
+
+        lo, hi = t.copy(), t.copy()  # C(lo) > c > C(hi)
+        for _ in range(400):
+            up = log_C(lo)[0] <= 0.0
+            if not np.any(up):
+                break
+            lo[up] -= 1.0
+        for _ in range(400):
+            down = log_C(hi)[0] > 0.0
+            if not np.any(down):
+                break
+            hi[down] += 1.0
+        t = 0.5 * (lo + hi)
+        for _ in range(200):
+            miss, slope = log_C(t)
+            lo = np.where(miss > 0.0, t, lo)
+            hi = np.where(miss > 0.0, hi, t)
+            # done: log C within tol, or the bracket at the resolution of t (C's own rounding)
+            done = (np.abs(miss) <= tol) | (hi - lo <= 4e-16 * np.maximum(1.0, np.abs(t)))
+            if np.all(done):
+                return t
+            with np.errstate(divide="ignore", invalid="ignore"):
+                newton = t - miss / slope
+            inside = np.isfinite(newton) & (newton > lo) & (newton < hi)
+            t = np.where(done, t, np.where(inside, newton, 0.5 * (lo + hi)))
+        raise ValueError(f"ppf_log: no root for c in [{c.min():.3g}, {c.max():.3g}]")
 
     def rvs(
         self, size: int | tuple[int, ...] = 1, seed: int | np.random.Generator | None = None
@@ -437,7 +562,7 @@ def _check_not_nan(dE: FloatArray) -> None:
         raise ValueError(f"dE must not be NaN, got {float(dE[np.isnan(dE)].ravel()[0])!r}")
 
 
-def _ret(x: FloatArray) -> FloatArray | float:
+def scalar_or_array(x: FloatArray) -> FloatArray | float:
     x = np.asarray(x)
     return float(x) if x.ndim == 0 else x
 
@@ -471,78 +596,3 @@ def jump_distribution(y: ParisiFunction, dgamma: float) -> PrintedJumpDistributi
     0.9034
     """
     return PrintedJumpDistribution(y, dgamma)
-
-
-# ---------------------------------------------------------------------- first order in δγ
-def _density_integral(y: ParisiFunction, f, s_end: float) -> float:
-    """``∫_0^{q_max} dq dy(q) f(1-q)`` over the density part, in ``s = -log(1-q)``."""
-    edges = _edges(y, np.array([s_end]))
-    s, w = _panel_nodes(edges)
-    u = np.exp(-s)
-    return float(np.sum(y.dy_u(u) * u * w * f(u)))
-
-
-def jump_rate_first_order(y: ParisiFunction) -> float:
-    """Jump probability per unit ``|δγ|`` at small ``δγ``: ``(1/√π) ∫ dq y'(q) √(1-q)``.
-
-    Includes the atoms of ``y'`` (the one at ``q = 0`` contributes ``y(0+)/√π``); ``inf`` when the
-    integral diverges (``y' ~ (1-q)^(-μ-1)``, ``μ >= 1/2``, no cut-off).
-    """
-    qa, m = y.atoms()
-    total = float(np.sum(m * np.sqrt(1.0 - qa)))
-    s_end = min(float(_s_of_q(np.float64(y.q_max))), y.density_tail_s(1e-18))
-    if not math.isfinite(s_end):
-        return math.inf
-    if s_end > 0.0:
-        total += _density_integral(y, np.sqrt, s_end)
-    return total / _SQRT_PI
-
-
-def overlap_density_first_order(y: ParisiFunction, q: ArrayLike) -> FloatArray | float:
-    """Density of jumps per unit ``|δγ|`` at overlap ``q``: ``P[q] = √((1-q)/π) y'(q)``.
-
-    Only the density part of ``y'`` is returned; the atoms (including the one at ``q = 0``) are
-    point masses given by :func:`overlap_atoms_first_order`. Integrating the density over ``q``
-    and adding the atoms gives :func:`jump_rate_first_order`.
-    """
-    qq = np.asarray(q, dtype=np.float64)
-    return _ret(np.sqrt((1.0 - qq) / math.pi) * np.asarray(y.dy(qq)))
-
-
-def overlap_atoms_first_order(y: ParisiFunction) -> tuple[FloatArray, FloatArray]:
-    """Point masses of ``P[q]`` per unit ``|δγ|``: ``(q_a, m_a √(1-q_a)/√π)`` for each atom
-    ``m_a`` of ``y'`` at ``q_a`` (e.g. ``y(0+)/√π`` at ``q = 0``)."""
-    qa, m = y.atoms()
-    return qa, m * np.sqrt(1.0 - qa) / _SQRT_PI
-
-
-def stress_jump_density_first_order(y: ParisiFunction, dSigma: ArrayLike) -> FloatArray | float:
-    """Density of stress jumps per unit ``δγ > 0`` (derived in ``docs/theory.md``)::
-
-        P[ΔΣ] = θ(ΔΣ) ΔΣ ∫ dq y'(q) exp(-ΔΣ²/(4(1-q))) / √(4π(1-q))
-
-    (atoms of ``y'`` included). The paper prints ``4π(1-q)`` in the exponent and denominator, a
-    typo: two states at overlap ``q`` differ in stress by ``N(0, 2(1-q))``. ``∫ P[ΔΣ] dΔΣ`` equals
-    :func:`jump_rate_first_order`. For ``δγ < 0`` mirror ``ΔΣ → -ΔΣ``.
-    """
-    ds = np.asarray(dSigma, dtype=np.float64)
-    flat = ds.ravel()
-    out = np.zeros_like(flat)
-    qa, m = y.atoms()
-    s_max = float(_s_of_q(np.float64(y.q_max)))
-    pos = np.flatnonzero(flat > 0.0)
-    for i in pos:
-        d = flat[i]
-        val = 0.0
-        for q0, m0 in zip(qa, m, strict=True):
-            u0 = 1.0 - q0
-            val += m0 * math.exp(-d * d / (4.0 * u0)) / math.sqrt(4.0 * math.pi * u0)
-        # the Gaussian kills the integrand once d²/(4u) > 120
-        s_end = min(s_max, math.log(480.0 / (d * d)) if d * d < 480.0 else 0.0)
-        s_end = max(s_end, 0.0)
-        if s_end > 0.0:
-            val += _density_integral(
-                y, lambda u, d=d: np.exp(-d * d / (4.0 * u)) / np.sqrt(4.0 * math.pi * u), s_end
-            )
-        out[i] = d * val
-    return _ret(out.reshape(ds.shape))
