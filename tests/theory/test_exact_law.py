@@ -159,21 +159,24 @@ def test_continuum_first_order_jump_rate(pf):
     assert extrapolated == pytest.approx(jump_rate_first_order(pf), rel=2e-4)
 
 
+V_RANGE = r"v = 1 - q_1 must be a finite number in \(0, 1\]"
+
+
 @pytest.mark.parametrize(
     ("args", "kwargs", "match"),
     [
         ((1.0, 2.0, 0.1), {}, r"x must be <= 0, got max x = 1\.0"),  # R(x > 0): ΔE <= 0 always
         ((math.nan, 2.0, 0.1), {}, "x must not be NaN, got x = nan"),
-        ((-1.0, math.nan, 0.1), {}, "y must be finite and > 0, got nan"),
-        ((-1.0, 0.0, 0.1), {}, "y must be finite and > 0, got 0.0"),
-        ((-1.0, -2.0, 0.1), {}, "y must be finite and > 0, got -2.0"),
-        ((-1.0, 2.0, math.nan), {}, "dgamma must be finite, got nan"),
-        ((-1.0, 2.0, math.inf), {}, "dgamma must be finite, got inf"),
-        ((-1.0, 2.0, 0.1), {"v": -1.0}, "v must be finite and > 0, got -1.0"),
-        ((-1.0, 2.0, 0.1), {"v": 0.0}, "v must be finite and > 0, got 0.0"),
-        ((-1.0, 2.0, 0.1), {"v": math.nan}, "v must be finite and > 0, got nan"),
-        ((-1.0, 2.0, 0.1), {"v": 1.5}, r"v = 1 - q_1 must lie in \(0, 1\], got 1\.5"),
-        ((-1.0, 2.0, 0.0), {"v": 0.0}, "v must be finite and > 0"),  # checked before δγ = 0
+        ((-1.0, math.nan, 0.1), {}, "y must be a finite number > 0, got nan"),
+        ((-1.0, 0.0, 0.1), {}, "y must be a finite number > 0, got 0.0"),
+        ((-1.0, -2.0, 0.1), {}, "y must be a finite number > 0, got -2.0"),
+        ((-1.0, 2.0, math.nan), {}, "dgamma must be a finite number, got nan"),
+        ((-1.0, 2.0, math.inf), {}, "dgamma must be a finite number, got inf"),
+        ((-1.0, 2.0, 0.1), {"v": -1.0}, V_RANGE + r", got -1\.0"),
+        ((-1.0, 2.0, 0.1), {"v": 0.0}, V_RANGE + r", got 0\.0"),
+        ((-1.0, 2.0, 0.1), {"v": math.nan}, V_RANGE + r", got nan"),
+        ((-1.0, 2.0, 0.1), {"v": 1.5}, V_RANGE + r", got 1\.5"),
+        ((-1.0, 2.0, 0.0), {"v": 0.0}, V_RANGE),  # checked before δγ = 0
     ],
 )
 def test_one_level_R_refuses_bad_input(args, kwargs, match):
@@ -240,6 +243,9 @@ def test_exact_jump_R_below_grid_against_one_level_R(q1, y, dg):
     assert ref[-1] == pytest.approx(1.0, abs=1e-15)  # the reference itself: R(-∞) = 1
     np.testing.assert_array_equal(got[x < edge], 1.0)
     assert exact_jump_R([q1], [y], dg, -np.inf)[0] == 1.0
+    # the recursion's own R, called directly, has the same edge
+    assert rec.edge == edge
+    np.testing.assert_array_equal(rec.R(x[x < edge]), 1.0)
     # the diagnostic variants: the Poisson one summed on the same grid (gave 0 there too), the
     # decoupled one extended by the edge values (unchanged); both -> 1 as x -> -∞
     for kw in ({"poisson_clusters": True}, {"decouple_path": True}):

@@ -59,6 +59,8 @@ from scipy.ndimage import correlate1d
 from scipy.signal import fftconvolve
 from scipy.special import log_ndtr, ndtr
 
+from jamlab import validation
+
 __all__ = [
     "CascadeRecursion",
     "exact_jump_R",
@@ -94,16 +96,6 @@ def _check_x(x: Any) -> np.ndarray:
     return xa
 
 
-def _check_finite(name: str, value: Any, positive: bool = False) -> None:
-    """ValueError naming ``name`` unless ``value`` is a finite real (and ``> 0`` if asked)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(v) or (positive and not v > 0.0):
-        raise ValueError(f"{name} must be finite{' and > 0' if positive else ''}, got {v!r}")
-
-
 def one_level_R(x: float, y: float, dgamma: float, v: float = 1.0) -> float:
     """Exact ``R(x) = P(ΔE >= x)`` for one level (``k = 1``, stress variance ``v = 1 - q_1``).
 
@@ -115,11 +107,9 @@ def one_level_R(x: float, y: float, dgamma: float, v: float = 1.0) -> float:
     ``0 < v <= 1``, ``dgamma`` finite (``R = 1`` at ``dgamma = 0``); others are a ValueError.
     """
     _check_x(x)
-    _check_finite("y", y, positive=True)
-    _check_finite("dgamma", dgamma)
-    _check_finite("v", v, positive=True)
-    if float(v) > 1.0:
-        raise ValueError(f"v = 1 - q_1 must lie in (0, 1], got {float(v)!r}")
+    validation.positive("y", y)
+    validation.number("dgamma", dgamma)
+    validation.number("v = 1 - q_1", v, low=0.0, low_open=True, high=1.0)
     d = abs(float(dgamma))
     if d == 0.0:
         return 1.0
@@ -195,7 +185,8 @@ class CascadeRecursion:
     width of the finest structure of the ``f_i``.
 
     Attributes: ``z`` (grid), ``h``, ``f``, ``df`` (``f_i``, ``f_i'`` as ``(k, n)``), ``B``
-    (``B_i``, ``i = 1..k``), ``x_lo`` (below it ``P(ΔE < x_lo) < 1e-14``), ``w_hi``.
+    (``B_i``, ``i = 1..k``), ``x_lo`` (below it ``P(ΔE < x_lo) < 1e-14``), ``w_hi``, ``edge``
+    (``z_0 + 12 σ_k <= x_lo``: below it :meth:`R` is 1, the grid's sum being short there).
     """
 
     def __init__(self, q: Any, y: Any, dgamma: float, *, points_per_sd: float = 1.5,
@@ -224,6 +215,10 @@ class CascadeRecursion:
                 f"{max_points}); use fewer levels or a larger smallest level spacing")
         self.h = h
         self.z = np.arange(lo, hi + 1) * h
+        # below z_0 + 12σ_k (<= x_lo) the grid's Gaussian sum misses the mass past its first
+        # point (R ≈ ½ at z_0, 0 below), while R = 1 there within the grid's accuracy
+        # (P(ΔE < x_lo) < 1e-14; R(-∞) = 1 exactly)
+        self.edge = float(self.z[0] + 12.0 * self.sigma[-1])
         self._kern = [_kernel(s, h) for s in self.sigma]
         self.f, self.df = self._level_functions()
         self.B = self._B_sweep()
@@ -267,8 +262,12 @@ class CascadeRecursion:
             B[i + 1] = _conv(self.F(i) * B[i], self._kern[i])
         return B
 
-    def _last(self, g: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """``∫ φ_{σ_k}(x - z) g(z) dz`` at arbitrary points ``x`` (trapezoid over the grid)."""
+    def _last(self, g: np.ndarray, x: np.ndarray, below: float | None = None) -> np.ndarray:
+        """``∫ φ_{σ_k}(x - z) g(z) dz`` at arbitrary points ``x`` (trapezoid over the grid);
+        with ``below``, that value at ``x <`` :attr:`edge` (the sum taken at ``max(x, edge)``:
+        every ``x`` above keeps its value)."""
+        if below is not None:
+            return np.where(x < self.edge, below, self._last(g, np.maximum(x, self.edge)))
         sk = self.sigma[-1]
         out = np.empty(x.size)
         z, h = self.z, self.h
@@ -280,10 +279,10 @@ class CascadeRecursion:
 
     # ---------------------------------------------------------------- ΔE
     def R(self, x: Any) -> np.ndarray:  # noqa: N802
-        """``R(x) = P(ΔE >= x)`` for ``x <= 0`` (``B_{k+1}(x)``)."""
+        """``R(x) = P(ΔE >= x)`` for ``x <= 0`` (``B_{k+1}(x)``; 1 below :attr:`edge`)."""
         xa = np.atleast_1d(np.asarray(x, dtype=np.float64))
         k = self.k - 1
-        return self._last(self.F(k) * self.B[k], xa.ravel()).reshape(xa.shape)
+        return self._last(self.F(k) * self.B[k], xa.ravel(), below=1.0).reshape(xa.shape)
 
     def _V_last(self) -> np.ndarray:  # noqa: N802
         V = np.zeros(self.z.size)
@@ -388,7 +387,7 @@ def exact_jump_R(
     **grid: Any,
 ) -> np.ndarray:
     """Exact ``R(x) = P(ΔE >= x)`` of the ``k``-level cascade (module docstring), ``x <= 0``;
-    ``R = 1`` below the grid's range (``x < z_0 + 12 σ_k <= x_lo``, ``-∞`` included).
+    ``R = 1`` below the grid's range (``x <`` :attr:`CascadeRecursion.edge`, ``-∞`` included).
 
     ``decouple_path=True`` replaces the ground state's correlated stress path by independent
     ``S_i ~ N(0, 1 - q_i)`` per level (``R ≈ Π_i E[exp(-(Δy_i/y_i) f_i(x - d S_i))]``): the
@@ -407,7 +406,7 @@ def exact_jump_R(
         return np.ones_like(xa)
     rec = CascadeRecursion(q, y, dgamma, **grid)
     if not (decouple_path or poisson_clusters):
-        return _one_below_grid(rec, xa, rec.R)
+        return rec.R(xa)
     k, d, qa = rec.k, rec.d, rec.q
     if poisson_clusters:
         F = np.exp(-rec.alpha[:, None] * np.expm1(np.minimum(rec.f, 700.0)))
@@ -425,17 +424,5 @@ def exact_jump_R(
     B = np.ones(rec.z.size)
     for i in range(k - 1):
         B = _conv(F[i] * B, rec._kern[i])
-    g = F[k - 1] * B
-    return _one_below_grid(rec, xa, lambda xs: rec._last(g, xs.ravel()).reshape(xs.shape))
+    return rec._last(F[k - 1] * B, xa.ravel(), below=1.0).reshape(xa.shape)
 
-
-def _one_below_grid(rec: CascadeRecursion, xa: np.ndarray, on_grid: Any) -> np.ndarray:
-    """``on_grid(x)`` (the grid's sum for ``R``) at ``x >= z_0 + 12 σ_k``, 1 below.
-
-    The grid starts at ``z_0 <= x_lo - 12 L`` (``L = d√(1 - q_1) >= σ_k``): below
-    ``z_0 + 12 σ_k`` its Gaussian sum misses the mass past that end (``R ≈ ½`` at ``x = z_0``, 0
-    below), while there ``R = 1`` within the grid's accuracy (``P(ΔE < x_lo) < 1e-14``; ``R(-∞) =
-    1`` exactly). The sum is taken at ``max(x, z_0 + 12 σ_k)``: every ``x`` above keeps its value.
-    """
-    edge = rec.z[0] + 12.0 * rec.sigma[-1]
-    return np.where(xa < edge, 1.0, on_grid(np.maximum(xa, edge)))

@@ -190,7 +190,6 @@ class _DiscreteLaw:
     def __init__(self, q: np.ndarray, y: np.ndarray, dgamma: float, grid: dict) -> None:
         self.rec = rec = CascadeRecursion(q, y, dgamma, **grid)
         self.p_no_jump = float(rec.R(0.0)[0])
-        self.edge = float(rec.z[0] + 12.0 * rec.sigma[-1])  # R = 1 below: see _R_values
         self._sig_cheb: C.Chebyshev | None = None
 
     # ΔΣ (|ΔΣ| = (w - x)/d), from the joint density of (ΔE, ΔU) on Chebyshev nodes
@@ -412,9 +411,7 @@ class ExactJumpLaw(_EnergyLaw):
         return _richardson([np.asarray(get(p), dtype=np.float64) for p in self._parts])
 
     def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
-        # 1 below z_0 + 12σ_k <= x_lo (P(ΔE < x_lo) < 1e-14), where the grid's sum misses the
-        # mass past its first point z_0 (R ≈ ½ at z_0, 0 below; as exact.exact_jump_R)
-        return self._combine(lambda p: np.where(x < p.edge, 1.0, p.rec.R(np.maximum(x, p.edge))))
+        return self._combine(lambda p: p.rec.R(x))  # 1 below each grid's edge
 
     def _pdf_values(self, x: np.ndarray) -> np.ndarray:
         return self._combine(lambda p: p.rec.dE_pdf(x))
