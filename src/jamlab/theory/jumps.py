@@ -174,8 +174,7 @@ class PrintedJumpDistribution:
         self._s_max = float(s_of_q(np.float64(parisi.q_max)))
         self._atoms_q, self._atoms_m = parisi.atoms()
         self._has_density = parisi.has_density()
-        self._p0: float | None = None
-        self._c0: float | None = None
+        self._c0: float | None = None  # C(0, δγ), computed once (:meth:`_C0`)
 
     # ------------------------------------------------------------------ core integrals
     def _x(self, dE: FloatArray, s: FloatArray) -> FloatArray:
@@ -370,7 +369,7 @@ class PrintedJumpDistribution:
             C[neg], dC[neg] = self._integrals(flat[neg])
         zero = flat == 0.0
         if np.any(zero):
-            C[zero] = self._C_zero()
+            C[zero] = self._C0()
             dC[zero] = np.nan  # not needed: the pdf is zero there
         return dE, C.reshape(dE.shape), dC.reshape(dE.shape)
 
@@ -394,9 +393,7 @@ class PrintedJumpDistribution:
     @property
     def p_no_jump(self) -> float:
         """``R(0, δγ)``: the probability of no jump (the atom of ``P`` at ``ΔE = 0``)."""
-        if self._p0 is None:
-            self._p0 = math.exp(-self._C_zero())
-        return self._p0
+        return math.exp(-self._C0())
 
     def logpdf(self, dE: ArrayLike) -> FloatArray | float:
         """``log P(ΔE|δγ) = log ∂C/∂ΔE - C`` for ``ΔE < 0`` (``-inf`` for ``ΔE >= 0``)."""
