@@ -12,6 +12,7 @@ from __future__ import annotations
 import errno
 import functools
 import importlib
+import os
 import pkgutil
 import sys
 from typing import Any
@@ -72,6 +73,23 @@ def fail(message: str) -> None:
     """Print ``jamlab: error: message`` and exit with code 2."""
     print(f"jamlab: error: {message}", file=sys.stderr)
     raise SystemExit(2)
+
+
+def flagged_note(path: os.PathLike | str) -> str | None:
+    """``PATH is flagged ok=False by prepare (reason)`` when ``jamlab prepare`` flagged the
+    configuration as failing its stopping rule (:func:`jamlab.spheres.io.failed_preparation`),
+    else ``None``."""
+    from jamlab.spheres.io import failed_preparation
+
+    reason = failed_preparation(path)
+    return None if reason is None else f"{path} is flagged ok=False by prepare ({reason})"
+
+
+def warn_if_flagged(path: os.PathLike | str) -> None:
+    """A ``jamlab: warning:`` line on stderr with :func:`flagged_note`, if there is one."""
+    note = flagged_note(path)
+    if note is not None:
+        typer.echo(f"jamlab: warning: {note}", err=True)
 
 
 @functools.cache

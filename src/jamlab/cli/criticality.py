@@ -74,8 +74,9 @@ def analyse(
         measure_exponents,
         packing_observables,
     )
+    from jamlab.cli import flagged_note
     from jamlab.files import check_distinct_inputs
-    from jamlab.spheres.io import failed_preparation, read_packing
+    from jamlab.spheres.io import read_packing
 
     check_distinct_inputs(paths, "packing")
     observables, warnings, resolution, pressures, alphas = [], [], [], [], []
@@ -84,9 +85,9 @@ def analyse(
         with h5py.File(path, "r") as h5:
             ftol = float(h5.attrs.get("param_ftol", math.nan))
             pressures.append(float(h5.attrs.get("pressure", math.nan)))
-        failed = failed_preparation(path)
-        if failed is not None:
-            warnings.append(f"{path} is flagged ok=False by prepare ({failed})")
+        note = flagged_note(path)
+        if note is not None:
+            warnings.append(note)
         if observables and packing.dim != observables[0].dim:
             raise ValueError(f"{path} is {packing.dim}D, {paths[0]} {observables[0].dim}D: "
                              "the fits pool one dimension at a time")

@@ -177,10 +177,11 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from jamlab import validation
+        from jamlab.cli import warn_if_flagged
         from jamlab.files import atomic_write, check_outputs
         from jamlab.plots.packings import plot_coordination
         from jamlab.spheres.compression import compression_schedule
-        from jamlab.spheres.io import failed_preparation, read_packing
+        from jamlab.spheres.io import read_packing
         from jamlab.spheres.packing import coordination_curve, fit_power_law_corrected
         from jamlab.spheres.potential import max_force
         from jamlab.spheres.rigidity import is_jammed
@@ -208,10 +209,7 @@ def register(app: typer.Typer) -> None:
         if not math.isfinite(phi_j):
             phi_j = packing.phi
         compression_schedule(phi_j, dphi_min, dphi_max, steps)  # refused before any warning
-        failed = failed_preparation(config)
-        if failed is not None:
-            typer.echo(f"jamlab: warning: {config} is flagged ok=False by prepare ({failed})",
-                       err=True)
+        warn_if_flagged(config)
         if state.pressure > 1e-4:
             typer.echo(f"jamlab: warning: {config} is far above jamming (p = "
                        f"{state.pressure:.2e}): dphi is measured from its phi", err=True)

@@ -225,6 +225,7 @@ def register(app: typer.Typer) -> None:
         force: Force = False,
     ) -> None:
         from jamlab import validation
+        from jamlab.cli import warn_if_flagged
         from jamlab.files import check_outputs
         from jamlab.spheres.aqs import (
             AQSParameters,
@@ -237,7 +238,7 @@ def register(app: typer.Typer) -> None:
             recover_replacement,
             snapshot_files,
         )
-        from jamlab.spheres.io import failed_preparation, read_packing
+        from jamlab.spheres.io import read_packing
         from jamlab.spheres.trace import read_trace
 
         if minimizer not in ("linear", "fire"):
@@ -324,10 +325,7 @@ def register(app: typer.Typer) -> None:
             n_steps = validation.strain_steps(
                 dgamma, gamma_max, packing.strain, names=("--dgamma", "--gamma-max")
             )
-        failed = failed_preparation(config)
-        if failed is not None:
-            typer.echo(f"jamlab: warning: {config} is flagged ok=False by prepare ({failed})",
-                       err=True)
+        warn_if_flagged(config)
         # only now, with every argument checked and the input read, is the earlier run's
         # replacement armed; it happens at the new run's first save (spheres.aqs.checkpoint):
         # until the new trace replaces --out, the earlier run stays whole with its snapshots

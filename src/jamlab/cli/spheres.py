@@ -62,13 +62,10 @@ def register(app: typer.Typer) -> None:
             "crystalline fraction, first shell r < 1.3 σ_ij as bonds (docs/analysis.md §7).",
         )] = False,
     ) -> None:
-        from jamlab.spheres.io import failed_preparation
+        from jamlab.cli import warn_if_flagged
 
         info = inspect_packing(config)
-        failed = failed_preparation(config)
-        if failed is not None:
-            typer.echo(f"jamlab: warning: {config} is flagged ok=False by prepare ({failed})",
-                       err=True)
+        warn_if_flagged(config)
         if order:
             info = info | bond_order_summary(config)
         if as_json:
