@@ -264,9 +264,7 @@ def mle_tau(x: ArrayLike, x_min: float, x_max: float | None = None) -> tuple[flo
     or all at ``x_min``). NaN/inf data raise ``ValueError``.
     """
     _check_cutoffs(2.0, x_min, x_max)
-    x = np.asarray(x, dtype=np.float64)
-    if not np.all(np.isfinite(x)):
-        raise ValueError("data contain NaN or inf; remove them before fitting")
+    x = _finite_data(x)
     inside = x >= x_min if x_max is None else (x >= x_min) & (x <= x_max)
     return _mle_tail(np.sort(x[inside]), x_min, x_max)
 
@@ -326,10 +324,16 @@ def _scan(
     return best
 
 
-def _prepare(x: ArrayLike, x_max: float | None) -> FloatArray:
+def _finite_data(x: ArrayLike) -> FloatArray:
+    """``x`` as a flat float64 array; ``ValueError`` if it holds NaN or inf."""
     x = np.asarray(x, dtype=np.float64).ravel()
     if not np.all(np.isfinite(x)):
         raise ValueError("data contain NaN or inf; remove them before fitting")
+    return x
+
+
+def _prepare(x: ArrayLike, x_max: float | None) -> FloatArray:
+    x = _finite_data(x)
     x = x[x > 0]
     if x_max is not None:
         x = x[x <= x_max]
