@@ -18,6 +18,7 @@ message naming the parameter. The bounds (``docs/formats.md``, "Limits"):
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 __all__ = [
@@ -96,6 +97,13 @@ def volume_guess(value: Any, name: str = "volume_guess") -> str:
 
 def _reject(name: str, what: str, value: Any) -> ValueError:
     return ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def is_real(value: Any) -> bool:
+    """A real number given to a library function: a Python or numpy integer or float, never a
+    ``bool`` or a string. Callers convert it with ``float()`` after their range checks, so a numpy
+    ``float32`` argument is computed with in float64 (its value, widened exactly)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 def integer(

@@ -159,12 +159,13 @@ def minimize_enthalpy(
     the volume steps).
     Non-convergence is reported (``converged=False``), not raised.
     """
-    if not (isinstance(target_pressure, int | float) and math.isfinite(target_pressure)):
+    if not (validation.is_real(target_pressure) and math.isfinite(target_pressure)):
         raise ValueError(f"target pressure must be a finite number, got {target_pressure!r}")
     if not target_pressure > 0:
         raise ValueError(f"target pressure must be > 0, got {target_pressure!r}")
-    if not (isinstance(ptol, int | float) and math.isfinite(ptol) and ptol > 0):
+    if not (validation.is_real(ptol) and math.isfinite(ptol) and ptol > 0):
         raise ValueError(f"ptol must be finite and > 0, got ptol={ptol!r}")
+    target_pressure, ptol = float(target_pressure), float(ptol)
     if not (isinstance(max_volume_steps, int) and max_volume_steps >= 0):
         raise ValueError(f"max_volume_steps must be an integer >= 0, got {max_volume_steps!r}")
     floor = pressure_floor(packing.n, packing.dim, packing.box.length, ftol)

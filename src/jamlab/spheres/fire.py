@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres import kernels as K
 from jamlab.spheres.box import Box
 from jamlab.spheres.kernel_choice import threshold_for
@@ -174,8 +175,9 @@ def minimize(
     updated in place to the final positions. Non-convergence is reported in the result
     (``converged=False``), not raised: callers must check it.
     """
-    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+    if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
+    ftol = float(ftol)
     if not (isinstance(max_iter, int | np.integer) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got max_iter={max_iter!r}")
     params = FireParameters() if params is None else params

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres.compression import (
     CoordinationCurve,
     coordination_curve,
@@ -121,17 +122,19 @@ class PreparedPacking:
         return out
 
 
-def _check_common(n: int, dim: int, seed: int, ftol: float, sizes: str, alpha: float) -> None:
+def _check_common(n: int, dim: int, seed: int, ftol: float, sizes: str, alpha: float) -> float:
+    """Check the arguments every preparation takes; return ``ftol`` as a float."""
     if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2):
         raise ValueError(f"number of particles must be an integer >= 2, got n={n!r}")
     if not (isinstance(dim, int | np.integer) and not isinstance(dim, bool) and dim >= 2):
         raise ValueError(f"dimension must be an integer >= 2, got dim={dim!r}")
     if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
         raise ValueError(f"seed must be an integer >= 0, got seed={seed!r}")
-    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+    if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     parse_sizes(sizes)
     check_alpha(alpha)
+    return float(ftol)
 
 
 def jam(
@@ -240,24 +243,26 @@ confirm_ftol_factor
     >>> r.ok, r.state.isostatic, round(r.phi_j, 3)
     (True, True, 0.843)
     """
-    _check_common(n, dim, seed, ftol, sizes, alpha)
-    if not (isinstance(p_target, int | float) and math.isfinite(p_target) and p_target > 0):
+    ftol = _check_common(n, dim, seed, ftol, sizes, alpha)
+    if not (validation.is_real(p_target) and math.isfinite(p_target) and p_target > 0):
         raise ValueError(f"target pressure must be finite and > 0, got p_target={p_target!r}")
-    if not (isinstance(phi_init, int | float) and 0 < phi_init < PHI_MAX):
+    if not (validation.is_real(phi_init) and 0 < phi_init < PHI_MAX):
         raise ValueError(
             f"initial packing fraction must be in (0, {PHI_MAX}), got phi_init={phi_init!r}"
         )
     if not 0 < p_floor_factor <= 0.5:
         raise ValueError(f"p_floor_factor must be in (0, 0.5], got {p_floor_factor!r}")
-    if not (isinstance(compress_factor, int | float) and 1 < compress_factor < 2):
+    if not (validation.is_real(compress_factor) and 1 < compress_factor < 2):
         raise ValueError(f"compress_factor must be in (1, 2), got {compress_factor!r}")
     if not (isinstance(max_restarts, int) and max_restarts >= 0):
         raise ValueError(f"max_restarts must be an integer >= 0, got {max_restarts!r}")
     for name, value in (("max_minimizations", max_minimizations), ("max_iter", max_iter)):
         if not (isinstance(value, numbers.Integral) and value >= 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-    if not (isinstance(confirm_ftol_factor, int | float) and 0 < confirm_ftol_factor <= 1):
+    if not (validation.is_real(confirm_ftol_factor) and 0 < confirm_ftol_factor <= 1):
         raise ValueError(f"confirm_ftol_factor must be in (0, 1], got {confirm_ftol_factor!r}")
+    p_target, phi_init = float(p_target), float(phi_init)
+    compress_factor, confirm_ftol_factor = float(compress_factor), float(confirm_ftol_factor)
     t0 = time.perf_counter()
     params: dict[str, float | int | str] = dict(
         p_target=float(p_target),
@@ -374,8 +379,8 @@ def prepare(
     >>> prepare(128, 3, 0.7, seed=1, alpha=2.5).packing.alpha
     2.5
     """
-    _check_common(n, dim, seed, ftol, sizes, alpha)
-    if not (isinstance(phi, int | float | np.floating) and 0 < phi < 1):
+    ftol = _check_common(n, dim, seed, ftol, sizes, alpha)
+    if not (validation.is_real(phi) and 0 < phi < 1):
         raise ValueError(f"packing fraction must be in (0, 1), got phi={phi!r}")
     start = random_packing(int(n), int(dim), float(phi), int(seed), sizes=sizes, alpha=alpha)
     r = relax(start, ftol, max_iter)
@@ -450,10 +455,11 @@ def jam_at_pressure(
     ``"jamming+enthalpy"``; ``ok`` needs both stages; ``params`` gain ``pressure``, ``ptol``."""
     from jamlab.spheres.barostat import minimize_enthalpy, polish_recorded
 
-    if not (isinstance(pressure, int | float) and math.isfinite(pressure) and pressure > 0):
+    if not (validation.is_real(pressure) and math.isfinite(pressure) and pressure > 0):
         raise ValueError(f"pressure must be finite and > 0, got pressure={pressure!r}")
-    if not (isinstance(ptol, int | float) and math.isfinite(ptol) and ptol > 0):
+    if not (validation.is_real(ptol) and math.isfinite(ptol) and ptol > 0):
         raise ValueError(f"ptol must be finite and > 0, got ptol={ptol!r}")
+    pressure, ptol = float(pressure), float(ptol)
     t0 = time.perf_counter()
     first = jam(
         n,

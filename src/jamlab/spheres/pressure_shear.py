@@ -227,8 +227,9 @@ def shear_at_pressure(
     candidate (the rule before). The stepping, and so every column but ``plastic`` and
     ``iterations`` (which counts the confirmation's), does not depend on it.
     """
-    if not (isinstance(dgamma, int | float) and math.isfinite(dgamma) and dgamma > 0):
+    if not (validation.is_real(dgamma) and math.isfinite(dgamma) and dgamma > 0):
         raise ValueError(f"dgamma must be finite and > 0, got dgamma={dgamma!r}")
+    dgamma = float(dgamma)
     if (gamma_max is None) == (n_steps is None):
         raise ValueError("give exactly one of gamma_max and n_steps")
     if n_steps is None:
@@ -243,9 +244,10 @@ def shear_at_pressure(
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if confirm not in CONFIRMS:
         raise ValueError(f"confirm must be one of {', '.join(CONFIRMS)}, got {confirm!r}")
-    if not (isinstance(confirm_below, int | float) and confirm_below >= 1.0):
+    if not (validation.is_real(confirm_below) and confirm_below >= 1.0):
         raise ValueError(f"confirm_below must be >= 1 (math.inf: confirm every candidate), "
                          f"got confirm_below={confirm_below!r}")
+    confirm_below = float(confirm_below)
     validation.volume_guess(volume_guess)
     for name, value in (("confirm", confirm), ("volume_guess", volume_guess)):
         was = None if previous is None else previous.attrs.get(name, RULES_BEFORE[name])

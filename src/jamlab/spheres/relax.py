@@ -6,8 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numpy as np
-
+from jamlab import validation
 from jamlab.spheres.box import Box
 from jamlab.spheres.fire import FireParameters, minimize, polish_reading
 from jamlab.spheres.potential import max_force, pressure
@@ -23,7 +22,7 @@ def rescale(packing: Packing, phi: float) -> Packing:
 
     Reduced coordinates and strain are kept.
     """
-    if not (isinstance(phi, int | float | np.floating) and math.isfinite(phi) and phi > 0):
+    if not (validation.is_real(phi) and math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
     length = box_length_for_diameters(packing.diameters, packing.dim, float(phi))
     scale = length / packing.box.length

@@ -308,7 +308,7 @@ def random_packing(
     """
     if not (isinstance(n, int | np.integer) and n >= 2):
         raise ValueError(f"need at least 2 particles, got n={n!r}")
-    if not (isinstance(phi, int | float | np.floating) and math.isfinite(phi) and phi > 0):
+    if not (validation.is_real(phi) and math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
     diam = size_distribution(int(n), sizes)
     if np.all(diam == 1.0):

@@ -231,6 +231,7 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
+    dgamma, ftol = float(dgamma), float(ftol)  # a numpy float32 argument computes in float64
     params = AQSParameters() if params is None else params
     fire_params = FireParameters() if fire_params is None else fire_params
     if previous is not None and previous.attrs.get("floppy", "fire") != params.floppy:
@@ -379,7 +380,7 @@ def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, prev
     ``ftol``, exactly one of ``gamma_max``/``n_steps`` (``δγ`` resolvable at the strain),
     ``save_every`` (with an output path), and for a resumed run a configuration at the strain
     of the trace's last row."""
-    if not (isinstance(ftol, int | float) and math.isfinite(ftol) and ftol > 0):
+    if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     if (gamma_max is None) == (n_steps is None):
         raise ValueError("give exactly one of gamma_max and n_steps")
@@ -434,9 +435,10 @@ def _shear_at_pressure(
     them and ``on_plastic`` sees them."""
     from jamlab.spheres.pressure_shear import CONFIRM_BELOW, FROM_AQS_OPTION, shear_at_pressure
 
-    validation.positive("pressure", pressure)
-    validation.positive("ptol", ptol)
+    pressure = validation.positive("pressure", pressure)
+    ptol = validation.positive("ptol", ptol)
     total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
+    dgamma, ftol = float(dgamma), float(ftol)  # a numpy float32 argument computes in float64
     if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
         raise ValueError("the trace to resume is not a fixed-pressure run")
     recorder = AvalancheRecorder(
