@@ -59,6 +59,29 @@ def test_packing_fraction_helpers():
     assert box_length_for(1000, 3, 0.8) == pytest.approx(meta_L, rel=1e-14)
 
 
+def test_sphere_volume_of_radii_array():
+    r = np.array([0.0, 0.5, 0.7])
+    np.testing.assert_allclose(sphere_volume(3, r), 4 * math.pi / 3 * r**3, rtol=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("call", "word"),
+    [
+        (lambda: sphere_volume(3, -1.0), "radius"),  # was a negative volume
+        (lambda: sphere_volume(3, np.array([0.5, -0.5])), "radius"),
+        (lambda: sphere_volume(3, float("nan")), "radius"),
+        (lambda: sphere_volume(1), "dimension"),
+        (lambda: packing_fraction(100, 3, -5.0), "box side"),  # was a negative φ
+        (lambda: packing_fraction(100, 3, float("inf")), "box side"),  # was φ = 0
+        (lambda: packing_fraction(0, 3, 5.0), "particles"),
+        (lambda: packing_fraction(True, 3, 5.0), "particles"),
+    ],
+)
+def test_volume_helpers_refuse_bad_input(call, word):
+    with pytest.raises(ValueError, match=word):
+        call()
+
+
 @pytest.mark.parametrize(
     ("kwargs", "word"),
     [

@@ -16,6 +16,7 @@ Packing fraction of ``N`` spheres of diameter 1: ``φ = N v_d(1/2) / L^d`` with
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -33,12 +34,21 @@ __all__ = [
 
 
 def sphere_volume(dim: int, radius: float = 0.5) -> float:
-    """Volume of a ``dim``-ball: ``v_d(r) = π^(d/2) r^d / Γ(d/2 + 1)``."""
+    """Volume of a ``dim``-ball: ``v_d(r) = π^(d/2) r^d / Γ(d/2 + 1)`` (``radius`` a number or an
+    array of them, each finite and ``>= 0``)."""
+    _check_dim(dim)
+    r = np.asarray(radius)
+    if not (r.dtype.kind in "iuf" and np.all(np.isfinite(r)) and np.all(r >= 0)):
+        raise ValueError(f"radius must be finite and >= 0, got radius={radius!r}")
     return math.pi ** (dim / 2) * radius**dim / math.gamma(dim / 2 + 1)
 
 
 def packing_fraction(n: int, dim: int, length: float) -> float:
     """``φ = N v_d(1/2) / L^d`` for ``N`` spheres of diameter 1 in a cube of side ``L``."""
+    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 1):
+        raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
+    if not (isinstance(length, numbers.Real) and math.isfinite(length) and length > 0):
+        raise ValueError(f"box side must be finite and > 0, got length={length!r}")
     return n * sphere_volume(dim) / length**dim
 
 
