@@ -164,6 +164,8 @@ def noise_floor(
 
     Returns a :class:`NoiseFloor` with ``sigma = 1.4826 · median|r_n − median r_n|``.
     ``jammed`` (per minimum, see the module docstring): only steps between jammed minima are used.
+    A NaN ``ΔE_n`` or ``ΔΣ_n`` is a missing step (as in :func:`classify_steps`) and is not used;
+    ``ValueError`` for ``±inf`` in any input, or a NaN ``δγ_n`` of a step that is not missing.
     """
     jmask = _jammed_mask(jammed, np.shape(energy_jump))
     energy_jump = np.asarray(energy_jump, dtype=np.float64).ravel()
@@ -173,15 +175,26 @@ def noise_floor(
         raise ValueError(
             f"energy_jump {energy_jump.shape} and stress_jump {stress_jump.shape} differ in shape"
         )
+    for name, values in (("energy_jump", energy_jump), ("stress_jump", stress_jump),
+                         ("strain_step", step)):
+        if np.any(np.isinf(values)):
+            i = int(np.argmax(np.isinf(values)))
+            raise ValueError(f"{name} holds {float(values[i])!r} at flat index {i}: a trace's "
+                             "steps are finite (NaN marks a missing step)")
+    missing = np.isnan(energy_jump) | np.isnan(stress_jump)
+    if np.any(np.isnan(step) & ~missing):
+        i = int(np.argmax(np.isnan(step) & ~missing))
+        raise ValueError(f"strain_step is NaN at flat index {i}, a step whose jumps are there")
     if np.any(step == 0):
         raise ValueError("strain_step contains zero; the modulus ΔΣ/δγ is undefined there")
-    elastic = np.ones(energy_jump.shape, dtype=bool)
+    elastic = ~missing
     if plastic is not None:
-        elastic = ~np.asarray(plastic, dtype=bool).ravel()
+        elastic = elastic & ~np.asarray(plastic, dtype=bool).ravel()
     if jmask is not None:
         elastic = elastic & jmask.ravel()
     if np.count_nonzero(elastic) < 3:
-        raise ValueError(f"need >= 3 elastic steps, got {np.count_nonzero(elastic)}")
+        raise ValueError(f"need >= 3 elastic steps, got {np.count_nonzero(elastic)} "
+                         f"({np.count_nonzero(missing)} NaN steps left out)")
     modulus = float(np.median(stress_jump[elastic] / step[elastic]))
     if local:
         resid = branch_residual(energy_jump, stress_jump, step)[elastic]

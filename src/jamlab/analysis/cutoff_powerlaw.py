@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special
 
+from jamlab.analysis.powerlaw import finite_data
 from jamlab.threads import one_blas_thread
 
 __all__ = [
@@ -123,10 +124,12 @@ def cutoff_power_law_cdf(x: ArrayLike, tau: float, x_c: float, x_min: float, *,
                          stretch: float = 1.0) -> FloatArray:
     """``P(X ≤ x) = 1 − Γ(1−τ, x/x_c) / Γ(1−τ, x_min/x_c)`` (0 below ``x_min``); with a stretched
     cut-off ``e^(−(x/x_c)^a)`` (``stretch = a``) ``1 − Γ(k, (x/x_c)^a) / Γ(k, (x_min/x_c)^a)``,
-    ``k = (1−τ)/a``."""
+    ``k = (1−τ)/a``; 1 at ``x = inf``, NaN at NaN."""
     _check_model(tau, x_c, x_min)
+    _check_stretch(stretch)
     x = np.asarray(x, dtype=np.float64)
-    above = np.maximum(x, x_min)
+    finite = np.isfinite(x)
+    above = np.where(finite, np.maximum(x, x_min), x_min)
     if stretch == 1.0:
         a = 1.0 - tau
         tail = np.exp(log_upper_gamma_array(a, above / x_c) - log_upper_gamma(a, x_min / x_c))
@@ -134,7 +137,8 @@ def cutoff_power_law_cdf(x: ArrayLike, tau: float, x_c: float, x_min: float, *,
         k = (1.0 - tau) / stretch
         tail = np.exp(log_upper_gamma_array(k, (above / x_c) ** stretch)
                       - log_upper_gamma(k, (x_min / x_c) ** stretch))
-    return np.where(x >= x_min, 1.0 - tail, 0.0)
+    cdf = np.where(x >= x_min, 1.0 - tail, 0.0)
+    return np.where(finite, cdf, np.where(np.isnan(x), np.nan, (x > 0) * 1.0))
 
 
 def _check_model(tau: float, x_c: float, x_min: float) -> None:
@@ -142,6 +146,19 @@ def _check_model(tau: float, x_c: float, x_min: float) -> None:
             and math.isfinite(x_min) and x_min > 0):
         raise ValueError(f"need finite tau, x_c > 0 and x_min > 0, got tau={tau!r}, "
                          f"x_c={x_c!r}, x_min={x_min!r}")
+
+
+def _check_stretch(stretch: float) -> None:
+    if not (math.isfinite(stretch) and stretch > 0):
+        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
+
+
+def _check_x_min(x_min: float) -> float:
+    """A given ``x_min`` as a float: any real number (not a bool), finite and > 0."""
+    if (isinstance(x_min, bool) or not isinstance(x_min, numbers.Real)
+            or not (math.isfinite(x_min) and x_min > 0)):
+        raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
+    return float(x_min)
 
 
 def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float, stretch: float = 1.0
@@ -159,16 +176,17 @@ def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float, stretch: flo
 def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float,
                             stretch: float = 1.0) -> FloatArray:
     """``log p(x)`` of the model (``−inf`` below ``x_min``); ``stretch = a``: the cut-off
-    ``e^(−(x/x_c)^a)``, ``log p = −τ log x − (x/x_c)^a − log Z``."""
+    ``e^(−(x/x_c)^a)``, ``log p = −τ log x − (x/x_c)^a − log Z``; ``−inf`` at ``x = inf``, NaN
+    at NaN."""
     _check_model(tau, x_c, x_min)
-    if not (math.isfinite(stretch) and stretch > 0):
-        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
+    _check_stretch(stretch)
     x = np.asarray(x, dtype=np.float64)
     log_z = cutoff_power_law_log_norm(tau, x_c, x_min, stretch)
     with np.errstate(divide="ignore", invalid="ignore"):
         cut = x / x_c if stretch == 1.0 else (x / x_c) ** stretch
         out = -tau * np.log(x) - cut - log_z
-    return np.where(x >= x_min, out, -np.inf)
+    inside = np.isfinite(x) & (x >= x_min)  # −inf at x = inf, where −τ log x − x/x_c can be NaN
+    return np.where(inside, out, np.where(np.isnan(x), np.nan, -np.inf))
 
 
 def sample_cutoff_power_law(
@@ -184,8 +202,7 @@ def sample_cutoff_power_law(
     if tau < 0:
         raise ValueError(f"sample_cutoff_power_law needs tau >= 0, got {tau!r}")
     stretch = float(stretch)
-    if not (math.isfinite(stretch) and stretch > 0):
-        raise ValueError(f"stretch must be finite and > 0, got {stretch!r}")
+    _check_stretch(stretch)
     if stretch != 1.0 and tau <= 1:
         raise ValueError(f"a stretched cut-off is sampled for tau > 1 only, got tau={tau!r}")
     out: list[FloatArray] = []
@@ -321,8 +338,16 @@ def _stderr(tau: float, log_yc: float, y: FloatArray, stretch: float = 1.0
 
 def cutoff_power_law_ks(x: ArrayLike, tau: float, x_c: float, x_min: float) -> float:
     """Kolmogorov–Smirnov distance between the data ``x`` (all at or above ``x_min``) and the
-    model: ``max_i max(i/n − F(x_(i)), F(x_(i)) − (i−1)/n)`` over the sorted data."""
-    return _ks(np.sort(np.asarray(x, dtype=np.float64).ravel()), tau, x_c, x_min)
+    model: ``max_i max(i/n − F(x_(i)), F(x_(i)) − (i−1)/n)`` over the sorted data.
+    ``ValueError`` for no data, NaN/inf data or data below ``x_min``."""
+    _check_model(tau, x_c, x_min)
+    x = finite_data(x)
+    if x.size == 0:
+        raise ValueError("the data are empty: a KS distance needs at least one datum")
+    if x.min() < x_min:
+        raise ValueError(f"the data hold {float(x.min())!r}, below x_min={x_min!r}: all must "
+                         "be at or above it")
+    return _ks(np.sort(x), tau, x_c, x_min)
 
 
 def _ks(tail: FloatArray, tau: float, x_c: float, x_min: float) -> float:
@@ -378,8 +403,8 @@ def fit_cutoff_power_law(
     if not np.all(np.isfinite(x)):
         raise ValueError("the data hold NaN or inf")
     fixed = x_min is not None
-    if fixed and not (isinstance(x_min, numbers.Real) and math.isfinite(x_min) and x_min > 0):
-        raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
+    if fixed:
+        x_min = _check_x_min(x_min)
     if not (isinstance(n_boot, numbers.Integral) and n_boot >= 0):
         raise ValueError(f"n_boot must be an integer >= 0, got {n_boot!r}")
     if not (isinstance(min_tail, numbers.Integral) and min_tail >= _MIN_TAIL):
@@ -527,8 +552,7 @@ def cutoff_shape_profile(x: ArrayLike, x_min: float,
     x = np.asarray(x, dtype=np.float64).ravel()
     if not np.all(np.isfinite(x)):
         raise ValueError("the data hold NaN or inf")
-    if not (isinstance(x_min, int | float) and math.isfinite(x_min) and x_min > 0):
-        raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
+    x_min = _check_x_min(x_min)
     grid = tuple(float(a) for a in stretches)
     if not grid or not all(math.isfinite(a) and a > 0 for a in grid) or len(set(grid)) < len(grid):
         raise ValueError(f"stretches must be distinct finite numbers > 0, got {stretches!r}")

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize_scalar
 
-from jamlab.analysis.powerlaw import mle_tau
+from jamlab.analysis.powerlaw import finite_data, mle_tau
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -25,19 +25,21 @@ __all__ = ["ExponentFit", "LocalExponents", "WindowRule", "empirical_cdf", "fit_
 
 
 def _samples(samples: Sequence[ArrayLike]) -> list[FloatArray]:
-    out = [np.sort(np.asarray(s, dtype=np.float64).ravel()) for s in samples]
+    out = [np.sort(finite_data(s, f"samples[{k}]")) for k, s in enumerate(samples)]
     if not out:
         raise ValueError("need at least one packing's samples")
     return out
 
 
 def empirical_cdf(samples: Sequence[ArrayLike], x: ArrayLike) -> FloatArray:
-    """Pooled ``F(x) = #{samples ≤ x} / #{samples}`` over all packings."""
+    """Pooled ``F(x) = #{samples ≤ x} / #{samples}`` over all packings (NaN at NaN ``x``;
+    NaN or inf samples raise ``ValueError``)."""
     s = _samples(samples)
     x = np.asarray(x, dtype=np.float64)
     counts = sum(np.searchsorted(a, x, side="right") for a in s)
     total = sum(a.size for a in s)
-    return np.asarray(counts, dtype=np.float64) / total
+    f = np.asarray(counts, dtype=np.float64) / total
+    return np.where(np.isnan(x), np.nan, f) if np.isnan(x).any() else f
 
 
 @dataclass(frozen=True)
@@ -165,6 +167,8 @@ def fit_exponent(
     lo, hi = _check_window(window)
     if not (isinstance(n_boot, int) and n_boot >= 0):
         raise ValueError(f"n_boot must be an integer >= 0, got {n_boot!r}")
+    if not (isinstance(n_points, int) and n_points >= 3):
+        raise ValueError(f"n_points must be an integer >= 3, got {n_points!r}")
     s = _samples(samples)
     m = len(s)
     in_window = [a[(a >= lo) & (a <= hi)] for a in s]
@@ -311,7 +315,7 @@ def finite_size_cutoff(n: ArrayLike, exponent: float, prefactor: float = 1.0) ->
     """``x_min = c N^(−1/(1+a))``: the value below which ``N`` samples of a density ``∝ x^a``
     hold ``O(1)`` of them (``F(x_min) N ~ 1`` with ``F(x) ~ x^(1+a)``; ``a = θ`` for forces,
     ``−γ`` for gaps)."""
-    if not exponent > -1:
-        raise ValueError(f"exponent must be > -1, got {exponent!r}")
+    if not (math.isfinite(exponent) and exponent > -1):
+        raise ValueError(f"exponent must be finite and > -1, got {exponent!r}")
     return prefactor * np.asarray(n, dtype=np.float64) ** (-1.0 / (1.0 + exponent))
 

@@ -67,7 +67,7 @@ from jamlab.analysis.cutoff_powerlaw import (
 )
 from jamlab.analysis.histograms import log_histogram
 from jamlab.analysis.jackknife import jackknife_variance
-from jamlab.analysis.powerlaw import mle_tau, power_law_loglik
+from jamlab.analysis.powerlaw import finite_data, mle_tau, power_law_loglik
 
 __all__ = [
     "Collapse",
@@ -90,10 +90,14 @@ _CHI2_2_95 = 5.991464547107979  # 95 % point of χ² with 2 degrees of freedom
 
 
 def cutoff_size(sizes: ArrayLike) -> float:
-    """``S_c = ⟨S²⟩/⟨S⟩`` of the (positive) ``sizes``; NaN when empty."""
-    s = np.asarray(sizes, dtype=np.float64).ravel()
+    """``S_c = ⟨S²⟩/⟨S⟩`` of the (positive) ``sizes``; NaN when empty, ``ValueError`` for a
+    NaN, inf, zero or negative size."""
+    s = finite_data(sizes, "sizes")
     if s.size == 0:
         return math.nan
+    if np.any(s <= 0):
+        i = int(np.argmax(s <= 0))
+        raise ValueError(f"sizes must be positive, got {float(s[i])!r} at flat index {i}")
     return float(np.sum(s * s) / np.sum(s))
 
 

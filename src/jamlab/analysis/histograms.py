@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from jamlab.analysis.powerlaw import finite_data
+
 __all__ = ["LogHistogram", "log_histogram"]
 
 FloatArray = NDArray[np.float64]
@@ -59,17 +61,18 @@ def log_histogram(
     outside the range and non-positive data are not binned but count in the default normaliser.
     ``density_j = c_j/(N w_j)`` with ``N = n_total`` if given, else ``len(x)``; Poisson error
     ``√c_j/(N w_j)`` (zero for empty bins). Centres are geometric: ``√(e_j e_{j+1})``.
+    NaN or inf data raise ``ValueError``.
     """
-    if bins_per_decade < 1:
-        raise ValueError(f"bins_per_decade={bins_per_decade} must be >= 1")
-    x = np.asarray(x, dtype=np.float64).ravel()
-    if np.any(np.isnan(x)):
-        raise ValueError("data contain NaN")
+    if not (math.isfinite(bins_per_decade) and bins_per_decade >= 1):
+        raise ValueError(f"bins_per_decade={bins_per_decade} must be finite and >= 1")
+    if n_total is not None and not (math.isfinite(n_total) and n_total == math.floor(n_total)):
+        raise ValueError(f"n_total={n_total!r} must be a whole number")
+    x = finite_data(x)
     norm = x.size if n_total is None else int(n_total)
     if n_total is not None and n_total < np.count_nonzero(x > 0):
         raise ValueError(f"n_total={n_total} is smaller than the number of positive data")
     if range is None:
-        pos = x[(x > 0) & np.isfinite(x)]
+        pos = x[x > 0]
         if pos.size == 0:
             raise ValueError("no positive finite data to bin; give range=(lo, hi)")
         k_lo = math.floor(bins_per_decade * math.log10(pos.min()))

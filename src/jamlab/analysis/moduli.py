@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from jamlab.analysis.powerlaw import finite_data
+
 __all__ = [
     "ModulusMoments",
     "SlopeFit",
@@ -216,8 +218,8 @@ def moduli_from_stress_jumps(
     jumps_list = [np.atleast_2d(np.asarray(j, dtype=np.float64)) for j in stress_jumps]
     if len(jumps_list) != steps.size:
         raise ValueError(f"{len(jumps_list)} jump arrays for {steps.size} strain steps")
-    if np.any(steps <= 0):
-        raise ValueError(f"strain_steps must be > 0, got {steps}")
+    if not np.all((steps > 0) & np.isfinite(steps)):
+        raise ValueError(f"strain_steps must be finite and > 0, got {steps}")
     n_samples = {j.shape[0] for j in jumps_list}
     if len(n_samples) != 1:
         raise ValueError(f"all runs must have the same number of samples, got {n_samples}")
@@ -260,12 +262,15 @@ def fit_log_slope(x: ArrayLike, y: ArrayLike, y_err: ArrayLike) -> SlopeFit:
     ``var(b) = S/Δ``, ``var(a) = Sxx/Δ`` (e.g. Press et al., Numerical Recipes §15.2).
     Errors assume independent points; moments from one subsampled trace at several lags are
     correlated, so treat the error as indicative there (or bootstrap over samples).
+    NaN or inf anywhere raises ``ValueError``.
     """
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     y_err = np.asarray(y_err, dtype=np.float64)
     if not (x.shape == y.shape == y_err.shape) or x.size < 2:
         raise ValueError(f"x, y, y_err need equal shapes with >= 2 points; got {x.shape}")
+    for name, values in (("x", x), ("y", y), ("y_err", y_err)):
+        finite_data(values, name)
     if np.any(x <= 0) or np.any(y <= 0) or np.any(~(y_err > 0)):
         raise ValueError("x and y must be positive and y_err > 0 for a log-log fit")
     big_x, big_y = np.log(x), np.log(y)

@@ -29,6 +29,7 @@ from scipy.optimize import brentq
 
 __all__ = [
     "PowerLawFit",
+    "finite_data",
     "fit_power_law",
     "mle_tau",
     "power_law_cdf",
@@ -125,6 +126,8 @@ def _h2(u: float) -> float:
 
 
 def _check_cutoffs(tau: float, x_min: float, x_max: float | None) -> None:
+    if not math.isfinite(tau):
+        raise ValueError(f"tau={tau!r} must be finite")
     if not (x_min > 0 and math.isfinite(x_min)):
         raise ValueError(f"x_min={x_min!r} must be positive and finite")
     if x_max is None:
@@ -135,7 +138,8 @@ def _check_cutoffs(tau: float, x_min: float, x_max: float | None) -> None:
 
 
 def power_law_pdf(x: ArrayLike, tau: float, x_min: float, x_max: float | None = None) -> FloatArray:
-    """Density of the pure (``x_max=None``) or truncated power law; zero outside the support.
+    """Density of the pure (``x_max=None``) or truncated power law; zero outside the support
+    (NaN at NaN points).
 
     Pure: ``p(x) = (τ−1)/x_min (x/x_min)^(−τ)`` on ``[x_min, ∞)``.
     Truncated: ``p(x) = x^(−τ) / Z`` on ``[x_min, x_max]``, ``Z = ∫ x^(−τ) dx`` over the support.
@@ -150,7 +154,7 @@ def power_law_pdf(x: ArrayLike, tau: float, x_min: float, x_max: float | None = 
         big_l = math.log(x_max / x_min)
         logp = -tau * t - math.log(x_min) - math.log(big_l) - _h((1 - tau) * big_l)
         inside = (x >= x_min) & (x <= x_max)
-    return np.where(inside, np.exp(logp), 0.0)
+    return np.where(np.isnan(x), np.nan, np.where(inside, np.exp(logp), 0.0))
 
 
 def power_law_cdf(x: ArrayLike, tau: float, x_min: float, x_max: float | None = None) -> FloatArray:
@@ -180,10 +184,11 @@ def _truncated_cdf_s(s: FloatArray, u: float) -> FloatArray:
 def power_law_loglik(x: ArrayLike, tau: float, x_min: float, x_max: float | None = None) -> float:
     """Total log-likelihood ``Σ log p(x_i)`` of the data inside ``[x_min, x_max]``.
 
-    Data outside the support are ignored (they are not part of the fitted tail).
+    Data outside the support are ignored (they are not part of the fitted tail); NaN/inf data
+    raise ``ValueError``.
     """
     _check_cutoffs(tau, x_min, x_max)
-    x = np.asarray(x, dtype=np.float64)
+    x = finite_data(x)
     inside = x >= x_min if x_max is None else (x >= x_min) & (x <= x_max)
     return _loglik_tail(x[inside], tau, x_min, x_max)
 
@@ -264,7 +269,7 @@ def mle_tau(x: ArrayLike, x_min: float, x_max: float | None = None) -> tuple[flo
     or all at ``x_min``). NaN/inf data raise ``ValueError``.
     """
     _check_cutoffs(2.0, x_min, x_max)
-    x = _finite_data(x)
+    x = finite_data(x)
     inside = x >= x_min if x_max is None else (x >= x_min) & (x <= x_max)
     return _mle_tail(np.sort(x[inside]), x_min, x_max)
 
@@ -324,16 +329,19 @@ def _scan(
     return best
 
 
-def _finite_data(x: ArrayLike) -> FloatArray:
-    """``x`` as a flat float64 array; ``ValueError`` if it holds NaN or inf."""
+def finite_data(x: ArrayLike, name: str = "data") -> FloatArray:
+    """``x`` as a flat float64 array; ``ValueError`` naming ``name`` and the first NaN or inf
+    (with its index in the flattened array) if it holds one."""
     x = np.asarray(x, dtype=np.float64).ravel()
-    if not np.all(np.isfinite(x)):
-        raise ValueError("data contain NaN or inf; remove them before fitting")
+    bad = ~np.isfinite(x)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"{name} holds NaN or inf: {float(x[i])!r} at flat index {i}")
     return x
 
 
 def _prepare(x: ArrayLike, x_max: float | None) -> FloatArray:
-    x = _finite_data(x)
+    x = finite_data(x)
     x = x[x > 0]
     if x_max is not None:
         x = x[x <= x_max]
@@ -508,6 +516,7 @@ def power_law_gof(
     """
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     x_max = _none_if_inf(fit.x_max)
+    _check_cutoffs(fit.tau, fit.x_min, x_max)
     xs = _prepare(x, x_max)
     body = xs[xs < fit.x_min]
     n = xs.size
