@@ -274,7 +274,9 @@ class CascadeRecursion:
         for s in range(0, x.size, 256):
             xs = x[s:s + 256]
             ker = np.exp(-0.5 * ((xs[:, None] - z[None, :]) / sk) ** 2) * (h / (_SQRT2PI * sk))
-            out[s:s + 256] = ker @ g
+            # einsum, not ker @ g: BLAS's gemv sums a row in an order that depends on how many
+            # rows the call holds, so R(x) would change in the last bit with its batch
+            out[s:s + 256] = np.einsum("ij,j->i", ker, g)
         return out
 
     # ---------------------------------------------------------------- ΔE
@@ -332,7 +334,11 @@ class CascadeRecursion:
         out = np.zeros(flat.size)
         pos = flat > 0
         if np.any(pos):
-            out[pos] = np.exp(self.y[-1] * flat[pos]) * self._last(self._uend, flat[pos])
+            # e^{y_k w} overflows (w → ∞) only where the Gaussian tail has underflowed to 0
+            tail = self._last(self._uend, flat[pos])
+            on = tail != 0.0
+            tail[on] *= np.exp(self.y[-1] * flat[pos][on])
+            out[pos] = tail
         return out.reshape(wa.shape)
 
     def dU_cdf_jumps(self, w: Any) -> np.ndarray:  # noqa: N802

@@ -112,11 +112,17 @@ def panel_edges(pf: ParisiFunction, s_end: FloatArray,
     """Sorted panel edges per row: uniform in ``[0, s_end]``, plus ``extra`` and ``y'`` kinks."""
     n_uni = max(1, int(math.ceil(float(np.max(s_end)) / _PANEL_WIDTH)))
     parts = [s_end[:, None] * np.linspace(0.0, 1.0, n_uni + 1)[None, :]]
-    kinks = s_of_q(pf.breakpoints_q())
-    if kinks.size:
-        parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
     if extra is not None:
         parts.append(extra)
+    return _with_kinks(pf, parts, s_end)
+
+
+def _with_kinks(pf: ParisiFunction, parts: list[FloatArray], s_end: FloatArray) -> FloatArray:
+    """The edge columns ``parts`` and the ``y'`` kinks, clipped to ``[0, s_end]`` and sorted per
+    row."""
+    kinks = s_of_q(pf.breakpoints_q())
+    if kinks.size:
+        parts = [*parts, np.broadcast_to(kinks, (s_end.size, kinks.size))]
     edges = np.concatenate(parts, axis=1)
     edges = np.minimum(np.maximum(edges, 0.0), s_end[:, None])
     return np.sort(edges, axis=1)
@@ -142,13 +148,7 @@ def _steep_edges(pf: ParisiFunction, k0: FloatArray, s_end: FloatArray) -> Float
     ``s = 0``; the integrands fall as ``e^{-τ}``), the ``y'`` kinks and ``s_end``; clipped to
     ``[0, s_end]``. The same number of edges for every row: a row's panels do not depend on the
     other rows of the call."""
-    parts = [np.log1p(_STEEP_TAU[None, :] / k0[:, None]), s_end[:, None]]
-    kinks = s_of_q(pf.breakpoints_q())
-    if kinks.size:
-        parts.append(np.broadcast_to(kinks, (s_end.size, kinks.size)))
-    edges = np.concatenate(parts, axis=1)
-    edges = np.minimum(np.maximum(edges, 0.0), s_end[:, None])
-    return np.sort(edges, axis=1)
+    return _with_kinks(pf, [np.log1p(_STEEP_TAU[None, :] / k0[:, None]), s_end[:, None]], s_end)
 
 
 class PrintedJumpDistribution:
