@@ -288,6 +288,9 @@ def test_exact_law_below_grid_many_levels():
         R = np.asarray(law.R(x))
         np.testing.assert_array_equal(R[:4], 1.0)
         np.testing.assert_array_equal(R[4:], rec.R(x[4:]))
+        # R is flat (1) there, so its density is 0 (it was the grid's ~1e-17 noise)
+        np.testing.assert_array_equal(np.asarray(law.pdf(x[:4])), 0.0)
+        np.testing.assert_array_equal(np.asarray(law.pdf(x[4:])), rec.dE_pdf(x[4:]))
     cont = exact_jump_law(LINEAR, 0.05, levels=16)
     R = np.asarray(cont.R([-np.inf, -50.0, -0.05]))
     assert R[0] == 1.0 and R[1] == 1.0 and 0.0 < R[2] < 1.0

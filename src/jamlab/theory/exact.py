@@ -294,11 +294,12 @@ class CascadeRecursion:
         return self.F(k) * V + self.D(k) * self.B[k]
 
     def dE_pdf(self, x: Any) -> np.ndarray:  # noqa: N802
-        """Density ``-R'(x)`` of ``ΔE`` at ``x < 0`` (the jumps' part of the law)."""
+        """Density ``-R'(x)`` of ``ΔE`` at ``x < 0`` (the jumps' part of the law; 0 below
+        :attr:`edge`, where :meth:`R` is 1)."""
         xa = np.atleast_1d(np.asarray(x, dtype=np.float64))
         if not hasattr(self, "_vlast"):
             self._vlast = self._V_last()
-        return self._last(self._vlast, xa.ravel()).reshape(xa.shape)
+        return self._last(self._vlast, xa.ravel(), below=0.0).reshape(xa.shape)
 
     # ---------------------------------------------------------------- overlap and ΔU
     def _forward_all_x(self) -> None:
