@@ -333,3 +333,23 @@ def test_finite_size_cutoff_refuses_a_non_finite_exponent():
             finite_size_cutoff([10, 100], bad)  # inf gave the prefactor at every N before
     np.testing.assert_allclose(finite_size_cutoff([10, 100], 1.0, 2.0),
                                [2 / math.sqrt(10), 2 / 10], rtol=1e-15)
+
+
+@pytest.mark.parametrize("fit", ["pure", "cutoff"])
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [("max_candidates", 0), ("max_candidates", -3), ("max_candidates", 2.5),
+     ("max_candidates", True), ("n_boot", -1), ("n_boot", 1.5), ("min_tail", 2.5),
+     ("seed", -1)],
+)
+def test_fit_options_are_counts(fit, option, value):
+    """The fits' counts were unchecked: max_candidates=0 gave 'no valid fit' (pure) or a
+    TypeError from unpacking None (cut-off), -3 numpy's 'Number of samples', 2.5 a TypeError,
+    n_boot=-1 and min_tail=2.5 were used as given. Each is now refused, naming the option."""
+    from jamlab.analysis.cutoff_powerlaw import fit_cutoff_power_law
+    from jamlab.analysis.powerlaw import fit_power_law, sample_power_law
+
+    x = sample_power_law(1.5, x_min=1.0, size=300, seed=1)
+    f = fit_power_law if fit == "pure" else fit_cutoff_power_law
+    with pytest.raises(ValueError, match=f"^{option} must be"):
+        f(x, **{option: value})

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special
 
+from jamlab import validation
 from jamlab.analysis.powerlaw import finite_data
 from jamlab.threads import one_blas_thread
 
@@ -405,10 +406,10 @@ def fit_cutoff_power_law(
     fixed = x_min is not None
     if fixed:
         x_min = _check_x_min(x_min)
-    if not (isinstance(n_boot, numbers.Integral) and n_boot >= 0):
-        raise ValueError(f"n_boot must be an integer >= 0, got {n_boot!r}")
-    if not (isinstance(min_tail, numbers.Integral) and min_tail >= _MIN_TAIL):
-        raise ValueError(f"min_tail must be an integer >= {_MIN_TAIL}, got {min_tail!r}")
+    n_boot = validation.integer("n_boot", n_boot, minimum=0)
+    min_tail = validation.integer("min_tail", min_tail, minimum=_MIN_TAIL)
+    max_candidates = validation.integer("max_candidates", max_candidates, minimum=1)
+    seed = validation.seed("seed", seed)
     if not 0 < ci_level < 1:
         raise ValueError(f"ci_level must lie in (0, 1), got {ci_level!r}")
     xs = np.sort(x[x > 0])

@@ -27,6 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import brentq
 
+from jamlab import validation
+
 __all__ = [
     "PowerLawFit",
     "finite_data",
@@ -446,8 +448,11 @@ def fit_power_law(
     >>> fit.method, bool(fit.ci_low < 1.5 < fit.ci_high)
     ('truncated', True)
     """
-    if min_tail < 2:
-        raise ValueError(f"min_tail={min_tail} must be >= 2")
+    min_tail = validation.integer("min_tail", min_tail, minimum=2)
+    max_candidates = validation.integer("max_candidates", max_candidates, minimum=1)
+    n_boot = validation.integer("n_boot", n_boot, minimum=0)
+    n_gof = validation.integer("n_gof", n_gof, minimum=0)
+    seed = validation.seed("seed", seed)
     if not 0 < ci_level < 1:
         raise ValueError(f"ci_level={ci_level} must be in (0, 1)")
     if x_min is not None:
