@@ -353,3 +353,18 @@ def test_fit_options_are_counts(fit, option, value):
     f = fit_power_law if fit == "pure" else fit_cutoff_power_law
     with pytest.raises(ValueError, match=f"^{option} must be"):
         f(x, **{option: value})
+
+
+def test_noise_floor_takes_the_jumps_shape_of_steps():
+    """A 2-D ensemble (samples × steps) with its 2-D strain steps failed inside numpy ('input
+    operand has more dimensions …'): the steps were broadcast to the flattened jumps. The same
+    data flattened by hand is the reference."""
+    rng = np.random.default_rng(0)
+    dE = 1e-8 + 1e-12 * rng.normal(size=(3, 20))
+    dS = np.full((3, 20), 2e-4)
+    steps = np.full((3, 20), 1e-4)
+    flat = noise_floor(dE.ravel(), dS.ravel(), steps.ravel())
+    assert noise_floor(dE, dS, steps) == flat
+    assert noise_floor(dE, dS, np.full((3, 1), 1e-4)) == flat
+    with pytest.raises(ValueError, match=r"^strain_step \(2,\) does not broadcast"):
+        noise_floor(dE, dS, np.array([1e-4, 1e-4]))

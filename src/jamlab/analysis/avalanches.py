@@ -167,10 +167,15 @@ def noise_floor(
     A NaN ``ΔE_n`` or ``ΔΣ_n`` is a missing step (as in :func:`classify_steps`) and is not used;
     ``ValueError`` for ``±inf`` in any input, or a NaN ``δγ_n`` of a step that is not missing.
     """
-    jmask = _jammed_mask(jammed, np.shape(energy_jump))
+    shape = np.shape(energy_jump)
+    jmask = _jammed_mask(jammed, shape)
     energy_jump = np.asarray(energy_jump, dtype=np.float64).ravel()
     stress_jump = np.asarray(stress_jump, dtype=np.float64).ravel()
-    step = np.broadcast_to(np.asarray(strain_step, dtype=np.float64), energy_jump.shape).ravel()
+    try:  # a step per row, per column or per step of the jumps' array
+        step = np.broadcast_to(np.asarray(strain_step, dtype=np.float64), shape).ravel()
+    except ValueError:
+        raise ValueError(f"strain_step {np.shape(strain_step)} does not broadcast to the jumps' "
+                         f"shape {shape}") from None
     if stress_jump.shape != energy_jump.shape:
         raise ValueError(
             f"energy_jump {energy_jump.shape} and stress_jump {stress_jump.shape} differ in shape"
