@@ -38,6 +38,7 @@ __all__ = [
     "number",
     "positive",
     "seed",
+    "shape",
     "packing_fraction",
     "strain",
     "strain_steps",
@@ -153,6 +154,13 @@ def integer(
     if (minimum is not None and as_int < minimum) or (maximum is not None and as_int > maximum):
         raise _reject(name, what, as_int)
     return as_int
+
+
+def shape(name: str, value: Any) -> int | tuple[int, ...]:
+    """An array size for numpy: an integer ``>= 0`` or a tuple of them."""
+    if isinstance(value, tuple):
+        return tuple(integer(name, v, minimum=0) for v in value)
+    return integer(name, value, minimum=0)
 
 
 def dimension(name: str, value: Any) -> int:

@@ -240,3 +240,19 @@ def test_poisson_cluster_ablation_is_the_unmixed_one_level_formula():
         epsabs=1e-12)
     got = exact_jump_R([0.0], [1.0], 0.5, 0.0, poisson_clusters=True)[0]
     assert got == pytest.approx(val, abs=1e-6)
+
+
+def test_seed_and_levels_are_checked():
+    """A negative seed gave numpy's 'expected non-negative integer'; levels=8.5 was truncated to 8
+    without a word. Both are now refused, naming the argument."""
+    from jamlab.theory import ParisiFunction, exact_jump_law
+
+    q, y = np.array([0.0, 0.5]), np.array([0.3, 0.7])
+    with pytest.raises(ValueError, match=r"^seed must be an integer in \[0, "):
+        sample_cascade_jumps(q, y, 0.1, 10, seed=-1)
+    with pytest.raises(ValueError, match="^levels must be an integer >= 8, got 8.5$"):
+        exact_jump_law(ParisiFunction.linear(1.0, 0.1, 0.9), 0.1, levels=8.5)
+    # an integral float and a numpy integer are integers
+    a = sample_cascade_jumps(q, y, 0.1, 50, seed=np.int64(3))
+    b = sample_cascade_jumps(q, y, 0.1, 50, seed=3)
+    np.testing.assert_array_equal(a.dE, b.dE)

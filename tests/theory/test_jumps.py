@@ -392,3 +392,21 @@ def test_far_tail_C_and_dC_single_and_batch_against_mpmath(case):
         np.testing.assert_allclose(dC[far], results["batch"][1][far], rtol=1e-15, atol=0)
     # the pdf R ∂C/∂ΔE (R = 1 to rounding there) inherits the accuracy of ∂C/∂ΔE
     np.testing.assert_allclose(dist.pdf(dE[-3:]), dC_ref[-3:], rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda d: d.rvs(-1, seed=1), "^size must be an integer >= 0, got -1$"),
+        (lambda d: d.rvs(2.5, seed=1), "^size must be an integer >= 0, got 2.5$"),
+        (lambda d: d.rvs((3, -2), seed=1), "^size must be an integer >= 0, got -2$"),
+        (lambda d: d.rvs(3, seed=-1), r"^seed must be an integer in \[0, "),
+    ],
+)
+def test_rvs_refuses_bad_size_and_seed(call, message):
+    """numpy's 'negative dimensions are not allowed', a TypeError for 2.5 and 'expected
+    non-negative integer' before: now one line naming the argument."""
+    d = jump_distribution(ParisiFunction.linear(1.0, 0.1, 0.9), 0.1)
+    with pytest.raises(ValueError, match=message):
+        call(d)
+    assert d.rvs((2, 3), seed=1).shape == (2, 3) and d.rvs(0, seed=1).shape == (0,)

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from scipy.special import gammainc, gammaln, log_ndtr
 
+from jamlab import validation
 from jamlab.theory import _cascade_kernels as _k
 
 __all__ = [
@@ -279,7 +280,8 @@ def _check_dgamma(dgamma: Any) -> float:
 def _kernel_seed(seed: Any) -> int:
     if seed is None:
         raise ValueError("an explicit seed is required (an int or a numpy SeedSequence)")
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    ss = (seed if isinstance(seed, np.random.SeedSequence)
+          else np.random.SeedSequence(validation.seed("seed", seed)))
     return int(ss.generate_state(1, dtype=np.uint32)[0])
 
 

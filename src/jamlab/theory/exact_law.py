@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import chebyshev as C
 
+from jamlab import validation
 from jamlab.theory.exact import CascadeRecursion
 from jamlab.theory.exact_bands import BandedRecursion
 from jamlab.theory.jumps import scalar_or_array
@@ -360,7 +361,7 @@ def exact_jump_law(
         qa, ya = validate_levels(*y)
         discrete = True
     elif k is not None:
-        qa, ya = validate_levels(*y.discretise(int(k)))
+        qa, ya = validate_levels(*y.discretise(validation.integer("k", k)))
         discrete = True
     elif y.step_levels is not None:
         qa, ya = validate_levels(*y.step_levels)
@@ -371,9 +372,7 @@ def exact_jump_law(
         if dg == 0.0:
             return _TrivialLaw(qa, ya)
         return ExactJumpLaw([_DiscreteLaw(qa, ya, dg, grid)], dg, continuum=False)
-    K = int(levels)
-    if K < 8:
-        raise ValueError(f"levels must be >= 8, got {levels}")
+    K = validation.integer("levels", levels, minimum=8)
     coarse = continuum_levels(y, K, q_cut)
     fine = continuum_levels(y, 2 * K, q_cut)
     if dg == 0.0:
@@ -471,9 +470,7 @@ def exact_energy_jump_law(
     elif y.step_levels is not None:
         qa, ya = validate_levels(*y.step_levels)
     else:
-        K = int(levels)
-        if K < 8:
-            raise ValueError(f"levels must be >= 8, got {levels}")
+        K = validation.integer("levels", levels, minimum=8)
         q_top = _top_level(y, q_cut, _default_q_cut(y, abs(dg)))
         recs = [BandedRecursion(*geometric_levels(y, n, q_top), dg) for n in (K, 2 * K)]
         return ExactEnergyJumpLaw(recs, dg, q_top)

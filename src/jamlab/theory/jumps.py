@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erfcx
 
+from jamlab import validation
 from jamlab.theory.parisi import ParisiFunction
 
 FloatArray = NDArray[np.float64]
@@ -541,6 +542,9 @@ class PrintedJumpDistribution:
         ``μ = 1/2`` without cut-off, where most of the mass sits at unresolvably small ``|ΔE|``)
         come out as ``-0.0``.
         """
+        size = validation.shape("size", size)
+        if not (seed is None or isinstance(seed, np.random.Generator)):
+            seed = validation.seed("seed", seed)
         rng = np.random.default_rng(seed)
         v = rng.random(size)
         flat = np.ravel(v)
