@@ -349,10 +349,15 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         if on_plastic is not None and step.plastic:
             on_plastic(n, before, cur)
         append_row(rows, target, row, iterations, step.plastic)
-        stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total)
+        restart_here = out is not None and save_every is not None and n % save_every == 0 \
+            and n < total
+        # at a restart point the stepper's state is rebuilt below, as a resumed run builds it: a
+        # factorisation made for the next step here would be thrown away (and counted, which a
+        # run resumed from this checkpoint does not)
+        stepper.advance(step, cur, row, backbone, cleaned, target, last=n == total or restart_here)
         if progress is not None:
             progress(n, total)
-        if out is not None and save_every is not None and n % save_every == 0 and n < total:
+        if restart_here:
             save_checkpoint(out, with_records(make_trace(rows, attrs, counters)), cur, n,
                             snapshot=True)  # fmt: skip
             # a restart point: from here on the run is what `--resume` from this checkpoint
