@@ -105,8 +105,12 @@ def commit() -> str:
 
 
 def _blas_cores() -> str:
-    """Every BLAS loaded once CHOLMOD is (``jamlab.spheres.blas``): library, version and the
-    kernels (OpenBLAS's core) it runs, sorted."""
+    """Every BLAS loaded once CHOLMOD (``jamlab.spheres.blas``) and scipy's linear algebra are:
+    library, version and the kernels (OpenBLAS's core) it runs, sorted. scipy's is loaded here so
+    that the list is the same in every process, whatever it imported before (with
+    ``JAMLAB_CHOLMOD_BLAS=native`` a process that had not used scipy yet listed one BLAS less)."""
+    import scipy.linalg  # noqa: F401 - scipy's OpenBLAS
+
     from jamlab.spheres import blas
 
     blas.import_cvxopt()

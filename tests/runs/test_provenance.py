@@ -200,3 +200,24 @@ def test_a_field_one_record_lacks_is_unknown_not_a_difference(tmp_path):
         h5.attrs["provenance"] = json.dumps([older, {**here, "resumed_from": 2}])
     census = machine_census(rd, TOY)
     assert census.mixed == [] and len(census.machines) == 2
+
+
+@pytest.mark.parametrize("mode", ["", "native"])
+def test_blas_list_does_not_depend_on_what_the_process_imported_before(mode):
+    """The BLAS list is a key field of a machine. With JAMLAB_CHOLMOD_BLAS=native a process that
+    had not imported scipy's linear algebra listed one BLAS less than one that had (`jamlab
+    warmup` against a run's worker): the same machine recorded as two."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, JAMLAB_CHOLMOD_BLAS=mode) if mode else {
+        k: v for k, v in os.environ.items() if k != "JAMLAB_CHOLMOD_BLAS"}
+    code = "from jamlab import provenance; print(provenance.machine()['blas_cores'])"
+    lists = [subprocess.run([sys.executable, "-c", pre + code], env=env, capture_output=True,
+                            text=True, check=True).stdout
+             for pre in ("", "import scipy.sparse.linalg; ", "import cvxopt; ")]
+    assert lists[0] and lists[0] == lists[1], lists
+    # cvxopt imported before jamlab chose its core: the kernels may differ, the libraries not
+    assert [c.rsplit(" ", 1)[0] for c in lists[2].strip().split("; ")] == [
+        c.rsplit(" ", 1)[0] for c in lists[0].strip().split("; ")]
