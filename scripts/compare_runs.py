@@ -140,7 +140,13 @@ def cost(values: list[float], fmt: str) -> str:
 
 
 def sem(x: np.ndarray) -> float:
-    return float(x.std(ddof=1) / np.sqrt(len(x)))
+    """Standard error of the mean; NaN with fewer than two values (undefined, not a warning)."""
+    return float(x.std(ddof=1) / np.sqrt(len(x))) if len(x) >= 2 else float("nan")
+
+
+def mean_pm(x: np.ndarray) -> str:
+    """``mean ± sem``, ``–`` without values."""
+    return f"{x.mean():.3e} ± {sem(x):.1e}" if len(x) else "–"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -229,7 +235,7 @@ def summary(args: argparse.Namespace, pooled: dict, paired: dict | None) -> int:
         acc = pooled[name]
         print(f"| {run} | {acc['steps']} | {acc['unjammed']} | {acc['excluded']} | "
               f"{acc['plastic']} | {acc['plastic'] / acc['steps']:.4f} | "
-              f"{sizes[name].mean():.3e} ± {sem(sizes[name]):.1e} | "
+              f"{mean_pm(sizes[name])} | "
               f"{cost(acc['iterations'], '.0f')} | {cost(acc['cpu'], '.1f')} |")
     if paired is not None:
         print(f"\nthe same events? avalanches at the same step of the same sample in both runs: "
