@@ -594,3 +594,50 @@ def test_sigkill_at_random_moments_always_leaves_a_resumable_run(good, tmp_path)
             assert getattr(after, name)[:rows].tobytes() == getattr(whole, name)[:rows].tobytes()
         resumed_trials += 1
     assert resumed_trials >= 6, resumed_trials  # most kills land inside the loop
+
+
+def test_ctrl_c_inside_a_compiled_kernel_is_an_abort(tmp_path):
+    """Ctrl-C while FIRE's numba kernel runs surfaced as a traceback ending in "SystemError:
+    CPUDispatcher(<function fire …>) returned a result with an exception set", exit code 1: the
+    KeyboardInterrupt is chained under numba's SystemErrors. It is an abort now: one line, 130,
+    no file."""
+    out = tmp_path / "big.h5"
+    env = dict(os.environ)
+    # SIGINT as a terminal delivers it (a child of a non-interactive shell may inherit SIG_IGN)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "jamlab", "prepare", "--n", "3000", "--phi", "jamming",
+         "--out", str(out)],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    import time
+
+    time.sleep(8.0)  # past the imports and the kernels' cache loading: inside FIRE
+    assert proc.poll() is None, "the preparation ended before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err == "jamlab: aborted\n", err
+    assert not out.exists()
+
+
+def test_interrupted_follows_the_chain():
+    """Numba chains the KeyboardInterrupt under several SystemErrors (by __context__); an
+    unrelated SystemError is not an interrupt."""
+    from jamlab.cli import _interrupted
+
+    def numba_like():
+        try:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                raise SystemError("<function _numba_unpickle> returned a result with an "
+                                  "exception set") from None
+        except SystemError as e:
+            raise SystemError("CPUDispatcher(<function fire>) returned a result …") from e
+
+    with pytest.raises(SystemError) as info:
+        numba_like()
+    assert _interrupted(info.value)
+    assert not _interrupted(SystemError("a genuine internal error"))
+    assert _interrupted(KeyboardInterrupt())

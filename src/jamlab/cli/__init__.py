@@ -106,22 +106,41 @@ def describe_os_error(exc: OSError) -> str:
     return f"cannot {verb}{where}: {reason}".replace("\n", " ")
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is, or was raised while handling, a ``KeyboardInterrupt``."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
     try:
-        from jamlab.spheres import blas
-        from jamlab.spheres.kernel_choice import environment_mode
+        try:
+            from jamlab.spheres import blas
+            from jamlab.spheres.kernel_choice import environment_mode
 
-        environment_mode()  # a bad JAMLAB_FORCE_KERNEL fails here, not inside a worker
-        blas.environment_mode()  # and a bad JAMLAB_CHOLMOD_BLAS
-        rv = _command().main(args=argv, prog_name="jamlab", standalone_mode=False)
+            environment_mode()  # a bad JAMLAB_FORCE_KERNEL fails here, not inside a worker
+            blas.environment_mode()  # and a bad JAMLAB_CHOLMOD_BLAS
+            rv = _command().main(args=argv, prog_name="jamlab", standalone_mode=False)
+        except Exception as exc:
+            # Ctrl-C inside a compiled (numba) kernel surfaces as SystemError("... returned a
+            # result with an exception set"), inside numba's compiler or cache as another error,
+            # each chained to the KeyboardInterrupt: an abort, not a crash
+            if _interrupted(exc):
+                raise KeyboardInterrupt from None
+            raise
     except NoArgsIsHelpError as exc:
         print(exc.format_message())
         raise SystemExit(0) from None
     except UsageError as exc:
         # one line, no usage block and no traceback
         fail(exc.format_message().replace("\n", " "))
-    except typer.Abort:
+    except (typer.Abort, KeyboardInterrupt):
         print("jamlab: aborted", file=sys.stderr)
         raise SystemExit(130) from None
     except typer.Exit as exc:
@@ -131,4 +150,6 @@ def main(argv: list[str] | None = None) -> None:
     except OSError as exc:
         # the environment, not a bug: a full disk, a read-only file system, an I/O error
         fail(describe_os_error(exc))
+    if rv == 130:  # typer's translation of a Ctrl-C (KeyboardInterrupt → exit code 130)
+        print("jamlab: aborted", file=sys.stderr)
     raise SystemExit(rv if isinstance(rv, int) else 0)
