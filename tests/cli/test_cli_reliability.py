@@ -602,7 +602,12 @@ def test_ctrl_c_inside_a_compiled_kernel_is_an_abort(tmp_path):
     KeyboardInterrupt is chained under numba's SystemErrors. It is an abort now: one line, 130,
     no file."""
     out = tmp_path / "big.h5"
-    env = dict(os.environ)
+    # the kernels the big run needs are compiled and cached first (one kernel for every list
+    # length), so that the interrupt lands in FIRE, not in numba's compiler
+    env = dict(os.environ, JAMLAB_FORCE_KERNEL="branchy")
+    subprocess.run([sys.executable, "-m", "jamlab", "prepare", "--n", "64", "--phi", "jamming",
+                    "--quiet", "--out", str(tmp_path / "small.h5")], env=env, check=True,
+                   capture_output=True)
     # SIGINT as a terminal delivers it (a child of a non-interactive shell may inherit SIG_IGN)
     proc = subprocess.Popen(
         [sys.executable, "-m", "jamlab", "prepare", "--n", "3000", "--phi", "jamming",
