@@ -629,7 +629,7 @@ def test_ctrl_c_inside_a_compiled_kernel_is_an_abort(tmp_path):
 def test_interrupted_follows_the_chain():
     """Numba chains the KeyboardInterrupt under several SystemErrors (by __context__); an
     unrelated SystemError is not an interrupt."""
-    from jamlab.cli import _interrupted
+    from jamlab.cli import interrupted
 
     def numba_like():
         try:
@@ -643,6 +643,6 @@ def test_interrupted_follows_the_chain():
 
     with pytest.raises(SystemError) as info:
         numba_like()
-    assert _interrupted(info.value)
-    assert not _interrupted(SystemError("a genuine internal error"))
-    assert _interrupted(KeyboardInterrupt())
+    assert interrupted(info.value)
+    assert not interrupted(SystemError("a genuine internal error"))
+    assert interrupted(KeyboardInterrupt())

@@ -106,7 +106,7 @@ def describe_os_error(exc: OSError) -> str:
     return f"cannot {verb}{where}: {reason}".replace("\n", " ")
 
 
-def _interrupted(exc: BaseException) -> bool:
+def interrupted(exc: BaseException) -> bool:
     """Whether ``exc`` is, or was raised while handling, a ``KeyboardInterrupt``."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> None:
             # Ctrl-C inside a compiled (numba) kernel surfaces as SystemError("... returned a
             # result with an exception set"), inside numba's compiler or cache as another error,
             # each chained to the KeyboardInterrupt: an abort, not a crash
-            if _interrupted(exc):
+            if interrupted(exc):
                 raise KeyboardInterrupt from None
             raise
     except NoArgsIsHelpError as exc:
