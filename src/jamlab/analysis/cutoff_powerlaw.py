@@ -21,7 +21,6 @@ for ``a = 0``, the upward recurrence ``Γ(a, z) = (Γ(a+1, z) − z^a e^(−z))/
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -156,8 +155,7 @@ def _check_stretch(stretch: float) -> None:
 
 def _check_x_min(x_min: float) -> float:
     """A given ``x_min`` as a float: any real number (not a bool), finite and > 0."""
-    if (isinstance(x_min, bool) or not isinstance(x_min, numbers.Real)
-            or not (math.isfinite(x_min) and x_min > 0)):
+    if not (validation.is_real(x_min) and math.isfinite(x_min) and x_min > 0):
         raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")
     return float(x_min)
 
