@@ -252,6 +252,20 @@ def test_trace_round_trip(tmp_path):
     assert back.stress_jump[1] == pytest.approx(0.1, rel=1e-12)
 
 
+def test_save_every_may_be_a_numpy_integer(tmp_path):
+    # as n_steps may: the same checkpoints as with the Python int
+    start = _packing_at(64, 0.8, 3)
+    for every, name in ((2, "a.h5"), (np.int64(2), "b.h5")):
+        aqs.shear(start, DGAMMA, n_steps=5, out=tmp_path / name, save_every=every)
+    names = [
+        sorted(p.name for p in aqs.checkpoint_paths(tmp_path / name)[1].iterdir())
+        for name in ("a.h5", "b.h5")
+    ]
+    assert names[0] == names[1] == ["step_00000002.h5", "step_00000004.h5", "step_00000005.h5"]
+    a, b = read_trace(tmp_path / "a.h5"), read_trace(tmp_path / "b.h5")
+    np.testing.assert_array_equal(a.energy, b.energy)
+
+
 def test_resume_continues_the_same_trace(tmp_path):
     start = _packing_at(64, 0.8, 3)
     whole = aqs.shear(start, DGAMMA, n_steps=12).trace

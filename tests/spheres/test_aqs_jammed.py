@@ -120,6 +120,8 @@ def test_fixed_pressure_through_shear(tmp_path):
         {"pressure": float("nan")},
         {"pressure": 1e-3, "ptol": 0.0},
         {"pressure": 1e-3, "save_every": 0, "out": "x.h5"},
+        {"pressure": 1e-3, "save_every": True, "out": "x.h5"},  # not read as 1
+        {"pressure": 1e-3, "save_every": 2.0, "out": "x.h5"},
         {"pressure": 1e-3, "save_every": 2},  # checkpoints need an output file
     ],
 )

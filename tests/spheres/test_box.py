@@ -64,6 +64,16 @@ def test_sphere_volume_of_radii_array():
     np.testing.assert_allclose(sphere_volume(3, r), 4 * math.pi / 3 * r**3, rtol=1e-15)
 
 
+def test_volume_helpers_compute_a_float32_argument_in_float64():
+    # the value of np.float32(0.3), widened exactly, against the same value as a Python float
+    r32 = np.float32(0.3)
+    assert sphere_volume(3, r32) == sphere_volume(3, float(r32))
+    assert type(sphere_volume(3, r32)) is float
+    v = sphere_volume(3, np.array([r32, r32]))
+    assert v.dtype == np.float64 and v[0] == sphere_volume(3, float(r32))
+    assert packing_fraction(10, 3, np.float32(5.5)) == packing_fraction(10, 3, 5.5)
+
+
 @pytest.mark.parametrize(
     ("call", "word"),
     [
@@ -75,6 +85,10 @@ def test_sphere_volume_of_radii_array():
         (lambda: packing_fraction(100, 3, float("inf")), "box side"),  # was φ = 0
         (lambda: packing_fraction(0, 3, 5.0), "particles"),
         (lambda: packing_fraction(True, 3, 5.0), "particles"),
+        (lambda: packing_fraction(100, 3, True), "box side"),  # was read as L = 1
+        (lambda: box_length_for(True, 3, 0.5), "particles"),
+        (lambda: box_length_for(100, 3, True), "packing fraction"),  # was read as φ = 1
+        (lambda: box_length_for(100, 3, "0.5"), "packing fraction"),  # was a TypeError
     ],
 )
 def test_volume_helpers_refuse_bad_input(call, word):

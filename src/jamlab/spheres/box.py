@@ -16,12 +16,11 @@ Packing fraction of ``N`` spheres of diameter 1: ``φ = N v_d(1/2) / L^d`` with
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from jamlab import lees_edwards
+from jamlab import lees_edwards, validation
 from jamlab.lees_edwards import reduced_strain
 
 __all__ = [
@@ -40,6 +39,10 @@ def sphere_volume(dim: int, radius: float = 0.5) -> float:
     r = np.asarray(radius)
     if not (r.dtype.kind in "iuf" and np.all(np.isfinite(r)) and np.all(r >= 0)):
         raise ValueError(f"radius must be finite and >= 0, got radius={radius!r}")
+    if isinstance(radius, np.ndarray):
+        radius = r.astype(np.float64)  # a float32 array of radii is computed with in float64
+    elif isinstance(radius, np.generic):
+        radius = float(radius)
     return math.pi ** (dim / 2) * radius**dim / math.gamma(dim / 2 + 1)
 
 
@@ -47,17 +50,17 @@ def packing_fraction(n: int, dim: int, length: float) -> float:
     """``φ = N v_d(1/2) / L^d`` for ``N`` spheres of diameter 1 in a cube of side ``L``."""
     if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 1):
         raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
-    if not (isinstance(length, numbers.Real) and math.isfinite(length) and length > 0):
+    if not (validation.is_real(length) and math.isfinite(length) and length > 0):
         raise ValueError(f"box side must be finite and > 0, got length={length!r}")
     return n * sphere_volume(dim) / length**dim
 
 
 def box_length_for(n: int, dim: int, phi: float) -> float:
     """Side ``L = (N v_d(1/2) / φ)^(1/d)`` giving packing fraction ``φ``."""
-    if not (isinstance(n, int | np.integer) and n >= 1):
+    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 1):
         raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
     _check_dim(dim)
-    if not (math.isfinite(phi) and phi > 0):
+    if not (validation.is_real(phi) and math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
     return (n * sphere_volume(dim) / phi) ** (1.0 / dim)
 

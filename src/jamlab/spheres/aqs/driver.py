@@ -230,8 +230,9 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         )
     if minimizer not in MINIMIZERS:
         raise ValueError(f"minimizer must be one of {MINIMIZERS}, got minimizer={minimizer!r}")
-    total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
-    dgamma, ftol = float(dgamma), float(ftol)  # a numpy float32 argument computes in float64
+    total, dgamma, ftol = _run_length(
+        packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous
+    )
     params = AQSParameters() if params is None else params
     fire_params = FireParameters() if fire_params is None else fire_params
     if previous is not None and previous.attrs.get("floppy", "fire") != params.floppy:
@@ -380,9 +381,12 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
     )
 
 
-def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous) -> int:
-    """The number of strain steps of a run, after checking what both protocols take alike:
-    ``ftol``, exactly one of ``gamma_max``/``n_steps`` (``δγ`` resolvable at the strain),
+def _run_length(
+    packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous
+) -> tuple[int, float, float]:
+    """The number of strain steps of a run, and ``δγ`` and ``ftol`` as Python floats (a numpy
+    ``float32`` argument is computed with in float64), after checking what both protocols take
+    alike: ``ftol``, exactly one of ``gamma_max``/``n_steps`` (``δγ`` resolvable at the strain),
     ``save_every`` (with an output path), and for a resumed run a configuration at the strain
     of the trace's last row."""
     if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
@@ -396,7 +400,11 @@ def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, prev
         validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
         total = n_steps
         validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
-    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+    if save_every is not None and not (
+        isinstance(save_every, int | np.integer)
+        and not isinstance(save_every, bool)
+        and save_every >= 1
+    ):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if save_every is not None and out is None:
         raise ValueError("save_every needs an output path (out=...)")
@@ -407,7 +415,7 @@ def _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, prev
             f"configuration strain {packing.strain} does not match the trace's last strain "
             f"{previous.gamma[-1]}"
         )
-    return total
+    return total, float(dgamma), float(ftol)
 
 
 def _shear_at_pressure(
@@ -442,8 +450,9 @@ def _shear_at_pressure(
 
     pressure = validation.positive("pressure", pressure)
     ptol = validation.positive("ptol", ptol)
-    total = _run_length(packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous)
-    dgamma, ftol = float(dgamma), float(ftol)  # a numpy float32 argument computes in float64
+    total, dgamma, ftol = _run_length(
+        packing, dgamma, gamma_max, n_steps, ftol, save_every, out, previous
+    )
     if previous is not None and previous.attrs.get("protocol") != "fixed-pressure":
         raise ValueError("the trace to resume is not a fixed-pressure run")
     recorder = AvalancheRecorder(
