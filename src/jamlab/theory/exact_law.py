@@ -266,7 +266,7 @@ class ExactJumpLaw(_EnergyLaw):
     """
 
     def __init__(self, parts: list[_DiscreteLaw], dgamma: float, continuum: bool,
-                 atom0: float = 0.0, q_max: float = 1.0) -> None:
+                 atom0: float = 0.0, q_max: float = 1.0, merged_top: bool = True) -> None:
         self.dgamma = float(dgamma)
         self._parts = parts
         self.continuum = continuum
@@ -275,12 +275,15 @@ class ExactJumpLaw(_EnergyLaw):
         self.p_no_jump = self._combine(lambda p: np.array([p.p_no_jump]))[0]
         self.R_error = (abs(parts[1].p_no_jump - parts[0].p_no_jump) / 3.0
                         if len(parts) == 2 else 0.0)
-        masses = fine.rec.cluster_masses()
         # continuum: the first level's mass splits into the atom at q = 0 (share y(0+)/y_1 of
         # its Δy_1 = y_1) and the density part of [0, q_2]
-        atom_mass = masses[0] * min(atom0 / float(fine.rec.y[0]), 1.0) if continuum else 0.0
-        self.overlap = JumpOverlapLaw(fine.rec.q, masses, self.p_no_jump, continuum=continuum,
-                                      atom0=atom_mass, q_max=q_max)
+        sets = [(p.rec.q, p.rec.cluster_masses()) for p in parts]
+        sets = [(q, m, m[0] * min(atom0 / float(y[0]), 1.0) if continuum else 0.0)
+                for (q, m), y in zip(sets, (p.rec.y for p in parts), strict=True)]
+        self.overlap = JumpOverlapLaw(*sets[-1][:2], self.p_no_jump, continuum=continuum,
+                                      atom0=sets[-1][2], q_max=q_max,
+                                      coarse=sets[0] if len(sets) == 2 else None,
+                                      merged_top=merged_top)
         self.du = ScalarJumpLaw(
             self.p_no_jump,
             lambda w: self._combine(lambda p: p.rec.dU_pdf(w)),
@@ -379,7 +382,8 @@ def exact_jump_law(
         return _TrivialLaw(*fine)
     parts = [_DiscreteLaw(*coarse, dg, grid), _DiscreteLaw(*fine, dg, grid)]
     q_top = float(fine[0][-1])
-    return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top)
+    return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top,
+                        merged_top=q_top < float(y.q_max))
 
 
 def _default_q_cut(y: Any, d: float) -> float:

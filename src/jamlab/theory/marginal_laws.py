@@ -55,34 +55,52 @@ class JumpOverlapLaw:
     """Law of the overlap ``q`` between old and new ground states.
 
     ``levels``: the overlaps ``q_i``; ``masses``: ``P(q = q_i)``; ``p_no_jump``: the atom at
-    ``q = 1``. For a discrete cascade the law is atomic (:meth:`atoms`; ``pdf`` is 0). For the
-    continuum (``continuum=True``) the levels are a fine graded grid: the masses become the density
-    ``pdf`` (mass per unit ``q`` between neighbouring levels, from the finer of the two level
-    sets, not extrapolated) except an atom of mass ``atom0`` at ``q = 0`` when ``y(0+) > 0`` and,
-    when the top level sits at ``q_max`` (as :func:`exact_jump_law` builds it), the top level's
-    mass: an atom at ``q_max`` (the new ground state in the old one's lowest cluster; with a
-    cut-off ``q_cut``, every overlap above it).
+    ``q = 1``. For a discrete cascade the law is atomic (:meth:`atoms`; ``pdf`` is 0).
+
+    For the continuum (``continuum=True``) the levels are a fine graded grid and the level-``i``
+    mass is the mass of overlaps in ``[q_i, q_{i+1})`` (the clusters between two levels are merged
+    into the lower one): the masses become the density ``pdf`` (mass per unit ``q`` between
+    neighbouring levels), except an atom of mass ``atom0`` at ``q = 0`` when ``y(0+) > 0`` and the
+    mass of a top level at ``q_max``. When that level merges every cluster above a cut-off
+    (``merged_top``), its mass is an atom at ``q_max``; otherwise it has no continuum limit (it
+    falls as ``1/K`` with the number ``K`` of levels, measured) and is left out.
+
+    The masses converge as ``1/K`` (measured: the cdf at ``q = 0.2`` of ``y`` linear is 5.6 %,
+    2.7 %, 1.2 % low at ``K = 32, 64, 128``). ``coarse = (levels, masses, atom0)`` of the same
+    continuum on about half as many levels extrapolates them (Richardson, first order): density
+    and atoms are ``2·(these) − (coarse)``, and the density is then scaled to make the total
+    ``1 - p_no_jump`` (a change of order ``K⁻²``: 6e-5 of the jumps' mass at ``K = 64``).
+    ``levels`` and ``masses`` stay the finer set's.
     """
 
     def __init__(self, levels: np.ndarray, masses: np.ndarray, p_no_jump: float,
-                 continuum: bool = False, atom0: float = 0.0, q_max: float = 1.0) -> None:
+                 continuum: bool = False, atom0: float = 0.0, q_max: float = 1.0,
+                 coarse: tuple[np.ndarray, np.ndarray, float] | None = None,
+                 merged_top: bool = True) -> None:
         self.levels = np.asarray(levels, dtype=np.float64)
         self.masses = np.asarray(masses, dtype=np.float64)
         self.p_no_jump = float(p_no_jump)
         self.continuum = continuum
-        self.atom0 = float(atom0)
         self.q_max = q_max
-        # the top level at q_max has no width: its mass is an atom there, not a density
-        self._top_atom = (float(self.masses[-1]) if continuum and self.levels[-1] >= q_max
-                          else 0.0)
-
-    def _density_cells(self) -> tuple[np.ndarray, np.ndarray]:
-        """The cells' edges and masses of the density (``atom0`` and the top atom taken out)."""
-        top = self.levels[-1] >= self.q_max
-        edges = self.levels if top else np.append(self.levels, self.q_max)
-        m = self.masses[:-1].copy() if top else self.masses.copy()
-        m[0] -= self.atom0
-        return edges, m
+        sets = [(1.0, self.levels, self.masses, float(atom0))]
+        if continuum and coarse is not None:
+            c_levels, c_masses, c_atom0 = coarse
+            sets = [(2.0, *sets[0][1:]), (-1.0, np.asarray(c_levels, dtype=np.float64),
+                                           np.asarray(c_masses, dtype=np.float64), float(c_atom0))]
+        self.atom0 = sum(w * a for w, _, _, a in sets)
+        top = [continuum and q[-1] >= q_max for _, q, _, _ in sets]
+        self._top_atom = (sum(w * float(m[-1]) for w, _, m, _ in sets)
+                          if merged_top and all(top) else 0.0)
+        # (weight, edges, cell masses) of each level set's density
+        self._cells = []
+        for (w, q, m, a), at_top in zip(sets, top, strict=True):
+            edges, cells = (q, m[:-1].copy()) if at_top else (np.append(q, q_max), m.copy())
+            cells[0] -= a
+            self._cells.append((w, edges, cells))
+        if len(sets) == 2:
+            density = sum(w * float(m.sum()) for w, _, m in self._cells)
+            scale = (1.0 - self.p_no_jump - self.atom0 - self._top_atom) / density
+            self._cells = [(w * scale, e, m) for w, e, m in self._cells]
 
     def atoms(self) -> tuple[np.ndarray, np.ndarray]:
         """``(positions, masses)`` of the atoms, ``q = 1`` (no jump) last."""
@@ -98,10 +116,11 @@ class JumpOverlapLaw:
         qa = checked_floats("q", q)
         if not self.continuum:
             return scalar_or_array(np.zeros(qa.shape))
-        edges, m = self._density_cells()
-        dens = m / np.diff(edges)
-        centres = 0.5 * (edges[1:] + edges[:-1])
-        out = np.interp(qa, centres, dens, left=dens[0], right=dens[-1])
+        out = np.zeros(qa.shape)
+        for w, edges, m in self._cells:
+            dens = m / np.diff(edges)
+            centres = 0.5 * (edges[1:] + edges[:-1])
+            out = out + w * np.interp(qa, centres, dens, left=dens[0], right=dens[-1])
         return scalar_or_array(np.where((qa >= 0) & (qa < self.q_max), out, 0.0))
 
     def cdf(self, q: Any) -> np.ndarray | float:
@@ -112,9 +131,10 @@ class JumpOverlapLaw:
             idx = np.searchsorted(self.levels, qa, side="right")
             out = np.where(idx > 0, cum[np.maximum(idx, 1) - 1], 0.0)
         else:
-            edges, m = self._density_cells()
-            cum = np.concatenate(([self.atom0], self.atom0 + np.cumsum(m)))
-            out = np.interp(qa, edges, cum, left=0.0, right=cum[-1])
+            out = np.full(qa.shape, self.atom0)
+            for w, edges, m in self._cells:
+                cum = np.concatenate(([0.0], np.cumsum(m)))
+                out = out + w * np.interp(qa, edges, cum, left=0.0, right=cum[-1])
             out = np.where(qa < 0, 0.0, out)
             out = np.where(qa >= self.q_max, out + self._top_atom, out)
         out = np.where(qa >= 1.0, out + self.p_no_jump, out)
