@@ -427,3 +427,32 @@ def test_continuum_overlap_law_against_uniform_cascades(y, q_cut, merged):
                                    atom0=float(mass[0]) if y.atom0 > 0 else 0.0,
                                    q_max=q_top, merged_top=merged).cdf(v[:3]))
     assert np.all(np.abs(fine_only / ref_cdf[:3] - 1.0) > 1e-3)
+
+
+def test_continuum_of_a_constant_y_is_the_one_level_cascade():
+    """y constant on [0, q_max] has one level (q = 0, variance 1) after merging: the continuum law
+    raised IndexError (an empty density) and the level search gave NaN levels (0/0). Against the
+    one-level closed form one_level_R; all the jumps' overlap is the atom at q = 0."""
+    law = exact_jump_law(ParisiFunction.linear(0.0, 0.6, 0.9), 0.3)
+    for x in (-0.01, -0.1, -1.0):
+        assert float(law.R(x)) == pytest.approx(one_level_R(x, 0.6, 0.3, 1.0), rel=1e-13)
+    pos, mass = law.overlap.atoms()
+    np.testing.assert_array_equal(pos, [0.0, 1.0])
+    assert mass.sum() == pytest.approx(1.0, abs=1e-12)
+
+
+def test_continuum_with_a_flat_top_is_cut_where_y_stops_rising():
+    """y rising on [0, 0.5] and flat up to q_max = 0.9: no cluster branches above 0.5, so the law
+    is that of the same y cut at q_max = 0.5, and the top level's mass (1.28e-3, 0.64e-3 at
+    K = 64, 128: no continuum limit) is no atom. The levels used to end at the first graded edge
+    above the kink, a different one for K and 2K."""
+    flat = exact_jump_law(ParisiFunction.tabulated([0, 0.5, 0.9], [0.0, 1.0, 1.0]), 0.3)
+    cut = exact_jump_law(ParisiFunction.tabulated([0, 0.5], [0.0, 1.0]), 0.3)
+    assert flat.overlap.q_max == pytest.approx(0.5, abs=1e-12)
+    x = -np.logspace(-3, 0.5, 7)
+    np.testing.assert_allclose(flat.R(x), cut.R(x), rtol=0, atol=1e-13)
+    q = np.linspace(0.0, 1.0, 2001)
+    c = np.asarray(flat.overlap.cdf(q))
+    np.testing.assert_allclose(c, cut.overlap.cdf(q), rtol=0, atol=1e-13)
+    assert np.all(np.diff(c) >= 0) and c[-1] == 1.0
+    np.testing.assert_array_equal(flat.overlap.atoms()[0], [1.0])

@@ -129,16 +129,17 @@ class _DiscreteLaw:
 def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``K`` graded levels ``(q, y)`` approximating a continuous ``ParisiFunction``.
 
-    The top level sits at ``q_top = min(q_max, q_cut)`` with ``y = Y(q_top)/(1 - q_top)`` (the
-    mean of ``y`` above it; ``y(q_max)`` when ``q_top = q_max``): a cut-off ``q_cut`` merges every
-    cluster above it into one level, which changes the law only at ``|ΔE|`` of order
-    ``|δγ|√(1 - q_cut)`` and ``δγ² Y(q_cut)`` or below. Without a cut-off (``q_max = 1``)
-    ``q_cut`` is required. Level edges equidistribute ``s(q) = ½ q/q_top + ½ log(1 + (y(q) -
-    y(0+))/y_s) / log(1 + (y(q_top) - y(0+))/y_s)``, ``y_s = (y(q_top) - y(0+))/10`` (half the
-    levels uniform in ``q``, half where ``y`` rises, geometrically where it diverges); ``y_i`` is
-    the mean of ``y`` over ``[q_i, q_{i+1}]`` (as :meth:`ParisiFunction.discretise`).
+    The top level sits at ``q_top = min(q_max, q_cut)`` (or lower, where ``y`` stops rising) with
+    ``y = Y(q_top)/(1 - q_top)`` (the mean of ``y`` above it; ``y(q_max)`` when ``q_top =
+    q_max``): a cut-off ``q_cut`` merges every cluster above it into one level, which changes the
+    law only at ``|ΔE|`` of order ``|δγ|√(1 - q_cut)`` and ``δγ² Y(q_cut)`` or below. Without a
+    cut-off (``q_max = 1``) ``q_cut`` is required. Level edges equidistribute ``s(q) = ½ q/q_top
+    + ½ log(1 + (y(q) - y(0+))/y_s) / log(1 + (y(q_top) - y(0+))/y_s)``, ``y_s = (y(q_top) -
+    y(0+))/10`` (half the levels uniform in ``q``, half where ``y`` rises, geometrically where it
+    diverges; uniform when ``y`` is constant); ``y_i`` is the mean of ``y`` over ``[q_i,
+    q_{i+1}]`` (as :meth:`ParisiFunction.discretise`).
     """
-    qm = _top_level(y, q_cut)
+    qm = _rise_end(y, _top_level(y, q_cut))
     y0 = float(y.y(0.0))
     ym = float(y.y(qm))
     rise = ym - y0
@@ -146,6 +147,8 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     norm = math.log1p(rise / ys) if rise > 0 else 1.0
 
     def s_of(q: np.ndarray) -> np.ndarray:
+        if not rise > 0:  # y constant on [0, q_top]: uniform edges (one level after merging)
+            return q / qm
         yy = np.asarray(y.y(np.minimum(q, qm)), dtype=np.float64)
         return 0.5 * q / qm + 0.5 * np.log1p((yy - y0) / ys) / norm
 
@@ -161,6 +164,25 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     q[0] = 0.0
     q[-1] = qm
     return _step_values(y, q, qm)
+
+
+def _rise_end(y: Any, qm: float) -> float:
+    """Where ``y`` stops rising below ``qm``: ``qm`` itself unless ``y`` is flat on
+    ``[q_f, qm]`` with ``qm - q_f > 1e-9``. Above ``q_f`` no clusters branch: the top level sits
+    there (its ``y`` the mean above it, exact), for ``K`` and ``2K`` levels alike."""
+    ym = float(y.y(qm))
+    if not float(y.y(0.0)) < ym:  # constant: one level, whatever its top
+        return qm
+    lo, hi = 0.0, qm
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if float(y.y(mid)) < ym:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-15:
+            break
+    return qm if qm - hi <= 1e-9 else hi
 
 
 def _step_values(y: Any, q: np.ndarray, qm: float) -> tuple[np.ndarray, np.ndarray]:
@@ -380,10 +402,15 @@ def exact_jump_law(
     fine = continuum_levels(y, 2 * K, q_cut)
     if dg == 0.0:
         return _TrivialLaw(*fine)
+    if fine[0].size == 1:  # y constant up to q_top: exactly the one-level cascade
+        return ExactJumpLaw([_DiscreteLaw(*fine, dg, grid)], dg, continuum=False)
     parts = [_DiscreteLaw(*coarse, dg, grid), _DiscreteLaw(*fine, dg, grid)]
     q_top = float(fine[0][-1])
+    # the top level is a cluster (an atom of the overlap at q_top) only where y rises above it,
+    # i.e. where a cut-off merged the levels above q_top; else its mass falls as 1/K (measured)
+    q_end = float(y.q_max) if float(y.q_max) < 1.0 else math.nextafter(1.0, 0.0)
     return ExactJumpLaw(parts, dg, continuum=True, atom0=float(y.atom0), q_max=q_top,
-                        merged_top=q_top < float(y.q_max))
+                        merged_top=float(y.y(q_end)) > float(y.y(q_top)))
 
 
 def _default_q_cut(y: Any, d: float) -> float:

@@ -97,8 +97,8 @@ class JumpOverlapLaw:
             edges, cells = (q, m[:-1].copy()) if at_top else (np.append(q, q_max), m.copy())
             cells[0] -= a
             self._cells.append((w, edges, cells))
-        if len(sets) == 2:
-            density = sum(w * float(m.sum()) for w, _, m in self._cells)
+        density = sum(w * float(m.sum()) for w, _, m in self._cells)
+        if len(sets) == 2 and density > 0:  # no density at all when y is constant
             scale = (1.0 - self.p_no_jump - self.atom0 - self._top_atom) / density
             self._cells = [(w * scale, e, m) for w, e, m in self._cells]
 
