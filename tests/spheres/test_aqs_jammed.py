@@ -125,7 +125,8 @@ def test_fixed_pressure_through_shear(tmp_path):
         {"pressure": 1e-3, "save_every": 2},  # checkpoints need an output file
     ],
 )
-def test_fixed_pressure_bad_arguments(kw, tmp_path):
+def test_fixed_pressure_bad_arguments(kw, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a relative out= accepted by mistake writes there, not here
     pk = prepare(16, 3, 0.7, 3).packing
     with pytest.raises(ValueError):
         shear(pk, 1e-4, n_steps=2, **kw)
