@@ -427,6 +427,12 @@ def test_continuum_overlap_law_against_uniform_cascades(y, q_cut, merged):
                                    atom0=float(mass[0]) if y.atom0 > 0 else 0.0,
                                    q_max=q_top, merged_top=merged).cdf(v[:3]))
     assert np.all(np.abs(fine_only / ref_cdf[:3] - 1.0) > 1e-3)
+    # without a merged top its total is still the jumps' mass (the density makes up the top
+    # level left out); with one, the single set's masses add up to its own 1 - p_no_jump
+    if not merged:
+        assert float(type(o)(o.levels, o.masses, law.p_no_jump, continuum=True, q_max=q_top,
+                             merged_top=False).cdf(0.95)) == pytest.approx(
+            1.0 - law.p_no_jump, abs=1e-14)
 
 
 def test_continuum_of_a_constant_y_is_the_one_level_cascade():

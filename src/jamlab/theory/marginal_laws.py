@@ -68,8 +68,9 @@ class JumpOverlapLaw:
     The masses converge as ``1/K`` (measured: the cdf at ``q = 0.2`` of ``y`` linear is 5.8 %,
     2.9 %, 1.4 % low at ``K = 32, 64, 128``). ``coarse = (levels, masses, atom0)`` of the same
     continuum on about half as many levels extrapolates them (Richardson, first order): density
-    and atoms are ``2·(these) − (coarse)``, and the density is then scaled to make the total
-    ``1 - p_no_jump`` (a change of order ``K⁻²``: 6e-5 of the jumps' mass at ``K = 64``).
+    and atoms are ``2·(these) − (coarse)``. With ``coarse`` or a top level left out, the density is
+    then scaled to make the total ``1 - p_no_jump`` (a change of order ``K⁻²`` with ``coarse``: 6e-5
+    of the jumps' mass at ``K = 64``).
     ``levels`` and ``masses`` stay the finer set's.
     """
 
@@ -98,7 +99,8 @@ class JumpOverlapLaw:
             cells[0] -= a
             self._cells.append((w, edges, cells))
         density = sum(w * float(m.sum()) for w, _, m in self._cells)
-        if len(sets) == 2 and density > 0:  # no density at all when y is constant
+        dropped = continuum and not merged_top and all(top)  # the top level's mass left out
+        if (len(sets) == 2 or dropped) and density > 0:  # no density when y is constant
             scale = (1.0 - self.p_no_jump - self.atom0 - self._top_atom) / density
             self._cells = [(w * scale, e, m) for w, e, m in self._cells]
 
