@@ -107,6 +107,12 @@ def is_real(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
+def is_integer(value: Any) -> bool:
+    """An integer given to a library function: a Python or numpy integer, never a ``bool``, a
+    float or a string (:func:`integer` takes those too, for the command line and manifests)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def integer(
     name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None
 ) -> int:

@@ -122,11 +122,29 @@ def test_fixed_pressure_through_shear(tmp_path):
         {"pressure": 1e-3, "save_every": 0, "out": "x.h5"},
         {"pressure": 1e-3, "save_every": True, "out": "x.h5"},  # not read as 1
         {"pressure": 1e-3, "save_every": 2.0, "out": "x.h5"},
+        {"pressure": 1e-3, "n_steps": 2.0},  # was a TypeError inside the run
+        {"pressure": 1e-3, "n_steps": "2"},
+        {"n_steps": 2.0},  # constant volume alike
+        {"n_steps": True},
         {"pressure": 1e-3, "save_every": 2},  # checkpoints need an output file
     ],
 )
-def test_fixed_pressure_bad_arguments(kw, tmp_path, monkeypatch):
+def test_shear_bad_arguments(kw, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a relative out= accepted by mistake writes there, not here
     pk = prepare(16, 3, 0.7, 3).packing
+    kw = {"n_steps": 2} | kw
     with pytest.raises(ValueError):
-        shear(pk, 1e-4, n_steps=2, **kw)
+        shear(pk, 1e-4, **kw)
+
+
+def test_numpy_integer_steps_at_fixed_pressure(tmp_path):
+    """n_steps and save_every may be numpy integers at fixed pressure, as at constant volume: the
+    driver accepted them and the fixed-pressure stepper refused them ("n_steps must be an
+    integer"). The same run as with Python ints."""
+    pk = prepare(16, 3, 0.7, 3).packing
+    runs = [shear(pk, 1e-4, n_steps=steps, pressure=1e-3, save_every=every, out=tmp_path / name)
+            for steps, every, name in ((4, 2, "a.h5"), (np.int64(4), np.int64(2), "b.h5"))]
+    a, b = (r.trace for r in runs)
+    assert a.n_steps == b.n_steps == 4
+    np.testing.assert_array_equal(a.energy, b.energy)
+    np.testing.assert_array_equal(a.phi, b.phi)

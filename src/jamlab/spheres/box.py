@@ -48,8 +48,7 @@ def sphere_volume(dim: int, radius: float = 0.5) -> float:
 
 def packing_fraction(n: int, dim: int, length: float) -> float:
     """``φ = N v_d(1/2) / L^d`` for ``N`` spheres of diameter 1 in a cube of side ``L``."""
-    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 1):
-        raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
+    _check_n(n)
     if not (validation.is_real(length) and math.isfinite(length) and length > 0):
         raise ValueError(f"box side must be finite and > 0, got length={length!r}")
     return n * sphere_volume(dim) / length**dim
@@ -57,16 +56,20 @@ def packing_fraction(n: int, dim: int, length: float) -> float:
 
 def box_length_for(n: int, dim: int, phi: float) -> float:
     """Side ``L = (N v_d(1/2) / φ)^(1/d)`` giving packing fraction ``φ``."""
-    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 1):
-        raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
+    _check_n(n)
     _check_dim(dim)
     if not (validation.is_real(phi) and math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")
     return (n * sphere_volume(dim) / phi) ** (1.0 / dim)
 
 
+def _check_n(n: int) -> None:
+    if not (validation.is_integer(n) and n >= 1):
+        raise ValueError(f"number of particles must be a positive integer, got n={n!r}")
+
+
 def _check_dim(dim: int) -> None:
-    if not (isinstance(dim, int | np.integer) and not isinstance(dim, bool) and dim >= 2):
+    if not (validation.is_integer(dim) and dim >= 2):
         raise ValueError(f"dimension must be an integer >= 2, got dim={dim!r}")
 
 

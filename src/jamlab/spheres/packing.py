@@ -20,8 +20,6 @@ import numbers
 import time
 from dataclasses import dataclass, field, replace
 
-import numpy as np
-
 from jamlab import validation
 from jamlab.spheres.compression import (
     CoordinationCurve,
@@ -124,11 +122,11 @@ class PreparedPacking:
 
 def _check_common(n: int, dim: int, seed: int, ftol: float, sizes: str, alpha: float) -> float:
     """Check the arguments every preparation takes; return ``ftol`` as a float."""
-    if not (isinstance(n, int | np.integer) and not isinstance(n, bool) and n >= 2):
+    if not (validation.is_integer(n) and n >= 2):
         raise ValueError(f"number of particles must be an integer >= 2, got n={n!r}")
-    if not (isinstance(dim, int | np.integer) and not isinstance(dim, bool) and dim >= 2):
+    if not (validation.is_integer(dim) and dim >= 2):
         raise ValueError(f"dimension must be an integer >= 2, got dim={dim!r}")
-    if not (isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0):
+    if not (validation.is_integer(seed) and seed >= 0):
         raise ValueError(f"seed must be an integer >= 0, got seed={seed!r}")
     if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")

@@ -237,10 +237,10 @@ def shear_at_pressure(
             raise ValueError(f"need dgamma < gamma_max, got {dgamma!r}, {gamma_max!r}")
         total = int(round(gamma_max / dgamma))
     else:
-        if not (isinstance(n_steps, int) and n_steps >= 1):
+        if not (validation.is_integer(n_steps) and n_steps >= 1):
             raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
-        total = n_steps
-    if save_every is not None and not (isinstance(save_every, int) and save_every >= 1):
+        total = int(n_steps)
+    if save_every is not None and not (validation.is_integer(save_every) and save_every >= 1):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if confirm not in CONFIRMS:
         raise ValueError(f"confirm must be one of {', '.join(CONFIRMS)}, got {confirm!r}")

@@ -397,14 +397,11 @@ def _run_length(
     if n_steps is None:
         total = n_steps_for(dgamma, gamma_max, start_strain)
     else:
-        validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
-        total = n_steps
-        validation.strain_steps(dgamma, (n_steps + 0.5) * dgamma, start_strain)
-    if save_every is not None and not (
-        isinstance(save_every, int | np.integer)
-        and not isinstance(save_every, bool)
-        and save_every >= 1
-    ):
+        if not validation.is_integer(n_steps):
+            raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
+        total = validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
+        validation.strain_steps(dgamma, (total + 0.5) * dgamma, start_strain)
+    if save_every is not None and not (validation.is_integer(save_every) and save_every >= 1):
         raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
     if save_every is not None and out is None:
         raise ValueError("save_every needs an output path (out=...)")
