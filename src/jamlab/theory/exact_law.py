@@ -143,12 +143,12 @@ def continuum_levels(y: Any, K: int, q_cut: float | None = None) -> tuple[np.nda
     y0 = float(y.y(0.0))
     ym = float(y.y(qm))
     rise = ym - y0
-    ys = rise / 10.0 if rise > 0 else 1.0
-    norm = math.log1p(rise / ys) if rise > 0 else 1.0
+    if not rise > 0:  # y constant on [0, q_top]: uniform edges, one level after merging
+        return _step_values(y, np.linspace(0.0, qm, K), qm)
+    ys = rise / 10.0
+    norm = math.log1p(rise / ys)
 
     def s_of(q: np.ndarray) -> np.ndarray:
-        if not rise > 0:  # y constant on [0, q_top]: uniform edges (one level after merging)
-            return q / qm
         yy = np.asarray(y.y(np.minimum(q, qm)), dtype=np.float64)
         return 0.5 * q / qm + 0.5 * np.log1p((yy - y0) / ys) / norm
 
@@ -299,9 +299,11 @@ class ExactJumpLaw(_EnergyLaw):
                         if len(parts) == 2 else 0.0)
         # continuum: the first level's mass splits into the atom at q = 0 (share y(0+)/y_1 of
         # its Δy_1 = y_1) and the density part of [0, q_2]
-        sets = [(p.rec.q, p.rec.cluster_masses()) for p in parts]
-        sets = [(q, m, m[0] * min(atom0 / float(y[0]), 1.0) if continuum else 0.0)
-                for (q, m), y in zip(sets, (p.rec.y for p in parts), strict=True)]
+        sets = []
+        for p in parts:
+            m = p.rec.cluster_masses()
+            sets.append((p.rec.q, m, m[0] * min(atom0 / float(p.rec.y[0]), 1.0) if continuum
+                         else 0.0))
         self.overlap = JumpOverlapLaw(*sets[-1][:2], self.p_no_jump, continuum=continuum,
                                       atom0=sets[-1][2], q_max=q_max,
                                       coarse=sets[0] if len(sets) == 2 else None,
