@@ -38,6 +38,7 @@ __all__ = [
     "check_links",
     "check_new_run_directory",
     "check_outputs",
+    "open_hdf5",
     "fsync_dir",
     "RUN_FORMAT",
     "RUN_MEMBERS",
@@ -290,6 +291,21 @@ def atomic_savefig(fig: Any, path: PathLike, **kwargs: Any) -> Path:
     path = Path(path)
     kwargs.setdefault("format", path.suffix.lower().lstrip(".") or "png")
     return atomic_write(path, lambda tmp: fig.savefig(tmp, **kwargs))
+
+
+def open_hdf5(path: PathLike, what: str = "") -> Any:
+    """``path`` opened read-only as an ``h5py.File`` (use it in a ``with``):
+    ``FileNotFoundError`` ("no such {what} file") if it is not a file, ``ValueError`` ("not an
+    HDF5 file") if HDF5 cannot open it. The readers of configurations and traces start here."""
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such {what + ' ' if what else ''}file: {path}")
+    try:
+        return h5py.File(path, "r")
+    except OSError:
+        raise ValueError(f"not an HDF5 file: {path}") from None
 
 
 def check_links(group: Any, path: PathLike) -> None:

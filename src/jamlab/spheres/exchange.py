@@ -32,11 +32,10 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab.files import atomic_write
+from jamlab.files import atomic_write, open_hdf5
 from jamlab.spheres import Box, Packing
 from jamlab.spheres.box import reduced_strain
 from jamlab.spheres.exchange_seed import extxyz_seed, gsd_seed_chunk, seed_of_gsd_chunk
@@ -127,13 +126,8 @@ def make_packing(
 
 
 def _h5_format(path: Path) -> str:
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-    try:
-        with h5py.File(path, "r") as h5:
-            fmt = h5.attrs.get("format", "")
-    except OSError:
-        raise ValueError(f"not an HDF5 file: {path}") from None
+    with open_hdf5(path) as h5:
+        fmt = h5.attrs.get("format", "")
     return fmt.decode() if isinstance(fmt, bytes) else str(fmt)
 
 

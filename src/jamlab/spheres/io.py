@@ -28,7 +28,7 @@ import h5py
 import numpy as np
 
 from jamlab import validation
-from jamlab.files import atomic_write_hdf5, check_links
+from jamlab.files import atomic_write_hdf5, check_links, open_hdf5
 from jamlab.spheres.box import Box
 from jamlab.spheres.state import Packing
 
@@ -76,13 +76,7 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
 def read_packing(path: str | os.PathLike) -> Packing:
     """Read a configuration written by :func:`write_packing`; ``ValueError`` if it is not one."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such configuration file: {path}")
-    try:
-        h5 = h5py.File(path, "r")
-    except OSError:
-        raise ValueError(f"not an HDF5 file: {path}") from None
-    with h5:
+    with open_hdf5(path, "configuration") as h5:
         check_links(h5, path)
         missing = [k for k in ("box_length", "strain", "dim") if k not in h5.attrs]
         if "positions" not in h5 or missing:

@@ -51,7 +51,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from jamlab.files import atomic_write_hdf5, check_links
+from jamlab.files import atomic_write_hdf5, check_links, open_hdf5
 
 __all__ = [
     "FIXED_PRESSURE_COLUMNS",
@@ -309,13 +309,7 @@ def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
 def read_trace(path: str | os.PathLike) -> Trace:
     """Read a trace written by :func:`write_trace`; ``ValueError`` if the file is not one."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such trace file: {path}")
-    try:
-        h5 = h5py.File(path, "r")
-    except OSError:
-        raise ValueError(f"not an HDF5 file: {path}") from None
-    with h5:
+    with open_hdf5(path, "trace") as h5:
         check_links(h5, path)
         missing = [name for name in TRACE_COLUMNS if name not in h5]
         if missing:
