@@ -32,6 +32,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from jamlab import validation
+
 __all__ = ["TASKS", "EXTRA_TASKS", "WarmupResult", "count_compilations", "warmup"]
 
 
@@ -144,7 +146,7 @@ def warmup(jobs: int | None = None, extra: bool = False,
     names = list(TASKS) + (list(EXTRA_TASKS) if extra else [])
     if jobs is None:
         jobs = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if not (isinstance(jobs, int) and jobs >= 1):
+    if not (validation.is_integer(jobs) and jobs >= 1):
         raise ValueError(f"jobs must be an integer >= 1, got {jobs!r}")
     t0 = time.perf_counter()
     seconds: dict[str, float] = {}

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from jamlab import validation
+
 __all__ = [
     "CoarseSteps",
     "NoiseFloor",
@@ -375,7 +377,7 @@ def coarsen_steps(
         raise ValueError(f"energy_jump {ej.shape} and stress_jump {sj.shape} must share a "
                          "shape with a step axis")
     m = ej.shape[-1]
-    if not (isinstance(k, int | np.integer) and 1 <= k <= m):
+    if not (validation.is_integer(k) and 1 <= k <= m):
         raise ValueError(f"k must be an integer in [1, {m}] (the steps), got {k!r}")
     k = int(k)
     blocks = m // k

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize_scalar
 
+from jamlab import validation
 from jamlab.analysis.powerlaw import finite_data, mle_tau
 
 FloatArray = NDArray[np.float64]
@@ -165,9 +166,9 @@ def fit_exponent(
     if method not in _METHODS:
         raise ValueError(f"method must be one of {', '.join(_METHODS)}, got {method!r}")
     lo, hi = _check_window(window)
-    if not (isinstance(n_boot, int) and n_boot >= 0):
+    if not (validation.is_integer(n_boot) and n_boot >= 0):
         raise ValueError(f"n_boot must be an integer >= 0, got {n_boot!r}")
-    if not (isinstance(n_points, int) and n_points >= 3):
+    if not (validation.is_integer(n_points) and n_points >= 3):
         raise ValueError(f"n_points must be an integer >= 3, got {n_points!r}")
     s = _samples(samples)
     m = len(s)

@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
+from jamlab import validation
 from jamlab.analysis.cutoff_powerlaw import (
     cutoff_power_law_log_norm,
     shape_free_interval,
@@ -163,7 +164,7 @@ def fit_cutoff_scaling(
     (module docstring). ``sizes_by_n[N]`` holds one array of sizes per sample. Sizes with no
     avalanche are dropped; ``ValueError`` with fewer than two sizes that have avalanches, or
     ``n_boot < 2``."""
-    if not (isinstance(n_boot, int) and n_boot >= 2):
+    if not (validation.is_integer(n_boot) and n_boot >= 2):
         raise ValueError(f"n_boot must be an integer >= 2, got {n_boot!r}")
     per_n = {}
     for n, samples in sizes_by_n.items():
@@ -411,9 +412,9 @@ def fit_joint_scaling(
     (fixed; compare ``loglik`` over a grid of ``a`` for its profile likelihood). ``ValueError``
     for non-positive sizes, floors or ``stretch``, a missing floor, ``n_boot < 2``, or fewer
     than two sizes ``N`` left."""
-    if not (isinstance(n_boot, int) and n_boot >= 2):
+    if not (validation.is_integer(n_boot) and n_boot >= 2):
         raise ValueError(f"n_boot must be an integer >= 2, got {n_boot!r}")
-    if not (isinstance(min_tail, int) and min_tail >= 1):
+    if not (validation.is_integer(min_tail) and min_tail >= 1):
         raise ValueError(f"min_tail must be an integer >= 1, got {min_tail!r}")
     stretch = float(stretch)
     if not (math.isfinite(stretch) and stretch > 0):

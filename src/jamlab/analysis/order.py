@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import sph_harm_y
 
+from jamlab import validation
 from jamlab.analysis.contact_geometry import pairs_within
 
 __all__ = ["BondOrder", "bond_order"]
@@ -70,7 +71,7 @@ def bond_order(
     x = np.asarray(positions, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != 3:
         raise ValueError(f"bond order needs 3D positions (N, 3), not {x.shape}")
-    if not (isinstance(l, int) and l >= 2 and l % 2 == 0):
+    if not (validation.is_integer(l) and l >= 2 and l % 2 == 0):
         raise ValueError(f"l must be an even integer >= 2, not {l}")
     if not (math.isfinite(cutoff) and cutoff >= 1):
         raise ValueError(f"cutoff must be >= 1 (the contacts at least), not {cutoff}")

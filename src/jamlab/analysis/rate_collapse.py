@@ -41,6 +41,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize, minimize_scalar
 
+from jamlab import validation
+
 __all__ = ["RateCollapse", "RateCurves", "collapse_rms", "cumulative_rates", "rate_collapse"]
 
 FloatArray = NDArray[np.float64]
@@ -79,14 +81,17 @@ Strain = float | Mapping[int, Sequence[float]]
 def _per_packing(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain) -> dict:
     """``{N: strains of its packings}`` from one strain for all or one per packing; ValueError
     where a strain is not a number > 0 or a size's count differs from its packings'."""
+    scalar = validation.is_real(strain)
+    if not (scalar or isinstance(strain, Mapping)):
+        raise ValueError(f"strain must be a number or {{N: strains}}, got {strain!r}")
     out = {}
     for n, packs in groups.items():
-        if not isinstance(strain, int | float) and n not in strain:
+        if not scalar and n not in strain:
             raise ValueError(f"N = {n}: no strains given for its packings")
-        g = np.full(len(packs), strain, dtype=np.float64) if isinstance(strain, int | float) \
+        g = np.full(len(packs), strain, dtype=np.float64) if scalar \
             else np.asarray(strain[n], dtype=np.float64).ravel()
         if g.size != len(packs) or not np.all(np.isfinite(g) & (g > 0)):
-            got = strain if isinstance(strain, int | float) else g
+            got = strain if scalar else g
             raise ValueError(f"N = {n}: the strains must be numbers > 0, one per packing "
                              f"({len(packs)}), got {got}")
         out[n] = g
@@ -182,12 +187,12 @@ def rate_collapse(groups: Mapping[int, Sequence[np.ndarray]], strain: Strain, s_
     ``boot``, or a size with fewer than two grid points above ``least`` avalanches."""
     if len(groups) < 2:
         raise ValueError(f"need two sizes N or more, got {sorted(groups)}")
-    if not (isinstance(s_min, int | float) and math.isfinite(s_min) and s_min > 0):
+    if not (validation.is_real(s_min) and math.isfinite(s_min) and s_min > 0):
         raise ValueError(f"s_min must be a number > 0, got {s_min!r}")
     strains = _per_packing(groups, strain)
-    if not (isinstance(least, int) and least >= 1):
+    if not (validation.is_integer(least) and least >= 1):
         raise ValueError(f"least must be an integer >= 1, got {least!r}")
-    if not (isinstance(boot, int) and boot >= 2):
+    if not (validation.is_integer(boot) and boot >= 2):
         raise ValueError(f"boot must be an integer >= 2, got {boot!r}")
     ns = sorted(int(n) for n in groups)
     empty = [n for n in ns if not len(groups[n])]

@@ -62,6 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
+from jamlab import validation
 from jamlab.analysis.cutoff_powerlaw import cutoff_power_law_logpdf
 from jamlab.threads import one_blas_thread
 
@@ -217,7 +218,7 @@ def clustered_shape_test(sizes_by_group: Mapping[int, Sequence[ArrayLike]] | Seq
     below ``floor`` are dropped. ``ValueError`` for a bad floor, non-positive or non-finite
     sizes, fewer than 3 samples or 20 avalanches at or above the floor, or ``{N: list}`` with one
     ``N``."""
-    if not (isinstance(floor, int | float) and math.isfinite(floor) and floor > 0):
+    if not (validation.is_real(floor) and math.isfinite(floor) and floor > 0):
         raise ValueError(f"floor must be finite and > 0, got {floor!r}")
     if isinstance(sizes_by_group, Mapping) and len(sizes_by_group) < 2:
         raise ValueError("the joint model needs two sizes N or more (pass a list for one)")

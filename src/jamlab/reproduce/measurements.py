@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.reproduce.ensembles import (
     avalanche_set,
     counted_steps,
@@ -352,7 +353,7 @@ def converged_window(sizes: np.ndarray, coarse: np.ndarray, x_min: float, *,
     fixed floor (``n_boot`` resamples; the floor's choice is not in it)."""
     from jamlab.analysis import fit_cutoff_power_law
 
-    if not (isinstance(min_tail, int) and min_tail >= 10):
+    if not (validation.is_integer(min_tail) and min_tail >= 10):
         raise ValueError(f"min_tail must be an integer >= 10, got {min_tail!r}")
     if not (math.isfinite(x_min) and x_min > 0):
         raise ValueError(f"x_min must be finite and > 0, got {x_min!r}")

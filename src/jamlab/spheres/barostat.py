@@ -166,7 +166,7 @@ def minimize_enthalpy(
     if not (validation.is_real(ptol) and math.isfinite(ptol) and ptol > 0):
         raise ValueError(f"ptol must be finite and > 0, got ptol={ptol!r}")
     target_pressure, ptol = float(target_pressure), float(ptol)
-    if not (isinstance(max_volume_steps, int) and max_volume_steps >= 0):
+    if not (validation.is_integer(max_volume_steps) and max_volume_steps >= 0):
         raise ValueError(f"max_volume_steps must be an integer >= 0, got {max_volume_steps!r}")
     floor = pressure_floor(packing.n, packing.dim, packing.box.length, ftol)
     if not target_pressure > floor:

@@ -87,12 +87,12 @@ class Box:
 
     def __post_init__(self) -> None:
         _check_dim(self.dim)
-        if not (isinstance(self.length, int | float | np.floating | np.integer)):
+        if not validation.is_real(self.length):
             raise ValueError(f"box length must be a number, got length={self.length!r}")
         if not (math.isfinite(self.length) and self.length > 0):
             raise ValueError(f"box length must be finite and > 0, got length={self.length!r}")
-        if not math.isfinite(self.strain):
-            raise ValueError(f"strain must be finite, got strain={self.strain!r}")
+        if not (validation.is_real(self.strain) and math.isfinite(self.strain)):
+            raise ValueError(f"strain must be a finite number, got strain={self.strain!r}")
         object.__setattr__(self, "length", float(self.length))
         object.__setattr__(self, "dim", int(self.dim))
         object.__setattr__(self, "strain", float(self.strain))

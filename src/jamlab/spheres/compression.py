@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from jamlab import validation
 from jamlab.spheres.describe import describe, z_iso
 from jamlab.spheres.relax import compress_to
 from jamlab.spheres.state import Packing
@@ -55,7 +56,7 @@ def compression_schedule(phi_j: float, dphi_min: float, dphi_max: float,
     and ``φ_J + dphi_max < 1`` (callers check their arguments with it before any work)."""
     if not (0 < dphi_min < dphi_max):
         raise ValueError(f"need 0 < dphi_min < dphi_max, got {dphi_min!r}, {dphi_max!r}")
-    if not (isinstance(steps, int | np.integer) and steps >= 2):
+    if not (validation.is_integer(steps) and steps >= 2):
         raise ValueError(f"steps must be an integer >= 2, got steps={steps!r}")
     dphi = np.geomspace(dphi_min, dphi_max, int(steps))
     if phi_j + dphi[-1] >= 1.0:

@@ -178,7 +178,7 @@ def minimize(
     if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     ftol = float(ftol)
-    if not (isinstance(max_iter, int | np.integer) and max_iter >= 0):
+    if not (validation.is_integer(max_iter) and max_iter >= 0):
         raise ValueError(f"max_iter must be an integer >= 0, got max_iter={max_iter!r}")
     params = FireParameters() if params is None else params
     t0 = time.perf_counter()

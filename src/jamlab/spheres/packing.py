@@ -16,7 +16,6 @@ The names of :mod:`~jamlab.spheres.relax`, :mod:`~jamlab.spheres.describe` and
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass, field, replace
 
@@ -252,10 +251,10 @@ confirm_ftol_factor
         raise ValueError(f"p_floor_factor must be in (0, 0.5], got {p_floor_factor!r}")
     if not (validation.is_real(compress_factor) and 1 < compress_factor < 2):
         raise ValueError(f"compress_factor must be in (1, 2), got {compress_factor!r}")
-    if not (isinstance(max_restarts, int) and max_restarts >= 0):
+    if not (validation.is_integer(max_restarts) and max_restarts >= 0):
         raise ValueError(f"max_restarts must be an integer >= 0, got {max_restarts!r}")
     for name, value in (("max_minimizations", max_minimizations), ("max_iter", max_iter)):
-        if not (isinstance(value, numbers.Integral) and value >= 1):
+        if not (validation.is_integer(value) and value >= 1):
             raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     if not (validation.is_real(confirm_ftol_factor) and 0 < confirm_ftol_factor <= 1):
         raise ValueError(f"confirm_ftol_factor must be in (0, 1], got {confirm_ftol_factor!r}")

@@ -243,7 +243,7 @@ class Packing:
                 f"{COINCIDENCE:.3g} L): the direction of their pair force is undefined"
             )
         if self.seed is not None:
-            if not isinstance(self.seed, int | np.integer) or isinstance(self.seed, bool):
+            if not validation.is_integer(self.seed):
                 raise ValueError(f"seed must be an integer or None, got seed={self.seed!r}")
             # every seed jamlab writes and reads is in [0, 2^64 - 1] (GSD, LAMMPS data, runs)
             object.__setattr__(self, "seed", validation.seed("seed", int(self.seed)))
@@ -306,7 +306,7 @@ def random_packing(
     ``L = (Σ_i v_d(D_i/2)/φ)^(1/d)`` with the diameters of ``sizes`` (module docstring); uses
     ``numpy.random.default_rng(seed)``.
     """
-    if not (isinstance(n, int | np.integer) and n >= 2):
+    if not (validation.is_integer(n) and n >= 2):
         raise ValueError(f"need at least 2 particles, got n={n!r}")
     if not (validation.is_real(phi) and math.isfinite(phi) and phi > 0):
         raise ValueError(f"packing fraction must be finite and > 0, got phi={phi!r}")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 from jamlab import validation
 
@@ -67,15 +67,29 @@ class AQSParameters:
 
     def __post_init__(self) -> None:
         validation.floppy(self.floppy)
-        for name in ("max_newton", "refactor_every", "refactor_missed"):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.type == "int":
+                least = 1 if f.name in _AT_LEAST_ONE else 0
+                if not (validation.is_integer(v) and v >= least):
+                    raise ValueError(f"{f.name} must be an integer >= {least}, got {v!r}")
+                object.__setattr__(self, f.name, int(v))
+            elif f.type == "float":
+                if not (validation.is_real(v) and math.isfinite(v)):
+                    raise ValueError(f"{f.name} must be a finite number, got {v!r}")
+                object.__setattr__(self, f.name, float(v))
+        for name in ("contraction", "min_substep"):
             v = getattr(self, name)
-            if not (isinstance(v, int) and v >= 1):
-                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
-        for name in ("contraction", "linear_basin", "min_substep"):
-            v = getattr(self, name)
-            if not (0 < v < 1 or (name == "linear_basin" and v > 0)):
+            if not 0 < v < 1:
                 raise ValueError(f"{name} must be in (0, 1), got {v!r}")
-        for name in ("energy_tol", "match_tol", "energy_match", "event_tol"):
+        for name in ("chord_contraction", "linear_basin", "secant_reach", "energy_tol",
+                     "match_tol", "energy_match", "event_tol"):
             v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
+            if not v > 0:
                 raise ValueError(f"{name} must be finite and > 0, got {v!r}")
+        if not self.path_floor >= 0:
+            raise ValueError(f"path_floor must be finite and >= 0, got {self.path_floor!r}")
+
+
+_AT_LEAST_ONE = frozenset({"max_newton", "refactor_every", "refactor_missed"})
+"""The counts that must be >= 1; every other integer parameter may be 0 (none of them)."""
