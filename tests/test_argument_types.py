@@ -145,3 +145,12 @@ def test_box_widens_numpy_reals():
 def test_reals_refuse_bool(call):
     with pytest.raises(ValueError):
         call(True)
+
+
+@pytest.mark.parametrize("dim", [1, 65, True])
+def test_box_dimension_in_range(dim):
+    """A configuration file with 65 coordinates per line was imported and then failed every
+    reader with numpy's "array is too big"; the limit of the command line (``MAX_DIM``) now
+    holds for every box."""
+    with pytest.raises(ValueError, match="dimension"):
+        Box(5.0, dim)

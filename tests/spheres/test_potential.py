@@ -187,3 +187,33 @@ def test_rattlers_match_independent_peeling():
     assert r.n_rattlers == p.n - keep.sum()
     assert r.n_contacts_nr == nc
     assert r.z_nr == (2 * nc / keep.sum() if keep.sum() else 0.0)
+
+
+@pytest.mark.parametrize("dim", [6, 12, 24, 64])
+def test_high_dimension_few_spheres_matches_minimum_image(dim):
+    """A box of a few diameters in high d: the cell list would have 3^d cells for a handful of
+    spheres (d = 12: 49 s and 4 GB for two spheres; d = 32 crashed the process), so all pairs
+    are searched. Energy and forces against plain numpy minimum-image sums (L = 5 > 2 cut-offs:
+    one image per pair at most)."""
+    rng = np.random.default_rng(dim)
+    L, n = 5.0, 6
+    offsets = rng.normal(size=(n, dim))
+    offsets *= rng.uniform(0.2, 0.6, size=(n, 1)) / np.linalg.norm(offsets, axis=1, keepdims=True)
+    pos = 2.5 + offsets  # a cluster: most pairs overlap
+    e_ref, f_ref = 0.0, np.zeros((n, dim))
+    for i in range(n):
+        for j in range(i + 1, n):
+            dr = pos[i] - pos[j]
+            dr -= L * np.round(dr / L)
+            r = np.linalg.norm(dr)
+            if r < 1.0:
+                e_ref += (1.0 - r) ** 2
+                f = 2.0 * (1.0 - r) * dr / r  # −∂E/∂r_i
+                f_ref[i] += f
+                f_ref[j] -= f
+    assert e_ref > 0
+    p = sp.Packing(pos, sp.Box(L, dim))
+    for nl in (None, sp.NeighborList(p, skin=0.3)):
+        e, f = sp.energy_and_forces(p, nl)
+        assert e == pytest.approx(e_ref, rel=1e-13)
+        np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-13 * np.abs(f_ref).max())

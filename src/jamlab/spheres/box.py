@@ -69,8 +69,9 @@ def _check_n(n: int) -> None:
 
 
 def _check_dim(dim: int) -> None:
-    if not (validation.is_integer(dim) and dim >= 2):
-        raise ValueError(f"dimension must be an integer >= 2, got dim={dim!r}")
+    if not (validation.is_integer(dim) and 2 <= dim <= validation.MAX_DIM):
+        raise ValueError(
+            f"dimension must be an integer in [2, {validation.MAX_DIM}], got dim={dim!r}")
 
 
 @dataclass(frozen=True)

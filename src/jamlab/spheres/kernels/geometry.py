@@ -251,7 +251,10 @@ def build_neighbor_list(pos, L, gamma, rc):
     ncell[0] = int(np.floor(L / (rc * np.sqrt(1.0 + g * g))))
     for a in range(1, d):
         ncell[a] = int(np.floor(L / rc))
-    use_cells = True
+    # cells need three per axis, and above d = 4 a stencil (3^d cells, each visited per particle)
+    # no larger than N: a box of a few diameters in high d has 3^d cells and a few particles
+    # (d = 12, N = 2: 49 s and 4 GB; d = 32 overflowed and crashed), where all pairs is cheaper
+    use_cells = d <= 4 or 3.0**d <= n
     for a in range(d):
         if ncell[a] < 3:
             use_cells = False
