@@ -24,11 +24,14 @@ from typing import Any
 __all__ = [
     "SEED_MAX",
     "MAX_STEPS",
+    "MAX_ITER",
+    "MAX_SAMPLES",
     "MAX_STRAIN",
     "STRAIN_RESOLUTION",
     "FLOPPY",
     "VOLUME_GUESSES",
     "DEFAULT_VOLUME_GUESS",
+    "DEFAULT_PTOL",
     "VOLUME_GUESS_BEFORE",
     "floppy",
     "volume_guess",
@@ -50,6 +53,15 @@ SEED_MAX = 2**64 - 1
 
 MAX_STEPS = 10_000_000
 """Largest number of AQS steps of one run (the trace is held in memory: ~1 GB at this size)."""
+
+MAX_ITER = 10**12
+"""Largest iteration cap of one minimisation (``--max-iter``, ``max_iter``): FIRE's slowest steps
+take ~10^6 iterations, and 10^12 would run for days even at N = 2; above 2^63 the compiled
+kernels cannot take the number at all."""
+
+MAX_SAMPLES = 1_000_000
+"""Largest number of samples per (φ, N) of one run (one file each; a run of 10^20 samples wrote its
+manifest and then hung enumerating them)."""
 
 MAX_DIM = 64
 """Largest space dimension ``d``. The ball volume ``v_d(1/2)`` is ~1.7e-39 at ``d = 64`` (it
@@ -74,6 +86,10 @@ VOLUME_GUESSES = ("elastic", "always", "never")
 extrapolation of the last two minima when the last step was not a candidate jump, else the
 current side; ``"always"`` — the extrapolation after every step (the rule of the runs and traces
 made before the choice existed); ``"never"`` — the current side."""
+
+DEFAULT_PTOL = 1e-6
+"""Relative pressure tolerance of a fixed-pressure minimum that does not name one
+(``|p − p_t| ≤ max(ptol p_t, p_floor)``, :func:`jamlab.spheres.barostat.minimize_enthalpy`)."""
 
 DEFAULT_VOLUME_GUESS = "elastic"
 """The rule of a fixed-pressure run that does not name one."""
@@ -254,7 +270,8 @@ def strain_steps(
     names: tuple[str, str] = ("dgamma", "gamma_max"),
 ) -> int:
     """``M = round(γ_max / δγ)`` AQS steps from strain ``gamma0``; ``ValueError`` unless
-    ``0 < δγ < γ_max``, ``M <= MAX_STEPS`` and ``δγ`` is resolved at strain ``|γ_0| + γ_max``."""
+    ``0 < δγ < γ_max``, ``M <= MAX_STEPS``, the last strain ``γ_0 + M δγ`` within ``MAX_STRAIN``
+    and ``δγ`` is resolved at strain ``|γ_0| + γ_max``."""
     dg_name, gm_name = names
     dg = positive(dg_name, dgamma, maximum=MAX_STRAIN)
     gm = positive(gm_name, gamma_max, maximum=MAX_STRAIN)
@@ -266,6 +283,12 @@ def strain_steps(
         raise ValueError(
             f"{gm_name}/{dg_name} = {ratio:.3g} steps exceeds the limit of {MAX_STEPS} steps "
             "of one run"
+        )
+    end = g0 + round(ratio) * dg
+    if not abs(end) <= MAX_STRAIN:
+        raise ValueError(
+            f"the run would end at strain {end:.10g}, beyond the limit |strain| <= "
+            f"{MAX_STRAIN:g} (start strain {g0:.10g})"
         )
     scale = max(1.0, abs(g0) + gm)
     if dg < STRAIN_RESOLUTION * scale:

@@ -301,8 +301,11 @@ def test_avalanche_threshold_needs_keep_avalanches(packing08, tmp_path, capsys):
         shear(read_packing(packing08), 0.01, n_steps=1, avalanche_threshold=0.5)
 
 
-@pytest.mark.parametrize("bad", [["--ptol", "-1"], ["--ptol", "nan"], ["--ptol", "0"]])
+@pytest.mark.parametrize("bad", [["--ptol", "-1"], ["--ptol", "nan"], ["--ptol", "0"],
+                                 ["--ptol", "1e-5"]])
 def test_ptol_is_checked_without_pressure(packing08, tmp_path, capsys, bad):
+    """A bad --ptol is named; a good one without --pressure is refused too (it had been ignored
+    silently, while --confirm, --confirm-below and --volume-guess were refused)."""
     assert run(["shear", packing08, "--out", tmp_path / "o.h5", "--dgamma", "0.01",
                 "--gamma-max", "0.02", *bad]) == 2  # fmt: skip
     assert "--ptol" in error_line(capsys)

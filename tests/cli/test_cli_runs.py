@@ -62,7 +62,7 @@ def test_bad_input_is_one_line_and_touches_nothing(tmp_path):
     cases = {
         "phi": (["--phi", "jammed", "0.8"], "unknown phi 'jammed'"),
         "n": (["--n", "8", "-12"], "n must be an integer >= 2, got -12"),
-        "samples": (["--samples", "-3"], "samples must be an integer >= 1, got -3"),
+        "samples": (["--samples", "-3"], "samples must be an integer in [1, 1000000], got -3"),
         "dgamma": (["--dgamma", "4e-3"], "dgamma must be smaller than gamma_max"),
         "mismatch": (["--seed", "4"], "different study (seed: 3 != 4"),
         "unwritable": (["--out", tmp_path / "afile" / "run"], "not a directory"),

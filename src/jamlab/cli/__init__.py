@@ -3,8 +3,8 @@
 Each module in this package defines ``register(app)`` adding its commands; they are discovered
 automatically so that command groups can grow independently. Errors a user can cause (bad
 arguments, ``ValueError`` from the library, missing files) and errors of the environment
-(``OSError``: a full disk, a read-only file system) are printed as one line
-``jamlab: error: ...`` on stderr with exit code 2 and no traceback.
+(``OSError``: a full disk, a read-only file system; ``MemoryError``: a size the machine cannot hold)
+are printed as one line ``jamlab: error: ...`` on stderr with exit code 2 and no traceback.
 """
 
 from __future__ import annotations
@@ -150,6 +150,11 @@ def main(argv: list[str] | None = None) -> None:
     except OSError as exc:
         # the environment, not a bug: a full disk, a read-only file system, an I/O error
         fail(describe_os_error(exc))
+    except MemoryError as exc:
+        # a size the machine cannot hold (--n 1e14, --steps 1e11): one line, not a traceback
+        detail = str(exc).split(";")[0].strip()
+        fail(f"out of memory{': ' + detail if detail else ''} (a size too large for this "
+             "machine?)")
     if rv == 130:  # typer's translation of a Ctrl-C (KeyboardInterrupt → exit code 130)
         print("jamlab: aborted", file=sys.stderr)
     raise SystemExit(rv if isinstance(rv, int) else 0)

@@ -75,8 +75,9 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         ptol: Annotated[
-            float, typer.Option("--ptol", help="Relative pressure tolerance (--pressure).")
-        ] = 1e-6,
+            float | None,
+            typer.Option("--ptol", help="Relative pressure tolerance (--pressure; default 1e-6)."),
+        ] = None,
         force: Force = False,
     ) -> None:
         from jamlab import validation
@@ -101,7 +102,11 @@ def register(app: typer.Typer) -> None:
             protocol["p_target"] = validation.positive("--p-target", p_target)
         if phi_init is not None:
             protocol["phi_init"] = validation.packing_fraction("--phi-init", phi_init)
-        validation.positive("--ptol", ptol)
+        if ptol is not None:
+            validation.positive("--ptol", ptol)
+            if pressure is None:
+                raise ValueError("--ptol applies to --pressure: give --pressure too")
+        ptol = validation.DEFAULT_PTOL if ptol is None else ptol
         if pressure is not None:
             validation.positive("--pressure", pressure)
             if phi.strip().lower() != "jamming":

@@ -181,9 +181,10 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         ptol: Annotated[
-            float,
-            typer.Option("--ptol", help="Relative pressure tolerance at fixed pressure."),
-        ] = 1e-6,
+            float | None,
+            typer.Option("--ptol",
+                         help="Relative pressure tolerance at fixed pressure (default 1e-6)."),
+        ] = None,
         confirm: Annotated[
             str | None,
             typer.Option(
@@ -252,7 +253,11 @@ def register(app: typer.Typer) -> None:
             if not keep_avalanches:
                 raise ValueError("--avalanche-threshold applies to --keep-avalanches: give it too")
             validation.positive("--avalanche-threshold", avalanche_threshold)
-        validation.positive("--ptol", ptol)
+        if ptol is not None:
+            validation.positive("--ptol", ptol)
+            if pressure is None:
+                raise ValueError("--ptol applies to fixed-pressure runs: give --pressure too")
+        ptol = validation.DEFAULT_PTOL if ptol is None else ptol
         if pressure is not None:
             validation.positive("--pressure", pressure)
         if confirm is not None and pressure is None:
@@ -271,7 +276,8 @@ def register(app: typer.Typer) -> None:
             volume_guess = validation.volume_guess(
                 volume_guess or validation.DEFAULT_VOLUME_GUESS, "--volume-guess")
         if save_every is not None:
-            validation.integer("--save-every", save_every, minimum=1)
+            validation.integer("--save-every", save_every, minimum=1,
+                               maximum=validation.MAX_STEPS)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
         # a replacement of an earlier run killed inside the new run's first save: finished first

@@ -103,7 +103,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.spheres.potential import max_force
 
         validation.positive("--ftol", ftol)
-        validation.integer("--max-iter", max_iter, minimum=0)
+        validation.integer("--max-iter", max_iter, minimum=0, maximum=validation.MAX_ITER)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
         check_outputs({"--out": out}, {"configuration": config}, force=force)

@@ -41,6 +41,8 @@ def theory(
     force: Force = False,
 ) -> None:
     """Draw P(ΔE|δγ) of the printed mean-field formula for y(q) = A((1-q)^-μ - 1), like Fig. 3."""
+    import numpy as np
+
     from jamlab import validation
     from jamlab.cli import UserError
     from jamlab.files import check_outputs
@@ -58,9 +60,10 @@ def theory(
         raise UserError("--amplitude 0: y(q) = 0 has no jumps (P(no jump) = 1), nothing to draw")
     for dg in dgammas:
         # the figure draws |ΔE| up to JUMP_RANGE_TOP·|δγ|: refuse a δγ whose jumps lie beyond
-        dist = jump_distribution(pf, dg)
-        jumps = 1.0 - dist.p_no_jump
-        beyond = float(dist.cdf(-JUMP_RANGE_TOP * abs(dg)))
+        with np.errstate(over="ignore"):  # a huge amplitude overflows y: refused just below
+            dist = jump_distribution(pf, dg)
+            jumps = 1.0 - dist.p_no_jump
+            beyond = float(dist.cdf(-JUMP_RANGE_TOP * abs(dg)))
         if jumps == 0.0 or beyond > 0.01 * jumps:
             raise UserError(
                 f"--dgamma {dg:g}: {beyond / jumps if jumps else 0.0:.3g} of the jump probability "

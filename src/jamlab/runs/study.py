@@ -168,7 +168,8 @@ class Study:
             raise ValueError(f"N values given twice: {sorted({v for v in ns if ns.count(v) > 1})}")
         object.__setattr__(self, "n", tuple(sorted(ns)))
 
-        object.__setattr__(self, "samples", _int("samples", self.samples, minimum=1))
+        object.__setattr__(self, "samples", validation.integer(
+            "samples", self.samples, minimum=1, maximum=validation.MAX_SAMPLES))
         object.__setattr__(self, "seed", validation.seed("seed", self.seed))
         object.__setattr__(self, "dim", validation.dimension("dim", self.dim))
         if self.task == "aqs":  # an over-jammed preparation below jamming fails every sample

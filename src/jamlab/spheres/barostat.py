@@ -136,7 +136,7 @@ def minimize_enthalpy(
     packing: Packing,
     target_pressure: float,
     ftol: float = 1e-12,
-    ptol: float = 1e-6,
+    ptol: float = validation.DEFAULT_PTOL,
     max_volume_steps: int = 60,
     max_iter: int = 1_000_000,
     params: FireParameters | None = None,

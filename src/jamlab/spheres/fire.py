@@ -178,8 +178,9 @@ def minimize(
     if not (validation.is_real(ftol) and math.isfinite(ftol) and ftol > 0):
         raise ValueError(f"ftol must be finite and > 0, got ftol={ftol!r}")
     ftol = float(ftol)
-    if not (validation.is_integer(max_iter) and max_iter >= 0):
-        raise ValueError(f"max_iter must be an integer >= 0, got max_iter={max_iter!r}")
+    if not (validation.is_integer(max_iter) and 0 <= max_iter <= validation.MAX_ITER):
+        raise ValueError(f"max_iter must be an integer in [0, {validation.MAX_ITER}], "
+                         f"got max_iter={max_iter!r}")
     params = FireParameters() if params is None else params
     t0 = time.perf_counter()
     box = packing.box

@@ -431,7 +431,7 @@ def jam_at_pressure(
     pressure: float = 1e-4,
     *,
     p_target: float = 1e-7,
-    ptol: float = 1e-6,
+    ptol: float = validation.DEFAULT_PTOL,
     phi_init: float = 0.66,
     ftol: float = 1e-12,
     sizes: str = "mono",

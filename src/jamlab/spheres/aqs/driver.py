@@ -99,7 +99,7 @@ def shear(
     keep_avalanches: bool = False,
     avalanche_threshold: float | None = None,
     pressure: float | None = None,
-    ptol: float = 1e-6,
+    ptol: float = validation.DEFAULT_PTOL,
     confirm: str = "located",
     confirm_below: float | None = None,
     volume_guess: str | None = None,
@@ -185,6 +185,13 @@ avalanche_threshold, pressure, ptol, confirm, confirm_below, volume_guess
         # the resumed trace would be written without them: the records would be lost
         raise ValueError("the run being resumed kept avalanche records: resume it with "
                          "keep_avalanches (--keep-avalanches), or not at all")
+    if (previous is not None and previous.avalanches is None and keep_avalanches
+            and pressure is None):
+        # the table would start at the resumption: the earlier plastic steps without records,
+        # and nothing in the file to say so
+        raise ValueError("the run being resumed kept no avalanche records: its earlier plastic "
+                         "steps would have none; resume it without keep_avalanches "
+                         "(--keep-avalanches), or run it anew")
     if previous is not None and previous.avalanches is not None:
         kept = float(previous.avalanches.get("attrs", {}).get("threshold", MOVED_THRESHOLD))
         asked = MOVED_THRESHOLD if avalanche_threshold is None else float(avalanche_threshold)
@@ -401,8 +408,10 @@ def _run_length(
             raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
         total = validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
         validation.strain_steps(dgamma, (total + 0.5) * dgamma, start_strain)
-    if save_every is not None and not (validation.is_integer(save_every) and save_every >= 1):
-        raise ValueError(f"save_every must be an integer >= 1, got save_every={save_every!r}")
+    if save_every is not None and not (validation.is_integer(save_every)
+                                       and 1 <= save_every <= validation.MAX_STEPS):
+        raise ValueError(f"save_every must be an integer in [1, {validation.MAX_STEPS}], "
+                         f"got save_every={save_every!r}")
     if save_every is not None and out is None:
         raise ValueError("save_every needs an output path (out=...)")
     if previous is not None and not math.isclose(
