@@ -49,6 +49,8 @@ def test_study_round_trips_through_dict():
         ({"n": [16, 16]}, "twice"),
         ({"samples": -3}, "samples must be an integer in \\[1, 1000000\\]"),
         ({"samples": 0}, "samples must be an integer in \\[1, 1000000\\]"),
+        ({"samples": 10**20}, "samples must be an integer in \\[1, 1000000\\]"),
+        ({"checkpoint_every": 10**20}, "checkpoint_every must be an integer in \\[0, 10000000\\]"),
         ({"seed": -1}, "seed"),
         ({"dgamma": 0.0}, "dgamma"),
         ({"dgamma": 1e-2}, "smaller than gamma_max"),

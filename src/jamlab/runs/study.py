@@ -193,7 +193,8 @@ class Study:
                      else self.volume_guess)
             object.__setattr__(self, "volume_guess", validation.volume_guess(guess))
         object.__setattr__(
-            self, "checkpoint_every", _int("checkpoint_every", self.checkpoint_every, minimum=0)
+            self, "checkpoint_every", validation.integer(
+                "checkpoint_every", self.checkpoint_every, minimum=0, maximum=validation.MAX_STEPS)
         )
         if not isinstance(self.task, str) or self.task not in TASKS:
             raise ValueError(f"unknown task {self.task!r}: valid tasks are {', '.join(TASKS)}")
