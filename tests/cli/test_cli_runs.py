@@ -67,7 +67,8 @@ def test_bad_input_is_one_line_and_touches_nothing(tmp_path):
         "mismatch": (["--seed", "4"], "different study (seed: 3 != 4"),
         "unwritable": (["--out", tmp_path / "afile" / "run"], "not a directory"),
         "scheduler": (["--scheduler", "nowhere"], "tcp://HOST:8786"),
-        "checkpoint": (["--checkpoint-every", "-5"], "checkpoint_every must be an integer >= 0"),
+        "checkpoint": (["--checkpoint-every", "-5"],
+                       "checkpoint_every must be an integer in [0, 10000000]"),
     }
     for name, (extra, message) in cases.items():
         line = one_line_error(jamlab("run", *STUDY_ARGS, *base, *extra))
