@@ -231,6 +231,27 @@ def positive(name: str, value: Any, *, maximum: float | None = None) -> float:
     return number(name, value, low=0.0, low_open=True, high=maximum)
 
 
+def save_every(value: Any, out: Any = None, *, needs_out: bool = False) -> None:
+    """A checkpoint interval given to a library shear: ``None`` or an integer in
+    ``[1, MAX_STEPS]``; with ``needs_out``, only together with an output path ``out``."""
+    if value is not None and not (is_integer(value) and 1 <= value <= MAX_STEPS):
+        raise ValueError(f"save_every must be an integer in [1, {MAX_STEPS}], "
+                         f"got save_every={value!r}")
+    if needs_out and value is not None and out is None:
+        raise ValueError("save_every needs an output path (out=...)")
+
+
+def pressure_tolerance(ptol: Any, pressure: Any, *, applies: str) -> float:
+    """The command-line ``--ptol``: ``None`` means :data:`DEFAULT_PTOL`; given, it must be
+    positive and come with ``--pressure`` (``applies`` names what it applies to)."""
+    if ptol is None:
+        return DEFAULT_PTOL
+    value = positive("--ptol", ptol)
+    if pressure is None:
+        raise ValueError(f"--ptol applies to {applies}: give --pressure too")
+    return value
+
+
 def seed(name: str, value: Any) -> int:
     """A seed: an integer in ``[0, SEED_MAX]``."""
     return integer(name, value, minimum=0, maximum=SEED_MAX)

@@ -102,11 +102,7 @@ def register(app: typer.Typer) -> None:
             protocol["p_target"] = validation.positive("--p-target", p_target)
         if phi_init is not None:
             protocol["phi_init"] = validation.packing_fraction("--phi-init", phi_init)
-        if ptol is not None:
-            validation.positive("--ptol", ptol)
-            if pressure is None:
-                raise ValueError("--ptol applies to --pressure: give --pressure too")
-        ptol = validation.DEFAULT_PTOL if ptol is None else ptol
+        ptol = validation.pressure_tolerance(ptol, pressure, applies="--pressure")
         if pressure is not None:
             validation.positive("--pressure", pressure)
             if phi.strip().lower() != "jamming":

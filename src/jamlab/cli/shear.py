@@ -253,11 +253,7 @@ def register(app: typer.Typer) -> None:
             if not keep_avalanches:
                 raise ValueError("--avalanche-threshold applies to --keep-avalanches: give it too")
             validation.positive("--avalanche-threshold", avalanche_threshold)
-        if ptol is not None:
-            validation.positive("--ptol", ptol)
-            if pressure is None:
-                raise ValueError("--ptol applies to fixed-pressure runs: give --pressure too")
-        ptol = validation.DEFAULT_PTOL if ptol is None else ptol
+        ptol = validation.pressure_tolerance(ptol, pressure, applies="fixed-pressure runs")
         if pressure is not None:
             validation.positive("--pressure", pressure)
         if confirm is not None and pressure is None:

@@ -161,7 +161,7 @@ class Study:
             raise ValueError(f"phi values given twice: {', '.join(dupes)}")
         object.__setattr__(self, "phi", tuple(sorted(phis, key=_phi_order)))
 
-        ns = [_int("n", v, minimum=2) for v in _as_list(self.n)]
+        ns = [validation.integer("n", v, minimum=2) for v in _as_list(self.n)]
         if not ns:
             raise ValueError("at least one N value is needed")
         if len(set(ns)) != len(ns):
@@ -177,7 +177,7 @@ class Study:
                 if not isinstance(p, str):
                     validation.above_jamming("phi", p, self.dim)
         for name in ("dgamma", "gamma_max", "p_target", "force_tol"):
-            object.__setattr__(self, name, _positive_float(name, getattr(self, name)))
+            object.__setattr__(self, name, validation.positive(name, getattr(self, name)))
         validation.strain_steps(self.dgamma, self.gamma_max)
         object.__setattr__(self, "sizes", validation.sizes("sizes", self.sizes))
         object.__setattr__(self, "alpha", validation.pair_exponent("alpha", self.alpha))
@@ -270,14 +270,6 @@ class Study:
         # every field, the defaults too (to_dict leaves some out to match earlier studies)
         a, b = asdict(self), asdict(other)
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
-
-
-def _int(name: str, value: Any, minimum: int) -> int:
-    return validation.integer(name, value, minimum=minimum)
-
-
-def _positive_float(name: str, value: Any) -> float:
-    return validation.positive(name, value)
 
 
 def load_toml(path: str | os.PathLike) -> tuple[dict[str, Any], str | None, dict[str, Any]]:

@@ -240,10 +240,7 @@ def shear_at_pressure(
         if not (validation.is_integer(n_steps) and n_steps >= 1):
             raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
         total = int(n_steps)
-    if save_every is not None and not (validation.is_integer(save_every)
-                                       and 1 <= save_every <= validation.MAX_STEPS):
-        raise ValueError(f"save_every must be an integer in [1, {validation.MAX_STEPS}], "
-                         f"got save_every={save_every!r}")
+    validation.save_every(save_every)
     if confirm not in CONFIRMS:
         raise ValueError(f"confirm must be one of {', '.join(CONFIRMS)}, got {confirm!r}")
     if not (validation.is_real(confirm_below) and confirm_below >= 1.0):

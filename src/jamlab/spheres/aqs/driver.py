@@ -408,12 +408,7 @@ def _run_length(
             raise ValueError(f"n_steps must be an integer >= 1, got n_steps={n_steps!r}")
         total = validation.integer("n_steps", n_steps, minimum=1, maximum=validation.MAX_STEPS)
         validation.strain_steps(dgamma, (total + 0.5) * dgamma, start_strain)
-    if save_every is not None and not (validation.is_integer(save_every)
-                                       and 1 <= save_every <= validation.MAX_STEPS):
-        raise ValueError(f"save_every must be an integer in [1, {validation.MAX_STEPS}], "
-                         f"got save_every={save_every!r}")
-    if save_every is not None and out is None:
-        raise ValueError("save_every needs an output path (out=...)")
+    validation.save_every(save_every, out, needs_out=True)
     if previous is not None and not math.isclose(
         packing.strain, float(previous.gamma[-1]), rel_tol=0, abs_tol=1e-15
     ):
