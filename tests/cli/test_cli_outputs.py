@@ -163,6 +163,37 @@ def test_shear_replaces_a_run_with_its_snapshots_only_with_force(packing08, tmp_
     assert "1 frame(s), AQS steps 2..2" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("kind", ["packing", "other step", "not hdf5"])
+def test_shear_force_never_removes_a_foreign_file_named_like_a_snapshot(packing08, tmp_path,
+                                                                         capsys, kind):
+    """Audit row 16: a file the user put into a run's snapshot folder under a snapshot's name
+    (``random-packing --out a.configs/step_00000009.h5``) was moved aside and deleted with the
+    earlier run's snapshots by ``shear --force``. It is refused now, with or without --force,
+    and every file stays as it was."""
+    out = tmp_path / "a.h5"
+    args = ["shear", packing08, "--out", out, "--dgamma", "0.01", "--save-every", "1"]
+    assert run([*args, "--gamma-max", "0.02"]) == 0
+    foreign = tmp_path / "a.configs" / "step_00000009.h5"
+    if kind == "packing":  # a packing without aqs_step
+        assert run(["random-packing", "--out", foreign, "--n", "16", "--phi", "0.5"]) == 0
+    elif kind == "other step":  # a real snapshot of step 1, under another step's name
+        foreign.write_bytes((tmp_path / "a.configs" / "step_00000001.h5").read_bytes())
+    else:
+        foreign.write_text("my notes\n")
+    capsys.readouterr()
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    assert run([*args, "--gamma-max", "0.03"]) == 2  # a.h5 exists: refused before, too
+    assert "exists; give --force" in error_line(capsys)
+    assert run([*args, "--gamma-max", "0.03", "--force"]) == 2
+    line = error_line(capsys)
+    assert str(foreign) in line and "move it out of" in line, line
+    assert {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()} == before
+    foreign.unlink()  # without it, the replacement goes on as before
+    assert run([*args, "--gamma-max", "0.03", "--force"]) == 0
+    assert sorted(p.name for p in (tmp_path / "a.configs").iterdir()) == [
+        "step_00000001.h5", "step_00000002.h5", "step_00000003.h5"]
+
+
 def test_export_never_writes_over_the_saved_configurations_it_reads(packing08, tmp_path, capsys):
     out = tmp_path / "w.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",

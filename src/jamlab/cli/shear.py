@@ -236,6 +236,7 @@ def register(app: typer.Typer) -> None:
         )
         from jamlab.spheres.aqs.checkpoint import (
             begin_replacement,
+            foreign_snapshots,
             recover_replacement,
             snapshot_files,
         )
@@ -299,6 +300,10 @@ def register(app: typer.Typer) -> None:
                 force=force,
                 figures=("--plot",),
             )
+            foreign = foreign_snapshots(snapshots) if stale else []
+            if foreign:  # never the earlier run's: --force would remove it with them
+                raise ValueError(f"{foreign[0][1]}; move it out of {snapshots} (it is not a "
+                                 "snapshot of an earlier run, and shear would remove it)")
             if stale and not force:
                 raise ValueError(f"{snapshots} holds {len(stale)} snapshot(s) of an earlier "
                                  "run; give --force to remove them")

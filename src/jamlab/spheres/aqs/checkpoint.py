@@ -199,32 +199,52 @@ def resume_configuration(out: str | Path, previous: Trace) -> Packing:
     )
 
 
+def _saved_step(path: Path) -> int:
+    """The ``aqs_step`` of a configuration an AQS run saved; ``ValueError`` naming the file if it
+    is not one (unreadable, or without the attribute)."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as h5:
+            step = h5.attrs.get("aqs_step")
+    except OSError:
+        raise ValueError(
+            f"{path}: not a readable HDF5 file (a damaged saved configuration)"
+        ) from None
+    if step is None:
+        raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
+    return int(step)
+
+
+def foreign_snapshots(snapshots: Path) -> list[tuple[Path, str]]:
+    """The files in a snapshot folder named like snapshots (:func:`snapshot_files`) that no AQS run
+    saved there: ``(file, why)`` for each one that is unreadable, has no ``aqs_step`` or whose
+    ``aqs_step`` is not the step in its name. A replacing run (``shear --force``) would move
+    and delete them with the earlier run's snapshots, or write its own over them."""
+    foreign = []
+    for path in snapshot_files(snapshots):
+        try:
+            step = _saved_step(path)
+        except ValueError as exc:
+            foreign.append((path, str(exc)))
+            continue
+        named = path.stem[len("step_"):]
+        if not (named.isdigit() and int(named) == step):
+            foreign.append((path, f"{path} holds step {step}, not the step in its name"))
+    return foreign
+
+
 def saved_configurations(out: str | Path, trace: Trace) -> dict[int, Path]:
     """``{step: file}`` of every configuration the run of ``trace`` (written to ``out``) saved
     beside it (``<stem>.configs/step_*.h5`` and ``<stem>.last.h5``), in step order.
     ``ValueError`` (naming the file) for an unreadable one or one without ``aqs_step``, when
     there is none, and when one that a run with ``save_every`` saves (every multiple of it and
     its last step) is missing: a movie of the run would silently lack a frame."""
-    import h5py
-
     out = Path(out)
     last, snapshots = checkpoint_paths(out)
-
-    def step_of(path: Path) -> int:
-        try:
-            with h5py.File(path, "r") as h5:
-                step = h5.attrs.get("aqs_step")
-        except OSError:
-            raise ValueError(
-                f"{path}: not a readable HDF5 file (a damaged saved configuration)"
-            ) from None
-        if step is None:
-            raise ValueError(f"{path} has no aqs_step attribute: not a configuration of an AQS run")
-        return int(step)
-
-    files = {step_of(snap): snap for snap in snapshot_files(snapshots)}
+    files = {_saved_step(snap): snap for snap in snapshot_files(snapshots)}
     if last.is_file():
-        files.setdefault(step_of(last), last)
+        files.setdefault(_saved_step(last), last)
     if not files:
         raise ValueError(
             f"{out}: no saved configuration beside the trace ({last.name} or {snapshots.name}/)"
