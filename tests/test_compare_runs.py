@@ -16,7 +16,8 @@ STUDY = {"phi": ["jamming"], "n": [8], "samples": 2, "dgamma": 1e-5, "gamma_max"
 
 def make_run(root, traces, study=STUDY, cpu=None):
     root.mkdir()
-    (root / "manifest.json").write_text(json.dumps({"format": "jamlab-run", "study": study}))
+    manifest = {"format": "jamlab-run", "format_version": 1, "study": study}
+    (root / "manifest.json").write_text(json.dumps(manifest))
     folder = root / "samples" / "phi=jamming" / "N=8"
     folder.mkdir(parents=True)
     for i, t in enumerate(traces):

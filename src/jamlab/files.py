@@ -23,8 +23,9 @@ import contextlib
 import io
 import json
 import os
+import shutil
 import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -324,3 +325,26 @@ def check_links(group: Any, path: PathLike) -> None:
         names = ", ".join(where + name for name in dangling)
         raise ValueError(f"damaged file {path}: {names} is a link to nothing "
                          "(a dangling soft or external link)")
+
+
+@contextlib.contextmanager
+def removed_on_failure(paths: list[PathLike], keep_only: frozenset[str]) -> Iterator[None]:
+    """Undo what a command created when it fails before it made anything worth keeping: of
+    ``paths``, those missing on entry are removed if the block raises (any exception, Ctrl-C
+    too) and they hold no file but ones named in ``keep_only`` (markers, manifests, locks).
+    One that holds any other file — a finished or failed sample, a checkpoint, a figure — is
+    left whole, and so is everything that existed on entry."""
+    created = [Path(p) for p in paths if not os.path.lexists(p)]
+    created = [p for p in created if not any(_inside(p, q) and p != q for q in created)]
+    try:
+        yield
+    except BaseException:
+        for path in created:
+            if path.is_dir() and not path.is_symlink():
+                files = [f for f in path.rglob("*") if not f.is_dir()]
+                if all(f.name in keep_only for f in files):
+                    shutil.rmtree(path, ignore_errors=True)
+            elif path.is_file() and path.name in keep_only:
+                path.unlink(missing_ok=True)
+        raise
+

@@ -98,14 +98,21 @@ def test_an_earlier_report_of_reproduce_is_its_own(tmp_path):
 def test_the_marker_is_written_before_the_runs(tmp_path, monkeypatch):
     import jamlab.reproduce.pipeline as pipeline
 
+    seen = []
+
     def stop(*args, **kwargs):
+        # a first call killed from here on (SIGKILL: no clean-up) leaves a directory that the
+        # next call recognises as its own and resumes
+        seen.append((tmp_path / "r" / pipeline.MARKER).is_file())
+        pipeline.check_report_directory(tmp_path / "r")
         raise RuntimeError("stop before running")
 
     monkeypatch.setattr(pipeline, "_run_all", stop)
     with pytest.raises(RuntimeError, match="stop before running"):
         reproduce("tiny", tmp_path / "r", execution=Execution(workers=0))
-    assert (tmp_path / "r" / pipeline.MARKER).is_file()
-    pipeline.check_report_directory(tmp_path / "r")  # an interrupted first call resumes
+    assert seen == [True]
+    # an exception before any sample finished: what the call made is removed again
+    assert not (tmp_path / "r").exists()
 
 
 def test_cli_refuses_report_files_it_did_not_write(tmp_path):

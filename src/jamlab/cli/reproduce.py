@@ -10,6 +10,32 @@ import typer
 
 from jamlab.cli._options import Force
 
+SeedOption = Annotated[int | None, typer.Option("--seed", help="Master seed (default 0).")]
+SizesOption = Annotated[
+    str,
+    typer.Option(
+        "--sizes",
+        help="Diameters of every ensemble: mono (the paper's), bidisperse or polydisperse[:w].",
+    ),
+]
+AlphaOption = Annotated[
+    float, typer.Option("--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (paper: 2).")
+]
+
+
+def _scale(name: str, seed: int | None, sizes: str, alpha: float):
+    """The scale ``name`` with the master seed and pair law of ``--seed``, ``--sizes`` and
+    ``--alpha`` (one rule for ``reproduce`` and ``figure``)."""
+    from jamlab.reproduce import SCALES, with_seed
+    from jamlab.reproduce.scales import with_pair_law
+
+    if name not in SCALES:
+        raise ValueError(f"unknown scale {name!r}: valid scales are {', '.join(SCALES)}")
+    chosen = SCALES[name] if seed is None else with_seed(SCALES[name], seed)
+    if sizes != "mono" or alpha != 2.0:
+        chosen = with_pair_law(chosen, sizes, alpha)
+    return chosen
+
 
 def reproduce_command(
     out: Annotated[Path, typer.Option("--out", help="Report directory (index.html, report.md).")],
@@ -33,17 +59,9 @@ def reproduce_command(
         str | None,
         typer.Option("--scheduler", help="Address of a running dask scheduler, tcp://HOST:8786."),
     ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="Master seed (default 0).")] = None,
-    sizes: Annotated[
-        str,
-        typer.Option(
-            "--sizes",
-            help="Diameters of every ensemble: mono (the paper's), bidisperse or polydisperse[:w].",
-        ),
-    ] = "mono",
-    alpha: Annotated[
-        float, typer.Option("--alpha", help="Pair exponent, V = (1 - r/sigma)^alpha (paper: 2).")
-    ] = 2.0,
+    seed: SeedOption = None,
+    sizes: SizesOption = "mono",
+    alpha: AlphaOption = 2.0,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress messages.")] = False,
     force: Annotated[
         bool,
@@ -53,20 +71,17 @@ def reproduce_command(
 ) -> None:
     """Run (or resume) the ensembles of a scale, make every figure and write the report with the
     table quantity | paper | ours ± uncertainty | samples | verdict."""
-    from jamlab.reproduce import SCALES, reproduce, with_seed
-    from jamlab.reproduce.scales import with_pair_law
+    from jamlab.reproduce import NoSamplesError, reproduce
     from jamlab.runs import Execution
 
-    if scale not in SCALES:
-        raise ValueError(f"unknown scale {scale!r}: valid scales are {', '.join(SCALES)}")
-    chosen = SCALES[scale] if seed is None else with_seed(SCALES[scale], seed)
-    if seed is not None and seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed}")
-    if sizes != "mono" or alpha != 2.0:
-        chosen = with_pair_law(chosen, sizes, alpha)
+    chosen = _scale(scale, seed, sizes, alpha)
     execution = Execution(workers=workers, scheduler=scheduler)
     log = None if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
-    result = reproduce(chosen, out, runs=runs, execution=execution, log=log, force=force)
+    try:
+        result = reproduce(chosen, out, runs=runs, execution=execution, log=log, force=force)
+    except NoSamplesError as exc:  # a computation that failed, not bad input: exit code 1
+        print(f"jamlab: error: {exc}", file=sys.stderr)
+        raise SystemExit(1) from None
     failed = sum(r["failed"] for r in result.data.get("runs", {}).values())
     typer.echo(f"wrote {result.paths['html']} and {result.paths['markdown']} "
                f"in {result.seconds:.0f} s ({len(result.rows)} rows, "
@@ -75,7 +90,8 @@ def reproduce_command(
 
 def figure_command(
     name: Annotated[str, typer.Argument(
-        help="fig1 … fig7, fig3_exact, theory_vs_cascade, criticality or finite_size.")],
+        help="fig1 … fig7, fig3_exact, theory_vs_cascade, criticality, finite_size or "
+             "tau_pressure.")],
     out: Annotated[Path, typer.Option("--out", help="Output PNG file.")],
     runs: Annotated[
         Path | None,
@@ -84,10 +100,14 @@ def figure_command(
     scale: Annotated[str, typer.Option("--scale", help="Scale the runs were made with.")] = (
         "quick"
     ),
+    seed: SeedOption = None,
+    sizes: SizesOption = "mono",
+    alpha: AlphaOption = 2.0,
     force: Force = False,
 ) -> None:
     """Make one figure of the report from existing runs (figs. 1-3 and theory_vs_cascade need
-    none: they are computed)."""
+    none: they are computed). Give the --scale, --seed, --sizes and --alpha the runs were made
+    with (those of their jamlab reproduce)."""
     from jamlab.files import check_outputs
     from jamlab.reproduce import FIGURE_PART, make_figure
 
@@ -96,7 +116,8 @@ def figure_command(
         raise ValueError(f"{name} needs --runs (the runs/ directory of a `jamlab reproduce`)")
     if name not in FIGURE_PART:
         raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
-    path = make_figure(name, scale, runs if runs is not None else Path("."), out)
+    chosen = _scale(scale, seed, sizes, alpha)  # those the runs were made with
+    path = make_figure(name, chosen, runs if runs is not None else Path("."), out)
     typer.echo(f"wrote {path}")
 
 

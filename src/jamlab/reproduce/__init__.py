@@ -31,10 +31,11 @@ compute them, and each is re-derived independently in ``tests/test_reproduce.py`
 
 from jamlab.reproduce.ensembles import avalanche_sizes_of
 from jamlab.reproduce.measurements import fit_tau
-from jamlab.reproduce.pipeline import ReproduceResult, make_figure, reproduce
+from jamlab.reproduce.pipeline import NoSamplesError, ReproduceResult, make_figure, reproduce
 from jamlab.reproduce.scales import SCALES, Scale, studies
 
 __all__ = [
+    "NoSamplesError",
     "SCALES",
     "Scale",
     "ReproduceResult",

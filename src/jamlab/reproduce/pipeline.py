@@ -17,7 +17,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from jamlab.files import atomic_write_text, check_new_run_directory
+from jamlab.files import (
+    RUN_MEMBERS,
+    atomic_write_text,
+    check_new_run_directory,
+    removed_on_failure,
+)
 from jamlab.report import Figure, ReportMeta, Row, write_report
 from jamlab.reproduce import amorphous, criticality_table, figures, moduli_table, table
 from jamlab.reproduce.coordination import coordination
@@ -38,6 +43,11 @@ __all__ = ["FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES", "ReproduceR
            "check_report_directory", "make_figure", "reproduce"]
 
 TITLE = "jamlab: reproduction of Franz & Spigler, Mean-field avalanches in jammed spheres"
+
+
+class NoSamplesError(RuntimeError):
+    """An ensemble of :func:`reproduce` in which every sample failed: there is nothing to
+    analyse (the run directories keep the failures)."""
 
 
 @dataclass
@@ -208,6 +218,14 @@ def _machines(scale: Scale, runs: Path) -> str:
             f"cascades: {summary_text(machine())}")
 
 
+def _first_missing(path: Path) -> Path:
+    """The outermost missing directory on the way to ``path`` (``path`` itself if its parent
+    exists): what creating it with its parents makes."""
+    while not path.parent.exists() and path.parent != path:
+        path = path.parent
+    return path
+
+
 def _check_writable(path: Path) -> None:
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -329,13 +347,25 @@ def reproduce(
     # a report, and the runs' parent, never go into a run directory (nothing written yet)
     check_new_run_directory("report directory", out, itself=True)
     check_new_run_directory("runs directory", runs_dir, itself=True)
-    _check_writable(out)
-    _check_writable(runs_dir)
-    atomic_write_text(out / MARKER, json.dumps({"written_by": "jamlab reproduce"}) + "\n")
     figdir = out / "figures"
-    figdir.mkdir(parents=True, exist_ok=True)
-
-    summaries = _run_all(scale, runs_dir, execution, log)
+    # refused before its first sample (a study that differs from the runs there, a scheduler out
+    # of reach, a --runs that is a file), a call leaves nothing it created behind
+    made = [_first_missing(out), out / MARKER, figdir, _first_missing(runs_dir),
+            *(runs_dir / name for name in studies(scale))]
+    with removed_on_failure(made, keep_only=frozenset({MARKER, *RUN_MEMBERS})):
+        _check_writable(out)
+        _check_writable(runs_dir)
+        atomic_write_text(out / MARKER, json.dumps({"written_by": "jamlab reproduce"}) + "\n")
+        figdir.mkdir(parents=True, exist_ok=True)
+        summaries = _run_all(scale, runs_dir, execution, log)
+    empty = {name: s for name, s in summaries.items() if s.done + s.skipped == 0}
+    if empty:
+        name, s = next(iter(empty.items()))
+        why = " ".join(s.failures[0][1].split()) if s.failures else ""
+        first = f" (the first: {why[:240]}{'…' if len(why) > 240 else ''})" if why else ""
+        raise NoSamplesError(
+            f"no sample of the {name} ensemble finished: {s.failed} of {s.total} failed{first}; "
+            f"no report written (`jamlab status {runs_dir / name} --failures` lists them)")
     log("analysis and figures")
     rows, data, figs = _analyse(_Analysis(scale, runs_dir, out, figdir, log))
     data["runs"] = {k: asdict(v) | {"failures": [str(f) for f in v.failures]}
@@ -401,7 +431,8 @@ def make_figure(
         diffs = RunDir(runs / run).study().differences(wanted[run])
         if diffs:
             raise ValueError(f"{runs / run} was not made with the scale {scale.name!r} "
-                             f"({'; '.join(diffs)}; recorded != the scale's): give its --scale")
+                             f"({'; '.join(diffs)}; recorded != the scale's): give the "
+                             "--scale, --seed, --sizes and --alpha it was made with")
     out_file = Path(out_file)
     if not out_file.parent.is_dir():
         raise FileNotFoundError(f"output directory does not exist: {out_file.parent}")

@@ -265,8 +265,10 @@ def get_scale(scale: Scale | str) -> Scale:
 
 
 def with_seed(scale: Scale, seed: int) -> Scale:
-    """The same scale with another master seed."""
-    return replace(scale, seed=int(seed))
+    """The same scale with another master seed (an integer in ``[0, SEED_MAX]``)."""
+    from jamlab import validation
+
+    return replace(scale, seed=validation.seed("seed", seed))
 
 
 def with_pair_law(scale: Scale, sizes: str = "mono", alpha: float = 2.0) -> Scale:

@@ -284,6 +284,10 @@ class RunDir:
             raise RunError(f"unreadable manifest {self.manifest_path}: {exc}") from None
         if not isinstance(manifest, dict) or manifest.get("format") != RUN_FORMAT:
             raise RunError(f"{self.manifest_path} is not a jamlab run manifest")
+        version = manifest.get("format_version")
+        if not (validation.is_integer(version) and 1 <= version <= FORMAT_VERSION):
+            raise RunError(f"{self.manifest_path} has format_version {version!r}: this jamlab "
+                           f"reads run directories of version 1 to {FORMAT_VERSION}")
         return manifest
 
     def study(self) -> Study:
