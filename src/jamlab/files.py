@@ -294,19 +294,32 @@ def atomic_savefig(fig: Any, path: PathLike, **kwargs: Any) -> Path:
     return atomic_write(path, lambda tmp: fig.savefig(tmp, **kwargs))
 
 
-def open_hdf5(path: PathLike, what: str = "") -> Any:
+def open_hdf5(path: PathLike, what: str = "", newest: int | None = None) -> Any:
     """``path`` opened read-only as an ``h5py.File`` (use it in a ``with``):
     ``FileNotFoundError`` ("no such {what} file") if it is not a file, ``ValueError`` ("not an
-    HDF5 file") if HDF5 cannot open it. The readers of configurations and traces start here."""
+    HDF5 file") if HDF5 cannot open it, and with ``newest`` a ``ValueError`` for a root attribute
+    ``format_version`` that is not an integer in ``[1, newest]`` (a file of a newer jamlab; files
+    without the attribute, other programs', are read). The readers of configurations and traces
+    start here."""
+    import numbers
+
     import h5py
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such {what + ' ' if what else ''}file: {path}")
     try:
-        return h5py.File(path, "r")
+        h5 = h5py.File(path, "r")
     except OSError:
         raise ValueError(f"not an HDF5 file: {path}") from None
+    version = h5.attrs.get("format_version") if newest is not None else None
+    if version is not None and not (isinstance(version, numbers.Integral)
+                                    and not isinstance(version, bool) and 1 <= version <= newest):
+        h5.close()
+        shown = version.item() if hasattr(version, "item") else version  # numpy scalar
+        raise ValueError(f"{path} has format_version {shown!r}: this jamlab reads "
+                         f"{what + ' ' if what else ''}files of version 1 to {newest}")
+    return h5
 
 
 def check_links(group: Any, path: PathLike) -> None:

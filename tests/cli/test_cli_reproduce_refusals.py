@@ -166,3 +166,31 @@ def test_figure_redraws_a_report_made_with_another_seed(tmp_path, capsys):
     assert "(seed: 1 != 0;" in line and "give the --scale, --seed, --sizes and --alpha" in line
     assert run([*args, "--seed", 1, "--out", tmp_path / "b.png"]) == 0
     assert (tmp_path / "b.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("kind", ["configuration", "trace"])
+@pytest.mark.parametrize("version", [99, 0, "2", 1.5])
+def test_hdf5_files_of_another_format_version_are_refused(tmp_path, capsys, kind, version):
+    """The same rule for configurations (version 1) and traces (versions 1 and 2): a file that
+    says it is of a version this jamlab does not know is refused by every reader (here
+    ``inspect`` and ``export``), one line with exit code 2; a file without the attribute
+    (another program's) is read as before."""
+    import h5py
+
+    path = tmp_path / "c.h5"
+    assert run(["random-packing", "--n", "8", "--phi", "0.3", "--dim", "2", "--out", path]) == 0
+    if kind == "trace":
+        trace = tmp_path / "t.h5"
+        assert run(["shear", path, "--out", trace, "--dgamma", "0.01", "--gamma-max", "0.02"]) == 0
+        path = trace
+    capsys.readouterr()
+    with h5py.File(path, "r+") as h5:
+        h5.attrs["format_version"] = version
+    command = ["inspect", path] if kind == "configuration" else ["export", path, "--out",
+                                                                 tmp_path / "t.xyz"]
+    assert run(command) == 2
+    assert f"has format_version {version!r}: this jamlab reads {kind} files of version 1 to" \
+        in error_line(capsys)
+    with h5py.File(path, "r+") as h5:
+        del h5.attrs["format_version"]
+    assert run(command) == 0
