@@ -194,3 +194,23 @@ def test_hdf5_files_of_another_format_version_are_refused(tmp_path, capsys, kind
     with h5py.File(path, "r+") as h5:
         del h5.attrs["format_version"]
     assert run(command) == 0
+
+
+def test_figure_refuses_a_runs_path_that_is_not_a_directory(tmp_path, capsys):
+    """``figure fig1 --runs missing`` ignored the --runs it was given (fig1 needs none)."""
+    (tmp_path / "file.txt").write_text("mine\n")
+    for runs in (tmp_path / "missing", tmp_path / "file.txt"):
+        assert run(["figure", "fig1", "--runs", runs, "--out", tmp_path / "f.png"]) == 2
+        assert f"--runs {runs} is not a directory" in error_line(capsys)
+    assert not (tmp_path / "f.png").exists()
+
+
+def test_the_log_counts_the_local_processes_started():
+    """``--workers 1000000000`` logged "on 1000000000 local processes"; a pool starts at most
+    one process per sample to run (``runs.execute``: ``min(workers, len(items))``)."""
+    from jamlab.runs import Execution
+
+    assert Execution(workers=10**9).describe(12) == "12 local processes"
+    assert Execution(workers=2).describe(12) == "2 local processes"
+    assert Execution(workers=2).describe(1) == "1 local process"
+    assert Execution(workers=0).describe(12) == "in-process"

@@ -116,6 +116,8 @@ def figure_command(
         raise ValueError(f"{name} needs --runs (the runs/ directory of a `jamlab reproduce`)")
     if name not in FIGURE_PART:
         raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
+    if runs is not None and not runs.is_dir():
+        raise ValueError(f"--runs {runs} is not a directory (the runs/ of a `jamlab reproduce`)")
     chosen = _scale(scale, seed, sizes, alpha)  # those the runs were made with
     path = make_figure(name, chosen, runs if runs is not None else Path("."), out)
     typer.echo(f"wrote {path}")

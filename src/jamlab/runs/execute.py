@@ -92,14 +92,19 @@ class Execution:
             )
         slurm_cluster_kwargs(self.slurm)  # their values are checked even when not used
 
-    def describe(self) -> str:
+    def describe(self, todo: int | None = None) -> str:
+        """Where the samples run; with ``todo`` (the samples to run), the local processes are
+        counted as started: never more than there are samples."""
         if self.scheduler:
             return f"dask scheduler {self.scheduler}"
         if self.cluster:
             return "SLURM cluster (dask-jobqueue)"
         if self.workers == 0:
             return "in-process"
-        return f"{self.workers or os.cpu_count() or 1} local processes"
+        processes = self.workers or os.cpu_count() or 1
+        if todo is not None:
+            processes = max(1, min(processes, todo))
+        return f"{processes} local process{'es' if processes != 1 else ''}"
 
 
 @dataclass
@@ -307,7 +312,7 @@ def run_study(
                 + (f", {len(saved) - damaged} with a checkpoint" if checkpointing else "")
                 + (f", {damaged} with a damaged checkpoint (redone from the start)"
                    if damaged else "")
-                + f") on {execution.describe()}"
+                + f") on {execution.describe(len(todo))}"
             )
         seeds = {key: sample_seed(study.seed, key) for key in todo}
         # the checkpoint folders as absolute paths: workers may run elsewhere (a shared file
