@@ -1,7 +1,9 @@
-"""Running the ``jamlab`` command in a subprocess, and its one-line error contract."""
+"""Running the ``jamlab`` command in a subprocess or in this process, and its one-line error
+contract."""
 
 from __future__ import annotations
 
+import hashlib
 import subprocess
 import sys
 import time
@@ -18,6 +20,32 @@ def jamlab(*args: object, cwd=None, env=None, timeout: float = 600) -> subproces
         cwd=cwd,
         env=env,
     )
+
+
+def run_in_process(args: list) -> int:
+    """Run ``jamlab ARGS`` in this process (arguments converted with ``str``; output left to
+    ``capsys``) and return its exit code."""
+    import pytest
+
+    from jamlab.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main([str(a) for a in args])
+    return int(exc.value.code)
+
+
+def error_line(capsys) -> str:
+    """Assert that the command just run in this process wrote exactly one non-empty stderr line
+    ``jamlab: error: …``; return it."""
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), err
+    return lines[0]
+
+
+def digest(path) -> str:
+    """The sha256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def one_line_error(result: subprocess.CompletedProcess) -> str:

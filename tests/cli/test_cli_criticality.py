@@ -8,16 +8,10 @@ import numpy as np
 import pytest
 
 from cli_helpers import jamlab, one_line_error
-from jamlab.cli import main
+from cli_helpers import run_in_process as run
 from jamlab.spheres.io import write_packing
 from jamlab.spheres.packing import jam
 from jamlab.spheres.potential import remove_rattlers
-
-
-def run(args: list[str]) -> int:
-    with pytest.raises(SystemExit) as exc:
-        main(args)
-    return int(exc.value.code)
 
 
 @pytest.fixture(scope="module")

@@ -4,30 +4,13 @@ now be one line ``jamlab: error: …`` with exit code 2, before anything is writ
 
 from __future__ import annotations
 
-import hashlib
 import warnings
 
 import numpy as np
 import pytest
 
-from jamlab.cli import main
-
-
-def run(args: list) -> int:
-    with pytest.raises(SystemExit) as exc:
-        main([str(a) for a in args])
-    return int(exc.value.code)
-
-
-def error_line(capsys) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), err
-    return lines[0]
-
-
-def digest(path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+from cli_helpers import digest, error_line
+from cli_helpers import run_in_process as run
 
 
 @pytest.fixture(scope="module")

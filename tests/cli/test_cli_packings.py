@@ -6,15 +6,9 @@ import h5py
 import numpy as np
 import pytest
 
-from jamlab.cli import main
+from cli_helpers import run_in_process as run
 from jamlab.spheres.io import read_packing
 from jamlab.spheres.packing import describe
-
-
-def run(args: list[str]) -> int:
-    with pytest.raises(SystemExit) as exc:
-        main(args)
-    return int(exc.value.code)
 
 
 def test_prepare_jamming_and_coordination(tmp_path, capsys) -> None:

@@ -11,20 +11,8 @@ import json
 
 import pytest
 
-from jamlab.cli import main
-
-
-def run(args: list) -> int:
-    with pytest.raises(SystemExit) as exc:
-        main([str(a) for a in args])
-    return int(exc.value.code)
-
-
-def error_line(capsys) -> str:
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("jamlab: error:"), err
-    return lines[0]
+from cli_helpers import error_line
+from cli_helpers import run_in_process as run
 
 
 def tree(root) -> dict:
