@@ -301,9 +301,9 @@ def open_hdf5(path: PathLike, what: str = "", newest: int | None = None) -> Any:
     ``format_version`` that is not an integer in ``[1, newest]`` (a file of a newer jamlab; files
     without the attribute, other programs', are read). The readers of configurations and traces
     start here."""
-    import numbers
-
     import h5py
+
+    from jamlab import validation
 
     path = Path(path)
     if not path.is_file():
@@ -313,12 +313,12 @@ def open_hdf5(path: PathLike, what: str = "", newest: int | None = None) -> Any:
     except OSError:
         raise ValueError(f"not an HDF5 file: {path}") from None
     version = h5.attrs.get("format_version") if newest is not None else None
-    if version is not None and not (isinstance(version, numbers.Integral)
-                                    and not isinstance(version, bool) and 1 <= version <= newest):
-        h5.close()
-        shown = version.item() if hasattr(version, "item") else version  # numpy scalar
-        raise ValueError(f"{path} has format_version {shown!r}: this jamlab reads "
-                         f"{what + ' ' if what else ''}files of version 1 to {newest}")
+    if version is not None:
+        try:
+            validation.format_version(path, version, newest, f"{what} files".lstrip())
+        except ValueError:
+            h5.close()
+            raise
     return h5
 
 

@@ -46,6 +46,14 @@ __all__ = [
     "strain",
     "strain_steps",
     "box_fits",
+    "is_real",
+    "is_integer",
+    "save_every",
+    "pressure_tolerance",
+    "format_version",
+    "above_jamming",
+    "sizes",
+    "pair_exponent",
 ]
 
 SEED_MAX = 2**64 - 1
@@ -250,6 +258,17 @@ def pressure_tolerance(ptol: Any, pressure: Any, *, applies: str) -> float:
     if pressure is None:
         raise ValueError(f"--ptol applies to {applies}: give --pressure too")
     return value
+
+
+def format_version(where: Any, value: Any, newest: int, what: str) -> int:
+    """The ``format_version`` of a file or manifest ``where`` that this jamlab reads: an integer
+    in ``[1, newest]``; anything else (a newer jamlab's file, a damaged one) is a ``ValueError``
+    naming ``what`` is read (e.g. ``"trace files"``)."""
+    if not (is_integer(value) and 1 <= value <= newest):
+        shown = value.item() if hasattr(value, "item") else value  # a numpy scalar as a number
+        raise ValueError(f"{where} has format_version {shown!r}: this jamlab reads {what} of "
+                         f"version 1 to {newest}")
+    return int(value)
 
 
 def seed(name: str, value: Any) -> int:

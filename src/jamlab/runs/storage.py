@@ -284,10 +284,11 @@ class RunDir:
             raise RunError(f"unreadable manifest {self.manifest_path}: {exc}") from None
         if not isinstance(manifest, dict) or manifest.get("format") != RUN_FORMAT:
             raise RunError(f"{self.manifest_path} is not a jamlab run manifest")
-        version = manifest.get("format_version")
-        if not (validation.is_integer(version) and 1 <= version <= FORMAT_VERSION):
-            raise RunError(f"{self.manifest_path} has format_version {version!r}: this jamlab "
-                           f"reads run directories of version 1 to {FORMAT_VERSION}")
+        try:
+            validation.format_version(self.manifest_path, manifest.get("format_version"),
+                                      FORMAT_VERSION, "run directories")
+        except ValueError as exc:
+            raise RunError(str(exc)) from None
         return manifest
 
     def study(self) -> Study:
