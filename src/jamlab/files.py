@@ -343,11 +343,17 @@ def check_links(group: Any, path: PathLike) -> None:
 @contextlib.contextmanager
 def removed_on_failure(paths: list[PathLike], keep_only: frozenset[str]) -> Iterator[None]:
     """Undo what a command created when it fails before it made anything worth keeping: of
-    ``paths``, those missing on entry are removed if the block raises (any exception, Ctrl-C
-    too) and they hold no file but ones named in ``keep_only`` (markers, manifests, locks).
-    One that holds any other file — a finished or failed sample, a checkpoint, a figure — is
-    left whole, and so is everything that existed on entry."""
-    created = [Path(p) for p in paths if not os.path.lexists(p)]
+    ``paths`` and their parents, those missing on entry are removed if the block raises (any
+    exception, Ctrl-C too) and they hold no file but ones named in ``keep_only`` (markers,
+    manifests, locks). One that holds any other file — a finished or failed sample, a
+    checkpoint, a figure — is left whole, and so is everything that existed on entry."""
+    created = []
+    for path in map(Path, paths):
+        if os.path.lexists(path):
+            continue
+        while not os.path.lexists(path.parent) and path.parent != path:
+            path = path.parent  # the outermost missing directory: what a mkdir -p makes
+        created.append(path)
     created = [p for p in created if not any(_inside(p, q) and p != q for q in created)]
     try:
         yield

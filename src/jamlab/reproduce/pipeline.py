@@ -218,14 +218,6 @@ def _machines(scale: Scale, runs: Path) -> str:
             f"cascades: {summary_text(machine())}")
 
 
-def _first_missing(path: Path) -> Path:
-    """The outermost missing directory on the way to ``path`` (``path`` itself if its parent
-    exists): what creating it with its parents makes."""
-    while not path.parent.exists() and path.parent != path:
-        path = path.parent
-    return path
-
-
 def _check_writable(path: Path) -> None:
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -350,8 +342,7 @@ def reproduce(
     figdir = out / "figures"
     # refused before its first sample (a study that differs from the runs there, a scheduler out
     # of reach, a --runs that is a file), a call leaves nothing it created behind
-    made = [_first_missing(out), out / MARKER, figdir, _first_missing(runs_dir),
-            *(runs_dir / name for name in studies(scale))]
+    made = [out, out / MARKER, figdir, runs_dir, *(runs_dir / name for name in studies(scale))]
     with removed_on_failure(made, keep_only=frozenset({MARKER, *RUN_MEMBERS})):
         _check_writable(out)
         _check_writable(runs_dir)
