@@ -80,8 +80,8 @@ def reproduce_command(
     try:
         result = reproduce(chosen, out, runs=runs, execution=execution, log=log, force=force)
     except NoSamplesError as exc:  # a computation that failed, not bad input: exit code 1
-        print(f"jamlab: error: {exc}", file=sys.stderr)
-        raise SystemExit(1) from None
+        typer.echo(f"jamlab: error: {exc}", err=True)
+        raise typer.Exit(1) from None
     failed = sum(r["failed"] for r in result.data.get("runs", {}).values())
     typer.echo(f"wrote {result.paths['html']} and {result.paths['markdown']} "
                f"in {result.seconds:.0f} s ({len(result.rows)} rows, "
