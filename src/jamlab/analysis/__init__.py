@@ -2,150 +2,91 @@
 
 Imports neither :mod:`jamlab.theory` nor :mod:`jamlab.spheres`. Formulas and rules:
 ``docs/analysis.md``.
+
+The public names below are loaded on first use (PEP 562): ``import jamlab.analysis.anatomy``
+(as the AQS driver does) then does not import scipy.stats and scipy.optimize for every
+command that shears. ``from jamlab.analysis import X`` works as before.
 """
 
-from jamlab.analysis.avalanches import (
-    CoarseSteps,
-    Exclusions,
-    NoiseFloor,
-    avalanche_sizes,
-    branch_residual,
-    classify_steps,
-    coarsen_steps,
-    consecutive_events,
-    exclusions,
-    jammed_steps,
-    jumps_from_trace,
-    noise_floor,
-)
-from jamlab.analysis.cutoff_powerlaw import (
-    CHI2_1_95,
-    CutoffPowerLawFit,
-    CutoffShapeProfile,
-    cutoff_power_law_cdf,
-    cutoff_power_law_ks,
-    cutoff_power_law_log_norm,
-    cutoff_power_law_logpdf,
-    cutoff_shape_profile,
-    fit_cutoff_power_law,
-    log_upper_gamma,
-    log_upper_gamma_array,
-    sample_cutoff_power_law,
-    shape_free_interval,
-)
-from jamlab.analysis.finite_size import (
-    Collapse,
-    CutoffScaling,
-    JointScaling,
-    JointShapeFree,
-    collapse,
-    collapse_quality,
-    cutoff_size,
-    fit_cutoff_scaling,
-    fit_joint_scaling,
-    joint_shape_free,
-    joint_shape_profile,
-)
-from jamlab.analysis.histograms import LogHistogram, log_histogram
-from jamlab.analysis.jackknife import jackknife_variance
-from jamlab.analysis.moduli import (
-    ModulusMoments,
-    SlopeFit,
-    fit_log_slope,
-    moduli_from_stress_jumps,
-    moduli_from_trace,
-)
-from jamlab.analysis.order import BondOrder, bond_order
-from jamlab.analysis.packing_dispersion import PackingDispersion, packing_dispersion
-from jamlab.analysis.powerlaw import (
-    PowerLawFit,
-    fit_power_law,
-    mle_tau,
-    power_law_cdf,
-    power_law_gof,
-    power_law_loglik,
-    power_law_pdf,
-    sample_power_law,
-)
-from jamlab.analysis.rate_collapse import RateCollapse, cumulative_rates, rate_collapse
-from jamlab.analysis.shape_per_size import SharedTau, fixed_tau_loglik, shared_tau
-from jamlab.analysis.shape_test import ClusteredShapeTest, clustered_shape_test
-from jamlab.analysis.size_difference import (
-    SizeDifference,
-    StrainStepSlopes,
-    combined_scores,
-    size_difference,
-    strain_step_slopes,
-)
+from __future__ import annotations
 
-__all__ = [
-    "BondOrder",
-    "bond_order",
-    "RateCollapse",
-    "cumulative_rates",
-    "rate_collapse",
-    "SharedTau",
-    "fixed_tau_loglik",
-    "shared_tau",
-    "ClusteredShapeTest",
-    "clustered_shape_test",
-    "SizeDifference",
-    "StrainStepSlopes",
-    "combined_scores",
-    "size_difference",
-    "PackingDispersion",
-    "packing_dispersion",
-    "strain_step_slopes",
-    "CHI2_1_95",
-    "CutoffPowerLawFit",
-    "CutoffShapeProfile",
-    "cutoff_power_law_cdf",
-    "cutoff_power_law_ks",
-    "cutoff_power_law_log_norm",
-    "cutoff_power_law_logpdf",
-    "cutoff_shape_profile",
-    "fit_cutoff_power_law",
-    "log_upper_gamma",
-    "log_upper_gamma_array",
-    "sample_cutoff_power_law",
-    "shape_free_interval",
-    "Collapse",
-    "CutoffScaling",
-    "collapse",
-    "collapse_quality",
-    "cutoff_size",
-    "fit_cutoff_scaling",
-    "JointScaling",
-    "fit_joint_scaling",
-    "JointShapeFree",
-    "joint_shape_free",
-    "joint_shape_profile",
-    "jackknife_variance",
-    "CoarseSteps",
-    "coarsen_steps",
-    "consecutive_events",
-    "Exclusions",
-    "exclusions",
-    "jammed_steps",
-    "LogHistogram",
-    "ModulusMoments",
-    "NoiseFloor",
-    "PowerLawFit",
-    "SlopeFit",
-    "avalanche_sizes",
-    "branch_residual",
-    "classify_steps",
-    "fit_log_slope",
-    "fit_power_law",
-    "jumps_from_trace",
-    "log_histogram",
-    "mle_tau",
-    "moduli_from_stress_jumps",
-    "moduli_from_trace",
-    "noise_floor",
-    "power_law_cdf",
-    "power_law_gof",
-    "power_law_loglik",
-    "power_law_pdf",
-    "sample_power_law",
-]
+import importlib
+import sys
+import types
+from typing import Any
+
+_EXPORTS: dict[str, tuple[str, ...]] = {
+    "avalanches": (
+        "CoarseSteps", "Exclusions", "NoiseFloor", "avalanche_sizes", "branch_residual",
+        "classify_steps", "coarsen_steps", "consecutive_events", "exclusions", "jammed_steps",
+        "jumps_from_trace", "noise_floor",
+    ),
+    "cutoff_powerlaw": (
+        "CHI2_1_95", "CutoffPowerLawFit", "CutoffShapeProfile", "cutoff_power_law_cdf",
+        "cutoff_power_law_ks", "cutoff_power_law_log_norm", "cutoff_power_law_logpdf",
+        "cutoff_shape_profile", "fit_cutoff_power_law", "log_upper_gamma", "log_upper_gamma_array",
+        "sample_cutoff_power_law", "shape_free_interval",
+    ),
+    "finite_size": (
+        "Collapse", "CutoffScaling", "JointScaling", "JointShapeFree", "collapse",
+        "collapse_quality", "cutoff_size", "fit_cutoff_scaling", "fit_joint_scaling",
+        "joint_shape_free", "joint_shape_profile",
+    ),
+    "histograms": ("LogHistogram", "log_histogram"),
+    "jackknife": ("jackknife_variance",),
+    "moduli": (
+        "ModulusMoments", "SlopeFit", "fit_log_slope", "moduli_from_stress_jumps",
+        "moduli_from_trace",
+    ),
+    "order": ("BondOrder", "bond_order"),
+    "packing_dispersion": ("PackingDispersion", "packing_dispersion"),
+    "powerlaw": (
+        "PowerLawFit", "fit_power_law", "mle_tau", "power_law_cdf", "power_law_gof",
+        "power_law_loglik", "power_law_pdf", "sample_power_law",
+    ),
+    "rate_collapse": ("RateCollapse", "cumulative_rates", "rate_collapse"),
+    "shape_per_size": ("SharedTau", "fixed_tau_loglik", "shared_tau"),
+    "shape_test": ("ClusteredShapeTest", "clustered_shape_test"),
+    "size_difference": (
+        "SizeDifference", "StrainStepSlopes", "combined_scores", "size_difference",
+        "strain_step_slopes",
+    ),
+}
+"""The submodule of each public name."""
+
+_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str) -> Any:
+    module = _MODULE_OF.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+        globals()[name] = value  # later lookups are plain attribute reads
+        return value
+    try:  # a submodule not imported yet (``jamlab.analysis.finite_size``, ...)
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """The import system binds each submodule to its name in this package. Three public
+    functions share their submodule's name (``packing_dispersion``, ``rate_collapse``,
+    ``size_difference``): the name stays the function's, as when this package imported every
+    submodule eagerly (the submodule itself is in ``sys.modules``)."""
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if name in _MODULE_OF and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -65,7 +65,6 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.optimize
 
 from jamlab.spheres.aqs.linalg import Factor, factorise
 from jamlab.spheres.aqs.network import backbone_mask, contact_list, pair_keys
@@ -259,6 +258,8 @@ def minimize_rattlers(
         sel = on_j >= 0
         np.add.at(g, on_j[sel], push[sel])
         return float(np.sum(pair_energy(dist, sig, HARMONIC))), g.ravel()
+
+    import scipy.optimize  # here: a caged rattler is rare, and the import costs ~0.3 s per process
 
     x0 = pos[rat].ravel()
     res = scipy.optimize.minimize(
