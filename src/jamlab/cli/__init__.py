@@ -119,6 +119,9 @@ def interrupted(exc: BaseException) -> bool:
 
 def main(argv: list[str] | None = None) -> None:
     """Entry point of the ``jamlab`` command."""
+    from jamlab import interrupts
+
+    interrupts.install()  # Ctrl-C never inside numba's unpickling (a segmentation fault there)
     try:
         try:
             from jamlab.spheres import blas
