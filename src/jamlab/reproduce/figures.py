@@ -23,7 +23,12 @@ from jamlab.reproduce.measurements import (
     predicted_tau,
 )
 from jamlab.reproduce.scales import Scale
-from jamlab.reproduce.theory_checks import LINEAR_Y, TheoryChecks
+from jamlab.reproduce.theory_checks import (
+    FIG3_EXACT_DGAMMAS,
+    FIG3_EXACT_POINTS,
+    LINEAR_Y,
+    TheoryChecks,
+)
 
 __all__ = [
     "TITLES",
@@ -64,8 +69,6 @@ TITLES = {
 
 FIG3_DGAMMAS = (1e-2, 1e-3, 1e-4)
 """The strain steps of Fig. 3."""
-FIG3_EXACT_DGAMMAS = (1e-2, 1e-3)
-"""The strain steps of the exact-law panel (the exact law costs seconds per δγ)."""
 
 
 def fig1(r: CoordinationResult, figdir: Path, ext: str = ".png") -> Path | None:
@@ -103,13 +106,16 @@ def fig3(figdir: Path, ext: str = ".png") -> Path:
     return path
 
 
-def fig3_exact(figdir: Path, ext: str = ".png") -> Path:
-    """Fig. 3 with jamlab's exact law beside the printed formula (same ``y``, cut-off 1 − 1e-5)."""
+def fig3_exact(figdir: Path, ext: str = ".png", tables: dict | None = None) -> Path:
+    """Fig. 3 with jamlab's exact law beside the printed formula (same ``y``, cut-off 1 − 1e-5);
+    ``tables``: its tables made already (:func:`jamlab.reproduce.theory_checks.exact_law_checks`),
+    else it computes them."""
     from jamlab.plots.theory import plot_jump_distributions_exact
     from jamlab.theory import mu_jamming
 
     path = figdir / f"fig3_exact{ext}"
-    plot_jump_distributions_exact((mu_jamming(), 0.5), FIG3_EXACT_DGAMMAS, path, n_points=60)
+    plot_jump_distributions_exact((mu_jamming(), 0.5), FIG3_EXACT_DGAMMAS, path,
+                                  n_points=FIG3_EXACT_POINTS, tables=tables)
     return path
 
 

@@ -37,7 +37,7 @@ from jamlab.reproduce.measurements import (
     tau_estimates,
 )
 from jamlab.reproduce.scales import Scale, get_scale, studies
-from jamlab.reproduce.theory_checks import theory_checks
+from jamlab.reproduce.theory_checks import exact_law_checks, theory_checks
 
 __all__ = ["FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES", "ReproduceResult",
            "check_report_directory", "make_figure", "reproduce"]
@@ -128,7 +128,9 @@ PARTS: dict[str, Part] = {
     "coordination": Part(lambda c: coordination(c.scale, c.out / "data", c.log),
                          lambda r, s: (table.coordination_rows(r, s),
                                        table.coordination_data(r))),
-    "theory": Part(lambda c: theory_checks(c.scale),
+    # the exact law of μ_J and 0.5, built once for the exponent rows and the figure fig3_exact
+    "exact_law": Part(lambda c: exact_law_checks(), None),
+    "theory": Part(lambda c: theory_checks(c.scale, c.result("exact_law")[0]),
                    lambda r, s: (table.theory_rows(r, s) + table.exponent_rows(r),
                                  table.theory_data(r))),
     "criticality": Part(_criticality, lambda r, s: (criticality_table.criticality_rows(*r),
@@ -142,7 +144,7 @@ PARTS: dict[str, Part] = {
 """The analysis in independent parts, in report order of their rows."""
 
 FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
-               "fig3_exact": "theory", "fig4": "trace",
+               "fig3_exact": "exact_law", "fig4": "trace",
                "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
                "theory_vs_cascade": "theory", "criticality": "criticality",
                "finite_size": "finite_size", "tau_pressure": "pressure_tau"}
@@ -152,7 +154,7 @@ _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir, c.ext),
     "fig2": lambda c: figures.fig2(c.scale, c.figdir, c.ext),
     "fig3": lambda c: figures.fig3(c.figdir, c.ext),
-    "fig3_exact": lambda c: figures.fig3_exact(c.figdir, c.ext),
+    "fig3_exact": lambda c: figures.fig3_exact(c.figdir, c.ext, c.result("exact_law")[1]),
     "fig4": lambda c: figures.fig4(c.result("trace"), c.scale, c.figdir, c.ext),
     "fig5": lambda c: figures.fig5(c.result("avalanches"), c.scale, c.figdir, c.ext),
     "fig6": lambda c: figures.fig6(c.result("stress_strain"), c.scale, c.figdir, c.ext),

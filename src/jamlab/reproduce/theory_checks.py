@@ -21,6 +21,7 @@ __all__ = [
     "ExponentCheck",
     "NoJumpPoint",
     "TheoryChecks",
+    "exact_law_checks",
     "exponent_checks",
     "printed_chi_one_level",
     "theory_checks",
@@ -32,6 +33,12 @@ EXPONENT_WINDOW = (0.02, 0.15)
 """``|ΔE|/δγ`` window where the local slope of ``P(ΔE|δγ)`` is read (inside SPEC §1's)."""
 EXPONENT_Q_MAX = 1.0 - 1e-5
 """Cut-off of ``y(q) = (1 − q)^(−μ) − 1`` for the exact law (it needs one, docs §8)."""
+EXPONENT_POINTS = 60
+"""Points of the exponent window (log-spaced)."""
+FIG3_EXACT_DGAMMAS = (1e-2, 1e-3)
+"""The strain steps of the exact-law panel of Fig. 3 (the exact law costs seconds per δγ)."""
+FIG3_EXACT_POINTS = 60
+"""Points per curve of that panel (over ``|ΔE|/δγ ∈ [1e-4, 5]``)."""
 
 
 @dataclass(frozen=True)
@@ -47,20 +54,44 @@ class ExponentCheck:
     tau_printed: float
 
 
+def _exponent_check(mu: float, table: dict[str, np.ndarray]) -> ExponentCheck:
+    """The check of ``μ`` from its exact-law table over the window."""
+    slope = -np.asarray(table["slope_exact"])
+    return ExponentCheck(mu=float(mu), tau_exact=float(np.median(slope)),
+                         tau_exact_min=float(slope.min()), tau_exact_max=float(slope.max()),
+                         tau_printed=float(np.median(-np.asarray(table["slope_printed"]))))
+
+
 def exponent_checks(mus: tuple[float, ...]) -> tuple[ExponentCheck, ...]:
     """One :class:`ExponentCheck` per ``μ`` (the exact continuum law, ``jamlab.theory``)."""
     from jamlab.plots.theory import exact_jump_distribution_table
 
-    out = []
+    return tuple(_exponent_check(mu, exact_jump_distribution_table(
+        mu, [EXPONENT_DGAMMA], q_max=EXPONENT_Q_MAX, n_points=EXPONENT_POINTS,
+        ratios=EXPONENT_WINDOW)[EXPONENT_DGAMMA]) for mu in mus)
+
+
+def exact_law_checks(mus: tuple[float, ...] | None = None
+                     ) -> tuple[tuple[ExponentCheck, ...], dict]:
+    """:func:`exponent_checks` and the tables of the exact-law panel of Fig. 3 (``{μ: {δγ:
+    table}}``, :func:`jamlab.plots.theory.exact_jump_distribution_table` at
+    ``FIG3_EXACT_DGAMMAS``) in one pass: the exponent window is read from the panel's law at
+    ``δγ = EXPONENT_DGAMMA`` (the same law, built once; the same numbers as apart). ``mus``:
+    default ``μ_J`` and 0.5, the report's."""
+    from jamlab.plots.theory import exact_jump_distribution_table
+    from jamlab.theory import mu_jamming
+
+    if mus is None:
+        mus = (mu_jamming(), 0.5)
+    checks, tables = [], {}
     for mu in mus:
-        t = exact_jump_distribution_table(mu, [EXPONENT_DGAMMA], q_max=EXPONENT_Q_MAX,
-                                          n_points=60, ratios=EXPONENT_WINDOW)[EXPONENT_DGAMMA]
-        slope = -np.asarray(t["slope_exact"])
-        out.append(ExponentCheck(mu=float(mu), tau_exact=float(np.median(slope)),
-                                 tau_exact_min=float(slope.min()),
-                                 tau_exact_max=float(slope.max()),
-                                 tau_printed=float(np.median(-np.asarray(t["slope_printed"])))))
-    return tuple(out)
+        tab = exact_jump_distribution_table(
+            mu, FIG3_EXACT_DGAMMAS, q_max=EXPONENT_Q_MAX, n_points=FIG3_EXACT_POINTS,
+            windows={EXPONENT_DGAMMA: (EXPONENT_WINDOW, EXPONENT_POINTS)})
+        checks.append(_exponent_check(mu, tab[EXPONENT_DGAMMA].pop("window")))
+        tables[float(mu)] = tab
+    return tuple(checks), tables
+
 
 LINEAR_Y = (2.5, 0.0, 0.9)
 """The Parisi function of the checks: ``y(q) = 2.5 q`` (``y_0 = 0``) cut at ``q_max = 0.9``."""
@@ -109,9 +140,12 @@ def printed_chi_one_level(y: float, dgamma: float) -> float:
     return float(0.5 * erfc(a) + 0.5 * math.exp(-y * dgamma * dgamma * y))
 
 
-def theory_checks(scale: Scale) -> TheoryChecks:
+def theory_checks(scale: Scale, exponents: tuple[ExponentCheck, ...] | None = None
+                  ) -> TheoryChecks:
     """No-jump probabilities: printed formula, exact recursion, cascade sampler (y = 2.5 q,
-    q_max = 0.9, ``cascade_k`` levels) at ``cascade_dgammas``, and the one-level case."""
+    q_max = 0.9, ``cascade_k`` levels) at ``cascade_dgammas``, and the one-level case;
+    ``exponents``: the :func:`exponent_checks` of ``μ_J`` and 0.5 if made already (e.g. by
+    :func:`exact_law_checks`), else they are computed."""
     from jamlab.theory import (
         ParisiFunction,
         exact_jump_R,
@@ -135,6 +169,8 @@ def theory_checks(scale: Scale) -> TheoryChecks:
     rate = jump_rate_first_order(pf)
     k1 = sample_cascade_jumps([0.0], [1.0], 0.5, scale.cascade_samples, seed=scale.seed + 99)
     p1, se1 = k1.p_no_jump()
+    if exponents is None:
+        exponents = exponent_checks((mu_jamming(), 0.5))
     return TheoryChecks(
         k=scale.cascade_k,
         n=scale.cascade_samples,
@@ -146,5 +182,5 @@ def theory_checks(scale: Scale) -> TheoryChecks:
         k1_sampled=float(p1),
         k1_sampled_err=float(se1),
         k1_chi=printed_chi_one_level(1.0, 0.5),
-        exponents=exponent_checks((mu_jamming(), 0.5)),
+        exponents=exponents,
     )

@@ -1,0 +1,34 @@
+"""The exact-law tables of Fig. 3 (``jamlab.plots.theory.exact_jump_distribution_table``): a
+second window read from the same law is the table that a law built afresh gives, bit for bit
+(the report reads its exponent rows and the fig3_exact panel from one law per δγ)."""
+
+import numpy as np
+import pytest
+
+from jamlab.plots.theory import exact_jump_distribution_table
+
+KW = dict(q_max=1.0 - 1e-3, levels=8)
+
+
+def test_a_window_from_the_same_law_is_the_table_of_a_fresh_law():
+    both = exact_jump_distribution_table(0.5, [2e-2, 1e-2], n_points=9,
+                                         windows={1e-2: ((0.02, 0.15), 7)}, **KW)
+    assert "window" not in both[2e-2]
+    apart = exact_jump_distribution_table(0.5, [1e-2], n_points=7, ratios=(0.02, 0.15), **KW)
+    window = both[1e-2].pop("window")
+    assert sorted(window) == sorted(apart[1e-2])
+    for key, value in apart[1e-2].items():
+        assert np.array_equal(window[key], value), key
+    # and the main table is the one made without a window
+    alone = exact_jump_distribution_table(0.5, [2e-2, 1e-2], n_points=9, **KW)
+    for dg in (2e-2, 1e-2):
+        for key, value in alone[dg].items():
+            assert np.array_equal(both[dg][key], value), (dg, key)
+    # the window's slopes are those of a law, not a copy of the main table's grid
+    assert window["abs_dE"][0] == pytest.approx(0.02 * 1e-2)
+    assert np.all(np.isfinite(window["slope_exact"]))
+
+
+def test_a_window_at_another_dgamma_is_refused():
+    with pytest.raises(ValueError, match="need their δγ among"):
+        exact_jump_distribution_table(0.5, [1e-2], windows={1e-3: ((0.02, 0.15), 7)}, **KW)
