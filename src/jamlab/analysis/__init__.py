@@ -10,10 +10,11 @@ command that shears. ``from jamlab.analysis import X`` works as before.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import types
 from typing import Any
+
+from jamlab import lazy
 
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "avalanches": (
@@ -54,27 +55,18 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
 }
 """The submodule of each public name."""
 
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+_PATH_OF = {name: f"{__name__}.{module}" for module, names in _EXPORTS.items() for name in names}
+"""The module of each public name, as a full path (:func:`jamlab.lazy.attribute`)."""
 
-__all__ = sorted(_MODULE_OF)
+__all__ = sorted(_PATH_OF)
 
 
 def __getattr__(name: str) -> Any:
-    module = _MODULE_OF.get(name)
-    if module is not None:
-        value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-        globals()[name] = value  # later lookups are plain attribute reads
-        return value
-    try:  # a submodule not imported yet (``jamlab.analysis.finite_size``, ...)
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return lazy.attribute(__name__, globals(), _PATH_OF, name)
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    return lazy.names(globals(), __all__)
 
 
 class _Package(types.ModuleType):
@@ -84,7 +76,7 @@ class _Package(types.ModuleType):
     submodule eagerly (the submodule itself is in ``sys.modules``)."""
 
     def __setattr__(self, name: str, value: object) -> None:
-        if name in _MODULE_OF and isinstance(value, types.ModuleType):
+        if name in _PATH_OF and isinstance(value, types.ModuleType):
             return
         super().__setattr__(name, value)
 

@@ -90,19 +90,12 @@ __all__ += list(_LAZY)
 
 
 def __getattr__(name: str):
-    import importlib
+    from jamlab import lazy
 
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    try:  # a submodule not imported yet (``jamlab.spheres.aqs``, ...)
-        return importlib.import_module(f"{__name__}.{name}")
-    except ModuleNotFoundError as exc:
-        if exc.name != f"{__name__}.{name}":
-            raise
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return lazy.attribute(__name__, globals(), _LAZY, name)
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    from jamlab import lazy
+
+    return lazy.names(globals(), __all__)
