@@ -24,7 +24,7 @@ class Probe:
 
 def _rebuild():
     frame = sys._getframe()
-    SEEN.append(interrupts.inside_numba_unpickle(frame))
+    SEEN.append(interrupts.unpickling_frame(frame) is not None)
     try:
         interrupts.handle_sigint(signal.SIGINT, frame)  # as Python calls it at this bytecode
     except KeyboardInterrupt:
@@ -49,7 +49,7 @@ def test_inside_numbas_unpickling_the_interrupt_comes_at_the_callers_next_line()
 
 
 def test_elsewhere_the_interrupt_is_immediate():
-    assert not interrupts.inside_numba_unpickle(sys._getframe())
+    assert interrupts.unpickling_frame(sys._getframe()) is None
     with pytest.raises(KeyboardInterrupt):
         interrupts.handle_sigint(signal.SIGINT, sys._getframe())
 

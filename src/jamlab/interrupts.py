@@ -23,7 +23,7 @@ import sys
 import threading
 from types import FrameType
 
-__all__ = ["handle_sigint", "inside_numba_unpickle", "install", "unpickling_frame"]
+__all__ = ["handle_sigint", "install", "unpickling_frame"]
 
 
 def unpickling_frame(frame: FrameType | None) -> FrameType | None:
@@ -34,11 +34,6 @@ def unpickling_frame(frame: FrameType | None) -> FrameType | None:
             return frame
         frame = frame.f_back
     return None
-
-
-def inside_numba_unpickle(frame: FrameType | None) -> bool:
-    """Whether ``frame`` or a frame that called it runs numba's runtime unpickling."""
-    return unpickling_frame(frame) is not None
 
 
 def _raise_at_next_line(frame: FrameType) -> None:
@@ -61,9 +56,7 @@ def handle_sigint(signum: int, frame: FrameType | None) -> None:
     """The SIGINT handler: ``KeyboardInterrupt`` now, or, inside numba's unpickling, at the next
     line of the frame that called the kernel."""
     inner = unpickling_frame(frame)
-    if inner is None:
-        raise KeyboardInterrupt
-    if inner.f_back is None:  # nothing above to raise in: as Python would
+    if inner is None or inner.f_back is None:  # (nothing above it to raise in: as Python would)
         raise KeyboardInterrupt
     _raise_at_next_line(inner.f_back)
 
