@@ -22,7 +22,6 @@ __all__ = [
     "NoJumpPoint",
     "TheoryChecks",
     "exact_law_checks",
-    "exponent_checks",
     "printed_chi_one_level",
     "theory_checks",
 ]
@@ -62,21 +61,12 @@ def _exponent_check(mu: float, table: dict[str, np.ndarray]) -> ExponentCheck:
                          tau_printed=float(np.median(-np.asarray(table["slope_printed"]))))
 
 
-def exponent_checks(mus: tuple[float, ...]) -> tuple[ExponentCheck, ...]:
-    """One :class:`ExponentCheck` per ``μ`` (the exact continuum law, ``jamlab.theory``)."""
-    from jamlab.plots.theory import exact_jump_distribution_table
-
-    return tuple(_exponent_check(mu, exact_jump_distribution_table(
-        mu, [EXPONENT_DGAMMA], q_max=EXPONENT_Q_MAX, n_points=EXPONENT_POINTS,
-        ratios=EXPONENT_WINDOW)[EXPONENT_DGAMMA]) for mu in mus)
-
-
 def exact_law_checks(mus: tuple[float, ...] | None = None
                      ) -> tuple[tuple[ExponentCheck, ...], dict]:
-    """:func:`exponent_checks` and the tables of the exact-law panel of Fig. 3 (``{μ: {δγ:
-    table}}``, :func:`jamlab.plots.theory.exact_jump_distribution_table` at
+    """One :class:`ExponentCheck` per ``μ`` and the tables of the exact-law panel of Fig. 3
+    (``{μ: {δγ: table}}``, :func:`jamlab.plots.theory.exact_jump_distribution_table` at
     ``FIG3_EXACT_DGAMMAS``) in one pass: the exponent window is read from the panel's law at
-    ``δγ = EXPONENT_DGAMMA`` (the same law, built once; the same numbers as apart). ``mus``:
+    ``δγ = EXPONENT_DGAMMA`` (the same law, built once). ``mus``:
     default ``μ_J`` and 0.5, the report's."""
     from jamlab.plots.theory import exact_jump_distribution_table
     from jamlab.theory import mu_jamming
@@ -140,18 +130,16 @@ def printed_chi_one_level(y: float, dgamma: float) -> float:
     return float(0.5 * erfc(a) + 0.5 * math.exp(-y * dgamma * dgamma * y))
 
 
-def theory_checks(scale: Scale, exponents: tuple[ExponentCheck, ...] | None = None
-                  ) -> TheoryChecks:
+def theory_checks(scale: Scale, exponents: tuple[ExponentCheck, ...]) -> TheoryChecks:
     """No-jump probabilities: printed formula, exact recursion, cascade sampler (y = 2.5 q,
     q_max = 0.9, ``cascade_k`` levels) at ``cascade_dgammas``, and the one-level case;
-    ``exponents``: the :func:`exponent_checks` of ``μ_J`` and 0.5 if made already (e.g. by
-    :func:`exact_law_checks`), else they are computed."""
+    ``exponents``: the checks of ``μ_J`` and 0.5 (:func:`exact_law_checks`, which makes them with
+    the tables of Fig. 3's exact panel), carried into the result."""
     from jamlab.theory import (
         ParisiFunction,
         exact_jump_R,
         jump_distribution,
         jump_rate_first_order,
-        mu_jamming,
         one_level_R,
         sample_cascade_jumps,
     )
@@ -169,8 +157,6 @@ def theory_checks(scale: Scale, exponents: tuple[ExponentCheck, ...] | None = No
     rate = jump_rate_first_order(pf)
     k1 = sample_cascade_jumps([0.0], [1.0], 0.5, scale.cascade_samples, seed=scale.seed + 99)
     p1, se1 = k1.p_no_jump()
-    if exponents is None:
-        exponents = exponent_checks((mu_jamming(), 0.5))
     return TheoryChecks(
         k=scale.cascade_k,
         n=scale.cascade_samples,

@@ -246,6 +246,11 @@ def _richardson(values: list[np.ndarray]) -> np.ndarray:
     return values[0] if len(values) == 1 else (4.0 * values[1] - values[0]) / 3.0
 
 
+def _combine(parts: list[Any], get: Any) -> np.ndarray:
+    """``get`` of each part (a ``_DiscreteLaw``), Richardson-combined."""
+    return _richardson([np.asarray(get(p), dtype=np.float64) for p in parts])
+
+
 class _EnergyLaw:
     """``R``, ``pdf``, ``cdf``, ``sf`` of ``ΔE`` from a subclass's ``_R_values(x)`` and
     ``_pdf_values(x)`` (1-D arrays, ``x <= 0``): written once for both exact laws."""
@@ -308,20 +313,23 @@ class ExactJumpLaw(_EnergyLaw):
                                       atom0=sets[-1][2], q_max=q_max,
                                       coarse=sets[0] if len(sets) == 2 else None,
                                       merged_top=merged_top)
+        # the marginal laws' functions hold the parts, not this law: a law that referred to
+        # itself through them lived in a reference cycle (~0.3 GB at 64 levels), freed only by a
+        # full garbage collection, so a report held several at once
         self.du = ScalarJumpLaw(
             self.p_no_jump,
-            lambda w: self._combine(lambda p: p.rec.dU_pdf(w)),
-            lambda w: self._combine(lambda p: p.rec.dU_cdf_jumps(w)),
+            lambda w: _combine(parts, lambda p: p.rec.dU_pdf(w)),
+            lambda w: _combine(parts, lambda p: p.rec.dU_cdf_jumps(w)),
         )
         self.dsigma = ScalarJumpLaw(
             self.p_no_jump,
-            lambda s: self._combine(lambda p: p.dsigma_pdf(s)),
-            lambda s: self._combine(lambda p: p.dsigma_cdf(s)),
+            lambda s: _combine(parts, lambda p: p.dsigma_pdf(s)),
+            lambda s: _combine(parts, lambda p: p.dsigma_cdf(s)),
             sign=1 if self.dgamma >= 0 else -1,
         )
 
     def _combine(self, get: Any) -> np.ndarray:
-        return _richardson([np.asarray(get(p), dtype=np.float64) for p in self._parts])
+        return _combine(self._parts, get)
 
     def _R_values(self, x: np.ndarray) -> np.ndarray:  # noqa: N802
         return self._combine(lambda p: p.rec.R(x))  # 1 below each grid's edge
