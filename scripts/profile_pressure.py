@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     total = stats.total_tt
     plastic = int(np.asarray(r.columns["plastic"], dtype=bool).sum())
     print(f"N = {a.n}, seed {a.seed}, p = {a.pressure:g}, δγ = {a.dgamma:g}, {a.steps} steps, "
-          f"{plastic} plastic: {total:.1f} s profiled")
+          f"{plastic} plastic: {total:.2f} s profiled")
     print("\n| group (own time) | s | share |\n|---|---|---|")
     groups = group_times(stats)
     for name, secs in groups.items():
