@@ -54,3 +54,38 @@ def test_a_law_is_freed_with_its_last_reference():
     finally:
         if enabled:
             gc.enable()
+
+
+@pytest.mark.parametrize("which", ["unsat", "jamming"])
+def test_exact_and_printed_laws_part_at_first_order_in_dgamma(which):
+    # the printed formula is right at first order (docs/theory-vs-cascade.md §5): the relative
+    # difference 1 − P_exact/P_printed halves with δγ at every |ΔE|/δγ of the table (measured
+    # 1.85–2.04 with 16 levels), and the exact law lies below the printed one
+    from jamlab.theory import mu_jamming
+
+    mu = 0.5 if which == "unsat" else mu_jamming()
+    tab = exact_jump_distribution_table(mu, [1e-2, 5e-3], n_points=9, q_max=1.0 - 1e-3,
+                                        levels=16)
+    dev = {dg: 1.0 - t["pdf_exact"] / t["pdf_printed"] for dg, t in tab.items()}
+    assert np.allclose(tab[1e-2]["abs_dE"] / 1e-2, tab[5e-3]["abs_dE"] / 5e-3, rtol=1e-12)
+    assert np.all(dev[5e-3] > 0)
+    ratio = dev[1e-2] / dev[5e-3]
+    assert np.all((1.8 < ratio) & (ratio < 2.15)), ratio
+
+
+def test_the_bottom_row_of_fig3_exact_is_the_ratio(tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    from jamlab.plots.theory import plot_jump_distributions_exact
+
+    r = np.geomspace(1e-3, 1.0, 5)
+    table = {"abs_dE": 1e-2 * r, "pdf_printed": r**-1.0, "pdf_exact": 0.97 * r**-1.0,
+             "slope_printed": -np.ones(5), "slope_exact": -np.ones(5)}
+    kept = []
+    monkeypatch.setattr(plt, "close", kept.append)
+    plot_jump_distributions_exact([0.5], [1e-2], tmp_path / "f.png", tables={0.5: {1e-2: table}})
+    assert (tmp_path / "f.png").is_file()
+    bottom = kept[0].axes[2]
+    x, y = bottom.lines[0].get_data()
+    assert np.allclose(x, r) and np.allclose(y, 0.97)
+    assert bottom.get_ylabel().startswith("P_exact / P_printed")

@@ -189,9 +189,11 @@ def plot_jump_distributions_exact(
 ) -> dict[float, dict[float, dict[str, NDArray[np.float64]]]]:
     """Paper Fig. 3 with the exact curves added: for each ``μ`` a column with ``P(ΔE|δγ)``
     (printed without cut-off as in the paper: thin grey; printed with the cut-off ``q_max``:
-    dashed; exact with the same cut-off: solid) against ``|ΔE|/|δγ|``, and below it the local
-    log-slopes with the line ``-2μ``. ``tables`` (from :func:`exact_jump_distribution_table`,
-    keyed by ``μ``) skips the computation. Returns the tables."""
+    dashed; exact with the same cut-off: solid) against ``|ΔE|/|δγ|``, below it the local
+    log-slopes with the line ``-2μ``, and at the bottom the ratio ``P_exact / P_printed`` (the
+    two differ at second order in ``δγ``, at small ``δγ`` by less than the top row's line
+    widths). ``tables`` (from :func:`exact_jump_distribution_table`, keyed by
+    ``μ``) skips the computation. Returns the tables."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -202,11 +204,11 @@ def plot_jump_distributions_exact(
     if tables is None:
         tables = {float(m): exact_jump_distribution_table(m, dgammas, q_max, amplitude, n_points)
                   for m in mus}
-    fig, axes = plt.subplots(2, len(mus), figsize=(5.5 * len(mus), 8.0), squeeze=False,
-                             sharex=True)
+    fig, axes = plt.subplots(3, len(mus), figsize=(5.5 * len(mus), 10.5), squeeze=False,
+                             sharex=True, gridspec_kw={"height_ratios": [3, 3, 2]})
     for c, mu in enumerate(mus):
         tab = tables[float(mu)]
-        ax, axs = axes[0, c], axes[1, c]
+        ax, axs, axr = axes[0, c], axes[1, c], axes[2, c]
         pf_nocut = ParisiFunction.power_law(mu, amplitude=amplitude)
         for j, (dg, t) in enumerate(sorted(tab.items(), key=lambda kv: -abs(kv[0]))):
             r = t["abs_dE"] / abs(dg)
@@ -219,16 +221,20 @@ def plot_jump_distributions_exact(
             ax.loglog(r, t["pdf_exact"], "-", color=col, lw=1.6, label=f"δγ = {dg:g}")
             axs.semilogx(r, t["slope_printed"], "--", color=col, lw=1)
             axs.semilogx(r, t["slope_exact"], "-", color=col, lw=1.6)
+            axr.semilogx(r[ok], t["pdf_exact"][ok] / t["pdf_printed"][ok], "-", color=col,
+                         lw=1.6)
         axs.axhline(-2 * mu, color="k", lw=0.8, ls=":")
         axs.set_ylim(-2 * mu - 1.5, 1.0)
+        axr.axhline(1.0, color="k", lw=0.8, ls=":")
         ax.set_title(f"μ = {mu:g}, q_max = 1 − {1 - q_max:.0e}: exact (solid), printed (dashed),"
                      "\nprinted without cut-off (grey)", fontsize=9)
         ax.set_ylabel("P(ΔE | δγ)")
         axs.set_ylabel("d log P / d log |ΔE|  (dotted: −2μ)")
-        axs.set_xlabel("|ΔE| / |δγ|")
+        axr.set_ylabel("P_exact / P_printed  (dotted: 1)")
+        axr.set_xlabel("|ΔE| / |δγ|")
         ax.legend(fontsize=8)
-        ax.grid(True, which="major", alpha=0.3)
-        axs.grid(True, which="major", alpha=0.3)
+        for a in (ax, axs, axr):
+            a.grid(True, which="major", alpha=0.3)
         tops = [float(np.max(t["pdf_exact"])) for t in tab.values()]
         ax.set_ylim(1e-4, 10 * max(tops))
     fig.tight_layout()
