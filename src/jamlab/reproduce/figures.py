@@ -346,7 +346,8 @@ def captions(
         "fig3_exact": ("P(ΔE|δγ) for y(q) = (1−q)^(−μ) − 1 cut at q_max = 1 − 1e-5: jamlab's "
                        "exact law (solid, docs/theory-vs-cascade.md §7–9) and the paper's printed "
                        "formula with the same cut-off (dashed) and without (grey), at δγ = 1e-2 "
-                       "and 1e-3; below, the local log-slopes against −2μ."),
+                       "and 1e-3; below, the local log-slopes against −2μ, and at the bottom "
+                       "the ratio exact/printed (their difference is first order in δγ)."),
         "fig4": ("Energy per particle E/N (ε), intensive shear stress σ_xy = Σ/L³ and "
                  "pressure p (ε/σ³) against strain for the first finished sample of the largest "
                  "jamming ensemble (constant volume from p_target, the paper's protocol). Red: "
