@@ -17,8 +17,8 @@ had to compile, so a lost entry is reported, not hidden.
 The tasks cover the paper's system (monodisperse harmonic spheres, d = 3): preparing packings
 above and at jamming, the force kernels' per-machine choice, AQS shear at constant volume (lean
 steps, the continuation, the FIRE fallback and the saddle check) and at fixed pressure,
-inspecting and writing files. ``extra=True`` adds d = 2 and the other pair laws (bidisperse,
-polydisperse, Hertzian).
+inspecting and writing files, and the report's compiled fits. ``extra=True`` adds d = 2 and the
+other pair laws (bidisperse, polydisperse, Hertzian).
 """
 
 from __future__ import annotations
@@ -79,9 +79,23 @@ def _other_systems(tmp: Path) -> None:
         shear(prep.packing, 1e-4, n_steps=20, out=tmp / f"other-{dim}-{sizes}-{alpha}.h5")
 
 
+def _report_fits(tmp: Path) -> None:
+    """The report's compiled fits (``jamlab.analysis``): the joint finite-size likelihood and its
+    search, ``log Γ(a, z)``."""
+    import numpy as np
+
+    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling
+
+    rng = np.random.default_rng(0)
+    sizes = {n: [1.0 + rng.pareto(0.5, 40) for _ in range(3)] for n in (100, 200)}
+    fit_joint_scaling(sizes, 1.0, n_boot=2)
+    fit_cutoff_power_law(np.concatenate(sizes[100]), 1.0)
+
+
 TASKS: dict[str, Callable[[Path], None]] = {
     "above jamming (d = 3)": _paper_above_jamming,
     "at jamming (d = 3)": _paper_at_jamming,
+    "the report's fits": _report_fits,
 }
 """The paper's system; each runs in its own process (module docstring)."""
 

@@ -28,6 +28,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special
 
 from jamlab import validation
+from jamlab.analysis.likelihood_kernels import (
+    ASYMPTOTIC_Z,
+    SMALL_A,
+    cutoff_log_norm,
+    log_upper_gamma_value,
+)
 from jamlab.analysis.powerlaw import finite_data
 from jamlab.threads import one_blas_thread
 
@@ -51,8 +57,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-_SMALL_A = 1e-5
-_ASYMPTOTIC_Z = 50.0
 _MIN_TAIL = 10
 
 TAU_BOUNDS = (-1.0, 5.0)
@@ -60,36 +64,18 @@ TAU_BOUNDS = (-1.0, 5.0)
 maximum (``CutoffPowerLawFit.tau_at_bound``)."""
 
 
-def _scaled_upper_gamma(a: float, z: float) -> float:
-    """``Γ(a, z) e^z`` for ``0 < z ≤ 50``."""
-    if 0.0 < abs(a) < _SMALL_A:
-        edge = math.copysign(_SMALL_A, a)
-        g0, g1 = _scaled_upper_gamma(0.0, z), _scaled_upper_gamma(edge, z)
-        return g0 + (g1 - g0) * (a / edge)
-    if a > 0:
-        return float(special.gammaincc(a, z) * special.gamma(a)) * math.exp(z)
-    if a == 0:
-        return float(special.exp1(z)) * math.exp(z)
-    return (_scaled_upper_gamma(a + 1.0, z) - z**a) / a
-
-
 def log_upper_gamma(a: float, z: float) -> float:
-    """``log Γ(a, z)`` for real ``a`` and ``z > 0`` (module docstring)."""
+    """``log Γ(a, z)`` for real ``a`` and ``z > 0`` (module docstring; compiled:
+    :func:`jamlab.analysis.likelihood_kernels.log_upper_gamma_value`)."""
     if not (math.isfinite(a) and math.isfinite(z) and z > 0):
         raise ValueError(f"log_upper_gamma needs finite a and z > 0, got a={a!r}, z={z!r}")
-    if z > _ASYMPTOTIC_Z:
-        term = total = 1.0
-        for k in range(1, 13):
-            term *= (a - k) / z
-            total += term
-        return (a - 1.0) * math.log(z) - z + math.log(total)
-    return math.log(_scaled_upper_gamma(a, z)) - z
+    return log_upper_gamma_value(float(a), float(z))
 
 
 def _scaled_upper_gamma_vec(a: float, z: FloatArray) -> FloatArray:
     """``Γ(a, z) e^z`` for an array ``0 < z ≤ 50`` (the branches of the scalar version)."""
-    if 0.0 < abs(a) < _SMALL_A:
-        edge = math.copysign(_SMALL_A, a)
+    if 0.0 < abs(a) < SMALL_A:
+        edge = math.copysign(SMALL_A, a)
         g0, g1 = _scaled_upper_gamma_vec(0.0, z), _scaled_upper_gamma_vec(edge, z)
         return g0 + (g1 - g0) * (a / edge)
     if a > 0:
@@ -105,7 +91,7 @@ def log_upper_gamma_array(a: float, z: ArrayLike) -> FloatArray:
     if not (math.isfinite(a) and np.all(np.isfinite(z)) and np.all(z > 0)):
         raise ValueError("log_upper_gamma_array needs finite a and z > 0")
     out = np.empty_like(z)
-    big = z > _ASYMPTOTIC_Z
+    big = z > ASYMPTOTIC_Z
     if big.any():
         zb = z[big]
         term = np.ones_like(zb)
@@ -166,10 +152,7 @@ def cutoff_power_law_log_norm(tau: float, x_c: float, x_min: float, stretch: flo
     (parameters not checked; :func:`cutoff_power_law_logpdf` checks them). With a stretched
     cut-off ``e^(−(x/x_c)^a)`` (``stretch = a > 0``; ``u = (x/x_c)^a``):
     ``log Z = (1−τ) log x_c − log a + log Γ((1−τ)/a, (x_min/x_c)^a)``, the same for ``a = 1``."""
-    if stretch == 1.0:
-        return (1.0 - tau) * math.log(x_c) + log_upper_gamma(1.0 - tau, x_min / x_c)
-    return ((1.0 - tau) * math.log(x_c) - math.log(stretch)
-            + log_upper_gamma((1.0 - tau) / stretch, (x_min / x_c) ** stretch))
+    return cutoff_log_norm(float(tau), float(x_c), float(x_min), float(stretch))
 
 
 def cutoff_power_law_logpdf(x: ArrayLike, tau: float, x_c: float, x_min: float,

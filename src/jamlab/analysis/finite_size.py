@@ -29,7 +29,8 @@ restricted to the avalanches one counts (e.g. plastic steps between jammed minim
   (:mod:`jamlab.analysis.cutoff_powerlaw` for ``Z``; ``N_ref`` the geometric mean of the sizes,
   where ``S*_ref`` and ``β`` are least correlated). ``⟨S²⟩/⟨S⟩`` rests on the largest avalanche
   or two at each ``N``; the likelihood also weighs how the bulk of the distribution bends. The
-  maximum is searched in ``(τ, log S*_ref, β)`` (bounded Nelder–Mead from several starts); the
+  maximum is searched in ``(τ, log S*_ref, β)`` (bounded Nelder–Mead from several starts,
+  compiled: :mod:`jamlab.analysis.likelihood_kernels`); the
   errors are bootstrap standard deviations over resamples of the samples at each ``N`` (their
   avalanches kept together, so correlations within a sample are respected), the 95 % intervals
   ``± 1.96`` of them (on the synthetic ensembles of ``tests/analysis/test_finite_size_joint.py``,
@@ -58,16 +59,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize
 
 from jamlab import validation
-from jamlab.analysis.cutoff_powerlaw import (
-    cutoff_power_law_log_norm,
-    shape_free_interval,
-    shape_set,
-)
+from jamlab.analysis.cutoff_powerlaw import shape_free_interval, shape_set
 from jamlab.analysis.histograms import log_histogram
 from jamlab.analysis.jackknife import jackknife_variance
+from jamlab.analysis.likelihood_kernels import joint_nll, minimize_joint_nll
 from jamlab.analysis.powerlaw import finite_data, mle_tau, power_law_loglik
 
 __all__ = [
@@ -362,35 +359,19 @@ class JointScaling:
         }
 
 
-def _joint_nll(params: NDArray, log_rel_n: FloatArray, floors: FloatArray, k: FloatArray,
-               sum_log: FloatArray, sum_s: FloatArray, stretch: float) -> float:
-    """``−log L`` of the joint model from the sufficient statistics per ``N``: the count ``k``,
-    ``Σ log S`` and ``Σ S^a`` (``a = stretch``) at or above the floors."""
-    tau, log_ref, beta = (float(v) for v in params)
-    total = 0.0
-    for i in range(k.size):
-        if k[i] == 0:
-            continue
-        log_star = log_ref + beta * log_rel_n[i]
-        s_star = math.exp(log_star)
-        scaled = sum_s[i] / s_star if stretch == 1.0 else sum_s[i] * math.exp(-stretch * log_star)
-        total += (tau * sum_log[i] + scaled
-                  + k[i] * cutoff_power_law_log_norm(tau, s_star, floors[i], stretch))
-    return total
-
-
 def _joint_mle(starts: list[NDArray], bounds: NDArray, args: tuple) -> NDArray:
-    best = None
+    """Bounded Nelder–Mead (:func:`jamlab.analysis.likelihood_kernels.minimize_joint_nll`,
+    scipy's algorithm compiled) from each start, then once more from the best point."""
+    lower, upper = bounds[:, 0].copy(), bounds[:, 1].copy()
+    best_x, best_f = None, math.inf
     for x0 in starts:
         x0 = np.clip(x0, bounds[:, 0] + 1e-6, bounds[:, 1] - 1e-6)
-        r = optimize.minimize(_joint_nll, x0, args=args, method="Nelder-Mead", bounds=bounds,
-                              options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000})
-        if best is None or r.fun < best.fun:
-            best = r
+        x, fun, _ = minimize_joint_nll(x0, lower, upper, args, 1e-7, 1e-9, 4000)
+        if best_x is None or fun < best_f:
+            best_x, best_f = x, fun
     # a restart from the best point (Nelder–Mead can stall on a collapsed simplex)
-    r = optimize.minimize(_joint_nll, best.x, args=args, method="Nelder-Mead", bounds=bounds,
-                          options={"xatol": 1e-8, "fatol": 1e-10, "maxiter": 4000})
-    return r.x if r.fun <= best.fun else best.x
+    x, fun, _ = minimize_joint_nll(best_x, lower, upper, args, 1e-8, 1e-10, 4000)
+    return x if fun <= best_f else best_x
 
 
 def fit_joint_scaling(
@@ -464,7 +445,7 @@ def fit_joint_scaling(
     base = [r[2] for r in rows]
     x = fit(base, None)
     k, sl, s1 = totals(base)
-    loglik = -_joint_nll(x, log_rel, fl, k, sl, s1, stretch)
+    loglik = -joint_nll(x, log_rel, fl, k, sl, s1, stretch)
     rng = np.random.default_rng(seed)
     boot = np.empty((n_boot, 3))
     for b in range(n_boot):
