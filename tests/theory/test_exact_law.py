@@ -460,5 +460,7 @@ def test_continuum_with_a_flat_top_is_cut_where_y_stops_rising():
     q = np.linspace(0.0, 1.0, 2001)
     c = np.asarray(flat.overlap.cdf(q))
     np.testing.assert_allclose(c, cut.overlap.cdf(q), rtol=0, atol=1e-13)
-    assert np.all(np.diff(c) >= 0) and c[-1] == 1.0
+    # at q = 1 the cdf is the sum of every mass, 1 up to its rounding: exactly 1 in earlier CI
+    # runs, 1 - 2.2e-16 with numpy 2.4.6 on an AMD EPYC (the summation order is numpy's)
+    assert np.all(np.diff(c) >= 0) and abs(c[-1] - 1.0) <= 4 * np.finfo(float).eps
     np.testing.assert_array_equal(flat.overlap.atoms()[0], [1.0])

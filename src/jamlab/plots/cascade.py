@@ -113,15 +113,26 @@ def cascade_tree_figure(tree: CascadeTree, path: str | Path | None = None) -> pl
     place(0)
     fig, ax = plt.subplots(figsize=(max(6.0, min(18.0, 0.12 * counter[0] + 4)), 5))
     depth = -tree.level.astype(float)
-    for j in range(1, n):
-        p = tree.parent[j]
-        ax.plot([x[p], x[j]], [depth[p], depth[j]], color="0.75", lw=0.6, zorder=1)
+    # one collection per style, not one line per edge: a tree at the 65534-node limit took ~1 min
+    # to draw edge by edge
+    from matplotlib.collections import LineCollection
+
+    def edges(nodes: np.ndarray) -> np.ndarray:
+        p = tree.parent[nodes]
+        return np.stack([np.column_stack([x[p], depth[p]]),
+                         np.column_stack([x[nodes], depth[nodes]])], axis=1)
+
+    ax.add_collection(LineCollection(edges(np.arange(1, n)), colors="0.75", linewidths=0.6,
+                                     zorder=1))
     for g, col in ((tree.old_gs, "k"), (tree.new_gs, "C3")):
+        path_nodes = []
         j = g
         while tree.parent[j] >= 0:
-            p = tree.parent[j]
-            ax.plot([x[p], x[j]], [depth[p], depth[j]], color=col, lw=2.2, zorder=2)
-            j = p
+            path_nodes.append(j)
+            j = tree.parent[j]
+        ax.add_collection(LineCollection(edges(np.array(path_nodes, dtype=np.int64)),
+                                         colors=col, linewidths=2.2, zorder=2))
+    ax.autoscale_view()
     states = np.nonzero(tree.level == k1)[0]
     inner = np.nonzero(tree.level < k1)[0]
     ax.scatter(x[inner], depth[inner], s=8, c="0.4", zorder=3)
