@@ -216,9 +216,8 @@ def check_outputs(
             raise ValueError(f"{name} {directory} exists and is not a directory")
         for in_name, in_path in inputs.items():
             if _inside(in_path, directory):
-                raise ValueError(
-                    f"the {in_name} {in_path} lies in {directory}, which {name} writes into"
-                )
+                raise ValueError(f"the {in_name} {in_path} lies in {name} {directory}, which "
+                                 "this command writes into; copy it elsewhere first")
 
 
 def atomic_write(

@@ -259,6 +259,29 @@ def test_export_writes_nothing_into_the_snapshot_folder_it_reads(packing08, tmp_
     assert len(reads) == 1
 
 
+def test_shear_refuses_an_input_inside_the_snapshot_folder_it_writes(packing08, tmp_path, capsys):
+    """Shearing a saved snapshot again to the run it came from: the new run would clear and
+    write w.configs/, its own input among them. Refused, with or without --force, in one line
+    that names the folder once; nothing changes."""
+    out = tmp_path / "w.h5"
+    assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
+                "--save-every", "2"]) == 0  # fmt: skip
+    configs = tmp_path / "w.configs"
+    snap = configs / "step_00000002.h5"
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    for extra in ([], ["--save-every", "1"], ["--force"], ["--force", "--save-every", "1"]):
+        assert run(["shear", snap, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.08",
+                    *extra]) == 2  # fmt: skip
+        line = error_line(capsys)
+        if "--force" in extra:
+            assert line == (f"jamlab: error: the configuration {snap} lies in the snapshot "
+                            f"directory {configs}, which this command writes into; copy it "
+                            "elsewhere first"), line
+        else:  # without --force the existing trace is refused first
+            assert "exists; give --force" in line, line
+    assert {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()} == before
+
+
 def test_export_refuses_a_movie_with_missing_or_foreign_frames(packing08, tmp_path, capsys):
     out = tmp_path / "tr.h5"
     assert run(["shear", packing08, "--out", out, "--dgamma", "0.01", "--gamma-max", "0.05",
