@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import concurrent.futures
 import multiprocessing
-import os
 import tempfile
 import time
 from collections.abc import Callable
@@ -33,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from jamlab import validation
+from jamlab.threads import usable_cores
 
 __all__ = ["TASKS", "EXTRA_TASKS", "WarmupResult", "count_compilations", "warmup"]
 
@@ -159,7 +159,7 @@ def warmup(jobs: int | None = None, extra: bool = False,
     tasks on ``jobs`` processes (default: the usable cores), then check it (module docstring)."""
     names = list(TASKS) + (list(EXTRA_TASKS) if extra else [])
     if jobs is None:
-        jobs = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+        jobs = usable_cores()
     if not (validation.is_integer(jobs) and jobs >= 1):
         raise ValueError(f"jobs must be an integer >= 1, got {jobs!r}")
     t0 = time.perf_counter()

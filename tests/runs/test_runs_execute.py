@@ -1,6 +1,9 @@
 """Execution: results do not depend on worker count, order or backend; loading into xarray."""
 
+import os
 import random
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -150,3 +153,18 @@ def test_a_sample_records_its_cpu_time_beside_its_wall_time(tmp_path):
         attrs = read_sample(RunDir(tmp_path / "r").sample_path(k))["attrs"]
         cell = ds.sel(phi=k.phi_label, N=k.n, sample=k.index)
         assert float(cell.cpu_seconds) == attrs["cpu_seconds"] < 0.15 < attrs["seconds"]
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or (os.cpu_count() or 1) < 2,
+                    reason="needs CPU affinity and two CPUs")
+def test_the_default_worker_count_is_the_cores_this_process_may_use():
+    # pinned to one CPU (as a SLURM allocation or taskset does) on a machine with more: one
+    # local process by default, not os.cpu_count() of them
+    code = ("import os; os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}); "
+            "from jamlab.runs import Execution; from jamlab.threads import usable_cores; "
+            "print(os.cpu_count(), usable_cores(), Execution().describe(12), sep='|')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    machine, usable, described = out.stdout.strip().split("|")
+    assert int(machine) >= 2 and int(usable) == 1
+    assert described == "1 local process"
+    assert Execution(workers=3).describe(12) == "3 local processes"  # given, it is kept

@@ -53,7 +53,8 @@ def reproduce_command(
     ] = None,
     workers: Annotated[
         int | None,
-        typer.Option("--workers", help="Local worker processes (default: all cores; 0 = here)."),
+        typer.Option("--workers",
+                     help="Local worker processes (default: the usable cores; 0 = here)."),
     ] = None,
     scheduler: Annotated[
         str | None,

@@ -176,7 +176,8 @@ def register(app: typer.Typer) -> None:
         ),
         task: str | None = typer.Option(None, "--task", hidden=True),
         workers: int | None = typer.Option(
-            None, "--workers", help="Local worker processes (default: all cores; 0 = in-process)."
+            None, "--workers",
+            help="Local worker processes (default: the usable cores; 0 = in-process).",
         ),
         scheduler: str | None = typer.Option(
             None, "--scheduler", help="Address of a running dask scheduler, tcp://HOST:8786."

@@ -3,8 +3,9 @@
 Backends (:class:`Execution`):
 
 - local (default): a ``concurrent.futures.ProcessPoolExecutor`` of ``workers`` processes (default:
-  all cores, ``os.cpu_count()``), started with ``spawn`` and with ``OMP/MKL/OPENBLAS_NUM_THREADS=1``
-  (the environment Dask gives its workers, so local and Dask results agree bit for bit);
+  the cores this process may use, :func:`jamlab.threads.usable_cores`), started with ``spawn``
+  and with ``OMP/MKL/OPENBLAS_NUM_THREADS=1`` (the environment Dask gives its workers, so local
+  and Dask results agree bit for bit);
   ``workers=0`` runs the samples in the driving process (debugging, injected tasks);
 - ``scheduler="tcp://HOST:8786"``: an existing ``dask.distributed`` cluster;
 - ``cluster="slurm"``: a ``dask_jobqueue.SLURMCluster`` started for the run (``slurm`` options:
@@ -34,6 +35,7 @@ from jamlab.runs.seeds import sample_seed
 from jamlab.runs.storage import RunDir, check_sample_data
 from jamlab.runs.study import SampleKey, Study
 from jamlab.runs.tasks import SampleFailure, SampleResult, Task, run_sample
+from jamlab.threads import usable_cores
 
 __all__ = ["SINGLE_THREAD_ENV", "Execution", "RunSummary", "die_with_parent", "run_study",
            "slurm_cluster_kwargs"]
@@ -101,7 +103,7 @@ class Execution:
             return "SLURM cluster (dask-jobqueue)"
         if self.workers == 0:
             return "in-process"
-        processes = self.workers or os.cpu_count() or 1
+        processes = self.workers or usable_cores()
         if todo is not None:
             processes = max(1, min(processes, todo))
         return f"{processes} local process{'es' if processes != 1 else ''}"
@@ -259,7 +261,7 @@ def _outcomes(
     if not items:
         return
     if execution.scheduler is None and execution.cluster is None:
-        workers = execution.workers if execution.workers is not None else os.cpu_count() or 1
+        workers = execution.workers if execution.workers is not None else usable_cores()
         yield from _local_outcomes(items, study, min(workers, len(items)), task)
         return
     with _dask_client(execution) as client:
