@@ -197,8 +197,11 @@ def test_the_log_counts_the_local_processes_started():
     """``--workers 1000000000`` logged "on 1000000000 local processes"; a pool starts at most
     one process per sample to run (``runs.execute``: ``min(workers, len(items))``)."""
     from jamlab.runs import Execution
+    from jamlab.threads import usable_cores
 
-    assert Execution(workers=10**9).describe(12) == "12 local processes"
-    assert Execution(workers=2).describe(12) == "2 local processes"
+    cores = usable_cores()
+    shared = f" sharing {cores} usable core{'s' if cores != 1 else ''}"
+    assert Execution(workers=10**9).describe(12) == "12 local processes" + shared * (12 > cores)
+    assert Execution(workers=2).describe(12) == "2 local processes" + shared * (2 > cores)
     assert Execution(workers=2).describe(1) == "1 local process"
     assert Execution(workers=0).describe(12) == "in-process"

@@ -162,9 +162,12 @@ def test_the_default_worker_count_is_the_cores_this_process_may_use():
     # local process by default, not os.cpu_count() of them
     code = ("import os; os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}); "
             "from jamlab.runs import Execution; from jamlab.threads import usable_cores; "
-            "print(os.cpu_count(), usable_cores(), Execution().describe(12), sep='|')")
+            "print(os.cpu_count(), usable_cores(), Execution().describe(12), "
+            "Execution(workers=3).describe(12), Execution(workers=3).describe(1), sep='|')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    machine, usable, described = out.stdout.strip().split("|")
+    machine, usable, default, three, one = out.stdout.strip().split("|")
     assert int(machine) >= 2 and int(usable) == 1
-    assert described == "1 local process"
-    assert Execution(workers=3).describe(12) == "3 local processes"  # given, it is kept
+    assert default == "1 local process"
+    # more than the usable cores: kept (the results do not depend on it), and said
+    assert three == "3 local processes sharing 1 usable core"
+    assert one == "1 local process"

@@ -60,7 +60,7 @@ _SLURM_KEYS = {
 @dataclass(frozen=True)
 class Execution:
     """How to run (never changes results): at most one of ``scheduler`` and ``cluster``;
-    ``workers`` = local processes (``None``: all cores) or, with ``cluster``, the jobs' total
+    ``workers`` = local processes (``None``: the usable cores) or, with ``cluster``, the jobs' total
     worker count when ``slurm["jobs"]`` is not given."""
 
     workers: int | None = None
@@ -96,17 +96,22 @@ class Execution:
 
     def describe(self, todo: int | None = None) -> str:
         """Where the samples run; with ``todo`` (the samples to run), the local processes are
-        counted as started: never more than there are samples."""
+        counted as started: never more than there are samples. More local processes than usable
+        cores are allowed (the results do not depend on it) and said."""
         if self.scheduler:
             return f"dask scheduler {self.scheduler}"
         if self.cluster:
             return "SLURM cluster (dask-jobqueue)"
         if self.workers == 0:
             return "in-process"
-        processes = self.workers or usable_cores()
+        usable = usable_cores()
+        processes = self.workers or usable
         if todo is not None:
             processes = max(1, min(processes, todo))
-        return f"{processes} local process{'es' if processes != 1 else ''}"
+        text = f"{processes} local process{'es' if processes != 1 else ''}"
+        if processes > usable:  # allowed (same results), but they share the cores
+            text += f" sharing {usable} usable core{'s' if usable != 1 else ''}"
+        return text
 
 
 @dataclass
