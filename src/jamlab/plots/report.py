@@ -70,8 +70,9 @@ def plot_avalanche_histograms(
     """Paper Fig. 5: one panel per φ label (histograms of ``S`` for each ``N``, density per AQS
     step), the pooled-N fit (solid, over ``[x_min, x_max]``) and the predicted exponent (dashed),
     both drawn through the pooled histogram at the fit's ``x_min``; last panel: all φ together,
-    ``S`` divided by each φ's median so that the shapes can be compared (as the paper shifts
-    them), with guide lines of the predicted slopes."""
+    ``S`` divided by each φ's typical size (the geometric mean of its binned sizes) so that the
+    shapes can be compared (as the paper shifts them), with guide lines of the predicted slopes.
+    ``pooled[label]`` is ``None`` where there are no avalanches (left out of the last panel)."""
     labels = list(per_n)
     n_panels = len(labels) + 1
     ncols = 2
@@ -108,10 +109,11 @@ def plot_avalanche_histograms(
     ax = flat[len(labels)]
     for j, lab in enumerate(labels):
         h = pooled[lab]
-        ok = h.counts > 0
-        if not ok.any():
+        if h is None or not (h.counts > 0).any():  # no avalanches at this φ
             continue
-        # median of the binned sizes (bin centres weighted by counts): a scale for the collapse
+        ok = h.counts > 0
+        # geometric mean of the binned sizes (bin centres weighted by counts): a scale for the
+        # collapse
         med = float(np.exp(np.average(np.log(h.centres[ok]), weights=h.counts[ok])))
         ax.loglog(h.centres[ok] / med, h.density[ok] * med, "o-", ms=3, color=f"C{j}",
                   label=PHI_TITLES.get(lab, lab))

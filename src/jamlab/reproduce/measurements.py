@@ -155,7 +155,7 @@ def interval_note(fit: Any) -> str:
 class TauEstimate:
     """τ at one φ label: the fit (None with too few sizes) and its σ, the counts it rests on, and
     the size histograms per N (the sources of one N pooled) and of all (``P(S)`` per AQS
-    step)."""
+    step; ``pooled`` is None without avalanches)."""
 
     label: str
     fit: Any
@@ -236,8 +236,9 @@ def tau_estimate(label: str, sources: list[tuple[Any, int]], scale: Scale) -> Ta
              for n, s in _by_n([n for _, n in sources], all_sizes).items() if s.size}
     sizes = np.concatenate(all_sizes) if all_sizes else np.empty(0)
     p_av = np.concatenate(all_p) if all_p else np.empty(0)
-    pooled = log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1)) \
-        if sizes.size else log_histogram(np.array([1.0]), scale.bins_per_decade, n_total=1)
+    # no avalanches: no histogram (a placeholder histogram was drawn as a point of data, Fig. 5d)
+    pooled = (log_histogram(sizes, scale.bins_per_decade, n_total=max(steps, 1))
+              if sizes.size else None)
     fit = fit_tau(sizes, scale)
     used = p_av if fit is None else p_av[sizes >= fit.x_min]
     return TauEstimate(label, fit, tau_sigma(fit), int(sizes.size), steps, samples, per_n,
