@@ -16,7 +16,8 @@ numba can cache the callers): the same C code as ``scipy.special.gammaincc``, ``
 (:func:`minimize_joint_nll`). The fit searches ``(τ, log S*_ref, β)`` ~300 times per call
 (several starts for the data and for each bootstrap resample); with
 ``scipy.optimize.minimize(method="Nelder-Mead")`` around a Python likelihood nearly all of its
-time went to the interpreter (1.6 s per fit with 100 resamples; now 0.1 s). The search is scipy's
+time went to the interpreter (1.1–1.7 s per fit with 100 resamples; now 0.06 s,
+``benchmarks/bench_joint_fit.py``). The search is scipy's
 algorithm (1.17's ``_minimize_neldermead``, ``adaptive=False``: the initial simplex of 5 % steps,
 the bounds' clipping and reflection of that simplex, reflection ``ρ = 1``, expansion ``χ = 2``,
 contractions ``ψ = 1/2``, shrink ``σ = 1/2``, the stopping rule on ``xatol`` and ``fatol``) with
