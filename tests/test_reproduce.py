@@ -337,10 +337,34 @@ def test_fig4_trace_recounted_from_its_sample_file(tiny):
     assert not np.any(t.counted & ~t.plastic)
 
 
-def test_second_call_reuses_the_runs(tiny, tmp_path):
-    out, result, _, _ = tiny
+def test_the_same_command_again_computes_no_sample(tiny, tmp_path):
+    """The first call computed every sample; ``jamlab reproduce`` run again on that report (a
+    copy of it: the other tests read this one) reuses every sample, says so per run, and writes
+    the same table. (It was two more tiny reproductions in tests/cli/test_cli_reproduce.py.)"""
+    import shutil
+
+    from cli_helpers import jamlab
+
+    out, result, data, _ = tiny
     runs = result.data["runs"]
-    assert sum(r["done"] for r in runs.values()) == sum(r["total"] for r in runs.values())
+    assert all(r["done"] == r["total"] > 0 for r in runs.values()), runs
+    again = tmp_path / "report"
+    shutil.copytree(out, again, symlinks=True)
+    r = jamlab("reproduce", "--scale", "tiny", "--out", again, "--workers", 0)
+    assert r.returncode == 0, r.stderr
+    assert "wrote" in r.stdout and "index.html" in r.stdout
+    for name, total in (("jamming", 3), ("unsat", 6), ("stress-strain", 3)):
+        assert runs[name]["total"] == total
+        assert f"{name}: 0 computed, {total} reused, 0 failed" in r.stderr, r.stderr
+    rows = json.loads((again / "results.json").read_text())["rows"]
+    assert [row["value"] for row in rows] == [row["value"] for row in data["rows"]]
+    assert all((again / f["path"]).is_file() for f in data["figures"])
+
+
+def test_runs_elsewhere_are_reused(tiny, tmp_path):
+    """``--runs`` pointing at another report's runs: nothing is computed (in-process, no
+    reproduction of its own beyond the analysis)."""
+    out, result, _, _ = tiny
     again = reproduce("tiny", tmp_path / "r2", runs=out / "runs", execution=Execution(workers=0))
     assert all(r["done"] == 0 and r["skipped"] == r["total"] for r in again.data["runs"].values())
     assert [r.value_text for r in again.rows][:4] == [r.value_text for r in result.rows][:4]

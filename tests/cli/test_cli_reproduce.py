@@ -1,5 +1,6 @@
-"""`jamlab reproduce`: bad input is one line with exit code 2; the tiny scale runs and resumes;
-report files it did not write are refused without --force; `figure` draws the suffix's format."""
+"""`jamlab reproduce`: bad input is one line with exit code 2; report files it did not write are
+refused without --force; `figure` draws the suffix's format. (The tiny scale's run and its
+resumption through the command: ``tests/test_reproduce.py``, on the one tiny reproduction there.)"""
 
 import json
 
@@ -28,24 +29,6 @@ def test_bad_scheduler_is_one_line(tmp_path):
     line = one_line_error(jamlab("reproduce", "--scale", "tiny", "--out", tmp_path / "r",
                                  "--scheduler", "nowhere"))
     assert "scheduler" in line
-
-
-@pytest.mark.slow
-def test_tiny_reproduction_then_resume(tmp_path):
-    out = tmp_path / "report"
-    r = jamlab("reproduce", "--scale", "tiny", "--out", out, "--workers", 0)
-    assert r.returncode == 0, r.stderr
-    assert "wrote" in r.stdout and "index.html" in r.stdout
-    assert "jamming: 3 computed, 0 reused, 0 failed" in r.stderr
-    data = json.loads((out / "results.json").read_text())
-    assert all((out / f["path"]).is_file() for f in data["figures"])
-    # the same command again computes no sample
-    r2 = jamlab("reproduce", "--scale", "tiny", "--out", out, "--workers", 0)
-    assert r2.returncode == 0, r2.stderr
-    for name, total in (("jamming", 3), ("unsat", 6), ("stress-strain", 3)):
-        assert f"{name}: 0 computed, {total} reused, 0 failed" in r2.stderr
-    again = json.loads((out / "results.json").read_text())
-    assert [r["value"] for r in again["rows"]] == [r["value"] for r in data["rows"]]
 
 
 def test_figure_command_makes_one_theory_figure(tmp_path):
