@@ -339,8 +339,9 @@ def test_fig4_trace_recounted_from_its_sample_file(tiny):
 
 def test_the_same_command_again_computes_no_sample(tiny, tmp_path):
     """The first call computed every sample; ``jamlab reproduce`` run again on that report (a
-    copy of it: the other tests read this one) reuses every sample, says so per run, and writes
-    the same table. (It was two more tiny reproductions in tests/cli/test_cli_reproduce.py.)"""
+    copy of it: the other tests read this one) reuses every sample and the stored exact law, says
+    so, and writes the same table and figures. (It was two more tiny reproductions in
+    tests/cli/test_cli_reproduce.py.)"""
     import shutil
 
     from cli_helpers import jamlab
@@ -356,9 +357,13 @@ def test_the_same_command_again_computes_no_sample(tiny, tmp_path):
     for name, total in (("jamming", 3), ("unsat", 6), ("stress-strain", 3)):
         assert runs[name]["total"] == total
         assert f"{name}: 0 computed, {total} reused, 0 failed" in r.stderr, r.stderr
+    # nor is the exact law rebuilt: read from the report's data (the same code stored it)
+    assert f"exact law: read from {again / 'data'}" in r.stderr, r.stderr
     rows = json.loads((again / "results.json").read_text())["rows"]
     assert [row["value"] for row in rows] == [row["value"] for row in data["rows"]]
     assert all((again / f["path"]).is_file() for f in data["figures"])
+    fig = next(f["path"] for f in data["figures"] if "fig3_exact" in f["path"])
+    assert (again / fig).read_bytes() == (out / fig).read_bytes()  # drawn from the stored law
 
 
 def test_runs_elsewhere_are_reused(tiny, tmp_path):

@@ -1,4 +1,5 @@
-"""The coordination-curve cache of `jamlab reproduce`: a stored curve reads back unchanged."""
+"""The caches of `jamlab reproduce`: a stored coordination curve and a stored exact law read back
+unchanged; damaged entries are named."""
 
 import numpy as np
 
@@ -42,3 +43,36 @@ def test_a_damaged_entry_is_named(tmp_path):
     for path in (cut, text, other):
         with pytest.raises(ValueError, match=f"unreadable cached coordination curve {path}"):
             load_curve(path)
+
+
+def test_exact_law_round_trip_is_exact_and_ordered(tmp_path):
+    import pytest
+
+    from jamlab.reproduce.cache import exact_law_file, load_exact_law, save_exact_law
+    from jamlab.reproduce.theory_checks import ExponentCheck
+
+    rng = np.random.default_rng(4)
+    mus = (0.706346389557222, 0.5)
+    checks = tuple(ExponentCheck(mu=m, tau_exact=2 * m + 1e-3, tau_exact_min=1.3999999999999999,
+                                 tau_exact_max=1.0 / 3.0, tau_printed=2 * m) for m in mus)
+    tables = {m: {dg: {"abs_dE": rng.random(5), "pdf_exact": rng.random(5),
+                       "n": np.arange(5)} for dg in (1e-2, 1e-3)} for m in mus}
+    path = exact_law_file(tmp_path)
+    assert path.parent == tmp_path and path.name.startswith("exact_law_")
+    assert exact_law_file(tmp_path) == path  # one key per code
+    save_exact_law(path, checks, tables)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]  # no temporary file left
+    back_checks, back_tables = load_exact_law(path)
+    assert back_checks == checks
+    assert list(back_tables) == list(mus)
+    for m in mus:
+        assert list(back_tables[m]) == [1e-2, 1e-3]
+        for dg in (1e-2, 1e-3):
+            assert list(back_tables[m][dg]) == ["abs_dE", "pdf_exact", "n"]
+            for k, v in tables[m][dg].items():
+                got = back_tables[m][dg][k]
+                assert got.dtype == v.dtype and np.array_equal(got, v)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(ValueError, match=f"unreadable cached exact law {cut}"):
+        load_exact_law(cut)

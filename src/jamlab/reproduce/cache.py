@@ -1,14 +1,25 @@
-"""The cache of coordination curves: one ``.npz`` file per jammed packing.
+"""The caches of ``jamlab reproduce`` (in ``OUT/data``): coordination curves and the exact law.
 
 A resumed reproduction (or ``jamlab figure fig1``) must not redo the compression of its packings,
 so each :class:`jamlab.spheres.packing.CoordinationCurve` is stored as
 ``coordination_N{n}_seed{seed}_steps{steps}.npz`` (the name is the key: the packing's size, seed
-and number of compression steps) with one array per field. A file is written under a temporary
-name and renamed, so an interrupted write never leaves a truncated entry.
+and number of compression steps) with one array per field.
+
+Nor must it rebuild the exact jump law (:func:`jamlab.reproduce.theory_checks.exact_law_checks`,
+~20 s at every scale: it depends on no run). Its exponent checks and Fig. 3 tables are stored as
+``exact_law_{key}.npz``, the key a SHA-256 of the code that computes them (``jamlab/theory``,
+``plots/theory.py``, ``reproduce/theory_checks.py``, which holds its parameters) and of the numpy
+and scipy versions: other code or libraries compute afresh, and an entry is never read for a
+computation it does not describe.
+
+A file is written under a temporary name and renamed, so an interrupted write never leaves a
+truncated entry.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import zipfile
 from pathlib import Path
@@ -16,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CURVE_ARRAYS", "cache_file", "load_curve", "save_curve"]
+__all__ = ["CURVE_ARRAYS", "EXACT_LAW_CODE", "cache_file", "exact_law_file", "load_curve",
+           "load_exact_law", "save_curve", "save_exact_law"]
 
 CURVE_ARRAYS = ("phi", "dphi", "z", "z_nr", "z_iso", "n_rattlers", "energy", "pressure",
                 "converged")
@@ -55,3 +67,66 @@ def save_curve(path: Path, curve: Any) -> None:
     np.savez(tmp, phi_j=curve.phi_j, dim=curve.dim, n=curve.n,
              **{k: getattr(curve, k) for k in CURVE_ARRAYS})
     os.replace(tmp, path)
+
+
+EXACT_LAW_CODE = ("theory/*.py", "plots/theory.py", "reproduce/theory_checks.py")
+"""The sources (relative to the ``jamlab`` package) whose text keys the exact-law cache."""
+
+
+@functools.cache
+def _exact_law_key() -> str:
+    import scipy
+
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256(f"numpy {np.__version__} scipy {scipy.__version__}\n".encode())
+    for pattern in EXACT_LAW_CODE:
+        for path in sorted(root.glob(pattern)):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def exact_law_file(cache: Path) -> Path:
+    """The file of the exact law's checks and tables for this code (module docstring)."""
+    return Path(cache) / f"exact_law_{_exact_law_key()[:20]}.npz"
+
+
+def save_exact_law(path: Path, checks: tuple[Any, ...], tables: dict) -> None:
+    """Store the result of ``exact_law_checks`` (``checks``: ``ExponentCheck`` instances;
+    ``tables``: ``{μ: {δγ: {name: array}}}``) in ``path``, atomically; the floats of the keys are
+    kept exactly (``repr``)."""
+    from dataclasses import astuple, fields
+
+    arrays: dict[str, np.ndarray] = {}
+    for i, check in enumerate(checks):
+        arrays[f"check|{i}"] = np.array(astuple(check), dtype=np.float64)
+    arrays["check_fields"] = np.array([f.name for f in fields(checks[0])]) if checks else \
+        np.array([], dtype=str)
+    for mu, per_dg in tables.items():
+        for dg, table in per_dg.items():
+            for name, value in table.items():
+                arrays[f"table|{float(mu)!r}|{float(dg)!r}|{name}"] = np.asarray(value)
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+
+
+def load_exact_law(path: Path) -> tuple[tuple[Any, ...], dict]:
+    """``(checks, tables)`` as :func:`save_exact_law` stored them, in their order (``ValueError``
+    naming the file if it is not such an entry)."""
+    from jamlab.reproduce.theory_checks import ExponentCheck
+
+    try:
+        with np.load(path) as z:
+            names = [str(v) for v in z["check_fields"]]
+            checks = tuple(ExponentCheck(**dict(zip(names, map(float, z[k]), strict=True)))
+                           for k in z.files if k.startswith("check|"))
+            tables: dict = {}
+            for k in z.files:
+                if k.startswith("table|"):
+                    _, mu, dg, name = k.split("|", 3)
+                    tables.setdefault(float(mu), {}).setdefault(float(dg), {})[name] = z[k]
+        return checks, tables
+    except (OSError, EOFError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"unreadable cached exact law {path} ({type(exc).__name__}: {exc}); "
+                         "remove it to compute the law again") from None

@@ -25,6 +25,7 @@ from jamlab.files import (
 )
 from jamlab.report import Figure, ReportMeta, Row, write_report
 from jamlab.reproduce import amorphous, criticality_table, figures, moduli_table, table
+from jamlab.reproduce.cache import exact_law_file, load_exact_law, save_exact_law
 from jamlab.reproduce.coordination import coordination
 from jamlab.reproduce.criticality import finite_size_scaling, packing_criticality
 from jamlab.reproduce.ensembles import RunSet
@@ -113,6 +114,19 @@ def _order(c: _Analysis) -> Any:
     return r
 
 
+def _exact_law(c: _Analysis) -> Any:
+    """:func:`exact_law_checks`, or its result stored by this code in ``OUT/data`` before
+    (:mod:`jamlab.reproduce.cache`)."""
+    path = exact_law_file(c.out / "data")
+    if path.is_file():
+        c.log(f"exact law: read from {path} (stored by this code)")
+        return load_exact_law(path)
+    result = exact_law_checks()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    save_exact_law(path, *result)
+    return result
+
+
 PARTS: dict[str, Part] = {
     "avalanches": Part(_avalanches, lambda r, s: (table.tau_rows(r), table.tau_data(r))),
     "pressure_tau": Part(lambda c: pressure_tau_estimates(c.runs, c.scale),
@@ -129,7 +143,7 @@ PARTS: dict[str, Part] = {
                          lambda r, s: (table.coordination_rows(r, s),
                                        table.coordination_data(r))),
     # the exact law of μ_J and 0.5, built once for the exponent rows and the figure fig3_exact
-    "exact_law": Part(lambda c: exact_law_checks(), None),
+    "exact_law": Part(_exact_law, None),
     "theory": Part(lambda c: theory_checks(c.scale, c.result("exact_law")[0]),
                    lambda r, s: (table.theory_rows(r, s) + table.exponent_rows(r),
                                  table.theory_data(r))),
