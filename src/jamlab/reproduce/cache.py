@@ -8,9 +8,9 @@ and number of compression steps) with one array per field.
 Nor must it rebuild the exact jump law (:func:`jamlab.reproduce.theory_checks.exact_law_checks`,
 ~20 s at every scale: it depends on no run). Its exponent checks and Fig. 3 tables are stored as
 ``exact_law_{key}.npz``, the key a SHA-256 of the code that computes them (``jamlab/theory``,
-``plots/theory.py``, ``reproduce/theory_checks.py``, which holds its parameters) and of the numpy
-and scipy versions: other code or libraries compute afresh, and an entry is never read for a
-computation it does not describe.
+``plots/theory.py``, ``reproduce/theory_checks.py``, which holds its parameters, ``paper.py``,
+which holds θ and so μ_J) and of the numpy and scipy versions: other code or libraries compute
+afresh, and an entry is never read for a computation it does not describe.
 
 A file is written under a temporary name and renamed, so an interrupted write never leaves a
 truncated entry.
@@ -69,7 +69,7 @@ def save_curve(path: Path, curve: Any) -> None:
     os.replace(tmp, path)
 
 
-EXACT_LAW_CODE = ("theory/*.py", "plots/theory.py", "reproduce/theory_checks.py")
+EXACT_LAW_CODE = ("theory/*.py", "plots/theory.py", "reproduce/theory_checks.py", "paper.py")
 """The sources (relative to the ``jamlab`` package) whose text keys the exact-law cache."""
 
 
