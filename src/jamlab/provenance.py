@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["KEY_FIELDS", "UNRECORDED", "commit", "continued", "differ", "here", "machine",
-           "machine_key", "provenance_json", "segment", "summary_text"]
+           "machine_key", "provenance_json", "segment", "source_digest", "summary_text"]
 
 KEY_FIELDS = ("cpu", "llvm_cpu", "numpy_simd", "blas", "blas_cores", "libc", "python", "numpy",
               "scipy", "numba", "llvmlite", "cvxopt")
@@ -43,6 +43,23 @@ UNRECORDED = {"resumed_from": -1, "recorded": False}
 recorded: the invocations before are not known."""
 
 _LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "cvxopt", "h5py")
+
+
+@functools.cache
+def source_digest(patterns: tuple[str, ...]) -> bytes:
+    """SHA-256 of the ``jamlab`` package's source files matching ``patterns`` (globs relative to
+    the package, e.g. ``"theory/*.py"``): each file's relative path and bytes, in pattern order
+    and sorted within a pattern. The key of a result stored for the code that computed it
+    (``jamlab.summary``, ``jamlab.reproduce.cache``)."""
+    import hashlib
+
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for pattern in patterns:
+        for path in sorted(root.glob(pattern)):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.digest()
 
 
 def _cpu_model() -> str:

@@ -22,12 +22,13 @@ and h5py only when used: the CLI imports it at start-up).
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import math
 from pathlib import Path
 from typing import Any
+
+from jamlab.provenance import source_digest
 
 __all__ = ["CODE", "SUMMARY_KEYS", "compute_summary", "file_key", "stored_summary", "summary_text"]
 
@@ -55,15 +56,8 @@ CODE = ("summary.py", "spheres/box.py", "spheres/pair.py", "spheres/state.py",
 _INTEGER_KEYS = ("n", "dim", "n_rattlers", "n_contacts_nr")
 
 
-@functools.cache
 def _code_digest() -> bytes:
-    root = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for pattern in CODE:
-        for path in sorted(root.glob(pattern)):
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(path.read_bytes())
-    return h.digest()
+    return source_digest(CODE)
 
 
 def file_key(h5: Any) -> str:

@@ -18,7 +18,6 @@ truncated entry.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import os
 import zipfile
@@ -73,16 +72,13 @@ EXACT_LAW_CODE = ("theory/*.py", "plots/theory.py", "reproduce/theory_checks.py"
 """The sources (relative to the ``jamlab`` package) whose text keys the exact-law cache."""
 
 
-@functools.cache
 def _exact_law_key() -> str:
     import scipy
 
-    root = Path(__file__).resolve().parent.parent
+    from jamlab.provenance import source_digest
+
     h = hashlib.sha256(f"numpy {np.__version__} scipy {scipy.__version__}\n".encode())
-    for pattern in EXACT_LAW_CODE:
-        for path in sorted(root.glob(pattern)):
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(path.read_bytes())
+    h.update(source_digest(EXACT_LAW_CODE))
     return h.hexdigest()
 
 
