@@ -28,8 +28,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-from jamlab.provenance import source_digest
-
 __all__ = ["CODE", "SUMMARY_KEYS", "compute_summary", "file_key", "stored_summary", "summary_text"]
 
 SUMMARY_KEYS = (
@@ -57,6 +55,8 @@ _INTEGER_KEYS = ("n", "dim", "n_rattlers", "n_contacts_nr")
 
 
 def _code_digest() -> bytes:
+    from jamlab.provenance import source_digest  # here: the CLI imports this module at start-up
+
     return source_digest(CODE)
 
 
