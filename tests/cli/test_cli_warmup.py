@@ -1,4 +1,5 @@
-"""``jamlab warmup``: after it, a user's first ``prepare`` + ``shear`` compiles nothing.
+"""``jamlab warmup``: after it, a user's first ``prepare`` + ``shear`` and a report's fits
+compile nothing.
 
 The claim is checked in fresh processes with a private, emptied numba cache
 (``NUMBA_CACHE_DIR``): numba's own ``numba:compile`` events are counted (a cache load is not a
@@ -30,6 +31,14 @@ def run():
             main()
         except SystemExit as exit:
             assert exit.code in (0, None), exit.code
+    # and a report's fits (other data and cut-off shape than the warm-up's own)
+    import numpy as np
+    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling
+
+    rng = np.random.default_rng(5)
+    sizes = {n: [1.0 + rng.pareto(0.4, 30) for _ in range(4)] for n in (64, 128, 256)}
+    fit_joint_scaling(sizes, 1.0, n_boot=3, stretch=0.5)
+    fit_cutoff_power_law(np.concatenate(sizes[64]), 1.0)
 print(count_compilations(run))
 """
 
