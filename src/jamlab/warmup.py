@@ -81,15 +81,17 @@ def _other_systems(tmp: Path) -> None:
 
 def _report_fits(tmp: Path) -> None:
     """The report's compiled fits (``jamlab.analysis``): the joint finite-size likelihood and its
-    search, ``log Γ(a, z)``."""
+    search, ``log Γ(a, z)``, the truncated power law's score root."""
     import numpy as np
 
-    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling
+    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_law
 
     rng = np.random.default_rng(0)
     sizes = {n: [1.0 + rng.pareto(0.5, 40) for _ in range(3)] for n in (100, 200)}
     fit_joint_scaling(sizes, 1.0, n_boot=2)
-    fit_cutoff_power_law(np.concatenate(sizes[100]), 1.0)
+    x = np.concatenate(sizes[100])
+    fit_cutoff_power_law(x, 1.0)
+    fit_power_law(x, x_max=float(x.max()), min_tail=20)  # the truncated law's score root
 
 
 TASKS: dict[str, Callable[[Path], None]] = {

@@ -1,6 +1,7 @@
 """The compiled joint likelihood and its Nelder–Mead search (``jamlab.analysis.likelihood_kernels``)
-against scipy's ``minimize(method="Nelder-Mead")`` on the same likelihood, and the likelihood
-and ``log Γ(a, z)``  against mpmath and scipy's Python ufuncs."""
+against scipy's ``minimize(method="Nelder-Mead")`` on the same likelihood, the truncated power
+law's score root against scipy's ``brentq``, and the likelihood and ``log Γ(a, z)`` against
+mpmath and scipy's Python ufuncs."""
 
 import math
 
@@ -133,3 +134,35 @@ def test_log_upper_gamma_is_the_python_form_bit_for_bit():
         log_upper_gamma(1.0, 0.0)
     with pytest.raises(ValueError, match="finite a and z > 0"):
         log_upper_gamma(math.nan, 1.0)
+
+
+def _h1_python(u):
+    """The pure-Python ``h'(u)`` the compiled one replaced (for the bit comparison)."""
+    if abs(u) < 1e-2:
+        return 0.5 + u / 12 - u**3 / 720
+    if u > 0:
+        return -1.0 / math.expm1(-u) - 1.0 / u
+    return 1.0 + 1.0 / math.expm1(u) - 1.0 / u
+
+
+def test_the_truncated_score_root_is_scipys_brentq_bit_for_bit():
+    from jamlab.analysis.likelihood_kernels import truncated_score, truncated_score_root
+
+    rng = np.random.default_rng(6)
+    us = np.concatenate([rng.uniform(-1e-2, 1e-2, 2000), rng.normal(0, 5, 2000),
+                         rng.normal(0, 300, 500), [0.0, 1e-2, -1e-2]])
+    for u in us.tolist():
+        assert truncated_score(u) == _h1_python(u), u
+    targets = np.concatenate([rng.uniform(0, 1, 3000), 10 ** rng.uniform(-8, -0.5, 500),
+                              1 - 10 ** rng.uniform(-8, -0.5, 500), [0.5]])
+    rtol = 4 * np.finfo(float).eps
+    for t in targets.tolist():
+        lo, hi = -8.0, 8.0
+        while _h1_python(lo) > t:
+            lo *= 2
+        while _h1_python(hi) < t:
+            hi *= 2
+        want = optimize.brentq(lambda v, t=t: _h1_python(v) - t, lo, hi, xtol=1e-14, rtol=rtol)
+        assert truncated_score_root(t, 1e-14, rtol, 100) == want, t
+    with pytest.raises(RuntimeError, match="did not converge"):
+        truncated_score_root(0.3, 1e-300, rtol, 2)

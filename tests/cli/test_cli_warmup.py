@@ -33,12 +33,14 @@ def run():
             assert exit.code in (0, None), exit.code
     # and a report's fits (other data and cut-off shape than the warm-up's own)
     import numpy as np
-    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling
+    from jamlab.analysis import fit_cutoff_power_law, fit_joint_scaling, fit_power_law
 
     rng = np.random.default_rng(5)
     sizes = {n: [1.0 + rng.pareto(0.4, 30) for _ in range(4)] for n in (64, 128, 256)}
     fit_joint_scaling(sizes, 1.0, n_boot=3, stretch=0.5)
-    fit_cutoff_power_law(np.concatenate(sizes[64]), 1.0)
+    x = np.concatenate(sizes[64])
+    fit_cutoff_power_law(x, 1.0)
+    fit_power_law(x, x_max=float(x.max()), min_tail=20, n_boot=5)
 print(count_compilations(run))
 """
 

@@ -28,6 +28,12 @@ on the CPU; with a stable sort in scipy the two visit the same points and return
 minimum, bit for bit. It is specialised to this likelihood because numba cannot cache a compiled
 function that takes another as an argument.
 
+**The truncated power law's score equation** (:func:`truncated_score`, ``h'(u)``, and its root
+:func:`truncated_score_root`, for :mod:`jamlab.analysis.powerlaw`): the KS scan of ``x_min`` solves
+it once per candidate and per bootstrap resample (~190,000 times in a quick report). The root is
+scipy's ``brentq`` (``Zeros/brentq.c``) with the same operations in the same order: the same
+root, bit for bit, with no Python call per step (a fit 1.8× faster, the rest is numpy's KS).
+
 Tests: ``tests/analysis/test_likelihood_kernels.py``.
 """
 
@@ -43,11 +49,14 @@ from numpy.typing import NDArray
 
 __all__ = [
     "ASYMPTOTIC_Z",
+    "SERIES_U",
     "SMALL_A",
     "cutoff_log_norm",
     "joint_nll",
     "log_upper_gamma_value",
     "minimize_joint_nll",
+    "truncated_score",
+    "truncated_score_root",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -265,3 +274,91 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
         if np.isnan(fsim[j]) or fsim[j] < best:
             best = fsim[j]
     return sim[0].copy(), best, iterations
+
+
+SERIES_U = 1e-2
+"""Below this ``|u|`` the closed forms of ``h(u) = log(expm1(u)/u)`` and its derivatives lose
+digits to cancellation; their Taylor series to the kept order are accurate to ~1e-16 there
+(:mod:`jamlab.analysis.powerlaw`)."""
+
+
+@njit(cache=True)
+def truncated_score(u: float) -> float:
+    """``h'(u) = 1/(1 − e^−u) − 1/u``, the mean of ``log(x/x_min)/L`` under the truncated power
+    law with ``u = (1 − τ) L`` (:mod:`jamlab.analysis.powerlaw`)."""
+    if abs(u) < SERIES_U:
+        return 0.5 + u / 12 - u**3.0 / 720
+    if u > 0:
+        return -1.0 / math.expm1(-u) - 1.0 / u
+    return 1.0 + 1.0 / math.expm1(u) - 1.0 / u
+
+
+@njit(cache=True)
+def truncated_score_root(target: float, xtol: float, rtol: float, maxiter: int) -> float:
+    """The ``u`` with ``h'(u) = target`` (``0 < target < 1``): a bracket widened from
+    ``[−8, 8]``, then Brent's method as ``scipy.optimize.brentq`` runs it (scipy's
+    ``Zeros/brentq.c``, the same operations in the same order, so the same root bit for bit;
+    ``ValueError`` on a NaN value, ``RuntimeError`` without convergence in ``maxiter``)."""
+    lo, hi = -8.0, 8.0
+    while truncated_score(lo) > target:
+        lo *= 2
+    while truncated_score(hi) < target:
+        hi *= 2
+    xpre, xcur = lo, hi
+    xblk = 0.0
+    fblk = 0.0
+    spre = 0.0
+    scur = 0.0
+    fpre = truncated_score(xpre) - target
+    fcur = truncated_score(xcur) - target
+    if np.isnan(fpre) or np.isnan(fcur):
+        raise ValueError("the score is NaN; the root cannot be found")
+    if fpre * fcur > 0:
+        raise ValueError("f(a) and f(b) must have different signs")
+    if fpre == 0:
+        return xpre
+    if fcur == 0:
+        return xcur
+    for _ in range(maxiter):
+        if fpre * fcur < 0:
+            xblk = xpre
+            fblk = fpre
+            spre = scur = xcur - xpre
+        if abs(fblk) < abs(fcur):
+            xpre = xcur
+            xcur = xblk
+            xblk = xpre
+            fpre = fcur
+            fcur = fblk
+            fblk = fpre
+        delta = (xtol + rtol * abs(xcur)) / 2
+        sbis = (xblk - xcur) / 2
+        if fcur == 0 or abs(sbis) < delta:
+            return xcur
+        if abs(spre) > delta and abs(fcur) < abs(fpre):
+            if xpre == xblk:  # interpolate
+                stry = -fcur * (xcur - xpre) / (fcur - fpre)
+            else:  # extrapolate
+                dpre = (fpre - fcur) / (xpre - xcur)
+                dblk = (fblk - fcur) / (xblk - xcur)
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+            if 2 * abs(stry) < min(abs(spre), 3 * abs(sbis) - delta):  # good short step
+                spre = scur
+                scur = stry
+            else:  # bisect
+                spre = sbis
+                scur = sbis
+        else:  # bisect
+            spre = sbis
+            scur = sbis
+        xpre = xcur
+        fpre = fcur
+        if abs(scur) > delta:
+            xcur += scur
+        else:
+            xcur += delta if sbis > 0 else -delta
+        fcur = truncated_score(xcur) - target
+        if np.isnan(fcur):
+            raise ValueError("the score is NaN; the root cannot be found")
+    raise RuntimeError("the root of the truncated power law's score did not converge")
+

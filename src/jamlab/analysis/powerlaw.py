@@ -13,7 +13,9 @@ Two continuous models, both with density ``p(x) ∝ x^(−τ)``:
   and ``h(u) = log((e^u − 1)/u)`` the log-likelihood is
   ``ℓ(τ) = −τ Σ t_i − n log x_min − n log L − n h(u)``; the MLE solves the score equation
   ``h'(u) = mean(t)/L`` (``h'`` increases from 0 to 1, so the root is unique), found by bracketed
-  root finding in ``u``; the standard error is ``1/(L √(n h''(u)))`` (inverse Fisher information).
+  root finding in ``u`` (compiled: ``h'`` is
+  :func:`jamlab.analysis.likelihood_kernels.truncated_score`); the standard error is
+  ``1/(L √(n h''(u)))`` (inverse Fisher information).
 
 Conventions are those of ``docs/analysis.md``.
 """
@@ -25,9 +27,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import brentq
 
 from jamlab import validation
+from jamlab.analysis.likelihood_kernels import SERIES_U, truncated_score_root
 
 __all__ = [
     "PowerLawFit",
@@ -43,9 +45,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-# Below this |u| the closed forms of h, h', h'' lose digits to cancellation; the Taylor
-# series to the kept order is accurate to ~1e-16 there.
-_SERIES_U = 1e-2
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,7 @@ def _none_if_inf(x_max: float) -> float | None:
 
 
 def _h(u: float) -> float:
-    if abs(u) < _SERIES_U:
+    if abs(u) < SERIES_U:
         return u / 2 + u * u / 24 - u**4 / 2880
     if u > 0:
         # log((e^u − 1)/u) = u + log1p(−e^−u) − log u, no overflow for large u
@@ -105,18 +104,9 @@ def _h(u: float) -> float:
     return math.log(-math.expm1(u)) - math.log(-u)
 
 
-def _h1(u: float) -> float:
-    """h'(u) = 1/(1 − e^−u) − 1/u, the mean of t/L under the model."""
-    if abs(u) < _SERIES_U:
-        return 0.5 + u / 12 - u**3 / 720
-    if u > 0:
-        return -1.0 / math.expm1(-u) - 1.0 / u
-    return 1.0 + 1.0 / math.expm1(u) - 1.0 / u
-
-
 def _h2(u: float) -> float:
     """h''(u) = 1/u² − 1/(4 sinh²(u/2)), the variance of t/L under the model."""
-    if abs(u) < _SERIES_U:
+    if abs(u) < SERIES_U:
         return 1 / 12 - u * u / 240 + u**4 / 6048
     if abs(u) > 700:
         return 1.0 / (u * u)
@@ -250,13 +240,9 @@ def _mle_tail(tail: FloatArray, x_min: float, x_max: float | None) -> tuple[floa
     target = sum_t / (n * big_l)
     if not 0 < target < 1:
         return math.nan, math.nan
-    # h' runs from 0 (u → −∞) to 1 (u → ∞) and h'(u) ≈ 1 + ... − 1/u, so widen a bracket
-    lo, hi = -8.0, 8.0
-    while _h1(lo) > target:
-        lo *= 2
-    while _h1(hi) < target:
-        hi *= 2
-    u = brentq(lambda v: _h1(v) - target, lo, hi, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+    # h' runs from 0 (u → −∞) to 1 (u → ∞): a bracket widened from [−8, 8], then Brent's method
+    # (scipy's brentq, compiled: jamlab.analysis.likelihood_kernels.truncated_score_root)
+    u = truncated_score_root(target, 1e-14, 4 * np.finfo(float).eps, 100)
     tau = 1.0 - u / big_l
     return tau, 1.0 / (big_l * math.sqrt(n * _h2(u)))
 
