@@ -22,6 +22,7 @@ and h5py only when used: the CLI imports it at start-up).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -54,10 +55,15 @@ CODE = ("summary.py", "spheres/box.py", "spheres/pair.py", "spheres/state.py",
 _INTEGER_KEYS = ("n", "dim", "n_rattlers", "n_contacts_nr")
 
 
+@functools.cache
 def _code_digest() -> bytes:
-    from jamlab.provenance import source_digest  # here: the CLI imports this module at start-up
-
-    return source_digest(CODE)
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for pattern in CODE:
+        for path in sorted(root.glob(pattern)):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.digest()
 
 
 def file_key(h5: Any) -> str:
