@@ -90,12 +90,3 @@ def test_the_digest_covers_the_kernels():
     assert {"spheres/kernels/pairs.py", "spheres/pair.py", "spheres/potential.py",
             "spheres/contacts.py", "summary.py"} <= covered
     assert np.all([(root / c).is_file() for c in covered])
-
-
-def test_the_summary_key_digest_is_provenances():
-    # summary.py keeps its own copy of the source digest (editing it would change every stored
-    # key); the copy must give provenance.source_digest's bytes
-    from jamlab import provenance, summary
-
-    assert summary._code_digest() == provenance.source_digest(summary.CODE)
-    assert provenance.source_digest(("summary.py",)) != provenance.source_digest(("paper.py",))
