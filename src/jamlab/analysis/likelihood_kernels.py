@@ -68,7 +68,6 @@ ASYMPTOTIC_Z = 50.0
 """Above this ``z`` the asymptotic series (12 terms) is used."""
 
 
-
 def _external(cython_name: str, n_args: int) -> types.ExternalFunction:
     """scipy's float64 function ``cython_name`` as a symbol compiled code links against (not a
     ctypes pointer: numba cannot cache a function that holds one)."""
@@ -124,10 +123,6 @@ def cutoff_log_norm(tau: float, x_c: float, x_min: float, stretch: float) -> flo
             + log_upper_gamma_value((1.0 - tau) / stretch, (x_min / x_c) ** stretch))
 
 
-_RHO, _CHI, _PSI, _SIGMA = 1.0, 2.0, 0.5, 0.5
-_NONZDELT, _ZDELT = 0.05, 0.00025
-
-
 @njit(cache=True)
 def joint_nll(params: NDArray, log_rel_n: FloatArray, floors: FloatArray, k: FloatArray,
               sum_log: FloatArray, sum_s: FloatArray, stretch: float) -> float:
@@ -146,6 +141,10 @@ def joint_nll(params: NDArray, log_rel_n: FloatArray, floors: FloatArray, k: Flo
         total += (tau * sum_log[i] + scaled
                   + k[i] * cutoff_log_norm(tau, s_star, floors[i], stretch))
     return total
+
+
+_RHO, _CHI, _PSI, _SIGMA = 1.0, 2.0, 0.5, 0.5  # Nelder–Mead's coefficients (scipy's, not adaptive)
+_NONZDELT, _ZDELT = 0.05, 0.00025  # its initial simplex: relative step, step from zero
 
 
 @njit(cache=True)
@@ -212,7 +211,7 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
         sim[j] = _clip(sim[j], lower, upper)
     fsim = np.empty(n + 1)
     for k in range(n + 1):
-        fsim[k] = joint_nll(sim[k].copy(), *args)
+        fsim[k] = joint_nll(sim[k], *args)
     _sort(sim, fsim)
     iterations = 1
     while iterations < maxiter:
@@ -233,11 +232,11 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
         xbar = xbar / n
         worst = sim[n].copy()
         xr = _clip((1 + _RHO) * xbar - _RHO * worst, lower, upper)
-        fxr = joint_nll(xr.copy(), *args)
+        fxr = joint_nll(xr, *args)
         shrink = False
         if fxr < fsim[0]:
             xe = _clip((1 + _RHO * _CHI) * xbar - _RHO * _CHI * worst, lower, upper)
-            fxe = joint_nll(xe.copy(), *args)
+            fxe = joint_nll(xe, *args)
             if fxe < fxr:
                 sim[n] = xe
                 fsim[n] = fxe
@@ -249,7 +248,7 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
             fsim[n] = fxr
         elif fxr < fsim[n]:
             xc = _clip((1 + _PSI * _RHO) * xbar - _PSI * _RHO * worst, lower, upper)
-            fxc = joint_nll(xc.copy(), *args)
+            fxc = joint_nll(xc, *args)
             if fxc <= fxr:
                 sim[n] = xc
                 fsim[n] = fxc
@@ -257,7 +256,7 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
                 shrink = True
         else:
             xcc = _clip((1 - _PSI) * xbar + _PSI * worst, lower, upper)
-            fxcc = joint_nll(xcc.copy(), *args)
+            fxcc = joint_nll(xcc, *args)
             if fxcc < fsim[n]:
                 sim[n] = xcc
                 fsim[n] = fxcc
@@ -266,7 +265,7 @@ def minimize_joint_nll(x0, lower, upper, args, xatol=1e-4, fatol=1e-4, maxiter=0
         if shrink:
             for j in range(1, n + 1):
                 sim[j] = _clip(sim[0] + _SIGMA * (sim[j] - sim[0]), lower, upper)
-                fsim[j] = joint_nll(sim[j].copy(), *args)
+                fsim[j] = joint_nll(sim[j], *args)
         iterations += 1
         _sort(sim, fsim)
     best = fsim[0]

@@ -46,7 +46,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-
 @dataclass(frozen=True)
 class PowerLawFit:
     """Result of a power-law fit.
