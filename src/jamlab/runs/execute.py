@@ -94,6 +94,11 @@ class Execution:
             )
         slurm_cluster_kwargs(self.slurm)  # their values are checked even when not used
 
+    def local_workers(self) -> int:
+        """The local worker processes asked for: ``workers``, or the usable cores
+        (:func:`jamlab.threads.usable_cores`) when it is not given (0: in-process)."""
+        return usable_cores() if self.workers is None else self.workers
+
     def describe(self, todo: int | None = None) -> str:
         """Where the samples run; with ``todo`` (the samples to run), the local processes are
         counted as started: never more than there are samples. More local processes than usable
@@ -105,7 +110,7 @@ class Execution:
         if self.workers == 0:
             return "in-process"
         usable = usable_cores()
-        processes = self.workers or usable
+        processes = self.local_workers()
         if todo is not None:
             processes = max(1, min(processes, todo))
         text = f"{processes} local process{'es' if processes != 1 else ''}"
@@ -266,8 +271,7 @@ def _outcomes(
     if not items:
         return
     if execution.scheduler is None and execution.cluster is None:
-        workers = execution.workers if execution.workers is not None else usable_cores()
-        yield from _local_outcomes(items, study, min(workers, len(items)), task)
+        yield from _local_outcomes(items, study, min(execution.local_workers(), len(items)), task)
         return
     with _dask_client(execution) as client:
         yield from _dask_outcomes(items, study, client, task)
