@@ -93,11 +93,12 @@ def save_exact_law(path: Path, checks: tuple[Any, ...], tables: dict) -> None:
     kept exactly (``repr``)."""
     from dataclasses import astuple, fields
 
+    from jamlab.reproduce.theory_checks import ExponentCheck
+
     arrays: dict[str, np.ndarray] = {}
     for i, check in enumerate(checks):
         arrays[f"check|{i}"] = np.array(astuple(check), dtype=np.float64)
-    arrays["check_fields"] = np.array([f.name for f in fields(checks[0])]) if checks else \
-        np.array([], dtype=str)
+    arrays["check_fields"] = np.array([f.name for f in fields(ExponentCheck)])
     for mu, per_dg in tables.items():
         for dg, table in per_dg.items():
             for name, value in table.items():
