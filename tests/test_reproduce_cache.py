@@ -76,3 +76,27 @@ def test_exact_law_round_trip_is_exact_and_ordered(tmp_path):
     cut.write_bytes(path.read_bytes()[:100])
     with pytest.raises(ValueError, match=f"unreadable cached exact law {cut}"):
         load_exact_law(cut)
+
+
+def test_writing_the_exact_law_removes_other_codes_entries_only(tmp_path):
+    from jamlab.reproduce.cache import exact_law_file, save_exact_law
+    from jamlab.reproduce.theory_checks import ExponentCheck
+
+    stale = tmp_path / ("exact_law_" + "0123456789abcdef0123" + ".npz")  # another code's key
+    keep = {
+        "exact_law_notes.npz": b"a user's file",  # not a key of ours
+        "exact_law_0123.npz": b"short key",
+        "coordination_N64_seed1_steps40.npz": b"curve",
+    }
+    stale.write_bytes(b"old entry")
+    for name, data in keep.items():
+        (tmp_path / name).write_bytes(data)
+    path = exact_law_file(tmp_path)
+    assert path != stale
+    check = ExponentCheck(mu=0.5, tau_exact=1.0, tau_exact_min=0.9, tau_exact_max=1.1,
+                          tau_printed=1.0)
+    save_exact_law(path, (check,), {0.5: {1e-2: {"n": np.arange(3)}}})
+    assert not stale.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([path.name, *keep])
+    for name, data in keep.items():
+        assert (tmp_path / name).read_bytes() == data
