@@ -1,0 +1,203 @@
+"""The moduli moments at fixed pressure: is ``⟨μ_1²⟩ ∝ δγ^(−1)`` (the paper's Fig. 7) there?
+
+At constant volume near jamming the packings re-jam to pressures decades apart, so ``⟨μ_1²⟩``
+averaged over samples carries the spread of their moduli, flat in ``δγ``, and its fitted slope is
+shallow (the quick report: −0.77 ± 0.21 at jamming, N = 128; docs/analysis.md §4). At fixed
+pressure every packing of a run is at the same ``p``. This reads fixed-pressure run directories
+(``jamlab run … --pressure P``, one N each; realisations of one ``(p, N, δγ_0)`` are pooled) and
+prints per ``(p, N, δγ_0)``, from the intensive shear stress ``Σ/V`` of each minimum (each
+row's own volume; ``jamlab.reproduce.ensembles.intensive_stress``):
+
+- ``⟨μ_1²⟩`` and the within-sample variance ``mu1_var`` (the jumps' part) at the lags
+  ``--lags`` of the fine step (``δγ = m δγ_0``; overlapping differences, only those between
+  jammed minima: :func:`jamlab.analysis.moduli_from_trace`), their slopes against ``δγ`` over
+  the lags ``≤ --fit-max-lag`` (:func:`jamlab.analysis.fit_log_slope`; the lags of one trace
+  are correlated, so the error is indicative), and the local slope between the two smallest
+  lags;
+- the lag-1 correlation of consecutive stress increments between jammed minima (each sample's
+  mean increment removed): ``⟨μ_1²⟩`` falls faster than ``δγ^(−1)`` where consecutive
+  increments are anticorrelated (``⟨(ΔΣ_1 + ΔΣ_2)²⟩ < 2⟨ΔΣ²⟩``) and slower where they are
+  correlated, so this says why a slope is not −1;
+- the share of ``Σ ΔΣ²`` (lag 1) carried by the steps flagged plastic; the fraction of the other
+  steps (between jammed minima) whose stress falls, and the fraction of those that FIRE did not
+  touch (the trace's ``iterations`` 0: the Newton relaxer followed the minimum's branch) — a
+  stress that falls along a smooth branch is a negative shear modulus at fixed pressure, not a
+  rearrangement below the flag's threshold.
+
+For increments correlated at lag 1 only (correlation ``ρ``) the local slope between lags 1 and
+2 is ``−1 + log₂(1 + ρ)`` (``⟨(ΔΣ_1 + ΔΣ_2)²⟩ = 2⟨ΔΣ²⟩(1 + ρ)``, up to the squared mean
+increment, flat in ``δγ``); the table prints it beside the measured one.
+
+``--figure F`` (``.png``, ``.pdf`` or ``.svg``, outside the run directories): one panel per
+pressure, ``δγ ⟨μ_1²⟩`` against ``δγ`` for each ``(N, δγ_0)`` (flat where ``⟨μ_1²⟩ ∝
+δγ^(−1)``), ``mu1_var`` dotted.
+
+    R=data/runs
+    PYTHONPATH=src python scripts/pressure_moduli.py $R/n*-p1e-*-vg* $R/n125-p1e-*-dg1e-6 \
+        --figure moduli.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from jamlab.analysis import fit_log_slope, moduli_from_trace
+from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.runs import check_figure_path, open_pressure_run
+
+LAGS = (1, 2, 3, 5, 10, 20, 50, 100, 200, 500)
+
+
+def increment_correlation(stress: np.ndarray, jammed: np.ndarray) -> float:
+    """The lag-1 correlation of consecutive increments ``ΔΣ_k = Σ_k − Σ_{k−1}`` of the rows of
+    ``stress`` (``(samples, rows)``), over the pairs of consecutive steps whose three minima are
+    jammed (``Σ a b / √(Σ a² Σ b²)`` over those pairs, so that the steps without a partner do
+    not dilute it); each sample's mean increment (over its steps between jammed minima)
+    removed."""
+    d = np.diff(stress, axis=1)
+    ok = jammed[:, 1:] & jammed[:, :-1]
+    mean = np.array([row[k].mean() if k.any() else 0.0 for row, k in zip(d, ok, strict=True)])
+    dd = np.where(ok, d - mean[:, None], 0.0)
+    pair = ok[:, 1:] & ok[:, :-1]
+    a, b = dd[:, :-1][pair], dd[:, 1:][pair]
+    den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
+    return float(np.sum(a * b)) / den if den > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class Group:
+    """The pooled finished samples of one ``(p, N, δγ_0)``: intensive stress, jammed and plastic
+    flags, FIRE iterations ``(samples, rows)``, the fine strain step, and the run directories
+    read."""
+
+    stress: np.ndarray
+    jammed: np.ndarray
+    plastic: np.ndarray
+    iterations: np.ndarray
+    dgamma: float
+    runs: tuple[str, ...]
+
+
+def read_groups(ap: argparse.ArgumentParser,
+                runs: list[Path]) -> dict[tuple[float, int, float], Group]:
+    """The run directories pooled by ``(p, N, δγ_0)``; realisations of one group must have the
+    same number of rows (else the parser's error, one line, exit code 2)."""
+    parts: dict[tuple[float, int, float], list[tuple]] = {}
+    for path in runs:
+        ds, pressure, n = open_pressure_run(ap, path)
+        done = finished(ds, "jamming", n)
+        if not done.any():
+            ap.error(f"{path}: no finished sample")
+        jm = jammed_flags(ds, "jamming", n)
+        if jm is None:
+            ap.error(f"{path}: a run without per-minimum jammed flags (trace format 1)")
+        plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done] > 0.5
+        fire = np.asarray(ds.iterations.sel(phi="jamming", N=n).values)[done]
+        stress = intensive_stress(ds, "jamming", n)
+        dgamma = float(json.loads(ds.attrs["study"])["dgamma"])
+        parts.setdefault((pressure, n, dgamma), []).append((stress, jm, plastic, fire, path.name))
+    groups = {}
+    for key, items in parts.items():
+        shapes = {it[0].shape[1] for it in items}
+        if len(shapes) > 1:
+            ap.error(f"p = {key[0]:g}, N = {key[1]}, δγ = {key[2]:g}: the runs "
+                     f"{[it[4] for it in items]} differ in rows {sorted(shapes)}; give one length")
+        groups[key] = Group(*(np.concatenate([it[k] for it in items]) for k in range(4)), key[2],
+                            tuple(it[4] for it in items))
+    return groups
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("runs", type=Path, nargs="+", help="fixed-pressure run directories, one N each")
+    ap.add_argument("--lags", type=int, nargs="+", default=list(LAGS),
+                    help="lags m of the fine step (δγ = m δγ_0), increasing")
+    ap.add_argument("--fit-max-lag", type=int, default=10,
+                    help="largest lag of the slope fits (one of --lags)")
+    ap.add_argument("--figure", type=Path, default=None,
+                    help="δγ ⟨μ_1²⟩ against δγ per pressure (.png, .pdf or .svg)")
+    args = ap.parse_args(argv)
+    check_figure_path(ap, args.figure, args.runs)
+    lags = tuple(args.lags)
+    if not (lags[0] >= 1 and all(b > a for a, b in zip(lags, lags[1:], strict=False))):
+        ap.error(f"--lags must be increasing integers >= 1, got {list(lags)}")
+    if args.fit_max_lag not in lags or lags.index(args.fit_max_lag) < 1:
+        ap.error(f"--fit-max-lag must be one of --lags above the first, got {args.fit_max_lag}")
+    groups = read_groups(ap, args.runs)
+    print(f"lags {list(lags)}; slopes of log⟨μ_1²⟩ and log mu1_var against log δγ over the lags "
+          f"≤ {args.fit_max_lag} (errors indicative: the lags of one trace are correlated)\n")
+    print("| p | N | packings | δγ_0 | ⟨μ_1²⟩ at δγ_0 | slope ⟨μ_1²⟩ | slope mu1_var | local slope "
+          "(first two lags) | mu1_var / ⟨μ_1²⟩ at δγ_0 | lag-1 increment correlation ρ | "
+          "−1 + log₂(1 + ρ) | plastic share of ΣΔΣ² | unflagged steps with ΔΣ < 0 | … of them "
+          "without FIRE |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    curves = {}
+    for key in sorted(groups, key=lambda k: (-k[0], k[1], -k[2])):
+        p, n, _ = key
+        g = groups[key]
+        if lags[-1] >= g.stress.shape[1]:
+            ap.error(f"p = {p:g}, N = {n}: the largest lag {lags[-1]} is not below the "
+                     f"{g.stress.shape[1] - 1} steps")
+        m = moduli_from_trace(g.stress, g.dgamma, lags, jammed=g.jammed)
+        sel = m.strain_step <= args.fit_max_lag * g.dgamma * (1 + 1e-9)
+        fits = []
+        for y, err in ((m.mu1_sq, m.mu1_sq_err), (m.mu1_var, m.mu1_var_err)):
+            f = fit_log_slope(m.strain_step[sel], y[sel], err[sel])
+            fits.append(f"{f.slope:+.3f} ± {f.slope_err:.3f}")
+        local = np.log(m.mu1_sq[1] / m.mu1_sq[0]) / np.log(m.strain_step[1] / m.strain_step[0])
+        d = np.diff(g.stress, axis=1)
+        ok = g.jammed[:, 1:] & g.jammed[:, :-1]
+        share = float(np.sum((d * d)[ok & g.plastic[:, 1:]]) / np.sum((d * d)[ok]))
+        falling = ok & ~g.plastic[:, 1:] & (d < 0)
+        falls = float(np.count_nonzero(falling) / np.count_nonzero(ok & ~g.plastic[:, 1:]))
+        smooth = float(np.mean(g.iterations[:, 1:][falling] == 0)) if falling.any() else np.nan
+        corr = increment_correlation(g.stress, g.jammed)
+        print(f"| {p:g} | {n} | {g.stress.shape[0]} | {g.dgamma:g} | {m.mu1_sq[0]:.4g} | "
+              f"{fits[0]} | {fits[1]} | {local:+.3f} | {m.mu1_var[0] / m.mu1_sq[0]:.3f} | "
+              f"{corr:+.3f} | {np.log2(1 + corr) - 1:+.3f} | {share:.3f} | {falls:.3f} | "
+              f"{smooth:.3f} |")
+        curves[key] = m
+    if args.figure is not None:
+        draw(curves, args.figure)
+        print(f"\nfigure: {args.figure}")
+    return 0
+
+
+def draw(curves: dict, path: Path) -> None:
+    """One panel per pressure: ``δγ ⟨μ_1²⟩`` (solid) and ``δγ mu1_var`` (dotted) against ``δγ``
+    per ``(N, δγ_0)``, log–log."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pressures = sorted({key[0] for key in curves}, reverse=True)
+    colours = {n: f"C{i}" for i, n in enumerate(sorted({key[1] for key in curves}))}
+    finest = min(key[2] for key in curves)
+    fig, axes = plt.subplots(1, len(pressures), figsize=(3.2 * len(pressures), 3.2),
+                             squeeze=False, constrained_layout=True)
+    for ax, p in zip(axes[0], pressures, strict=True):
+        for key in sorted((k for k in curves if k[0] == p), key=lambda k: (k[1], -k[2])):
+            m = curves[key]
+            colour = colours[key[1]]  # one colour per N in every panel; the finest step: squares
+            ax.errorbar(m.strain_step, m.strain_step * m.mu1_sq, yerr=m.strain_step * m.mu1_sq_err,
+                        color=colour, marker="s" if key[2] == finest else "o", ms=3,
+                        label=f"N = {key[1]}, δγ_0 = {key[2]:g}")
+            ax.plot(m.strain_step, m.strain_step * m.mu1_var, color=colour, ls=":")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"p = {p:g}")
+        ax.set_xlabel("δγ")
+        ax.legend(fontsize=7)
+    axes[0][0].set_ylabel("δγ ⟨μ_1²⟩ (ε²/σ⁶); dotted: δγ mu1_var")
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,126 @@
+"""``scripts/pressure_moduli.py``: the increment correlation on increments of a known law, the
+local slope it predicts, and the script on real fixed-pressure run directories against an h5py
+recount of their traces, with its refusals (exit code 2)."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+
+from script_helpers import script_module
+from trace_recount import finished_samples
+
+
+@pytest.fixture(scope="module")
+def pm():
+    return script_module("pressure_moduli")
+
+
+def ma1_stress(rng, theta: float, samples: int, steps: int) -> np.ndarray:
+    """Stress traces whose increments are ``e_k + θ e_{k−1}`` (``e`` standard normal, a loading
+    drift 0.3 per step): lag-1 correlation ``θ/(1 + θ²)``, none beyond."""
+    e = rng.standard_normal((samples, steps + 1))
+    d = 0.3 + e[:, 1:] + theta * e[:, :-1]
+    return np.concatenate([np.zeros((samples, 1)), np.cumsum(d, axis=1)], axis=1)
+
+
+@pytest.mark.parametrize("theta", [-0.5, 0.0, 0.4])
+def test_increment_correlation_of_a_moving_average(pm, theta):
+    """``ρ = θ/(1 + θ²)`` within 5 σ (σ ≈ 1/√pairs), also with minima left unjammed (the pairs
+    across them are dropped, not bridged)."""
+    rng = np.random.default_rng(11)
+    stress = ma1_stress(rng, theta, 200, 500)
+    jammed = np.ones(stress.shape, bool)
+    expected = theta / (1 + theta**2)
+    assert pm.increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 300)
+    jammed[rng.random(stress.shape) < 0.05] = False
+    assert pm.increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 270)
+    # a step across an unjammed minimum, made huge, changes nothing
+    k = np.flatnonzero(~jammed[0, 1:-1])[0] + 1
+    spiked = stress.copy()
+    spiked[0, k:] += 1e6
+    assert pm.increment_correlation(spiked, jammed) == pytest.approx(
+        pm.increment_correlation(stress, jammed), abs=1e-12)
+
+
+def test_local_slope_is_minus_one_plus_log2_of_one_plus_rho(pm):
+    """The identity the table prints beside the measured local slope: on increments with lag-1
+    correlation ρ, ``⟨μ_1²⟩`` at lags 1 and 2 (``moduli_from_trace``) has local slope
+    ``−1 + log₂(1 + ρ)`` up to the squared mean increment."""
+    from jamlab.analysis import moduli_from_trace
+
+    rng = np.random.default_rng(3)
+    for theta in (-0.6, -0.2, 0.3, 0.8):
+        stress = ma1_stress(rng, theta, 100, 2000) - 0.3 * np.arange(2001)  # no drift
+        jammed = np.ones(stress.shape, bool)
+        m = moduli_from_trace(stress, 1e-5, (1, 2), jammed=jammed)
+        local = np.log2(m.mu1_sq[1] / m.mu1_sq[0])
+        rho = pm.increment_correlation(stress, jammed)
+        assert local == pytest.approx(-1 + np.log2(1 + rho), abs=0.01)
+        assert abs(local + 1) > 0.1  # and it is far from −1 for these θ
+
+
+def recount_moments(run, dgamma: float, lag: int) -> tuple[float, float, float, float, int]:
+    """From the sample files alone: ``⟨μ_1²⟩`` at ``lag`` (overlapping differences between
+    jammed minima, ``σ = Σ/V`` with ``V = L³ φ_start / φ_row``), the plastic share of ``Σ ΔΣ²``,
+    the fraction of unflagged steps whose stress falls and of those the fraction without FIRE
+    iterations (all at lag 1), and the packings."""
+    per_sample, sq_all, sq_plastic, unflagged, falls, smooth = [], 0.0, 0.0, 0, 0, 0
+    files = finished_samples(run)
+    for f in files:
+        with h5py.File(f, "r") as h5:
+            sigma = h5["trace/shear_stress"][()] / (
+                h5.attrs["box_length"] ** 3 * h5.attrs["phi_actual"] / h5["trace/phi"][()])
+            jm = h5["trace/jammed"][()].astype(bool)
+            pl = h5["trace/plastic"][()].astype(bool)
+            fire = h5["trace/iterations"][()]
+        vals = []
+        for k in range(sigma.size - lag):
+            if jm[k:k + lag + 1].all():
+                vals.append(((sigma[k + lag] - sigma[k]) / (lag * dgamma)) ** 2)
+        if vals:
+            per_sample.append(np.mean(vals))
+        for k in range(1, sigma.size):
+            if jm[k - 1] and jm[k]:
+                d = sigma[k] - sigma[k - 1]
+                sq_all += d * d
+                if pl[k]:
+                    sq_plastic += d * d
+                else:
+                    unflagged += 1
+                    falls += d < 0
+                    smooth += d < 0 and fire[k] == 0
+    return (float(np.mean(per_sample)), sq_plastic / sq_all, falls / unflagged,
+            smooth / falls if falls else float("nan"), len(files))
+
+
+def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp_path, capsys):
+    runs = pressure_runs_by_size
+    two = [str(runs[16]), str(runs[24])]
+    for argv in ([str(tmp_path)], [*two, "--lags", "1", "5", "2"],
+                 [*two, "--fit-max-lag", "3"], [*two, "--lags", "1", "2", "--fit-max-lag", "1"],
+                 [*two, "--lags", "1", "500"],  # 200 steps: a lag beyond the trace
+                 [*two, "--figure", str(tmp_path / "f.txt")],
+                 [*two, "--figure", str(runs[16] / "f.png")]):
+        with pytest.raises(SystemExit) as err:
+            pm.main(argv)
+        assert err.value.code == 2
+    capsys.readouterr()
+    figure = tmp_path / "moduli.png"
+    assert pm.main([*two, "--lags", "1", "2", "5", "--fit-max-lag", "5",
+                    "--figure", str(figure)]) == 0
+    assert figure.stat().st_size > 0
+    out = capsys.readouterr().out
+    rows = [line for line in out.splitlines() if line.startswith("| 0.001 |")]
+    assert len(rows) == 2
+    for n, row in zip((16, 24), rows, strict=True):
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        mu1_sq, share, falls, smooth, packings = recount_moments(runs[n], 1e-3, 1)
+        assert int(cells[1]) == n and int(cells[2]) == packings
+        assert float(cells[4]) == pytest.approx(mu1_sq, rel=1e-3)
+        assert float(cells[11]) == pytest.approx(share, abs=1e-3)
+        assert float(cells[12]) == pytest.approx(falls, abs=1e-3)
+        assert float(cells[13]) == pytest.approx(smooth, abs=1e-3, nan_ok=True)
+        mu1_sq_2 = recount_moments(runs[n], 1e-3, 2)[0]
+        assert float(cells[7]) == pytest.approx(np.log2(mu1_sq_2 / mu1_sq), abs=2e-3)
