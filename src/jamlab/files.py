@@ -41,6 +41,7 @@ __all__ = [
     "check_outputs",
     "open_hdf5",
     "fsync_dir",
+    "OTHER_FORMAT_SUFFIXES",
     "RUN_FORMAT",
     "RUN_MEMBERS",
     "run_directory_of",
@@ -140,6 +141,14 @@ def check_distinct_inputs(paths: list[PathLike], what: str = "input") -> None:
         seen[ident] = path
 
 
+OTHER_FORMAT_SUFFIXES = frozenset({
+    ".xyz", ".extxyz", ".gsd", ".data", ".lmp", ".lammps", ".dump", ".lammpstrj", ".csv",
+    ".json", ".npz", ".npy", ".txt", ".toml", ".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps",
+    ".ps", ".tif", ".tiff", ".gif", ".webp",
+})
+"""Suffixes of formats that are not HDF5 (:func:`check_outputs`'s ``hdf5``)."""
+
+
 def check_outputs(
     outputs: Mapping[str, PathLike | None],
     inputs: Mapping[str, PathLike | None] | None = None,
@@ -149,6 +158,7 @@ def check_outputs(
     force: bool = False,
     continued: tuple[str, ...] = (),
     figures: tuple[str, ...] = (),
+    hdf5: tuple[str, ...] = (),
 ) -> None:
     """The output-path guard of every command; raises ``ValueError`` (one line) before anything
     is computed or written.
@@ -158,7 +168,9 @@ def check_outputs(
     ``shear --resume``): no finished data is replaced by accident. A member of a jamlab run
     directory (:func:`run_directory_of`) is refused even with ``force``: only ``jamlab run``
     writes there. Outputs named in ``figures`` must have a suffix matplotlib can write (checked
-    here, not after the computation).
+    here, not after the computation); outputs named in ``hdf5`` (jamlab's HDF5 files) must not
+    carry the suffix of another format (:data:`OTHER_FORMAT_SUFFIXES`: ``.xyz``, ``.gsd``,
+    ``.png`` …), which ``jamlab export``/``import`` and every reader would take at its word.
 
     ``outputs``: ``{description: file to be written}``; ``inputs``: ``{description: file that is
     read}`` (one that does not exist yet is refused as an output too: its reader would take a file
@@ -204,6 +216,9 @@ def check_outputs(
                              "only jamlab run writes there")
         if path.exists() and not (force or name in continued):
             raise ValueError(f"{name} {path} exists; give --force to replace it")
+        if name in hdf5 and path.suffix.lower() in OTHER_FORMAT_SUFFIXES:
+            raise ValueError(f"{name} {path}: this writes an HDF5 file, and {path.suffix} names "
+                             "another format; give a .h5 name (jamlab export writes the others)")
         if name in figures:
             from matplotlib.backend_bases import FigureCanvasBase
 

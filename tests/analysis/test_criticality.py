@@ -282,6 +282,23 @@ def test_fitter_on_exact_power_law_cdf_is_exact():
         assert fit.ci95[0] <= fit.value <= fit.ci95[1]
 
 
+def test_a_fit_at_an_end_of_its_search_says_so():
+    """Samples whose window CDF no ``1 + a`` in the search range can follow (quantiles of
+    ``x^(1+a)`` with ``1 + a = −2``, and of ``1 + a = 9``) give the bound and ``at_bound``; the
+    exact power law above does not, and the flag survives ``negated`` (γ from the gap fit)."""
+    from jamlab.analysis.exponent_fit import CDF_SEARCH
+
+    q = (np.arange(1, 40_001) - 0.5) / 40_000
+    for exponent, bound in ((-2.0, CDF_SEARCH[0]), (9.0, CDF_SEARCH[1])):
+        x = 1e-2 * (1 - q * (1 - 100.0**exponent)) ** (1 / exponent)  # on [1e-2, 1]
+        fit = fit_exponent([x[k::4] for k in range(4)], (1e-2, 1.0), n_boot=20)
+        assert fit.value == pytest.approx(bound - 1, abs=1e-4)
+        assert fit.at_bound and fit.negated().at_bound
+    x = q ** (1 / 1.3)
+    fit = fit_exponent([x[k::4] for k in range(4)], (1e-2, 0.5), n_boot=20)
+    assert not fit.at_bound and not fit.negated().at_bound
+
+
 def test_local_exponents_track_a_changing_slope():
     """A density ``x^0`` below 0.1 and ``x^1`` above: the local exponent is ~0 on low windows
     and ~1 on high ones (the plain CDF fit, which sees the mass below its window, lags the

@@ -73,6 +73,10 @@ def test_user_errors(packings, tmp_path):
     assert "--window-gamma" in one_line_error(
         jamlab("criticality", paths[0], "--out", out, "--window-gamma", "0.1")
     )
+    assert "above --h-max 0.5: gaps above --h-max are not kept" in one_line_error(
+        jamlab("criticality", paths[0], "--out", out, "--window-gamma", "1e-4,5")
+    )
+    assert not out.exists()
     assert "--method" in one_line_error(
         jamlab("criticality", paths[0], "--out", out, "--method", "ols")
     )

@@ -351,11 +351,27 @@ def test_ptol_is_checked_without_pressure(packing08, tmp_path, capsys, bad):
     assert not (tmp_path / "o.h5").exists() and not (tmp_path / "p.h5").exists()
 
 
-def test_slurm_options_are_checked_even_without_a_cluster(tmp_path, capsys):
+def test_slurm_options_are_checked_before_a_cluster_starts(tmp_path, capsys):
+    assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--task", "toy", "--out", tmp_path / "r", "--cluster",
+                "slurm", "--slurm-jobs", "-1"]) == 2  # fmt: skip
+    assert "slurm jobs must be an integer >= 1, got -1" in error_line(capsys)
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--slurm-jobs", "3"], "--slurm-jobs applies with --cluster slurm only"),
+    (["--slurm-memory", "1GiB", "--slurm-queue", "q"],
+     "--slurm-memory applies with --cluster slurm only"),
+    (["--scheduler", "tcp://127.0.0.1:1"], "--workers applies to local processes or --cluster"),
+    (["--p-target", "1e-5"], "p_target applies to phi 'jamming'"),
+])
+def test_run_options_that_would_be_ignored_are_refused(tmp_path, capsys, extra, message):
+    """An option the run would not use is an error, not silently dropped (nor recorded)."""
     assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
                 "--gamma-max", "2e-3", "--task", "toy", "--out", tmp_path / "r", "--workers",
-                "0", "--slurm-jobs", "-1"]) == 2  # fmt: skip
-    assert "slurm jobs must be an integer >= 1, got -1" in error_line(capsys)
+                "0", *extra]) == 2  # fmt: skip
+    assert message in error_line(capsys)
     assert not (tmp_path / "r").exists()
 
 
@@ -394,6 +410,36 @@ def test_run_refuses_a_preparation_below_jamming(tmp_path, capsys):
                 "--gamma-max", "2e-3", "--out", tmp_path / "r", "--workers", "0", "-q"]) == 2
     assert "phi 0.3 is below jamming" in error_line(capsys)
     assert not (tmp_path / "r").exists()
+
+
+def test_an_unreachable_scheduler_leaves_no_run_directory(tmp_path, capsys):
+    """A run refused for its scheduler left ``r/manifest.json`` behind, and the next run there
+    with other parameters was refused as "a different study" (a third audit)."""
+    import socket
+
+    with socket.socket() as s:  # a loopback port nothing listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    assert run(["run", "--phi", "0.8", "--n", "8", "--samples", "1", "--dgamma", "1e-3",
+                "--gamma-max", "2e-3", "--task", "toy", "--out", tmp_path / "r", "--scheduler",
+                f"tcp://127.0.0.1:{port}"]) == 2  # fmt: skip
+    assert f"cannot reach dask scheduler tcp://127.0.0.1:{port}" in error_line(capsys)
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("args", [
+    ["random-packing", "--n", "16", "--phi", "0.5"],
+    ["prepare", "--n", "16", "--phi", "0.8", "--quiet"],
+])
+@pytest.mark.parametrize("suffix", [".xyz", ".gsd", ".png", ".csv"])
+def test_an_hdf5_output_named_as_another_format_is_refused(tmp_path, capsys, args, suffix):
+    """``random-packing --out r.gsd`` wrote HDF5 into a .gsd file and said nothing (a third
+    audit); export/import and every reader take the suffix at its word."""
+    out = tmp_path / f"o{suffix}"
+    assert run([*args, "--out", out]) == 2
+    assert f"this writes an HDF5 file, and {suffix} names another format" in error_line(capsys)
+    assert not out.exists()
+    assert run([*args, "--out", tmp_path / "o.h5"]) == 0
 
 
 @pytest.mark.parametrize("args, message", [

@@ -185,11 +185,22 @@ def test_hdf5_files_of_another_format_version_are_refused(tmp_path, capsys, kind
 
 
 def test_figure_refuses_a_runs_path_that_is_not_a_directory(tmp_path, capsys):
-    """``figure fig1 --runs missing`` ignored the --runs it was given (fig1 needs none)."""
+    """``figure fig1 --runs missing`` ignored the --runs it was given (fig1 needs none); a
+    figure that reads runs refuses a --runs that is not a directory."""
     (tmp_path / "file.txt").write_text("mine\n")
     for runs in (tmp_path / "missing", tmp_path / "file.txt"):
-        assert run(["figure", "fig1", "--runs", runs, "--out", tmp_path / "f.png"]) == 2
+        assert run(["figure", "fig5", "--runs", runs, "--out", tmp_path / "f.png"]) == 2
         assert f"--runs {runs} is not a directory" in error_line(capsys)
+    assert not (tmp_path / "f.png").exists()
+
+
+@pytest.mark.parametrize("name", ["fig1", "fig2", "fig3", "fig3_exact", "theory_vs_cascade"])
+def test_figure_refuses_runs_for_a_computed_figure(tmp_path, capsys, name):
+    """``figure fig3 --runs runA`` ignored --runs and said "wrote" (a third audit): the figures
+    computed from the scale alone read no run directory, so --runs is an error for them."""
+    (tmp_path / "runs").mkdir()
+    assert run(["figure", name, "--runs", tmp_path / "runs", "--out", tmp_path / "f.png"]) == 2
+    assert f"{name} is computed, it reads no runs: drop --runs" in error_line(capsys)
     assert not (tmp_path / "f.png").exists()
 
 

@@ -18,8 +18,8 @@ from jamlab.analysis.powerlaw import finite_data, mle_tau
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
 
-__all__ = ["ExponentFit", "LocalExponents", "WindowRule", "empirical_cdf", "fit_exponent",
-           "local_exponents", "choose_window", "finite_size_cutoff"]
+__all__ = ["CDF_SEARCH", "ExponentFit", "LocalExponents", "WindowRule", "empirical_cdf",
+           "fit_exponent", "local_exponents", "choose_window", "finite_size_cutoff"]
 
 # ------------------------------------------------------------------------------------------------
 # exponents
@@ -48,7 +48,9 @@ class ExponentFit:
     """Density exponent ``a`` of ``P(x) ~ x^a`` on ``window`` (so ``F(x) ~ x^(1+a)``): ``θ = a``
     for forces, ``γ = −a`` for gaps. ``ci95``: bootstrap percentile interval over packings;
     ``n_packings``, ``n_samples`` (all), ``n_in_window``; ``method``: ``"cdf"``, ``"plain"`` or
-    ``"mle"`` (:func:`fit_exponent`); ``n_boot``: bootstrap resamples used."""
+    ``"mle"`` (:func:`fit_exponent`); ``n_boot``: bootstrap resamples used; ``at_bound``: the
+    ``"cdf"`` fit's ``1 + a`` sits at an end of its search (:data:`CDF_SEARCH`), so the window
+    holds no power law it can follow and the value is the bound's, not an estimate."""
 
     value: float
     ci95: tuple[float, float]
@@ -58,6 +60,7 @@ class ExponentFit:
     n_in_window: int
     method: str
     n_boot: int
+    at_bound: bool = False
 
     def negated(self) -> ExponentFit:
         """The same fit for ``−a`` (``γ`` from the gap fit)."""
@@ -71,6 +74,7 @@ class ExponentFit:
             self.n_in_window,
             self.method,
             self.n_boot,
+            self.at_bound,
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -86,6 +90,9 @@ class ExponentFit:
 
 
 _METHODS = ("cdf", "plain", "mle")
+CDF_SEARCH = (1e-3, 6.0)
+"""The range of ``1 + a`` the ``"cdf"`` fit searches: every exponent a density can have near 0
+(``a > −1``) up to a steep 5."""
 
 
 def _T975(dof: int) -> float:
@@ -127,8 +134,7 @@ def _window_cdf_exponent(counts: FloatArray, log_x: FloatArray) -> float:
         model = np.expm1(u * t) / math.expm1(u * span)
         return float(np.sum((emp - model) ** 2))
 
-    # 1 + a in [1e-3, 6]: every exponent a density can have near 0 (a > −1) up to a steep 5
-    res = minimize_scalar(loss, bounds=(1e-3, 6.0), method="bounded", options={"xatol": 1e-7})
+    res = minimize_scalar(loss, bounds=CDF_SEARCH, method="bounded", options={"xatol": 1e-7})
     return float(res.x) - 1.0
 
 
@@ -219,6 +225,8 @@ def fit_exponent(
         n_in_window=n_in,
         method=method,
         n_boot=int(boot.size),
+        at_bound=bool(method == "cdf" and math.isfinite(value)
+                      and min(abs(1.0 + value - b) for b in CDF_SEARCH) < 1e-5),
     )
 
 

@@ -39,6 +39,9 @@ def _fit_warnings(label: str, fit, n_boot: int) -> list[str]:
             f"{label}: no estimate on the window [{lo:.3g}, {hi:.3g}] "
             f"({fit.n_in_window} samples in it)"
         )
+    if fit.at_bound:
+        out.append(f"{label}: the fit sits at an end of its search ({fit.value:.4g}): the "
+                   f"window [{lo:.3g}, {hi:.3g}] holds no power law it can follow; choose another")
     if not all(math.isfinite(c) for c in fit.ci95):
         if fit.n_packings < 2:
             why = (f"{fit.n_packings} packing (the bootstrap resamples packings: it needs at "
@@ -242,6 +245,9 @@ def register(app: typer.Typer) -> None:
             )
             if w is not None
         }
+        if "gamma" in windows and windows["gamma"][1] > h_max:
+            raise ValueError(f"--window-gamma ends at {windows['gamma'][1]:g}, above --h-max "
+                             f"{h_max:g}: gaps above --h-max are not kept")
         for p in packings:
             if not p.is_file():
                 raise FileNotFoundError(f"no such packing file: {p}")

@@ -116,7 +116,8 @@ def register(app: typer.Typer) -> None:
             raise ValueError(f"--box-length must be > 0, got {box_length}")
         # text positions read the meta.json beside them (as import-xyz)
         meta = positions_meta(source, box_length) if fmt == "positions" else None
-        check_outputs({"--out": out}, {"input": source, "meta.json": meta}, force=force)
+        check_outputs({"--out": out}, {"input": source, "meta.json": meta}, force=force,
+                      hdf5=("--out",))
         try:
             packings = ex.read_frames(source, fmt, box_length=box_length, strain=strain)
         except ImportError as exc:

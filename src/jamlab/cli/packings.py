@@ -118,7 +118,7 @@ def register(app: typer.Typer) -> None:
             value = validation.above_jamming(
                 "--phi", validation.packing_fraction("--phi", value), dim
             )
-        check_outputs({"--out": out}, force=force)
+        check_outputs({"--out": out}, force=force, hdf5=("--out",))
         if pressure is not None:
             from jamlab.spheres.packing import jam_at_pressure
 

@@ -110,13 +110,15 @@ def figure_command(
     none: they are computed). Give the --scale, --seed, --sizes and --alpha the runs were made
     with (those of their jamlab reproduce)."""
     from jamlab.files import check_outputs
-    from jamlab.reproduce import FIGURE_PART, make_figure
+    from jamlab.reproduce import COMPUTED_PARTS, FIGURE_PART, make_figure
 
     check_outputs({"--out": out}, force=force, figures=("--out",))
     if name in ("fig4", "fig5", "fig6", "fig7") and runs is None:
         raise ValueError(f"{name} needs --runs (the runs/ directory of a `jamlab reproduce`)")
     if name not in FIGURE_PART:
         raise ValueError(f"unknown figure {name!r}: valid figures are {', '.join(FIGURE_PART)}")
+    if runs is not None and FIGURE_PART[name] in COMPUTED_PARTS:
+        raise ValueError(f"{name} is computed, it reads no runs: drop --runs")
     if runs is not None and not runs.is_dir():
         raise ValueError(f"--runs {runs} is not a directory (the runs/ of a `jamlab reproduce`)")
     chosen = _scale(scale, seed, sizes, alpha)  # those the runs were made with

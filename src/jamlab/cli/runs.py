@@ -233,6 +233,9 @@ def register(app: typer.Typer) -> None:
             ],
         )
         study = Study.from_dict(params)
+        if params.get("p_target") is not None and "jamming" not in study.phi:
+            raise ValueError("p_target applies to phi 'jamming' (the jamming protocol's target "
+                             "pressure), and the study has none")
         if out is None:
             raise ValueError("no run directory: give --out DIR (or 'out' in the study file)")
         slurm = dict(execution.pop("slurm", {}) or {})
@@ -252,6 +255,17 @@ def register(app: typer.Typer) -> None:
         exec_params = merge(
             execution, [("workers", workers), ("scheduler", scheduler), ("cluster", cluster)]
         )
+        given = [name for name, value in (
+            ("--slurm-jobs", slurm_jobs), ("--slurm-cores", slurm_cores),
+            ("--slurm-processes", slurm_processes), ("--slurm-memory", slurm_memory),
+            ("--slurm-walltime", slurm_walltime), ("--slurm-queue", slurm_queue),
+            ("--slurm-account", slurm_account), ("--slurm-directive", slurm_directive or None),
+        ) if value is not None]
+        if given and exec_params.get("cluster") != "slurm":
+            raise ValueError(f"{given[0]} applies with --cluster slurm only")
+        if workers is not None and exec_params.get("scheduler") is not None:
+            raise ValueError("--workers applies to local processes or --cluster, not to a "
+                             "running --scheduler (its workers are its own)")
         quiet = quiet or bool(exec_params.pop("quiet", False))
         unknown = sorted(set(exec_params) - {"workers", "scheduler", "cluster"})
         if unknown:

@@ -286,7 +286,7 @@ def register(app: typer.Typer) -> None:
         stale: list[Path] = []
         if resume:
             check_outputs(outputs, {"configuration": config}, force=force, continued=("--out",),
-                          figures=("--plot",))
+                          figures=("--plot",), hdf5=("--out",))
         else:
             outputs["checkpoint"] = last
             # the snapshots of an earlier run to --out would be read as this run's
@@ -299,6 +299,7 @@ def register(app: typer.Typer) -> None:
                 },
                 force=force,
                 figures=("--plot",),
+                hdf5=("--out", "checkpoint"),
             )
             foreign = foreign_snapshots(snapshots) if stale else []
             if foreign:  # never the earlier run's: --force would remove it with them

@@ -106,7 +106,7 @@ def register(app: typer.Typer) -> None:
         validation.integer("--max-iter", max_iter, minimum=0, maximum=validation.MAX_ITER)
         if not config.is_file():
             raise FileNotFoundError(f"no such configuration file: {config}")
-        check_outputs({"--out": out}, {"configuration": config}, force=force)
+        check_outputs({"--out": out}, {"configuration": config}, force=force, hdf5=("--out",))
         packing = read_packing(config)
         result = minimize(packing, ftol=ftol, max_iter=max_iter)
         if result.converged:  # converged as the written file reads (fire.polish_reading)
@@ -145,7 +145,7 @@ def register(app: typer.Typer) -> None:
         validation.dimension("--dim", dim)
         validation.seed("--seed", seed)
         validation.packing_fraction("--phi", phi)
-        check_outputs({"--out": out}, force=force)
+        check_outputs({"--out": out}, force=force, hdf5=("--out",))
         packing = sp.random_packing(n, dim, phi, seed)
         write_packing(out, packing)
         typer.echo(f"N={n} d={dim} phi={phi} L={packing.box.length!r} seed={seed} -> {out}")
@@ -177,7 +177,8 @@ def register(app: typer.Typer) -> None:
             raise FileNotFoundError(f"no such positions file: {positions}")
         meta = positions_meta(positions, box_length)
         check_outputs(
-            {"--out": out}, {"positions file": positions, "meta.json": meta}, force=force
+            {"--out": out}, {"positions file": positions, "meta.json": meta}, force=force,
+            hdf5=("--out",),
         )
         packing = read_lammps_positions(positions, box_length=box_length, strain=strain)
         write_packing(out, packing)

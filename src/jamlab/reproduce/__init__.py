@@ -58,6 +58,7 @@ from jamlab.reproduce.coordination import (  # noqa: E402
 )
 from jamlab.reproduce.ensembles import intensive_stress as intensive_stress  # noqa: E402
 from jamlab.reproduce.figures import TITLES as TITLES  # noqa: E402
+from jamlab.reproduce.pipeline import COMPUTED_PARTS as COMPUTED_PARTS  # noqa: E402
 from jamlab.reproduce.pipeline import FIGURE_PART as FIGURE_PART  # noqa: E402
 from jamlab.reproduce.pipeline import PARTS as PARTS  # noqa: E402
 from jamlab.reproduce.scales import UNSAT_PHI as UNSAT_PHI  # noqa: E402

@@ -40,8 +40,8 @@ from jamlab.reproduce.measurements import (
 from jamlab.reproduce.scales import Scale, get_scale, studies
 from jamlab.reproduce.theory_checks import exact_law_checks, theory_checks
 
-__all__ = ["FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES", "ReproduceResult",
-           "check_report_directory", "make_figure", "reproduce"]
+__all__ = ["COMPUTED_PARTS", "FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES",
+           "ReproduceResult", "check_report_directory", "make_figure", "reproduce"]
 
 TITLE = "jamlab: reproduction of Franz & Spigler, Mean-field avalanches in jammed spheres"
 
@@ -163,6 +163,8 @@ FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
                "theory_vs_cascade": "theory", "criticality": "criticality",
                "finite_size": "finite_size", "tau_pressure": "pressure_tau"}
 """Which part makes which figure."""
+COMPUTED_PARTS = frozenset({"coordination", "theory", "exact_law"})
+"""The parts whose figures read no run directory: computed from the scale alone."""
 
 _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "fig1": lambda c: figures.fig1(c.result("coordination"), c.figdir, c.ext),

@@ -244,6 +244,30 @@ def _dask_outcomes(
         client.cancel(list(futures))
 
 
+def _check_reachable(address: str, timeout: float = 20.0) -> None:
+    """``ValueError`` (one line) if nothing accepts a TCP connection at a ``tcp://HOST:PORT``
+    scheduler address within ``timeout`` s, so that a run that cannot start writes nothing (its
+    manifest would tie the directory to a study no sample was made for). Other protocols are
+    left to the dask client."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address)
+    if parts.scheme != "tcp":
+        return
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.hostname is None or port is None:
+        raise ValueError(f"scheduler must be an address like tcp://HOST:8786, got {address!r}")
+    try:
+        with socket.create_connection((parts.hostname, port), timeout=timeout):
+            pass
+    except OSError as exc:
+        raise ValueError(f"cannot reach dask scheduler {address}: {exc}") from None
+
+
 @contextlib.contextmanager
 def _dask_client(execution: Execution) -> Iterator[Any]:
     from distributed import Client
@@ -298,6 +322,8 @@ def run_study(
     execution = execution or Execution()
     start = time.perf_counter()
     study.check_geometry()
+    if execution.scheduler is not None:
+        _check_reachable(execution.scheduler)  # before the run directory is made
     run = RunDir.open(out, study)
     with run.lock():
         run.start(study)
