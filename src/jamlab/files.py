@@ -308,24 +308,35 @@ def atomic_savefig(fig: Any, path: PathLike, **kwargs: Any) -> Path:
     return atomic_write(path, lambda tmp: fig.savefig(tmp, **kwargs))
 
 
-def open_hdf5(path: PathLike, what: str = "", newest: int | None = None) -> Any:
+def open_hdf5(path: PathLike, what: str = "", newest: int | None = None,
+              expected: str | None = None) -> Any:
     """``path`` opened read-only as an ``h5py.File`` (use it in a ``with``):
-    ``FileNotFoundError`` ("no such {what} file") if it is not a file, ``ValueError`` ("not an
-    HDF5 file") if HDF5 cannot open it, and with ``newest`` a ``ValueError`` for a root attribute
-    ``format_version`` that is not an integer in ``[1, newest]`` (a file of a newer jamlab; files
-    without the attribute, other programs', are read). The readers of configurations and traces
-    start here."""
+    ``FileNotFoundError`` ("no such {what} file") if it is not a file (``ValueError`` for a
+    directory), ``ValueError`` ("not an HDF5 file") if HDF5 cannot open it; with ``expected``
+    (the root attribute ``format`` of the files sought) a ``ValueError`` naming the kind of
+    another jamlab file (a trace given where a configuration is read); and with ``newest`` a
+    ``ValueError`` for a root attribute ``format_version`` that is not an integer in
+    ``[1, newest]`` (a file of a newer jamlab; files without the attribute, other programs', are
+    read). The readers of configurations and traces start here."""
     import h5py
 
     from jamlab import validation
 
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a directory, not a {what + ' ' if what else ''}file")
     if not path.is_file():
         raise FileNotFoundError(f"no such {what + ' ' if what else ''}file: {path}")
     try:
         h5 = h5py.File(path, "r")
     except OSError:
         raise ValueError(f"not an HDF5 file: {path}") from None
+    kind = h5.attrs.get("format")
+    kind = kind.decode() if isinstance(kind, bytes) else kind
+    if (expected is not None and isinstance(kind, str) and kind.startswith("jamlab-")
+            and kind != expected):
+        h5.close()
+        raise ValueError(f"{path} is a {kind} file, not a {what or expected} file")
     version = h5.attrs.get("format_version") if newest is not None else None
     if version is not None:
         try:

@@ -59,6 +59,8 @@ def test_never_overwrites_without_force_and_never_the_input(tmp_path):
     ("args", "match"),
     [
         (["export", "{c}", "--out", "{d}/x.h5"], "--format"),
+        # the formats listed are those export writes (positions is import's only)
+        (["export", "{c}", "--out", "{d}/x.foo"], "give --format (gsd, extxyz, lammps-data)"),
         (["export", "{c}", "--out", "{d}/x.gsd", "--format", "pdb"], "cannot export"),
         (["export", "{d}/missing.h5", "--out", "{d}/x.gsd"], "no such file"),
         (["export", "{c}", "--out", "{d}/x.gsd", "--frame", "3"], "out of range"),

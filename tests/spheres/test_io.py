@@ -52,6 +52,23 @@ def test_bad_files(tmp_path):
         read_packing(tmp_path / "none.h5")
 
 
+def test_a_file_of_another_kind_is_named(tmp_path):
+    """A trace given where a configuration is read (and the reverse) says what it is, not that
+    its format_version is unknown; a directory says it is one (a third audit)."""
+    from jamlab.spheres.trace import read_trace
+
+    config = write_packing(tmp_path / "c.h5", sp.random_packing(8, 3, 0.3, seed=1))
+    with pytest.raises(ValueError, match=r"c\.h5 is a jamlab-configuration file, not a trace "):
+        read_trace(config)
+    with h5py.File(tmp_path / "t.h5", "w") as h5:  # the root attributes a trace carries
+        h5.attrs["format"] = "jamlab-aqs-trace"
+        h5.attrs["format_version"] = 2
+    with pytest.raises(ValueError, match=r"t\.h5 is a jamlab-aqs-trace file, not a configuration"):
+        read_packing(tmp_path / "t.h5")
+    with pytest.raises(ValueError, match="is a directory, not a configuration file"):
+        read_packing(tmp_path)
+
+
 def test_text_positions(tmp_path):
     pos = np.random.default_rng(1).uniform(0, 4, (20, 3))
     np.savetxt(tmp_path / "p.txt", pos, header="x y z")

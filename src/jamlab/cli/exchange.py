@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         from jamlab.cli import UserError
         from jamlab.spheres import exchange as ex
 
-        fmt = fmt or ex.format_from_suffix(out)
+        fmt = fmt or ex.format_from_suffix(out, ex.EXPORT_FORMATS)
         if fmt not in ex.EXPORT_FORMATS:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"

@@ -76,7 +76,7 @@ def write_packing(path: str | os.PathLike, packing: Packing, **extra_attrs: obje
 def read_packing(path: str | os.PathLike) -> Packing:
     """Read a configuration written by :func:`write_packing`; ``ValueError`` if it is not one."""
     path = Path(path)
-    with open_hdf5(path, "configuration", newest=FORMAT_VERSION) as h5:
+    with open_hdf5(path, "configuration", newest=FORMAT_VERSION, expected=FORMAT) as h5:
         check_links(h5, path)
         missing = [k for k in ("box_length", "strain", "dim") if k not in h5.attrs]
         if "positions" not in h5 or missing:

@@ -309,7 +309,7 @@ def read_trace_configuration(path: str | os.PathLike) -> dict[str, Any] | None:
 def read_trace(path: str | os.PathLike) -> Trace:
     """Read a trace written by :func:`write_trace`; ``ValueError`` if the file is not one."""
     path = Path(path)
-    with open_hdf5(path, "trace", newest=FORMAT_VERSION) as h5:
+    with open_hdf5(path, "trace", newest=FORMAT_VERSION, expected=FORMAT) as h5:
         check_links(h5, path)
         missing = [name for name in TRACE_COLUMNS if name not in h5]
         if missing:

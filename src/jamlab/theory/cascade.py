@@ -197,7 +197,8 @@ def cascade_constants(q: Any, y: Any, dgamma: float) -> dict[str, np.ndarray]:
         c = np.exp(logc)
     if not np.all(np.isfinite(c)) or np.any(c <= 0):
         raise ValueError(f"cascade constants overflow float64 for these {k} levels (y from "
-                         f"{ya[0]:.6g} to {ya[-1]:.6g}) at dgamma={dgamma!r}: use fewer levels")
+                         f"{ya[0]:.6g} to {ya[-1]:.6g}) at dgamma={dgamma!r}: use fewer levels "
+                         "or a smaller |dgamma|")
     return {"v": v, "sd": np.sqrt(v), "T": T, "c": c}
 
 
