@@ -22,11 +22,16 @@ row's own volume; ``jamlab.reproduce.ensembles.intensive_stress``):
   steps (between jammed minima) whose stress falls, and the fraction of those that FIRE did not
   touch (the trace's ``iterations`` 0: the Newton relaxer followed the minimum's branch) — a
   stress that falls along a smooth branch is a negative shear modulus at fixed pressure, not a
-  rearrangement below the flag's threshold.
+  rearrangement below the flag's threshold;
+- ``pN²`` (the finite-size variable of jamming) and, among the smooth steps (unflagged, between
+  jammed minima, no FIRE iteration), how many there are and the fraction whose stress falls: the
+  branches with a negative modulus.
 
 For increments correlated at lag 1 only (correlation ``ρ``) the local slope between lags 1 and
 2 is ``−1 + log₂(1 + ρ)`` (``⟨(ΔΣ_1 + ΔΣ_2)²⟩ = 2⟨ΔΣ²⟩(1 + ρ)``, up to the squared mean
 increment, flat in ``δγ``); the table prints it beside the measured one.
+
+``--figure-branches F``: that fraction against ``pN²``, one point per ``(p, N, δγ_0)``.
 
 ``--figure F`` (``.png``, ``.pdf`` or ``.svg``, outside the run directories): one panel per
 pressure, ``δγ ⟨μ_1²⟩`` against ``δγ`` for each ``(N, δγ_0)`` (flat where ``⟨μ_1²⟩ ∝
@@ -121,8 +126,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="largest lag of the slope fits (one of --lags)")
     ap.add_argument("--figure", type=Path, default=None,
                     help="δγ ⟨μ_1²⟩ against δγ per pressure (.png, .pdf or .svg)")
+    ap.add_argument("--figure-branches", type=Path, default=None,
+                    help="the smooth steps' falling fraction against pN² (.png, .pdf or .svg)")
     args = ap.parse_args(argv)
     check_figure_path(ap, args.figure, args.runs)
+    check_figure_path(ap, args.figure_branches, args.runs)
     lags = tuple(args.lags)
     if not (lags[0] >= 1 and all(b > a for a, b in zip(lags, lags[1:], strict=False))):
         ap.error(f"--lags must be increasing integers >= 1, got {list(lags)}")
@@ -134,9 +142,9 @@ def main(argv: list[str] | None = None) -> int:
     print("| p | N | packings | δγ_0 | ⟨μ_1²⟩ at δγ_0 | slope ⟨μ_1²⟩ | slope mu1_var | local slope "
           "(first two lags) | mu1_var / ⟨μ_1²⟩ at δγ_0 | lag-1 increment correlation ρ | "
           "−1 + log₂(1 + ρ) | plastic share of ΣΔΣ² | unflagged steps with ΔΣ < 0 | … of them "
-          "without FIRE |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    curves = {}
+          "without FIRE | pN² | smooth steps | … with ΔΣ < 0 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    curves, branches = {}, {}
     for key in sorted(groups, key=lambda k: (-k[0], k[1], -k[2])):
         p, n, _ = key
         g = groups[key]
@@ -156,16 +164,54 @@ def main(argv: list[str] | None = None) -> int:
         falling = ok & ~g.plastic[:, 1:] & (d < 0)
         falls = float(np.count_nonzero(falling) / np.count_nonzero(ok & ~g.plastic[:, 1:]))
         smooth = float(np.mean(g.iterations[:, 1:][falling] == 0)) if falling.any() else np.nan
+        branch = ok & ~g.plastic[:, 1:] & (g.iterations[:, 1:] == 0)
+        n_branch = int(np.count_nonzero(branch))
+        branch_falls = (float(np.count_nonzero(branch & (d < 0)) / n_branch) if n_branch
+                        else np.nan)
         corr = increment_correlation(g.stress, g.jammed)
         print(f"| {p:g} | {n} | {g.stress.shape[0]} | {g.dgamma:g} | {m.mu1_sq[0]:.4g} | "
               f"{fits[0]} | {fits[1]} | {local:+.3f} | {m.mu1_var[0] / m.mu1_sq[0]:.3f} | "
               f"{corr:+.3f} | {np.log2(1 + corr) - 1:+.3f} | {share:.3f} | {falls:.3f} | "
-              f"{smooth:.3f} |")
+              f"{smooth:.3f} | {p * n * n:.3g} | {n_branch} | {branch_falls:.3f} |")
         curves[key] = m
+        branches[key] = (n_branch, branch_falls)
     if args.figure is not None:
         draw(curves, args.figure)
         print(f"\nfigure: {args.figure}")
+    if args.figure_branches is not None:
+        draw_branches(branches, args.figure_branches)
+        print(f"figure: {args.figure_branches}")
     return 0
+
+
+def draw_branches(branches: dict, path: Path) -> None:
+    """The fraction of smooth steps whose stress falls against ``pN²``, one marker per
+    ``(p, N, δγ_0)`` (colour: p; filled: δγ_0 = 1e-5, open: others), with its binomial standard
+    error; groups with fewer than 100 smooth steps are left out."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pressures = sorted({key[0] for key in branches}, reverse=True)
+    colours = {p: f"C{i}" for i, p in enumerate(pressures)}
+    fig, ax = plt.subplots(figsize=(4.6, 3.4), constrained_layout=True)
+    shown = set()
+    for (p, n, dgamma), (count, frac) in sorted(branches.items()):
+        if count < 100:
+            continue
+        err = np.sqrt(frac * (1 - frac) / count)
+        ax.errorbar(p * n * n, frac, yerr=err, color=colours[p], marker="o", ms=5,
+                    mfc=colours[p] if dgamma == 1e-5 else "none", ls="none",
+                    label=None if p in shown else f"p = {p:g}")
+        shown.add(p)
+    ax.set_xscale("log")
+    ax.set_xlabel("p N²")
+    ax.set_ylabel("smooth steps with ΔΣ < 0")
+    ax.set_ylim(0, 1)
+    ax.legend(fontsize=7)
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
 
 
 def draw(curves: dict, path: Path) -> None:

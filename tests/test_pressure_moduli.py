@@ -61,12 +61,15 @@ def test_local_slope_is_minus_one_plus_log2_of_one_plus_rho(pm):
         assert abs(local + 1) > 0.1  # and it is far from −1 for these θ
 
 
-def recount_moments(run, dgamma: float, lag: int) -> tuple[float, float, float, float, int]:
+def recount_moments(run, dgamma: float, lag: int) -> tuple[float, float, float, float, int,
+                                                           int, float]:
     """From the sample files alone: ``⟨μ_1²⟩`` at ``lag`` (overlapping differences between
     jammed minima, ``σ = Σ/V`` with ``V = L³ φ_start / φ_row``), the plastic share of ``Σ ΔΣ²``,
     the fraction of unflagged steps whose stress falls and of those the fraction without FIRE
-    iterations (all at lag 1), and the packings."""
+    iterations (all at lag 1), the packings, and the unflagged steps without FIRE iterations
+    with the fraction of them whose stress falls."""
     per_sample, sq_all, sq_plastic, unflagged, falls, smooth = [], 0.0, 0.0, 0, 0, 0
+    branch, branch_falls = 0, 0
     files = finished_samples(run)
     for f in files:
         with h5py.File(f, "r") as h5:
@@ -91,8 +94,11 @@ def recount_moments(run, dgamma: float, lag: int) -> tuple[float, float, float, 
                     unflagged += 1
                     falls += d < 0
                     smooth += d < 0 and fire[k] == 0
+                    branch += fire[k] == 0
+                    branch_falls += d < 0 and fire[k] == 0
     return (float(np.mean(per_sample)), sq_plastic / sq_all, falls / unflagged,
-            smooth / falls if falls else float("nan"), len(files))
+            smooth / falls if falls else float("nan"), len(files), branch,
+            branch_falls / branch if branch else float("nan"))
 
 
 def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp_path, capsys):
@@ -102,25 +108,31 @@ def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp
                  [*two, "--fit-max-lag", "3"], [*two, "--lags", "1", "2", "--fit-max-lag", "1"],
                  [*two, "--lags", "1", "500"],  # 200 steps: a lag beyond the trace
                  [*two, "--figure", str(tmp_path / "f.txt")],
-                 [*two, "--figure", str(runs[16] / "f.png")]):
+                 [*two, "--figure", str(runs[16] / "f.png")],
+                 [*two, "--figure-branches", str(runs[24] / "f.png")]):
         with pytest.raises(SystemExit) as err:
             pm.main(argv)
         assert err.value.code == 2
     capsys.readouterr()
     figure = tmp_path / "moduli.png"
+    branches = tmp_path / "branches.png"
     assert pm.main([*two, "--lags", "1", "2", "5", "--fit-max-lag", "5",
-                    "--figure", str(figure)]) == 0
-    assert figure.stat().st_size > 0
+                    "--figure", str(figure), "--figure-branches", str(branches)]) == 0
+    assert figure.stat().st_size > 0 and branches.stat().st_size > 0
     out = capsys.readouterr().out
     rows = [line for line in out.splitlines() if line.startswith("| 0.001 |")]
     assert len(rows) == 2
     for n, row in zip((16, 24), rows, strict=True):
         cells = [c.strip() for c in row.strip("|").split("|")]
-        mu1_sq, share, falls, smooth, packings = recount_moments(runs[n], 1e-3, 1)
+        mu1_sq, share, falls, smooth, packings, branch, branch_falls = recount_moments(
+            runs[n], 1e-3, 1)
         assert int(cells[1]) == n and int(cells[2]) == packings
         assert float(cells[4]) == pytest.approx(mu1_sq, rel=1e-3)
         assert float(cells[11]) == pytest.approx(share, abs=1e-3)
         assert float(cells[12]) == pytest.approx(falls, abs=1e-3)
         assert float(cells[13]) == pytest.approx(smooth, abs=1e-3, nan_ok=True)
+        assert float(cells[14]) == pytest.approx(1e-3 * n * n)
+        assert int(cells[15]) == branch
+        assert float(cells[16]) == pytest.approx(branch_falls, abs=1e-3, nan_ok=True)
         mu1_sq_2 = recount_moments(runs[n], 1e-3, 2)[0]
         assert float(cells[7]) == pytest.approx(np.log2(mu1_sq_2 / mu1_sq), abs=2e-3)
