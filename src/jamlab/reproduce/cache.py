@@ -15,7 +15,7 @@ afresh, and an entry is never read for a computation it does not describe.
 A file is written under a temporary name and renamed, so an interrupted write never leaves a
 truncated entry. Writing the exact law's entry removes the entries of other keys in the same
 folder (they describe other code and would never be read again; without this, every upgrade left
-one more ≈ 1 MB file behind); nothing else there is touched.
+one more file, ≈ 22 kB, behind); nothing else there is touched.
 """
 
 from __future__ import annotations
