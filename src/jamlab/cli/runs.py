@@ -255,22 +255,22 @@ def register(app: typer.Typer) -> None:
         exec_params = merge(
             execution, [("workers", workers), ("scheduler", scheduler), ("cluster", cluster)]
         )
+        quiet = quiet or bool(exec_params.pop("quiet", False))
+        unknown = sorted(set(exec_params) - {"workers", "scheduler", "cluster"})
+        if unknown:
+            raise ValueError(f"unknown [execution] option(s): {', '.join(unknown)}")
+        ex = Execution(slurm=slurm, **exec_params)  # checks the values first
         given = [name for name, value in (
             ("--slurm-jobs", slurm_jobs), ("--slurm-cores", slurm_cores),
             ("--slurm-processes", slurm_processes), ("--slurm-memory", slurm_memory),
             ("--slurm-walltime", slurm_walltime), ("--slurm-queue", slurm_queue),
             ("--slurm-account", slurm_account), ("--slurm-directive", slurm_directive or None),
         ) if value is not None]
-        if given and exec_params.get("cluster") != "slurm":
+        if given and ex.cluster != "slurm":
             raise ValueError(f"{given[0]} applies with --cluster slurm only")
-        if workers is not None and exec_params.get("scheduler") is not None:
+        if workers is not None and ex.scheduler is not None:
             raise ValueError("--workers applies to local processes or --cluster, not to a "
                              "running --scheduler (its workers are its own)")
-        quiet = quiet or bool(exec_params.pop("quiet", False))
-        unknown = sorted(set(exec_params) - {"workers", "scheduler", "cluster"})
-        if unknown:
-            raise ValueError(f"unknown [execution] option(s): {', '.join(unknown)}")
-        ex = Execution(slurm=slurm, **exec_params)
         log = None if quiet else (lambda msg: print(msg, file=sys.stderr))
         summary = run_study(
             study, out, ex, retry_failed=retry_failed, progress=_progress(quiet), log=log
