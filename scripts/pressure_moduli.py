@@ -51,27 +51,11 @@ from pathlib import Path
 
 import numpy as np
 
-from jamlab.analysis import fit_log_slope, moduli_from_trace
+from jamlab.analysis import fit_log_slope, increment_correlation, moduli_from_trace
 from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
 from jamlab.runs import check_figure_path, open_pressure_run
 
 LAGS = (1, 2, 3, 5, 10, 20, 50, 100, 200, 500)
-
-
-def increment_correlation(stress: np.ndarray, jammed: np.ndarray) -> float:
-    """The lag-1 correlation of consecutive increments ``ΔΣ_k = Σ_k − Σ_{k−1}`` of the rows of
-    ``stress`` (``(samples, rows)``), over the pairs of consecutive steps whose three minima are
-    jammed (``Σ a b / √(Σ a² Σ b²)`` over those pairs, so that the steps without a partner do
-    not dilute it); each sample's mean increment (over its steps between jammed minima)
-    removed."""
-    d = np.diff(stress, axis=1)
-    ok = jammed[:, 1:] & jammed[:, :-1]
-    mean = np.array([row[k].mean() if k.any() else 0.0 for row, k in zip(d, ok, strict=True)])
-    dd = np.where(ok, d - mean[:, None], 0.0)
-    pair = ok[:, 1:] & ok[:, :-1]
-    a, b = dd[:, :-1][pair], dd[:, 1:][pair]
-    den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
-    return float(np.sum(a * b)) / den if den > 0 else float("nan")
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
-"""``scripts/pressure_moduli.py``: the increment correlation on increments of a known law, the
-local slope it predicts, and the script on real fixed-pressure run directories against an h5py
-recount of their traces, with its refusals (exit code 2)."""
+"""``scripts/pressure_moduli.py`` on real fixed-pressure run directories against an h5py recount
+of their traces, with its refusals (exit code 2). The increment correlation it prints is the
+library's (``tests/analysis/test_moduli.py``)."""
 
 from __future__ import annotations
 
@@ -15,50 +15,6 @@ from trace_recount import finished_samples
 @pytest.fixture(scope="module")
 def pm():
     return script_module("pressure_moduli")
-
-
-def ma1_stress(rng, theta: float, samples: int, steps: int) -> np.ndarray:
-    """Stress traces whose increments are ``e_k + θ e_{k−1}`` (``e`` standard normal, a loading
-    drift 0.3 per step): lag-1 correlation ``θ/(1 + θ²)``, none beyond."""
-    e = rng.standard_normal((samples, steps + 1))
-    d = 0.3 + e[:, 1:] + theta * e[:, :-1]
-    return np.concatenate([np.zeros((samples, 1)), np.cumsum(d, axis=1)], axis=1)
-
-
-@pytest.mark.parametrize("theta", [-0.5, 0.0, 0.4])
-def test_increment_correlation_of_a_moving_average(pm, theta):
-    """``ρ = θ/(1 + θ²)`` within 5 σ (σ ≈ 1/√pairs), also with minima left unjammed (the pairs
-    across them are dropped, not bridged)."""
-    rng = np.random.default_rng(11)
-    stress = ma1_stress(rng, theta, 200, 500)
-    jammed = np.ones(stress.shape, bool)
-    expected = theta / (1 + theta**2)
-    assert pm.increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 300)
-    jammed[rng.random(stress.shape) < 0.05] = False
-    assert pm.increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 270)
-    # a step across an unjammed minimum, made huge, changes nothing
-    k = np.flatnonzero(~jammed[0, 1:-1])[0] + 1
-    spiked = stress.copy()
-    spiked[0, k:] += 1e6
-    assert pm.increment_correlation(spiked, jammed) == pytest.approx(
-        pm.increment_correlation(stress, jammed), abs=1e-12)
-
-
-def test_local_slope_is_minus_one_plus_log2_of_one_plus_rho(pm):
-    """The identity the table prints beside the measured local slope: on increments with lag-1
-    correlation ρ, ``⟨μ_1²⟩`` at lags 1 and 2 (``moduli_from_trace``) has local slope
-    ``−1 + log₂(1 + ρ)`` up to the squared mean increment."""
-    from jamlab.analysis import moduli_from_trace
-
-    rng = np.random.default_rng(3)
-    for theta in (-0.6, -0.2, 0.3, 0.8):
-        stress = ma1_stress(rng, theta, 100, 2000) - 0.3 * np.arange(2001)  # no drift
-        jammed = np.ones(stress.shape, bool)
-        m = moduli_from_trace(stress, 1e-5, (1, 2), jammed=jammed)
-        local = np.log2(m.mu1_sq[1] / m.mu1_sq[0])
-        rho = pm.increment_correlation(stress, jammed)
-        assert local == pytest.approx(-1 + np.log2(1 + rho), abs=0.01)
-        assert abs(local + 1) > 0.1  # and it is far from −1 for these θ
 
 
 def recount_moments(run, dgamma: float, lag: int) -> tuple[float, float, float, float, int,

@@ -341,3 +341,54 @@ def test_converged_window_refuses_bad_arguments():
         converged_window(s, s, 1.0, min_tail=5)
     with pytest.raises(ValueError, match="x_min"):
         converged_window(s, s, 0.0, min_tail=10)
+
+
+def test_pressure_moduli_from_a_small_run(tmp_path):
+    """The fixed-pressure moduli part on a real run (N = 16, p = 1e-3, 3 packings): ``⟨μ_1²⟩``
+    at the two smallest lags, the local slope and the lag-1 increment correlation against a
+    plain recount of the sample files (h5py, the intensive stress from each row's own φ), and
+    the report's row and data."""
+    import math
+
+    from jamlab.reproduce.moduli_table import pressure_moduli_data, pressure_moduli_rows
+    from jamlab.reproduce.pressure_moduli import pressure_moduli
+
+    scale: Scale = replace(
+        SCALES["tiny"], pressures=(1e-3,), pressure_n=(16,), pressure_samples=3,
+        pressure_gamma_max=0.05,
+    )
+    name = pressure_run_name(1e-3)
+    run_study(studies(scale)[name], tmp_path / name, Execution(workers=0))
+    e = pressure_moduli(RunSet(tmp_path), scale)[1e-3]
+    per_lag = {1: [], 2: []}
+    num = sa = sb = 0.0
+    for f in sorted(glob.glob(str(tmp_path / name / "samples" / "*" / "*" / "*.h5"))):
+        with h5py.File(f, "r") as h5:
+            sigma = h5["trace/shear_stress"][()] * h5["trace/phi"][()] / (
+                h5.attrs["box_length"] ** 3 * h5.attrs["phi_actual"])
+            jm = h5["trace/jammed"][()].astype(bool)
+        for lag in per_lag:
+            vals = [((sigma[k + lag] - sigma[k]) / (lag * 1e-3)) ** 2
+                    for k in range(sigma.size - lag) if jm[k:k + lag + 1].all()]
+            per_lag[lag].append(sum(vals) / len(vals))
+        d = [sigma[k] - sigma[k - 1] for k in range(1, sigma.size)]
+        ok = [bool(jm[k - 1] and jm[k]) for k in range(1, sigma.size)]
+        mean = sum(x for x, o in zip(d, ok, strict=True) if o) / sum(ok)
+        for k in range(len(d) - 1):
+            if ok[k] and ok[k + 1]:
+                a, b = d[k] - mean, d[k + 1] - mean
+                num, sa, sb = num + a * b, sa + a * a, sb + b * b
+    mu1 = [sum(v) / len(v) for v in per_lag.values()]
+    assert e.n == 16 and e.moments.n_samples == 3
+    np.testing.assert_allclose(e.moments.mu1_sq[:2], mu1, rtol=1e-9)
+    assert e.local_slope == pytest.approx(math.log2(mu1[1] / mu1[0]), rel=1e-9)
+    assert e.correlation == pytest.approx(num / math.sqrt(sa * sb), rel=1e-9)
+    assert e.slope is not None and e.fit_max == pytest.approx(1e-2)
+    (row,) = pressure_moduli_rows({1e-3: e})
+    assert row.quantity == "slope of log⟨μ_1²⟩ vs log δγ at fixed pressure p = 0.001"
+    assert row.value == e.slope.slope and f"ρ = {e.correlation:+.3f}" in row.value_text
+    assert row.samples == "3 samples" and len(row.verdicts) == 2
+    data = pressure_moduli_data({1e-3: e})["0.001"]
+    assert data["n"] == 16 and data["slope"]["slope"] == e.slope.slope
+    # a scale without pressures has no such rows (the quick report is unchanged)
+    assert pressure_moduli(RunSet(tmp_path), SCALES["quick"]) == {}

@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from jamlab.analysis import fit_log_slope, moduli_from_stress_jumps, moduli_from_trace
+from jamlab.analysis import (
+    fit_log_slope,
+    increment_correlation,
+    moduli_from_stress_jumps,
+    moduli_from_trace,
+)
 
 # Σ(γ) = G γ + Σ_{jumps at γ_k ≤ γ} s_k, jumps at rate LAM per unit strain, s = −Exp(SCALE):
 # ⟨ΔΣ⟩ = (G + LAM E[s]) δγ,  ⟨ΔΣ²⟩ = ((G + LAM E[s]) δγ)² + LAM δγ E[s²]
@@ -160,3 +165,53 @@ def test_within_sample_variance_of_separate_runs():
     runs = [np.diff(_traces(rng, samples=300, steps=50, dgamma0=dg), axis=1) for dg in steps]
     mom = moduli_from_stress_jumps(runs, steps)
     assert np.all(np.abs(mom.mu1_var - LAM * MEAN_S2 / steps) < 4 * mom.mu1_var_err)
+
+
+def ma1_stress(rng, theta: float, samples: int, steps: int) -> np.ndarray:
+    """Stress traces whose increments are ``e_k + θ e_{k−1}`` (``e`` standard normal, a loading
+    drift 0.3 per step): lag-1 correlation ``θ/(1 + θ²)``, none beyond."""
+    e = rng.standard_normal((samples, steps + 1))
+    d = 0.3 + e[:, 1:] + theta * e[:, :-1]
+    return np.concatenate([np.zeros((samples, 1)), np.cumsum(d, axis=1)], axis=1)
+
+
+@pytest.mark.parametrize("theta", [-0.5, 0.0, 0.4])
+def test_increment_correlation_of_a_moving_average(theta):
+    """``ρ = θ/(1 + θ²)`` within 5 σ (σ ≈ 1/√pairs), also with minima left unjammed (the pairs
+    across them are dropped, not bridged)."""
+    rng = np.random.default_rng(11)
+    stress = ma1_stress(rng, theta, 200, 500)
+    jammed = np.ones(stress.shape, bool)
+    expected = theta / (1 + theta**2)
+    assert increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 300)
+    jammed[rng.random(stress.shape) < 0.05] = False
+    assert increment_correlation(stress, jammed) == pytest.approx(expected, abs=5 / 270)
+    # a step across an unjammed minimum, made huge, changes nothing
+    k = np.flatnonzero(~jammed[0, 1:-1])[0] + 1
+    spiked = stress.copy()
+    spiked[0, k:] += 1e6
+    assert increment_correlation(spiked, jammed) == pytest.approx(
+        increment_correlation(stress, jammed), abs=1e-12)
+
+
+def test_increment_correlation_refuses_bad_input():
+    with pytest.raises(ValueError, match="jammed has shape"):
+        increment_correlation(np.zeros((2, 5)), np.ones((2, 4), bool))
+    with pytest.raises(ValueError):
+        increment_correlation(np.array([[0.0, 1.0, np.nan, 2.0]]))
+    assert np.isnan(increment_correlation(np.array([[0.0, 1.0]])))  # one step: no pair
+
+
+def test_local_slope_is_minus_one_plus_log2_of_one_plus_rho():
+    """The identity the table prints beside the measured local slope: on increments with lag-1
+    correlation ρ, ``⟨μ_1²⟩`` at lags 1 and 2 (``moduli_from_trace``) has local slope
+    ``−1 + log₂(1 + ρ)`` up to the squared mean increment."""
+    rng = np.random.default_rng(3)
+    for theta in (-0.6, -0.2, 0.3, 0.8):
+        stress = ma1_stress(rng, theta, 100, 2000) - 0.3 * np.arange(2001)  # no drift
+        jammed = np.ones(stress.shape, bool)
+        m = moduli_from_trace(stress, 1e-5, (1, 2), jammed=jammed)
+        local = np.log2(m.mu1_sq[1] / m.mu1_sq[0])
+        rho = increment_correlation(stress, jammed)
+        assert local == pytest.approx(-1 + np.log2(1 + rho), abs=0.01)
+        assert abs(local + 1) > 0.1  # and it is far from −1 for these θ

@@ -19,6 +19,12 @@ variance of ``ΔΣ/δγ`` about each sample's own mean, averaged over samples, w
 correction that makes it unbiased for independent stationary increments (``docs/analysis.md``
 §4). Where the spread between samples is large (small N near jamming) ``⟨μ_1²⟩`` is flat in
 ``δγ`` while ``mu1_var`` still falls as ``δγ⁻¹``.
+
+Where consecutive increments are correlated (lag-1 correlation ``ρ``,
+:func:`increment_correlation`), ``⟨(ΔΣ_1 + ΔΣ_2)²⟩ = 2⟨ΔΣ²⟩(1 + ρ)`` and the local slope of
+``⟨μ_1²⟩`` between the lags 1 and 2 is ``−1 + log₂(1 + ρ)``, up to the squared mean increment:
+the ``δγ⁻¹`` law needs steps whose increments are independent (``docs/reproduce.md``, "The
+moduli moments at fixed pressure").
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ __all__ = [
     "ModulusMoments",
     "SlopeFit",
     "fit_log_slope",
+    "increment_correlation",
     "moduli_from_stress_jumps",
     "moduli_from_trace",
 ]
@@ -289,3 +296,26 @@ def fit_log_slope(x: ArrayLike, y: ArrayLike, y_err: ArrayLike) -> SlopeFit:
         chi2=chi2,
         dof=x.size - 2,
     )
+
+
+def increment_correlation(shear_stress: ArrayLike, jammed: ArrayLike | None = None) -> float:
+    """The lag-1 correlation of consecutive increments ``ΔΣ_k = Σ_k − Σ_{k−1}`` of the rows of
+    ``shear_stress`` (``(samples, rows)``), over the pairs of consecutive steps whose three
+    minima are jammed (``jammed``, the traces' per-minimum flags; ``None``: all):
+    ``Σ a b / √(Σ a² Σ b²)`` over those pairs, so that the steps without a partner do not dilute
+    it, each sample's mean increment (over its steps between jammed minima) removed. NaN
+    without a pair."""
+    stress = np.atleast_2d(np.asarray(shear_stress, dtype=np.float64))
+    flags = (np.ones(stress.shape, bool) if jammed is None
+             else np.atleast_2d(np.asarray(jammed, dtype=bool)))
+    if flags.shape != stress.shape:
+        raise ValueError(f"jammed has shape {flags.shape}, the stress {stress.shape}")
+    d = np.diff(stress, axis=1)
+    ok = flags[:, 1:] & flags[:, :-1]
+    finite_data(d[ok], "shear_stress")
+    mean = np.array([row[k].mean() if k.any() else 0.0 for row, k in zip(d, ok, strict=True)])
+    dd = np.where(ok, d - mean[:, None], 0.0)
+    pair = ok[:, 1:] & ok[:, :-1]
+    a, b = dd[:, :-1][pair], dd[:, 1:][pair]
+    den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
+    return float(np.sum(a * b)) / den if den > 0 else float("nan")

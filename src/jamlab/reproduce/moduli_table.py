@@ -4,6 +4,7 @@ both ends of the lags; with their JSON data. Rendering only, as :mod:`jamlab.rep
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from jamlab.report import Comparison, Row, format_value
@@ -11,7 +12,7 @@ from jamlab.reproduce.measurements import MODULI_LABELS, ModuliResult
 from jamlab.reproduce.scales import Scale
 from jamlab.reproduce.table import TARGETS
 
-__all__ = ["moduli_data", "moduli_rows"]
+__all__ = ["moduli_data", "moduli_rows", "pressure_moduli_data", "pressure_moduli_rows"]
 
 _MODULI_TITLES = {"jamming": "at jamming (constant volume, the paper's protocol)",
                   "0.75": "at φ = 0.75"}
@@ -99,3 +100,45 @@ def moduli_data(r: ModuliResult) -> dict[str, Any]:
                 n=sf[0], slope=sf[1].slope, slope_err=sf[1].slope_err, chi2=sf[1].chi2,
                 dof=sf[1].dof)
     return data
+
+
+def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
+    """One row per fixed pressure (:func:`jamlab.reproduce.pressure_moduli.pressure_moduli`): the
+    slope of ``log⟨μ_1²⟩`` against −1, with the local slope and the increment correlation that
+    say whether it is an exponent."""
+    rows = []
+    for p, e in sorted(r.items(), reverse=True):
+        fit, m = e.slope, e.moments
+        val, err = (fit.slope, fit.slope_err) if fit else (float("nan"), float("nan"))
+        ratio = float(m.mu1_var[0] / m.mu1_sq[0]) if m.mu1_sq[0] > 0 else float("nan")
+        rows.append(Row(
+            quantity=f"slope of log⟨μ_1²⟩ vs log δγ at fixed pressure p = {p:g}",
+            reference_text="−1 (theory; paper Fig. 7: ⟨μ_1²⟩ ∝ δγ⁻¹)",
+            value=val, error=err,
+            value_text=(format_value(val, err) + (
+                f" (N = {e.n}, δγ ≤ {e.fit_max:g}, χ²/dof = {fit.chi2:.2g}/{fit.dof}); local "
+                f"slope at the two smallest δγ {e.local_slope:+.3f}, lag-1 increment "
+                f"correlation ρ = {e.correlation:+.3f} (−1 + log₂(1 + ρ) = "
+                f"{math.log2(1 + e.correlation) - 1:+.3f}); mu1_var/⟨μ_1²⟩ = {ratio:.3f}"
+                if fit else " (no fit: fewer than two positive moments)")),
+            samples=f"{m.n_samples} samples",
+            comparisons=(Comparison("theory", -1.0),
+                         Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
+            note=("every packing at one p, so no spread of moduli between samples; with ρ ≠ 0 "
+                  "the slope is the steps' correlation, not an exponent (docs/reproduce.md, "
+                  "\"The moduli moments at fixed pressure\"); error indicative: the lags of one "
+                  "trace are correlated; " + _moduli_exclusion(m)),
+        ))
+    return rows
+
+
+def pressure_moduli_data(r: dict[float, Any]) -> dict[str, Any]:
+    """Per pressure (key ``repr(p)``): N, the slope fits of ``⟨μ_1²⟩`` and ``mu1_var`` (None
+    without one), the local slope and the increment correlation."""
+    def fit(f: Any) -> dict[str, float] | None:
+        return None if f is None else dict(slope=f.slope, slope_err=f.slope_err, chi2=f.chi2,
+                                           dof=f.dof)
+
+    return {repr(p): dict(n=e.n, slope=fit(e.slope), var_slope=fit(e.var_slope),
+                          fit_max=e.fit_max, local_slope=e.local_slope,
+                          correlation=e.correlation) for p, e in r.items()}

@@ -37,6 +37,7 @@ from jamlab.reproduce.measurements import (
     stress_strain,
     tau_estimates,
 )
+from jamlab.reproduce.pressure_moduli import pressure_moduli
 from jamlab.reproduce.scales import Scale, get_scale, studies
 from jamlab.reproduce.theory_checks import exact_law_checks, theory_checks
 
@@ -136,6 +137,9 @@ PARTS: dict[str, Part] = {
     "moduli": Part(lambda c: moduli(c.runs["jamming"], c.runs["unsat"], c.scale),
                    lambda r, s: (moduli_table.moduli_rows(r, s),
                                  moduli_table.moduli_data(r))),
+    "pressure_moduli": Part(lambda c: pressure_moduli(c.runs, c.scale),
+                            lambda r, s: (moduli_table.pressure_moduli_rows(r),
+                                          moduli_table.pressure_moduli_data(r))),
     "trace": Part(lambda c: one_trace(c.runs["jamming"], c.scale), None),
     "stress_strain": Part(lambda c: stress_strain(c.runs["stress-strain"], c.scale),
                           _stress_strain_data),

@@ -65,6 +65,9 @@ class Scale:
     pressure_n: tuple[int, ...] = ()
     pressure_samples: int = 0
     pressure_gamma_max: float = 0.0
+    # the largest lag of the fixed-pressure moduli slopes (jamlab.reproduce.pressure_moduli):
+    # δγ ≤ 10 δγ_0, where the lag-1 correlation, not the bounded stress, decides the slope
+    pressure_moduli_fit_max_lag: int = 10
     # how the constant-volume jamming study takes a step from an unjammed minimum
     # (jamlab.runs.Study.floppy: "fire", the paper's minimiser, or "project", docs/aqs.md)
     floppy: str = "fire"
