@@ -48,6 +48,7 @@ import argparse
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -209,22 +210,27 @@ def draw(curves: dict, path: Path) -> None:
     pressures = sorted({key[0] for key in curves}, reverse=True)
     colours = {n: f"C{i}" for i, n in enumerate(sorted({key[1] for key in curves}))}
     finest = min(key[2] for key in curves)
-    fig, axes = plt.subplots(1, len(pressures), figsize=(3.2 * len(pressures), 3.2),
+    legend: dict[tuple[int, float], tuple[Any, str]] = {}
+    fig, axes = plt.subplots(1, len(pressures), figsize=(3.2 * len(pressures), 3.8),
                              squeeze=False, constrained_layout=True)
     for ax, p in zip(axes[0], pressures, strict=True):
         for key in sorted((k for k in curves if k[0] == p), key=lambda k: (k[1], -k[2])):
             m = curves[key]
             colour = colours[key[1]]  # one colour per N in every panel; the finest step: squares
-            ax.errorbar(m.strain_step, m.strain_step * m.mu1_sq, yerr=m.strain_step * m.mu1_sq_err,
-                        color=colour, marker="s" if key[2] == finest else "o", ms=3,
-                        label=f"N = {key[1]}, δγ_0 = {key[2]:g}")
+            handle = ax.errorbar(m.strain_step, m.strain_step * m.mu1_sq,
+                                 yerr=m.strain_step * m.mu1_sq_err, color=colour,
+                                 marker="s" if key[2] == finest else "o", ms=3)
+            legend.setdefault((key[1], -key[2]), (handle, f"N = {key[1]}, δγ_0 = {key[2]:g}"))
             ax.plot(m.strain_step, m.strain_step * m.mu1_var, color=colour, ls=":")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(f"p = {p:g}")
         ax.set_xlabel("δγ")
-        ax.legend(fontsize=7)
     axes[0][0].set_ylabel("δγ ⟨μ_1²⟩ (ε²/σ⁶); dotted: δγ mu1_var")
+    # one legend for all panels, below them (none hides a curve), by N then step
+    entries = [legend[k] for k in sorted(legend)]
+    fig.legend([h for h, _ in entries], [t for _, t in entries], loc="outside lower center",
+               ncol=min(len(entries), 6), fontsize=8)
     fig.savefig(path, dpi=150)
     plt.close(fig)
 
