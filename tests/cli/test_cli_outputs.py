@@ -242,7 +242,7 @@ def test_export_writes_nothing_into_the_snapshot_folder_it_reads(packing08, tmp_
     before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
     (tmp_path / "link").symlink_to(configs, target_is_directory=True)
     monkeypatch.chdir(tmp_path)
-    for target in (configs / "new.xyz", "w.configs/new.gsd", tmp_path / "link" / "new.xyz",
+    for target in (configs / "new.xyz", "w.configs/new.extxyz", tmp_path / "link" / "new.xyz",
                    tmp_path / "sub" / ".." / "w.configs" / "new.xyz"):
         (tmp_path / "sub").mkdir(exist_ok=True)
         for force in ([], ["--force"]):

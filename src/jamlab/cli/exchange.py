@@ -54,6 +54,10 @@ def register(app: typer.Typer) -> None:
             raise ValueError(
                 f"cannot export to {fmt!r}: valid formats are {', '.join(ex.EXPORT_FORMATS)}"
             )
+        named = ex.format_named_by(out)
+        if named is not None and named != fmt:  # every reader would take the suffix's word
+            raise ValueError(f"--out {out} names {named}, and --format {fmt} writes {fmt}: give "
+                             "the file a suffix of its format (or leave --format out)")
         from jamlab.spheres.aqs.checkpoint import replacement_pending
 
         if replacement_pending(source):  # some snapshots may be another run's, or aside

@@ -87,17 +87,22 @@ class Frame:
     row: dict[str, float] = field(default_factory=dict)
 
 
+def format_named_by(path: str | os.PathLike) -> str | None:
+    """The format a file's suffix names (module table), or ``None`` for another suffix."""
+    return _SUFFIXES.get(Path(path).suffix.lower())
+
+
 def format_from_suffix(path: str | os.PathLike, formats: tuple[str, ...] = FORMATS) -> str:
     """The format named by a file's suffix (``.gsd``, ``.extxyz``/``.xyz``, ``.data``/``.lmp``/
     ``.lammps``, ``.txt``); ``ValueError`` if the suffix names none (the message lists
     ``formats``, the ones the caller can use: :data:`EXPORT_FORMATS` for a file written)."""
-    suffix = Path(path).suffix.lower()
-    if suffix not in _SUFFIXES:
+    named = format_named_by(path)
+    if named is None:
         raise ValueError(
             f"cannot tell the format of {path} from its suffix; give --format "
             f"({', '.join(formats)})"
         )
-    return _SUFFIXES[suffix]
+    return named
 
 
 def make_packing(
