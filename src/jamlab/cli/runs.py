@@ -238,20 +238,20 @@ def register(app: typer.Typer) -> None:
                              "pressure), and the study has none")
         if out is None:
             raise ValueError("no run directory: give --out DIR (or 'out' in the study file)")
-        slurm = dict(execution.pop("slurm", {}) or {})
-        slurm = merge(
-            slurm,
-            [
-                ("jobs", slurm_jobs),
-                ("cores", slurm_cores),
-                ("processes", slurm_processes),
-                ("memory", slurm_memory),
-                ("walltime", slurm_walltime),
-                ("queue", slurm_queue),
-                ("account", slurm_account),
-                ("job_extra_directives", slurm_directive or None),
-            ],
+        # (the [slurm] key, the option, its value): merged into the study file's table, and
+        # named when one is given without --cluster slurm
+        slurm_options = (
+            ("jobs", "--slurm-jobs", slurm_jobs),
+            ("cores", "--slurm-cores", slurm_cores),
+            ("processes", "--slurm-processes", slurm_processes),
+            ("memory", "--slurm-memory", slurm_memory),
+            ("walltime", "--slurm-walltime", slurm_walltime),
+            ("queue", "--slurm-queue", slurm_queue),
+            ("account", "--slurm-account", slurm_account),
+            ("job_extra_directives", "--slurm-directive", slurm_directive or None),
         )
+        slurm = dict(execution.pop("slurm", {}) or {})
+        slurm = merge(slurm, [(key, value) for key, _, value in slurm_options])
         exec_params = merge(
             execution, [("workers", workers), ("scheduler", scheduler), ("cluster", cluster)]
         )
@@ -260,12 +260,7 @@ def register(app: typer.Typer) -> None:
         if unknown:
             raise ValueError(f"unknown [execution] option(s): {', '.join(unknown)}")
         ex = Execution(slurm=slurm, **exec_params)  # checks the values first
-        given = [name for name, value in (
-            ("--slurm-jobs", slurm_jobs), ("--slurm-cores", slurm_cores),
-            ("--slurm-processes", slurm_processes), ("--slurm-memory", slurm_memory),
-            ("--slurm-walltime", slurm_walltime), ("--slurm-queue", slurm_queue),
-            ("--slurm-account", slurm_account), ("--slurm-directive", slurm_directive or None),
-        ) if value is not None]
+        given = [option for _, option, value in slurm_options if value is not None]
         if given and ex.cluster != "slurm":
             raise ValueError(f"{given[0]} applies with --cluster slurm only")
         if workers is not None and ex.scheduler is not None:
