@@ -27,6 +27,16 @@ def _moduli_exclusion(m: Any) -> str:
             f"at the smallest δγ, {m.n_excluded[-1]} of {total[-1]} at the largest")
 
 
+_SLOPE_REFERENCE = "−1 (theory; paper Fig. 7: ⟨μ_1²⟩ ∝ δγ⁻¹)"
+_SLOPE_COMPARISONS = (Comparison("theory", -1.0),
+                      Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"]))
+
+
+def _fit_text(n: int, fit_max: float, fit: Any) -> str:
+    """`` (N = …, δγ ≤ …, χ²/dof = …)``: where a slope was fitted, and how well."""
+    return f" (N = {n}, δγ ≤ {fit_max:g}, χ²/dof = {fit.chi2:.2g}/{fit.dof})"
+
+
 def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
     """Slope of ``log⟨μ_1²⟩`` per label (theory −1), the same of the within-sample variance of
     ``μ_1``, then ``⟨μ_1⟩`` at both ends of the lags."""
@@ -39,14 +49,12 @@ def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
         m = r.moments[label].get(n_big)
         rows.append(Row(
             quantity=f"slope of log⟨μ_1²⟩ vs log δγ, {title}",
-            reference_text="−1 (theory; paper Fig. 7: ⟨μ_1²⟩ ∝ δγ⁻¹)",
+            reference_text=_SLOPE_REFERENCE,
             value=val, error=err,
             value_text=(format_value(val, err) + (
-                f" (N = {n_big}, δγ ≤ {scale.moduli_fit_max_lag * scale.dgamma:g}, "
-                f"χ²/dof = {sf[1].chi2:.2g}/{sf[1].dof})" if sf else "")),
+                _fit_text(n_big, scale.moduli_fit_max_lag * scale.dgamma, sf[1]) if sf else "")),
             samples=f"{m.n_samples if m else 0} samples",
-            comparisons=(Comparison("theory", -1.0),
-                         Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
+            comparisons=_SLOPE_COMPARISONS,
             note="error indicative: the lags of one trace are correlated; " + _moduli_exclusion(m),
         ))
     for label in MODULI_LABELS:
@@ -60,8 +68,7 @@ def moduli_rows(r: ModuliResult, scale: Scale) -> list[Row]:
                       f"{_MODULI_TITLES[label]}"),
             reference_text="−1 (the jumps' part of ⟨μ_1²⟩; not in the paper)",
             value=fit.slope, error=fit.slope_err,
-            value_text=(format_value(fit.slope, fit.slope_err)
-                        + f" (N = {n_big}, δγ ≤ {sf[2]:g}, χ²/dof = {fit.chi2:.2g}/{fit.dof})"),
+            value_text=format_value(fit.slope, fit.slope_err) + _fit_text(n_big, sf[2], fit),
             samples=f"{m.n_samples} samples",
             comparisons=(Comparison("theory", -1.0),),
             note=("each sample's own mean of ΔΣ/δγ removed, so neither ⟨μ_1⟩² nor the spread of "
@@ -113,17 +120,16 @@ def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
         ratio = float(m.mu1_var[0] / m.mu1_sq[0]) if m.mu1_sq[0] > 0 else float("nan")
         rows.append(Row(
             quantity=f"slope of log⟨μ_1²⟩ vs log δγ at fixed pressure p = {p:g}",
-            reference_text="−1 (theory; paper Fig. 7: ⟨μ_1²⟩ ∝ δγ⁻¹)",
+            reference_text=_SLOPE_REFERENCE,
             value=val, error=err,
             value_text=(format_value(val, err) + (
-                f" (N = {e.n}, δγ ≤ {e.fit_max:g}, χ²/dof = {fit.chi2:.2g}/{fit.dof}); local "
-                f"slope at the two smallest δγ {e.local_slope:+.3f}, lag-1 increment "
+                _fit_text(e.n, e.fit_max, fit)
+                + f"; local slope at the two smallest δγ {e.local_slope:+.3f}, lag-1 increment "
                 f"correlation ρ = {e.correlation:+.3f} (−1 + log₂(1 + ρ) = "
                 f"{math.log2(1 + e.correlation) - 1:+.3f}); mu1_var/⟨μ_1²⟩ = {ratio:.3f}"
                 if fit else " (no fit: fewer than two positive moments)")),
             samples=f"{m.n_samples} samples",
-            comparisons=(Comparison("theory", -1.0),
-                         Comparison("|slope + 1| ≤ 0.2", -1.0, tolerance=TARGETS["slope"])),
+            comparisons=_SLOPE_COMPARISONS,
             note=("every packing at one p, so no spread of moduli between samples; with ρ ≠ 0 "
                   "the slope is the steps' correlation, not an exponent (docs/reproduce.md, "
                   "\"The moduli moments at fixed pressure\"); error indicative: the lags of one "
