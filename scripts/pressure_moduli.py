@@ -10,10 +10,10 @@ row's own volume; ``jamlab.reproduce.ensembles.intensive_stress``):
 
 - ``⟨μ_1²⟩`` and the within-sample variance ``mu1_var`` (the jumps' part) at the lags
   ``--lags`` of the fine step (``δγ = m δγ_0``; overlapping differences, only those between
-  jammed minima: :func:`jamlab.analysis.moduli_from_trace`), their slopes against ``δγ`` over
-  the lags ``≤ --fit-max-lag`` (:func:`jamlab.analysis.fit_log_slope`; the lags of one trace
-  are correlated, so the error is indicative), and the local slope between the two smallest
-  lags;
+  jammed minima), their slopes against ``δγ`` over the lags ``≤ --fit-max-lag`` (the lags of
+  one trace are correlated, so the error is indicative), and the local slope between the two
+  smallest lags — :func:`jamlab.reproduce.pressure_moduli.moduli_at_pressure`, the rule of the
+  `medium` report's rows;
 - the lag-1 correlation of consecutive stress increments between jammed minima (each sample's
   mean increment removed): ``⟨μ_1²⟩`` falls faster than ``δγ^(−1)`` where consecutive
   increments are anticorrelated (``⟨(ΔΣ_1 + ΔΣ_2)²⟩ < 2⟨ΔΣ²⟩``) and slower where they are
@@ -52,8 +52,8 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.analysis import fit_log_slope, increment_correlation, moduli_from_trace
 from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.reproduce.pressure_moduli import moduli_at_pressure
 from jamlab.runs import check_figure_path, open_pressure_run
 
 LAGS = (1, 2, 3, 5, 10, 20, 50, 100, 200, 500)
@@ -136,13 +136,11 @@ def main(argv: list[str] | None = None) -> int:
         if lags[-1] >= g.stress.shape[1]:
             ap.error(f"p = {p:g}, N = {n}: the largest lag {lags[-1]} is not below the "
                      f"{g.stress.shape[1] - 1} steps")
-        m = moduli_from_trace(g.stress, g.dgamma, lags, jammed=g.jammed)
-        sel = m.strain_step <= args.fit_max_lag * g.dgamma * (1 + 1e-9)
-        fits = []
-        for y, err in ((m.mu1_sq, m.mu1_sq_err), (m.mu1_var, m.mu1_var_err)):
-            f = fit_log_slope(m.strain_step[sel], y[sel], err[sel])
-            fits.append(f"{f.slope:+.3f} ± {f.slope_err:.3f}")
-        local = np.log(m.mu1_sq[1] / m.mu1_sq[0]) / np.log(m.strain_step[1] / m.strain_step[0])
+        e = moduli_at_pressure(g.stress, g.jammed, n, g.dgamma, lags,
+                               args.fit_max_lag * g.dgamma)
+        m = e.moments
+        fits = ["n/a" if f is None else f"{f.slope:+.3f} ± {f.slope_err:.3f}"
+                for f in (e.slope, e.var_slope)]
         d = np.diff(g.stress, axis=1)
         ok = g.jammed[:, 1:] & g.jammed[:, :-1]
         share = float(np.sum((d * d)[ok & g.plastic[:, 1:]]) / np.sum((d * d)[ok]))
@@ -153,9 +151,9 @@ def main(argv: list[str] | None = None) -> int:
         n_branch = int(np.count_nonzero(branch))
         branch_falls = (float(np.count_nonzero(branch & (d < 0)) / n_branch) if n_branch
                         else np.nan)
-        corr = increment_correlation(g.stress, g.jammed)
+        corr = e.correlation
         print(f"| {p:g} | {n} | {g.stress.shape[0]} | {g.dgamma:g} | {m.mu1_sq[0]:.4g} | "
-              f"{fits[0]} | {fits[1]} | {local:+.3f} | {m.mu1_var[0] / m.mu1_sq[0]:.3f} | "
+              f"{fits[0]} | {fits[1]} | {e.local_slope:+.3f} | {m.mu1_var[0] / m.mu1_sq[0]:.3f} | "
               f"{corr:+.3f} | {np.log2(1 + corr) - 1:+.3f} | {share:.3f} | {falls:.3f} | "
               f"{smooth:.3f} | {p * n * n:.3g} | {n_branch} | {branch_falls:.3f} |")
         curves[key] = m

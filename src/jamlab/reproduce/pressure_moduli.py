@@ -23,7 +23,7 @@ import numpy as np
 from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
 from jamlab.reproduce.scales import Scale, pressure_run_name
 
-__all__ = ["PressureModuli", "pressure_moduli"]
+__all__ = ["PressureModuli", "moduli_at_pressure", "pressure_moduli"]
 
 
 @dataclass(frozen=True)
@@ -47,27 +47,33 @@ def pressure_moduli(runs: Any, scale: Scale) -> dict[float, PressureModuli]:
     ``pressure-<p>`` of ``runs``, a :class:`jamlab.reproduce.ensembles.RunSet`); empty for a
     scale without fixed-pressure ensembles, and a pressure without two finished samples at any
     N is left out."""
-    from jamlab.analysis import fit_log_slope, increment_correlation, moduli_from_trace
-
     out = {}
-    fit_max = scale.pressure_moduli_fit_max_lag * scale.dgamma
     for p in scale.pressures:
         ds = runs[pressure_run_name(p)]
         sizes = [n for n in scale.pressure_n if np.count_nonzero(finished(ds, "jamming", n)) >= 2]
-        if not sizes:
-            continue
-        n = max(sizes)
-        stress = intensive_stress(ds, "jamming", n)
-        jammed = jammed_flags(ds, "jamming", n)
-        m = moduli_from_trace(stress, scale.dgamma, scale.moduli_lags, jammed=jammed)
-        sel = m.strain_step <= fit_max * (1 + 1e-9)
-        fits = []
-        for y, err in ((m.mu1_sq, m.mu1_sq_err), (m.mu1_var, m.mu1_var_err)):
-            good = sel & np.isfinite(y) & (y > 0) & np.isfinite(err) & (err > 0)
-            fits.append(fit_log_slope(m.strain_step[good], y[good], err[good])
-                        if good.sum() >= 2 else None)
-        local = (math.log(m.mu1_sq[1] / m.mu1_sq[0]) / math.log(m.strain_step[1] / m.strain_step[0])
-                 if m.strain_step.size >= 2 and m.mu1_sq[0] > 0 and m.mu1_sq[1] > 0 else math.nan)
-        out[p] = PressureModuli(n, m, fits[0], fits[1], fit_max, local,
-                                increment_correlation(stress, jammed))
+        if sizes:
+            n = max(sizes)
+            out[p] = moduli_at_pressure(
+                intensive_stress(ds, "jamming", n), jammed_flags(ds, "jamming", n), n,
+                scale.dgamma, scale.moduli_lags, scale.pressure_moduli_fit_max_lag * scale.dgamma)
     return out
+
+
+def moduli_at_pressure(stress: np.ndarray, jammed: np.ndarray | None, n: int, dgamma: float,
+                       lags: tuple[int, ...], fit_max: float) -> PressureModuli:
+    """The rule of the module docstring on the intensive stress ``(samples, rows)`` of ``n``
+    particles with its ``jammed`` flags (``None``: all jammed), the fine step ``dgamma``, the
+    ``lags`` and the largest ``δγ`` fitted (``scripts/pressure_moduli.py`` uses it too)."""
+    from jamlab.analysis import fit_log_slope, increment_correlation, moduli_from_trace
+
+    m = moduli_from_trace(stress, dgamma, lags, jammed=jammed)
+    sel = m.strain_step <= fit_max * (1 + 1e-9)
+    fits = []
+    for y, err in ((m.mu1_sq, m.mu1_sq_err), (m.mu1_var, m.mu1_var_err)):
+        good = sel & np.isfinite(y) & (y > 0) & np.isfinite(err) & (err > 0)
+        fits.append(fit_log_slope(m.strain_step[good], y[good], err[good])
+                    if good.sum() >= 2 else None)
+    local = (math.log(m.mu1_sq[1] / m.mu1_sq[0]) / math.log(m.strain_step[1] / m.strain_step[0])
+             if m.strain_step.size >= 2 and m.mu1_sq[0] > 0 and m.mu1_sq[1] > 0 else math.nan)
+    return PressureModuli(n, m, fits[0], fits[1], fit_max, local,
+                          increment_correlation(stress, jammed))
