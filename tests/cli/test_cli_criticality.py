@@ -179,3 +179,29 @@ def test_a_bad_bootstrap_seed_is_named(tmp_path, capsys):
     assert run(["criticality", str(bad), "--out", str(tmp_path / "c"), "--seed", "-1"]) == 2
     assert "--seed must be an integer in [0, " in capsys.readouterr().err
     assert not (tmp_path / "c").exists()
+
+
+def test_out_in_a_run_directory_is_refused(tmp_path, capsys):
+    """``--out`` a jamlab run directory, or a folder inside one, would put the summary and the
+    figures among that run's members: refused with one line, nothing made there."""
+    bad = tmp_path / "p.h5"
+    bad.write_bytes(b"x")
+    run_dir = tmp_path / "run"
+    (run_dir / "samples").mkdir(parents=True)
+    (run_dir / "manifest.json").write_text(json.dumps({"format": "jamlab-run"}))
+    before = sorted(p.name for p in run_dir.iterdir())
+    for out in (run_dir, run_dir / "crit", run_dir / "samples"):
+        capsys.readouterr()
+        assert run(["criticality", str(bad), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert f"--out {out} " in err and f"the run directory {run_dir}" in err
+        assert len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in run_dir.iterdir()) == before
+    assert not any((run_dir / "samples").iterdir())
+    # a folder beside a directory whose manifest is another program's is allowed
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "manifest.json").write_text(json.dumps({"format": "other"}))
+    capsys.readouterr()
+    assert run(["criticality", str(bad), "--out", str(other / "crit")]) == 2
+    assert "run directory" not in capsys.readouterr().err  # it fails on the packing instead

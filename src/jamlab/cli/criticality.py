@@ -224,7 +224,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         from jamlab import validation
-        from jamlab.files import atomic_write, check_outputs
+        from jamlab.files import atomic_write, check_new_run_directory, check_outputs
         from jamlab.report import json_safe
 
         if method not in ("cdf", "plain", "mle"):
@@ -253,6 +253,8 @@ def register(app: typer.Typer) -> None:
                 raise FileNotFoundError(f"no such packing file: {p}")
         if out.exists() and not out.is_dir():
             raise FileExistsError(f"--out {out} exists and is not a directory")
+        # not into a run's directory, beside or among its members (only jamlab run writes there)
+        check_new_run_directory("--out", out, itself=True)
         made = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
