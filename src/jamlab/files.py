@@ -144,9 +144,11 @@ def check_distinct_inputs(paths: list[PathLike], what: str = "input") -> None:
 OTHER_FORMAT_SUFFIXES = frozenset({
     ".xyz", ".extxyz", ".gsd", ".data", ".lmp", ".lammps", ".dump", ".lammpstrj", ".csv",
     ".json", ".npz", ".npy", ".txt", ".toml", ".png", ".pdf", ".svg", ".jpg", ".jpeg", ".eps",
-    ".ps", ".tif", ".tiff", ".gif", ".webp",
+    ".ps", ".tif", ".tiff", ".gif", ".webp", ".avif", ".pgf", ".raw", ".rgba", ".svgz",
 })
-"""Suffixes of formats that are not HDF5 (:func:`check_outputs`'s ``hdf5``)."""
+"""Suffixes of formats that are not HDF5 (:func:`check_outputs`'s ``hdf5``): every exchange
+format's (``spheres.exchange.SUFFIXES``), every figure format's matplotlib writes, and the
+tables' (kept here as a list: this module imports neither; a test holds the two in it)."""
 
 
 def check_outputs(

@@ -525,3 +525,19 @@ def test_a_packing_flagged_failed_is_named_where_it_is_used(packing08, tmp_path,
         assert f"{bad} is flagged ok=False by prepare (hyperstatic (test))" in err, err
     assert run(["inspect", packing08]) == 0
     assert "ok=False" not in capsys.readouterr().err
+
+
+def test_every_exchange_and_figure_suffix_is_another_format():
+    """The list the HDF5 outputs are checked against holds every suffix an exchange format is
+    named by and every figure suffix matplotlib writes (files.py keeps its own list: it imports
+    neither)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from jamlab.files import OTHER_FORMAT_SUFFIXES
+    from jamlab.spheres.exchange import SUFFIXES, format_named_by
+
+    assert SUFFIXES and all(format_named_by(f"x{s.upper()}") == f for s, f in SUFFIXES.items())
+    assert set(SUFFIXES) <= OTHER_FORMAT_SUFFIXES
+    figures = {f".{k}" for k in FigureCanvasBase.get_supported_filetypes()}
+    assert {".png", ".pdf", ".svg"} <= figures <= OTHER_FORMAT_SUFFIXES
+    assert not {".h5", ".hdf5"} & OTHER_FORMAT_SUFFIXES

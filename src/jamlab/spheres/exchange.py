@@ -45,6 +45,7 @@ from jamlab.spheres.trace import read_trace
 __all__ = [
     "FORMATS",
     "EXPORT_FORMATS",
+    "SUFFIXES",
     "Frame",
     "format_from_suffix",
     "make_packing",
@@ -64,7 +65,7 @@ FORMATS = ("gsd", "extxyz", "lammps-data", "positions")
 EXPORT_FORMATS = ("gsd", "extxyz", "lammps-data")
 """Formats ``jamlab export`` writes."""
 
-_SUFFIXES = {
+SUFFIXES = {
     ".gsd": "gsd",
     ".extxyz": "extxyz",
     ".xyz": "extxyz",
@@ -73,6 +74,7 @@ _SUFFIXES = {
     ".lammps": "lammps-data",
     ".txt": "positions",
 }
+"""The exchange format each file suffix names (:func:`format_named_by`)."""
 _EXTRA = "pip install 'jamlab[formats]'"
 _ROW_KEYS = ("gamma", "energy", "shear_stress", "pressure", "plastic")
 """Trace columns carried as per-frame data of an exported AQS trace."""
@@ -89,7 +91,7 @@ class Frame:
 
 def format_named_by(path: str | os.PathLike) -> str | None:
     """The format a file's suffix names (module table), or ``None`` for another suffix."""
-    return _SUFFIXES.get(Path(path).suffix.lower())
+    return SUFFIXES.get(Path(path).suffix.lower())
 
 
 def format_from_suffix(path: str | os.PathLike, formats: tuple[str, ...] = FORMATS) -> str:
