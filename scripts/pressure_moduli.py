@@ -25,7 +25,13 @@ row's own volume; ``jamlab.reproduce.ensembles.intensive_stress``):
   rearrangement below the flag's threshold;
 - ``pN²`` (the finite-size variable of jamming) and, among the smooth steps (unflagged, between
   jammed minima, no FIRE iteration), how many there are and the fraction whose stress falls: the
-  branches with a negative modulus.
+  branches with a negative modulus;
+- a second table: ``ρ`` split by what its pairs of consecutive steps hold (neither flagged
+  plastic, the second only, the first only, both:
+  :func:`jamlab.analysis.increment_correlation_parts`), and where the increments of the steps
+  just before and after an isolated event rank among the sample's unflagged increments
+  (:func:`jamlab.analysis.event_neighbours`; 0.5 is a typical step): where the minima soften
+  before an event and are stiffer after it, the pairs next to events anticorrelate.
 
 For increments correlated at lag 1 only (correlation ``ρ``) the local slope between lags 1 and
 2 is ``−1 + log₂(1 + ρ)`` (``⟨(ΔΣ_1 + ΔΣ_2)²⟩ = 2⟨ΔΣ²⟩(1 + ρ)``, up to the squared mean
@@ -52,6 +58,7 @@ from typing import Any
 
 import numpy as np
 
+from jamlab.analysis import CORRELATION_PARTS, event_neighbours, increment_correlation_parts
 from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
 from jamlab.reproduce.pressure_moduli import moduli_at_pressure
 from jamlab.runs import check_figure_path, open_pressure_run
@@ -129,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
           "−1 + log₂(1 + ρ) | plastic share of ΣΔΣ² | unflagged steps with ΔΣ < 0 | … of them "
           "without FIRE | pN² | smooth steps | … with ΔΣ < 0 |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    curves, branches = {}, {}
+    curves, branches, parts = {}, {}, []
     for key in sorted(groups, key=lambda k: (-k[0], k[1], -k[2])):
         p, n, _ = key
         g = groups[key]
@@ -158,6 +165,18 @@ def main(argv: list[str] | None = None) -> int:
               f"{smooth:.3f} | {p * n * n:.3g} | {n_branch} | {branch_falls:.3f} |")
         curves[key] = m
         branches[key] = (n_branch, branch_falls)
+        split = increment_correlation_parts(g.stress, g.plastic, g.jammed)
+        before, after, count = event_neighbours(g.stress, g.plastic, g.jammed)
+        parts.append(f"| {p:g} | {n} | {g.dgamma:g} | {corr:+.3f} | "
+                     + " | ".join(f"{split[k]:+.3f}" for k in CORRELATION_PARTS)
+                     + f" | {count} | {before:.2f} | {after:.2f} |")
+    print("\nρ split by the pairs of consecutive steps (each part Σ a b over its pairs, over "
+          "the √(Σ a² Σ b²) of all pairs, so they sum to ρ), and the increments next to isolated "
+          "events: their median rank among the sample's unflagged increments (0.5: typical)\n")
+    print("| p | N | δγ_0 | ρ | neither plastic | into an event | out of an event | both | "
+          "isolated events | rank of the step before | rank of the step after |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(parts))
     if args.figure is not None:
         draw(curves, args.figure)
         print(f"\nfigure: {args.figure}")

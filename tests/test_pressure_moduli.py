@@ -76,8 +76,17 @@ def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp
                     "--figure", str(figure), "--figure-branches", str(branches)]) == 0
     assert figure.stat().st_size > 0 and branches.stat().st_size > 0
     out = capsys.readouterr().out
-    rows = [line for line in out.splitlines() if line.startswith("| 0.001 |")]
-    assert len(rows) == 2
+    lines = [line for line in out.splitlines() if line.startswith("| 0.001 |")]
+    rows = [line for line in lines if line.count("|") == 18]
+    splits = [line for line in lines if line.count("|") == 12]
+    assert len(rows) == 2 and len(splits) == 2
+    for row, split in zip(rows, splits, strict=True):
+        # the second table: ρ as in the first, and its four parts sum to it (to their rounding)
+        rho = float(row.strip("|").split("|")[9])
+        cells = [c.strip() for c in split.strip("|").split("|")]
+        assert int(cells[1]) == int(row.strip("|").split("|")[1]) and float(cells[3]) == rho
+        assert sum(float(c) for c in cells[4:8]) == pytest.approx(rho, abs=2.5e-3)
+        assert int(cells[8]) >= 0 and all(0 <= float(c) <= 1 for c in cells[9:11])
     for n, row in zip((16, 24), rows, strict=True):
         cells = [c.strip() for c in row.strip("|").split("|")]
         mu1_sq, share, falls, smooth, packings, branch, branch_falls = recount_moments(

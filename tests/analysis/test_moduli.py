@@ -1,11 +1,16 @@
 """Moduli moments on a compound Poisson stress process with known moments."""
 
+import math
+
 import numpy as np
 import pytest
 
 from jamlab.analysis import (
+    CORRELATION_PARTS,
+    event_neighbours,
     fit_log_slope,
     increment_correlation,
+    increment_correlation_parts,
     moduli_from_stress_jumps,
     moduli_from_trace,
 )
@@ -215,3 +220,60 @@ def test_local_slope_is_minus_one_plus_log2_of_one_plus_rho():
         rho = increment_correlation(stress, jammed)
         assert local == pytest.approx(-1 + np.log2(1 + rho), abs=0.01)
         assert abs(local + 1) > 0.1  # and it is far from −1 for these θ
+
+
+def _loop_parts(stress, plastic, jammed):
+    """The parts of ρ counted pair by pair in plain Python (the reference)."""
+    sums, sq_a, sq_b = dict.fromkeys(CORRELATION_PARTS, 0.0), 0.0, 0.0
+    for s, pl, jm in zip(stress, plastic, jammed, strict=True):
+        steps = [k for k in range(1, len(s)) if jm[k] and jm[k - 1]]
+        mean = sum(s[k] - s[k - 1] for k in steps) / len(steps)
+        for k in range(1, len(s) - 1):
+            if k in steps and k + 1 in steps:
+                a, b = s[k] - s[k - 1] - mean, s[k + 1] - s[k] - mean
+                kind = {(False, False): "smooth", (False, True): "before",
+                        (True, False): "after", (True, True): "events"}[(bool(pl[k]),
+                                                                         bool(pl[k + 1]))]
+                sums[kind] += a * b
+                sq_a += a * a
+                sq_b += b * b
+    return {k: v / math.sqrt(sq_a * sq_b) for k, v in sums.items()}
+
+
+def test_correlation_parts_are_a_recount_and_sum_to_rho():
+    rng = np.random.default_rng(5)
+    stress = ma1_stress(rng, 0.3, 6, 80)
+    plastic = rng.random(stress.shape) < 0.2
+    jammed = rng.random(stress.shape) > 0.05
+    parts = increment_correlation_parts(stress, plastic, jammed)
+    expected = _loop_parts(stress, plastic, jammed)
+    assert set(parts) == set(CORRELATION_PARTS)
+    for k in CORRELATION_PARTS:
+        assert parts[k] == pytest.approx(expected[k], rel=1e-12, abs=1e-15)
+    assert sum(parts.values()) == pytest.approx(increment_correlation(stress, jammed), abs=1e-12)
+    with pytest.raises(ValueError, match="plastic has shape"):
+        increment_correlation_parts(stress, plastic[:, 1:], jammed)
+
+
+def test_event_neighbours_find_a_planted_softening_and_stiffening():
+    """Loading by 1 per step, an event (−20) every 10th step, the step before it 0.25 and the
+    one after 2: among a sample's 180 unflagged increments (20 × 0.25, 140 × 1, 20 × 2) those
+    rank at mid-rank 10/180 and 170/180, and the parts of ρ put the negative covariance next to
+    the events."""
+    rows = []
+    for shift in range(4):
+        d = np.ones(200)
+        ev = np.arange(5 + shift, 199, 10)
+        d[ev], d[ev - 1], d[ev + 1] = -20.0, 0.25, 2.0
+        rows.append(np.concatenate([[0.0], np.cumsum(d)]))
+    stress = np.array(rows)
+    plastic = np.zeros(stress.shape, bool)
+    for i, shift in enumerate(range(4)):
+        plastic[i, np.arange(5 + shift, 199, 10) + 1] = True  # row k flags the step k − 1 → k
+    before, after, count = event_neighbours(stress, plastic)
+    assert before == pytest.approx(10 / 180) and after == pytest.approx(170 / 180)
+    assert count == 4 * 20
+    parts = increment_correlation_parts(stress, plastic)
+    assert parts["before"] < 0 and parts["after"] < 0 and parts["events"] == 0
+    # without events, nothing to report
+    assert np.isnan(event_neighbours(stress, np.zeros(stress.shape, bool))[0])

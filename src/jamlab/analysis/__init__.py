@@ -36,8 +36,9 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "histograms": ("LogHistogram", "log_histogram"),
     "jackknife": ("jackknife_variance",),
     "moduli": (
-        "ModulusMoments", "SlopeFit", "fit_log_slope", "increment_correlation",
-        "moduli_from_stress_jumps", "moduli_from_trace",
+        "CORRELATION_PARTS", "ModulusMoments", "SlopeFit", "event_neighbours", "fit_log_slope",
+        "increment_correlation", "increment_correlation_parts", "moduli_from_stress_jumps",
+        "moduli_from_trace",
     ),
     "order": ("BondOrder", "bond_order"),
     "packing_dispersion": ("PackingDispersion", "packing_dispersion"),

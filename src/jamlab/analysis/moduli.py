@@ -41,7 +41,10 @@ __all__ = [
     "ModulusMoments",
     "SlopeFit",
     "fit_log_slope",
+    "CORRELATION_PARTS",
+    "event_neighbours",
     "increment_correlation",
+    "increment_correlation_parts",
     "moduli_from_stress_jumps",
     "moduli_from_trace",
 ]
@@ -298,13 +301,11 @@ def fit_log_slope(x: ArrayLike, y: ArrayLike, y_err: ArrayLike) -> SlopeFit:
     )
 
 
-def increment_correlation(shear_stress: ArrayLike, jammed: ArrayLike | None = None) -> float:
-    """The lag-1 correlation of consecutive increments ``ΔΣ_k = Σ_k − Σ_{k−1}`` of the rows of
-    ``shear_stress`` (``(samples, rows)``), over the pairs of consecutive steps whose three
-    minima are jammed (``jammed``, the traces' per-minimum flags; ``None``: all):
-    ``Σ a b / √(Σ a² Σ b²)`` over those pairs, so that the steps without a partner do not dilute
-    it, each sample's mean increment (over its steps between jammed minima) removed. NaN
-    without a pair."""
+def _centred_increments(shear_stress: ArrayLike,
+                        jammed: ArrayLike | None) -> tuple[np.ndarray, ...]:
+    """The increments of each row, the same about its sample's mean increment over the steps
+    between jammed minima (0 elsewhere), those steps' mask, and the pairs of consecutive such
+    steps."""
     stress = np.atleast_2d(np.asarray(shear_stress, dtype=np.float64))
     flags = (np.ones(stress.shape, bool) if jammed is None
              else np.atleast_2d(np.asarray(jammed, dtype=bool)))
@@ -315,7 +316,73 @@ def increment_correlation(shear_stress: ArrayLike, jammed: ArrayLike | None = No
     finite_data(d[ok], "shear_stress")
     mean = np.array([row[k].mean() if k.any() else 0.0 for row, k in zip(d, ok, strict=True)])
     dd = np.where(ok, d - mean[:, None], 0.0)
-    pair = ok[:, 1:] & ok[:, :-1]
+    return d, dd, ok, ok[:, 1:] & ok[:, :-1]
+
+
+def increment_correlation(shear_stress: ArrayLike, jammed: ArrayLike | None = None) -> float:
+    """The lag-1 correlation of consecutive increments ``ΔΣ_k = Σ_k − Σ_{k−1}`` of the rows of
+    ``shear_stress`` (``(samples, rows)``), over the pairs of consecutive steps whose three
+    minima are jammed (``jammed``, the traces' per-minimum flags; ``None``: all):
+    ``Σ a b / √(Σ a² Σ b²)`` over those pairs, so that the steps without a partner do not dilute
+    it, each sample's mean increment (over its steps between jammed minima) removed. NaN
+    without a pair."""
+    _, dd, _, pair = _centred_increments(shear_stress, jammed)
     a, b = dd[:, :-1][pair], dd[:, 1:][pair]
     den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
     return float(np.sum(a * b)) / den if den > 0 else float("nan")
+
+
+CORRELATION_PARTS = ("smooth", "before", "after", "events")
+"""The pairs of consecutive steps :func:`increment_correlation_parts` splits ``ρ`` by: neither
+step flagged plastic, the second only (the step that leads into an event), the first only (the
+step after an event), both."""
+
+
+def increment_correlation_parts(shear_stress: ArrayLike, plastic: ArrayLike,
+                                jammed: ArrayLike | None = None) -> dict[str, float]:
+    """:func:`increment_correlation` split by the pairs of :data:`CORRELATION_PARTS`: each part
+    is ``Σ a b`` over its pairs, over the same ``√(Σ a² Σ b²)`` of all pairs, so the parts sum to
+    ``ρ``. ``plastic``: the traces' per-row flags (``(samples, rows)``; row ``k`` flags the step
+    ``k − 1 → k``). NaN parts without a pair."""
+    _, dd, _, pair = _centred_increments(shear_stress, jammed)
+    flags = np.atleast_2d(np.asarray(plastic, dtype=bool))
+    if flags.shape != dd.shape[:1] + (dd.shape[1] + 1,):
+        raise ValueError(f"plastic has shape {flags.shape}, the stress "
+                         f"{dd.shape[:1] + (dd.shape[1] + 1,)}")
+    first, second = flags[:, 1:-1], flags[:, 2:]
+    a, b = dd[:, :-1], dd[:, 1:]
+    den = float(np.sqrt(np.sum(a[pair] ** 2) * np.sum(b[pair] ** 2)))
+    kinds = {"smooth": ~first & ~second, "before": ~first & second,
+             "after": first & ~second, "events": first & second}
+    return {k: float(np.sum((a * b)[pair & m])) / den if den > 0 else float("nan")
+            for k, m in kinds.items()}
+
+
+def event_neighbours(shear_stress: ArrayLike, plastic: ArrayLike,
+                     jammed: ArrayLike | None = None) -> tuple[float, float, int]:
+    """Where the stress increments next to isolated events rank: over the steps flagged plastic
+    whose two neighbouring steps are not and whose four minima are jammed, the median rank of
+    the increment of the step before and of the step after among its sample's unflagged
+    increments between jammed minima (the fraction of those below it: 0.5 is a typical step), and
+    how many such events. Below 0.5 before and above after: the minima soften as an event nears
+    and are stiffer after it. A rank, not a ratio, because near jamming a sample's typical
+    unflagged increment can be near 0 or negative (branches that unload). NaN without one."""
+    d, _, ok, _ = _centred_increments(shear_stress, jammed)
+    flags = np.atleast_2d(np.asarray(plastic, dtype=bool))[:, 1:]
+    if flags.shape != d.shape:
+        raise ValueError(f"plastic has shape {(flags.shape[0], flags.shape[1] + 1)}, the stress "
+                         f"{(d.shape[0], d.shape[1] + 1)}")
+    before, after = [], []
+    for row, good, pl in zip(d, ok, flags, strict=True):
+        elastic = np.sort(row[good & ~pl])
+        if elastic.size == 0:
+            continue
+        k = np.arange(1, row.size - 1)
+        iso = k[pl[k] & ~pl[k - 1] & ~pl[k + 1] & good[k] & good[k - 1] & good[k + 1]]
+        for out, steps in ((before, iso - 1), (after, iso + 1)):
+            below = np.searchsorted(elastic, row[steps], side="left")
+            ties = np.searchsorted(elastic, row[steps], side="right") - below
+            out += list((below + 0.5 * ties) / elastic.size)  # mid-rank: ties count half
+    if not before:
+        return float("nan"), float("nan"), 0
+    return float(np.median(before)), float(np.median(after)), len(before)
