@@ -383,12 +383,16 @@ def test_pressure_moduli_from_a_small_run(tmp_path):
     np.testing.assert_allclose(e.moments.mu1_sq[:2], mu1, rtol=1e-9)
     assert e.local_slope == pytest.approx(math.log2(mu1[1] / mu1[0]), rel=1e-9)
     assert e.correlation == pytest.approx(num / math.sqrt(sa * sb), rel=1e-9)
+    assert sum(e.correlation_parts.values()) == pytest.approx(e.correlation, abs=1e-12)
     assert e.slope is not None and e.fit_max == pytest.approx(1e-2)
     (row,) = pressure_moduli_rows({1e-3: e})
     assert row.quantity == "slope of log⟨μ_1²⟩ vs log δγ at fixed pressure p = 0.001"
     assert row.value == e.slope.slope and f"ρ = {e.correlation:+.3f}" in row.value_text
+    near = e.correlation_parts["before"] + e.correlation_parts["after"]
+    assert f"of which {near:+.3f} from the pairs next to an event" in row.value_text
     assert row.samples == "3 samples" and len(row.verdicts) == 2
     data = pressure_moduli_data({1e-3: e})["0.001"]
     assert data["n"] == 16 and data["slope"]["slope"] == e.slope.slope
+    assert data["correlation_parts"] == e.correlation_parts
     # a scale without pressures has no such rows (the quick report is unchanged)
     assert pressure_moduli(RunSet(tmp_path), SCALES["quick"]) == {}

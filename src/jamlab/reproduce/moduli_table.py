@@ -109,6 +109,16 @@ def moduli_data(r: ModuliResult) -> dict[str, Any]:
     return data
 
 
+def _parts_text(parts: dict[str, float] | None) -> str:
+    """ρ's parts as the row says them: the pairs next to an event and the pairs of unflagged
+    steps (docs/reproduce.md, "What makes ρ")."""
+    if parts is None:
+        return ""
+    near = parts["before"] + parts["after"]
+    return (f", of which {near:+.3f} from the pairs next to an event, {parts['smooth']:+.3f} from "
+            f"the pairs of unflagged steps and {parts['events']:+.3f} from pairs of events")
+
+
 def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
     """One row per fixed pressure (:func:`jamlab.reproduce.pressure_moduli.pressure_moduli`): the
     slope of ``log⟨μ_1²⟩`` against −1, with the local slope and the increment correlation that
@@ -126,7 +136,8 @@ def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
                 _fit_text(e.n, e.fit_max, fit)
                 + f"; local slope at the two smallest δγ {e.local_slope:+.3f}, lag-1 increment "
                 f"correlation ρ = {e.correlation:+.3f} (−1 + log₂(1 + ρ) = "
-                f"{math.log2(1 + e.correlation) - 1:+.3f}); mu1_var/⟨μ_1²⟩ = {ratio:.3f}"
+                f"{math.log2(1 + e.correlation) - 1:+.3f}){_parts_text(e.correlation_parts)}; "
+                f"mu1_var/⟨μ_1²⟩ = {ratio:.3f}"
                 if fit else " (no fit: fewer than two positive moments)")),
             samples=f"{m.n_samples} samples",
             comparisons=_SLOPE_COMPARISONS,
@@ -140,11 +151,12 @@ def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
 
 def pressure_moduli_data(r: dict[float, Any]) -> dict[str, Any]:
     """Per pressure (key ``repr(p)``): N, the slope fits of ``⟨μ_1²⟩`` and ``mu1_var`` (None
-    without one), the local slope and the increment correlation."""
+    without one), the local slope, the increment correlation and its parts."""
     def fit(f: Any) -> dict[str, float] | None:
         return None if f is None else dict(slope=f.slope, slope_err=f.slope_err, chi2=f.chi2,
                                            dof=f.dof)
 
     return {repr(p): dict(n=e.n, slope=fit(e.slope), var_slope=fit(e.var_slope),
                           fit_max=e.fit_max, local_slope=e.local_slope,
-                          correlation=e.correlation) for p, e in r.items()}
+                          correlation=e.correlation, correlation_parts=e.correlation_parts)
+            for p, e in r.items()}

@@ -31,7 +31,9 @@ class PressureModuli:
     """The moduli moments at one pressure: ``n`` (the largest N with samples), ``moments``
     (:class:`jamlab.analysis.ModulusMoments`), the slope fits of ``⟨μ_1²⟩`` and ``mu1_var``
     (``None`` without two positive points), the largest ``δγ`` fitted, the local slope between
-    the two smallest lags and the lag-1 increment correlation."""
+    the two smallest lags, the lag-1 increment correlation, and its parts by the pairs of
+    consecutive steps (:func:`jamlab.analysis.increment_correlation_parts`; ``None`` without the
+    plastic flags)."""
 
     n: int
     moments: Any
@@ -40,6 +42,7 @@ class PressureModuli:
     fit_max: float
     local_slope: float
     correlation: float
+    correlation_parts: dict[str, float] | None = None
 
 
 def pressure_moduli(runs: Any, scale: Scale) -> dict[float, PressureModuli]:
@@ -53,18 +56,28 @@ def pressure_moduli(runs: Any, scale: Scale) -> dict[float, PressureModuli]:
         sizes = [n for n in scale.pressure_n if np.count_nonzero(finished(ds, "jamming", n)) >= 2]
         if sizes:
             n = max(sizes)
+            plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[
+                finished(ds, "jamming", n)] > 0.5
             out[p] = moduli_at_pressure(
                 intensive_stress(ds, "jamming", n), jammed_flags(ds, "jamming", n), n,
-                scale.dgamma, scale.moduli_lags, scale.pressure_moduli_fit_max_lag * scale.dgamma)
+                scale.dgamma, scale.moduli_lags, scale.pressure_moduli_fit_max_lag * scale.dgamma,
+                plastic=plastic)
     return out
 
 
 def moduli_at_pressure(stress: np.ndarray, jammed: np.ndarray | None, n: int, dgamma: float,
-                       lags: tuple[int, ...], fit_max: float) -> PressureModuli:
+                       lags: tuple[int, ...], fit_max: float,
+                       plastic: np.ndarray | None = None) -> PressureModuli:
     """The rule of the module docstring on the intensive stress ``(samples, rows)`` of ``n``
     particles with its ``jammed`` flags (``None``: all jammed), the fine step ``dgamma``, the
-    ``lags`` and the largest ``δγ`` fitted (``scripts/pressure_moduli.py`` uses it too)."""
-    from jamlab.analysis import fit_log_slope, increment_correlation, moduli_from_trace
+    ``lags`` and the largest ``δγ`` fitted (``scripts/pressure_moduli.py`` uses it too); with
+    the per-row ``plastic`` flags also the parts of the increment correlation."""
+    from jamlab.analysis import (
+        fit_log_slope,
+        increment_correlation,
+        increment_correlation_parts,
+        moduli_from_trace,
+    )
 
     m = moduli_from_trace(stress, dgamma, lags, jammed=jammed)
     sel = m.strain_step <= fit_max * (1 + 1e-9)
@@ -75,5 +88,7 @@ def moduli_at_pressure(stress: np.ndarray, jammed: np.ndarray | None, n: int, dg
                     if good.sum() >= 2 else None)
     local = (math.log(m.mu1_sq[1] / m.mu1_sq[0]) / math.log(m.strain_step[1] / m.strain_step[0])
              if m.strain_step.size >= 2 and m.mu1_sq[0] > 0 and m.mu1_sq[1] > 0 else math.nan)
+    parts = (None if plastic is None
+             else increment_correlation_parts(stress, plastic, jammed))
     return PressureModuli(n, m, fits[0], fits[1], fit_max, local,
-                          increment_correlation(stress, jammed))
+                          increment_correlation(stress, jammed), parts)
