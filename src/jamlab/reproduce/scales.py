@@ -157,8 +157,9 @@ SCALES: dict[str, Scale] = {
         cascade_samples=40_000,
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
-        expected=("≈ 5–10 minutes on 2 idle cores (measured: 5 min on an Intel Xeon of 2026-12-05, "
-                  "≈ 9 on slower machines; budget 30 minutes)"),
+        expected=("≈ 3–10 minutes on 2 idle cores (measured: 3.5 min on an Intel Xeon of "
+                  "2026-12-07, 3.1 on an AMD EPYC Zen 5, ≈ 9 on slower machines; budget 30 "
+                  "minutes)"),
     ),
     "medium": Scale(
         name="medium",
