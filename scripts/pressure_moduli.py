@@ -58,7 +58,12 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.analysis import CORRELATION_PARTS, event_neighbours, increment_correlation_parts
+from jamlab.analysis import (
+    CORRELATION_PARTS,
+    event_neighbours,
+    increment_correlation,
+    increment_correlation_parts,
+)
 from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
 from jamlab.reproduce.pressure_moduli import moduli_at_pressure
 from jamlab.runs import check_figure_path, open_pressure_run
@@ -120,6 +125,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="δγ ⟨μ_1²⟩ against δγ per pressure (.png, .pdf or .svg)")
     ap.add_argument("--figure-branches", type=Path, default=None,
                     help="the smooth steps' falling fraction against pN² (.png, .pdf or .svg)")
+    ap.add_argument("--coarse", type=int, nargs="+", default=[],
+                    help="also split ρ on the same minima every k-th row (steps of k δγ_0)")
     args = ap.parse_args(argv)
     check_figure_path(ap, args.figure, args.runs)
     check_figure_path(ap, args.figure_branches, args.runs)
@@ -128,6 +135,8 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--lags must be increasing integers >= 1, got {list(lags)}")
     if args.fit_max_lag not in lags or lags.index(args.fit_max_lag) < 1:
         ap.error(f"--fit-max-lag must be one of --lags above the first, got {args.fit_max_lag}")
+    if any(k < 2 for k in args.coarse):
+        ap.error(f"--coarse takes integers >= 2, got {args.coarse}")
     groups = read_groups(ap, args.runs)
     print(f"lags {list(lags)}; slopes of log⟨μ_1²⟩ and log mu1_var against log δγ over the lags "
           f"≤ {args.fit_max_lag} (errors indicative: the lags of one trace are correlated)\n")
@@ -170,6 +179,16 @@ def main(argv: list[str] | None = None) -> int:
         parts.append(f"| {p:g} | {n} | {g.dgamma:g} | {corr:+.3f} | "
                      + " | ".join(f"{split[k]:+.3f}" for k in CORRELATION_PARTS)
                      + f" | {count} | {before:.2f} | {after:.2f} |")
+        for k in args.coarse:
+            if 2 * k >= g.stress.shape[1]:
+                ap.error(f"--coarse {k}: p = {p:g}, N = {n} has {g.stress.shape[1] - 1} steps")
+            stress, plastic, jammed = coarse_rows(g, k)
+            split = increment_correlation_parts(stress, plastic, jammed)
+            before, after, count = event_neighbours(stress, plastic, jammed)
+            parts.append(f"| {p:g} | {n} | {k} × {g.dgamma:g} | "
+                         f"{increment_correlation(stress, jammed):+.3f} | "
+                         + " | ".join(f"{split[c]:+.3f}" for c in CORRELATION_PARTS)
+                         + f" | {count} | {before:.2f} | {after:.2f} |")
     print("\nρ split by the pairs of consecutive steps (each part Σ a b over its pairs, over "
           "the √(Σ a² Σ b²) of all pairs, so they sum to ρ), and the increments next to isolated "
           "events: their median rank among the sample's unflagged increments (0.5: typical)\n")
@@ -184,6 +203,22 @@ def main(argv: list[str] | None = None) -> int:
         draw_branches(branches, args.figure_branches)
         print(f"figure: {args.figure_branches}")
     return 0
+
+
+def coarse_rows(g: Group, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The same minima every ``k``-th row, as a run with the step ``k δγ_0`` through them would
+    flag them: the stress of rows ``0, k, 2k, …``; a coarse row is plastic if any of the ``k``
+    fine steps that end in it is, and jammed if every fine minimum since the previous coarse
+    row is (so a coarse step counts only if all the ``2k`` fine minima it and its predecessor
+    span are jammed: conservative)."""
+    rows = (g.stress.shape[1] - 1) // k
+    stress = g.stress[:, : rows * k + 1 : k]
+    plastic = np.zeros(stress.shape, bool)
+    jammed = np.zeros(stress.shape, bool)
+    plastic[:, 1:] = g.plastic[:, 1 : rows * k + 1].reshape(-1, rows, k).any(axis=2)
+    jammed[:, 0] = g.jammed[:, 0]
+    jammed[:, 1:] = g.jammed[:, 1 : rows * k + 1].reshape(-1, rows, k).all(axis=2)
+    return stress, plastic, jammed
 
 
 def draw_branches(branches: dict, path: Path) -> None:

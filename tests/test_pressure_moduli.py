@@ -101,3 +101,40 @@ def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp
         assert float(cells[16]) == pytest.approx(branch_falls, abs=1e-3, nan_ok=True)
         mu1_sq_2 = recount_moments(runs[n], 1e-3, 2)[0]
         assert float(cells[7]) == pytest.approx(np.log2(mu1_sq_2 / mu1_sq), abs=2e-3)
+
+
+def recount_coarse_rho(run, k: int) -> float:
+    """ρ of the increments every ``k``-th row, by plain loops over the sample files: a coarse
+    step ``K`` (rows ``(K−1)k → Kk``) counts when every fine minimum from row ``(K−2)k + 1`` (row
+    0 for the first) to ``Kk`` is jammed; each sample's mean coarse increment removed."""
+    num = sa = sb = 0.0
+    for f in finished_samples(run):
+        with h5py.File(f, "r") as h5:
+            sigma = h5["trace/shear_stress"][()] / (
+                h5.attrs["box_length"] ** 3 * h5.attrs["phi_actual"] / h5["trace/phi"][()])
+            jm = h5["trace/jammed"][()].astype(bool)
+        rows = (sigma.size - 1) // k
+        ok = [bool(jm[max(0, (big - 2) * k + 1) if big > 1 else 0: big * k + 1].all())
+              for big in range(1, rows + 1)]
+        d = [sigma[big * k] - sigma[(big - 1) * k] for big in range(1, rows + 1)]
+        mean = sum(x for x, o in zip(d, ok, strict=True) if o) / max(1, sum(ok))
+        for i in range(rows - 1):
+            if ok[i] and ok[i + 1]:
+                a, b = d[i] - mean, d[i + 1] - mean
+                num, sa, sb = num + a * b, sa + a * a, sb + b * b
+    return num / np.sqrt(sa * sb)
+
+
+def test_coarse_rows_against_a_recount(pm, pressure_runs_by_size, capsys):
+    runs = pressure_runs_by_size
+    assert pm.main([str(runs[24]), "--lags", "1", "2", "--fit-max-lag", "2",
+                    "--coarse", "2", "3"]) == 0
+    out = capsys.readouterr().out
+    for k in (2, 3):
+        (row,) = [line for line in out.splitlines() if line.startswith(f"| 0.001 | 24 | {k} × ")]
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert float(cells[3]) == pytest.approx(recount_coarse_rho(runs[24], k), abs=6e-4)
+        assert sum(float(c) for c in cells[4:8]) == pytest.approx(float(cells[3]), abs=2.5e-3)
+    with pytest.raises(SystemExit) as err:
+        pm.main([str(runs[24]), "--coarse", "1"])
+    assert err.value.code == 2
