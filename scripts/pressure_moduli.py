@@ -39,6 +39,9 @@ increment, flat in ``δγ``); the table prints it beside the measured one.
 
 ``--figure-branches F``: that fraction against ``pN²``, one point per ``(p, N, δγ_0)``.
 
+``--figure-parts F``: ρ and its parts against N, one panel per pressure (each pressure's
+coarsest δγ_0).
+
 ``--figure F`` (``.png``, ``.pdf`` or ``.svg``, outside the run directories): one panel per
 pressure, ``δγ ⟨μ_1²⟩`` against ``δγ`` for each ``(N, δγ_0)`` (flat where ``⟨μ_1²⟩ ∝
 δγ^(−1)``), ``mu1_var`` dotted.
@@ -125,11 +128,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="δγ ⟨μ_1²⟩ against δγ per pressure (.png, .pdf or .svg)")
     ap.add_argument("--figure-branches", type=Path, default=None,
                     help="the smooth steps' falling fraction against pN² (.png, .pdf or .svg)")
+    ap.add_argument("--figure-parts", type=Path, default=None,
+                    help="ρ and its parts against N, one panel per pressure (.png, .pdf or .svg)")
     ap.add_argument("--coarse", type=int, nargs="+", default=[],
                     help="also split ρ on the same minima every k-th row (steps of k δγ_0)")
     args = ap.parse_args(argv)
     check_figure_path(ap, args.figure, args.runs)
     check_figure_path(ap, args.figure_branches, args.runs)
+    check_figure_path(ap, args.figure_parts, args.runs)
     lags = tuple(args.lags)
     if not (lags[0] >= 1 and all(b > a for a, b in zip(lags, lags[1:], strict=False))):
         ap.error(f"--lags must be increasing integers >= 1, got {list(lags)}")
@@ -145,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
           "−1 + log₂(1 + ρ) | plastic share of ΣΔΣ² | unflagged steps with ΔΣ < 0 | … of them "
           "without FIRE | pN² | smooth steps | … with ΔΣ < 0 |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    curves, branches, parts = {}, {}, []
+    curves, branches, parts, splits = {}, {}, [], {}
     for key in sorted(groups, key=lambda k: (-k[0], k[1], -k[2])):
         p, n, _ = key
         g = groups[key]
@@ -175,9 +181,11 @@ def main(argv: list[str] | None = None) -> int:
         curves[key] = m
         branches[key] = (n_branch, branch_falls)
         split = increment_correlation_parts(g.stress, g.plastic, g.jammed)
+        sd = resampled_sd(g)
+        splits[key] = (corr, split, sd)
         before, after, count = event_neighbours(g.stress, g.plastic, g.jammed)
-        parts.append(f"| {p:g} | {n} | {g.dgamma:g} | {corr:+.3f} | "
-                     + " | ".join(f"{split[k]:+.3f}" for k in CORRELATION_PARTS)
+        parts.append(f"| {p:g} | {n} | {g.dgamma:g} | {corr:+.3f} ± {sd['rho']:.3f} | "
+                     + " | ".join(f"{split[k]:+.3f} ± {sd[k]:.3f}" for k in CORRELATION_PARTS)
                      + f" | {count} | {before:.2f} | {after:.2f} |")
         for k in args.coarse:
             if 2 * k >= g.stress.shape[1]:
@@ -190,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
                          + " | ".join(f"{split[c]:+.3f}" for c in CORRELATION_PARTS)
                          + f" | {count} | {before:.2f} | {after:.2f} |")
     print("\nρ split by the pairs of consecutive steps (each part Σ a b over its pairs, over "
-          "the √(Σ a² Σ b²) of all pairs, so they sum to ρ), and the increments next to isolated "
+          "the √(Σ a² Σ b²) of all pairs, so they sum to ρ; ± the sd over "
+          f"{RESAMPLES} resamples of the packings), and the increments next to isolated "
           "events: their median rank among the sample's unflagged increments (0.5: typical)\n")
     print("| p | N | δγ_0 | ρ | neither plastic | into an event | out of an event | both | "
           "isolated events | rank of the step before | rank of the step after |")
@@ -202,7 +211,27 @@ def main(argv: list[str] | None = None) -> int:
     if args.figure_branches is not None:
         draw_branches(branches, args.figure_branches)
         print(f"figure: {args.figure_branches}")
+    if args.figure_parts is not None:
+        draw_parts(splits, args.figure_parts)
+        print(f"figure: {args.figure_parts}")
     return 0
+
+
+RESAMPLES = 200
+
+
+def resampled_sd(g: Group, seed: int = 0) -> dict[str, float]:
+    """The sd of ρ (key ``rho``) and of each part over :data:`RESAMPLES` resamples of the
+    packings with replacement (a packing's steps stay together: they are correlated)."""
+    rng = np.random.default_rng(seed)
+    draws: dict[str, list[float]] = {k: [] for k in ("rho", *CORRELATION_PARTS)}
+    for _ in range(RESAMPLES):
+        pick = rng.integers(0, g.stress.shape[0], g.stress.shape[0])
+        split = increment_correlation_parts(g.stress[pick], g.plastic[pick], g.jammed[pick])
+        draws["rho"].append(sum(split.values()))
+        for k in CORRELATION_PARTS:
+            draws[k].append(split[k])
+    return {k: float(np.nanstd(v, ddof=1)) for k, v in draws.items()}
 
 
 def coarse_rows(g: Group, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -219,6 +248,45 @@ def coarse_rows(g: Group, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     jammed[:, 0] = g.jammed[:, 0]
     jammed[:, 1:] = g.jammed[:, 1 : rows * k + 1].reshape(-1, rows, k).all(axis=2)
     return stress, plastic, jammed
+
+
+def draw_parts(splits: dict, path: Path) -> None:
+    """One panel per pressure: ρ and its parts (pairs of unflagged steps, pairs next to an
+    event, pairs of events) against N, for the groups of the coarsest δγ_0 at that pressure
+    (the run's own step; finer steps are other runs of the same packings); error bars: the sd
+    over resampled packings (the two neighbours' parts' in quadrature)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    pressures = sorted({key[0] for key in splits}, reverse=True)
+    fig, axes = plt.subplots(1, len(pressures), figsize=(2.8 * len(pressures), 3.2),
+                             squeeze=False, sharey=True, constrained_layout=True)
+    series = (("ρ", "k", "o", lambda c, s: c, lambda d: d["rho"]),
+              ("unflagged pairs", "C0", "s", lambda c, s: s["smooth"], lambda d: d["smooth"]),
+              ("next to an event", "C3", "v", lambda c, s: s["before"] + s["after"],
+               lambda d: np.hypot(d["before"], d["after"])),
+              ("pairs of events", "C2", "^", lambda c, s: s["events"], lambda d: d["events"]))
+    for ax, p in zip(axes[0], pressures, strict=True):
+        step = max(key[2] for key in splits if key[0] == p)
+        keys = sorted(key for key in splits if key[0] == p and key[2] == step)
+        ns = [key[1] for key in keys]
+        for label, colour, marker, value, err in series:
+            ax.errorbar(ns, [value(*splits[key][:2]) for key in keys],
+                        yerr=[err(splits[key][2]) for key in keys], color=colour,
+                        marker=marker, ms=4, capsize=2, label=label)
+        ax.axhline(0, color="0.6", lw=0.6)
+        ax.set_xscale("log")
+        ax.set_xticks(ns, [str(n) for n in ns], fontsize=7)
+        ax.minorticks_off()
+        ax.set_xlim(min(ns) / 1.3, max(ns) * 1.3)
+        ax.set_title(f"p = {p:g}, δγ_0 = {step:g}", fontsize=9)
+        ax.set_xlabel("N")
+    axes[0][0].set_ylabel("lag-1 correlation of ΔΣ, and its parts")
+    axes[0][0].legend(fontsize=7)
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
 
 
 def draw_branches(branches: dict, path: Path) -> None:

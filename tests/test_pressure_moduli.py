@@ -73,8 +73,10 @@ def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp
     figure = tmp_path / "moduli.png"
     branches = tmp_path / "branches.png"
     assert pm.main([*two, "--lags", "1", "2", "5", "--fit-max-lag", "5",
-                    "--figure", str(figure), "--figure-branches", str(branches)]) == 0
+                    "--figure", str(figure), "--figure-branches", str(branches),
+                    "--figure-parts", str(tmp_path / "parts.png")]) == 0
     assert figure.stat().st_size > 0 and branches.stat().st_size > 0
+    assert (tmp_path / "parts.png").stat().st_size > 0
     out = capsys.readouterr().out
     lines = [line for line in out.splitlines() if line.startswith("| 0.001 |")]
     rows = [line for line in lines if line.count("|") == 18]
@@ -84,8 +86,11 @@ def test_real_runs_against_a_recount_and_refusals(pm, pressure_runs_by_size, tmp
         # the second table: ρ as in the first, and its four parts sum to it (to their rounding)
         rho = float(row.strip("|").split("|")[9])
         cells = [c.strip() for c in split.strip("|").split("|")]
-        assert int(cells[1]) == int(row.strip("|").split("|")[1]) and float(cells[3]) == rho
-        assert sum(float(c) for c in cells[4:8]) == pytest.approx(rho, abs=2.5e-3)
+        values = [float(c.split("±")[0]) for c in cells[3:8]]
+        sds = [float(c.split("±")[1]) for c in cells[3:8]]
+        assert int(cells[1]) == int(row.strip("|").split("|")[1]) and values[0] == rho
+        assert sum(values[1:]) == pytest.approx(rho, abs=2.5e-3)
+        assert all(sd >= 0 for sd in sds) and sds[0] > 0  # over resampled packings
         assert int(cells[8]) >= 0 and all(0 <= float(c) <= 1 for c in cells[9:11])
     for n, row in zip((16, 24), rows, strict=True):
         cells = [c.strip() for c in row.strip("|").split("|")]
