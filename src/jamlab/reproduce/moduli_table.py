@@ -142,9 +142,11 @@ def pressure_moduli_rows(r: dict[float, Any]) -> list[Row]:
             samples=f"{m.n_samples} samples",
             comparisons=_SLOPE_COMPARISONS,
             note=("every packing at one p, so no spread of moduli between samples; with ρ ≠ 0 "
-                  "the slope is the steps' correlation, not an exponent (docs/reproduce.md, "
-                  "\"The moduli moments at fixed pressure\"); error indicative: the lags of one "
-                  "trace are correlated; " + _moduli_exclusion(m)),
+                  "the slope is the steps' correlation, not an exponent: the pairs next to an "
+                  "event anticorrelate more as the step holds more events, a branch's persisting "
+                  "modulus correlates the unflagged steps (docs/reproduce.md, \"The moduli "
+                  "moments at fixed pressure\", \"What makes ρ\"); error indicative: the lags "
+                  "of one trace are correlated; " + _moduli_exclusion(m)),
         ))
     return rows
 
