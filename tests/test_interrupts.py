@@ -70,3 +70,44 @@ def test_install_keeps_an_ignored_or_foreign_handler_and_the_main_thread_only():
         assert signal.getsignal(signal.SIGINT) is interrupts.handle_sigint
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+# Two functions as llvmlite's would be: a Python wrapper that calls into C, and the ctypes callback
+# C calls back (here called directly: the frames and their modules are what the handler reads).
+_FAKE_LLVMLITE = {"__name__": "llvmlite.binding.fake", "DONE": []}
+exec(  # noqa: S102 (test scaffolding: functions whose module is llvmlite's)
+    "def wrapper(hook):\n"
+    "    out = callback(hook)\n"
+    "    DONE.append('wrapper')\n"
+    "    return out + ['wrapper returned']\n"
+    "def callback(hook):\n"
+    "    out = hook() + ['callback returned']\n"
+    "    DONE.append('callback')\n"
+    "    return out\n",
+    _FAKE_LLVMLITE,
+)
+
+
+def test_inside_llvmlite_the_interrupt_comes_at_the_next_line_outside_it():
+    """Ctrl-C while llvmlite's object-cache callback ran was ignored there and the process died
+    (CI, 2026-12-07): the interrupt now waits until llvmlite's call has returned to the first
+    frame outside it, and comes at that frame's next line."""
+    assert interrupts.llvmlite_frame(sys._getframe()) is None
+
+    def hook():  # numba's code, called by the callback
+        frame = sys._getframe()
+        assert interrupts.llvmlite_frame(frame).f_code.co_name == "callback"
+        interrupts.handle_sigint(signal.SIGINT, frame)  # as Python calls it at this bytecode
+        return ["hook returned"]
+
+    reached = []
+    before = sys.gettrace()
+    _FAKE_LLVMLITE["DONE"].clear()
+    with pytest.raises(KeyboardInterrupt):
+        out = _FAKE_LLVMLITE["wrapper"](hook)  # every frame inside completes
+        reached.append(out)  # the next line outside llvmlite: not run
+    assert _FAKE_LLVMLITE["DONE"] == ["callback", "wrapper"]  # both ran to their ends
+    assert reached == [] and sys.gettrace() is before
+    # the same call without an interrupt returns through all three
+    assert _FAKE_LLVMLITE["wrapper"](lambda: ["hook returned"]) == [
+        "hook returned", "callback returned", "wrapper returned"]
