@@ -67,7 +67,7 @@ from jamlab.analysis import (
     increment_correlation,
     increment_correlation_parts,
 )
-from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags, plastic_flags
 from jamlab.reproduce.pressure_moduli import moduli_at_pressure
 from jamlab.runs import check_figure_path, open_pressure_run
 
@@ -101,7 +101,7 @@ def read_groups(ap: argparse.ArgumentParser,
         jm = jammed_flags(ds, "jamming", n)
         if jm is None:
             ap.error(f"{path}: a run without per-minimum jammed flags (trace format 1)")
-        plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[done] > 0.5
+        plastic = plastic_flags(ds, "jamming", n)
         fire = np.asarray(ds.iterations.sel(phi="jamming", N=n).values)[done]
         stress = intensive_stress(ds, "jamming", n)
         dgamma = float(json.loads(ds.attrs["study"])["dgamma"])

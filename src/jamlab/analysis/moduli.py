@@ -327,9 +327,15 @@ def increment_correlation(shear_stress: ArrayLike, jammed: ArrayLike | None = No
     it, each sample's mean increment (over its steps between jammed minima) removed. NaN
     without a pair."""
     _, dd, _, pair = _centred_increments(shear_stress, jammed)
-    a, b = dd[:, :-1][pair], dd[:, 1:][pair]
-    den = float(np.sqrt(np.sum(a * a) * np.sum(b * b)))
-    return float(np.sum(a * b)) / den if den > 0 else float("nan")
+    products, den = _pair_products(dd, pair)
+    return float(np.sum(products[pair])) / den if den > 0 else float("nan")
+
+
+def _pair_products(dd: np.ndarray, pair: np.ndarray) -> tuple[np.ndarray, float]:
+    """``a b`` of every pair of consecutive centred increments (``(samples, steps − 1)``) and the
+    normalisation ``√(Σ a² Σ b²)`` over the pairs ``pair``."""
+    a, b = dd[:, :-1], dd[:, 1:]
+    return a * b, float(np.sqrt(np.sum(a[pair] ** 2) * np.sum(b[pair] ** 2)))
 
 
 CORRELATION_PARTS = ("smooth", "before", "after", "events")
@@ -350,11 +356,10 @@ def increment_correlation_parts(shear_stress: ArrayLike, plastic: ArrayLike,
         raise ValueError(f"plastic has shape {flags.shape}, the stress "
                          f"{dd.shape[:1] + (dd.shape[1] + 1,)}")
     first, second = flags[:, 1:-1], flags[:, 2:]
-    a, b = dd[:, :-1], dd[:, 1:]
-    den = float(np.sqrt(np.sum(a[pair] ** 2) * np.sum(b[pair] ** 2)))
+    products, den = _pair_products(dd, pair)
     kinds = {"smooth": ~first & ~second, "before": ~first & second,
              "after": first & ~second, "events": first & second}
-    return {k: float(np.sum((a * b)[pair & m])) / den if den > 0 else float("nan")
+    return {k: float(np.sum(products[pair & m])) / den if den > 0 else float("nan")
             for k, m in kinds.items()}
 
 

@@ -24,6 +24,8 @@ __all__ = [
     "counted_steps",
     "finished",
     "intensive_stress",
+    "jammed_flags",
+    "plastic_flags",
     "sample_strains",
 ]
 
@@ -72,8 +74,7 @@ def _step_arrays(ds: Any, label: str, n: int, done: np.ndarray) -> tuple[np.ndar
     """``ΔE``, the plastic flags (each ``(samples, steps)``) and :func:`jammed_flags` of the
     samples ``done``."""
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
-    pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
-    return ej, pl, jammed_flags(ds, label, n)
+    return ej, plastic_flags(ds, label, n)[:, 1:], jammed_flags(ds, label, n)
 
 
 def avalanche_set(ds: Any, label: str, n: int) -> AvalancheSet:
@@ -145,8 +146,8 @@ def coarse_avalanches(ds: Any, label: str, n: int, k: int) -> CoarseAvalanches:
     ej = np.asarray(ds.energy_jump.sel(phi=label, N=n).values)[done, 1:]
     sj = np.asarray(ds.stress_jump.sel(phi=label, N=n).values)[done, 1:]
     dg = np.diff(np.asarray(ds.gamma.sel(phi=label, N=n).values)[done], axis=1)
-    pl = np.asarray(ds.plastic.sel(phi=label, N=n).values)[done, 1:] > 0.5
-    c = coarsen_steps(ej, sj, dg, k, plastic=pl, jammed=jammed_flags(ds, label, n))
+    c = coarsen_steps(ej, sj, dg, k, plastic=plastic_flags(ds, label, n)[:, 1:],
+                      jammed=jammed_flags(ds, label, n))
     jammed = np.ones_like(c.plastic) if c.jammed is None else c.jammed
     events = c.plastic & jammed
     counted = classify_steps(c.energy_jump, events)  # the report's rule: also ΔE < 0
@@ -167,6 +168,12 @@ def jammed_flags(ds: Any, label: str, n: int) -> np.ndarray | None:
     if flags.size and np.all(np.isfinite(flags)):
         return flags > 0.5
     return None
+
+
+def plastic_flags(ds: Any, label: str, n: int) -> np.ndarray:
+    """The ``plastic`` flag of every row of the finished samples, ``(samples, steps+1)`` (row
+    ``k`` flags the step ``k − 1 → k``; row 0 is False)."""
+    return np.asarray(ds.plastic.sel(phi=label, N=n).values)[finished(ds, label, n)] > 0.5
 
 
 def sample_strains(ds: Any, label: str, n: int) -> np.ndarray:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags
+from jamlab.reproduce.ensembles import finished, intensive_stress, jammed_flags, plastic_flags
 from jamlab.reproduce.scales import Scale, pressure_run_name
 
 __all__ = ["PressureModuli", "moduli_at_pressure", "pressure_moduli"]
@@ -56,12 +56,10 @@ def pressure_moduli(runs: Any, scale: Scale) -> dict[float, PressureModuli]:
         sizes = [n for n in scale.pressure_n if np.count_nonzero(finished(ds, "jamming", n)) >= 2]
         if sizes:
             n = max(sizes)
-            plastic = np.asarray(ds.plastic.sel(phi="jamming", N=n).values)[
-                finished(ds, "jamming", n)] > 0.5
             out[p] = moduli_at_pressure(
                 intensive_stress(ds, "jamming", n), jammed_flags(ds, "jamming", n), n,
                 scale.dgamma, scale.moduli_lags, scale.pressure_moduli_fit_max_lag * scale.dgamma,
-                plastic=plastic)
+                plastic=plastic_flags(ds, "jamming", n))
     return out
 
 
