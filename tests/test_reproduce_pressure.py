@@ -54,6 +54,38 @@ def test_a_scale_with_an_unknown_floppy_choice_is_refused():
         replace(SCALES["tiny"], floppy="newton")
 
 
+def test_quick_scale_holds_one_fixed_pressure_ensemble_in_the_papers_steps():
+    """``quick``: its constant-volume ensembles step by 1e-4, its fixed-pressure one (N = 125,
+    40 packings, p = 1e-5) by the paper's 1e-5 over γ ≤ 0.01; the header and the notes say so,
+    with p N² (1e-5 · 125² = 0.156, inside the finite-size regime)."""
+    from pathlib import Path
+
+    from jamlab.reproduce.table import notes
+
+    q = SCALES["quick"]
+    st = studies(q)
+    s = st[pressure_run_name(1e-5)]
+    assert q.dgamma == 1e-4 and st["jamming"].dgamma == 1e-4
+    assert (s.pressure, s.n, s.samples, s.dgamma, s.gamma_max) == (1e-5, (125,), 40, 1e-5, 0.01)
+    text = parameters(q, Path("r"))["fixed-pressure ensembles"]
+    assert "(1000 steps), δγ = 1e-05" in text and "N = 125, 40 samples" in text
+    (note,) = [t for t in notes(q) if t.startswith("The fixed-pressure ensembles")]
+    assert "p N² = 0.156 at p = 1e-05, N = 125" in note and "small box" in note
+    big = replace(q, pressure_n=(1000,))
+    (note,) = [t for t in notes(big) if t.startswith("The fixed-pressure ensembles")]
+    assert "p N² = 10 at p = 1e-05, N = 1000" in note and "small box" not in note
+    assert not any(t.startswith("The fixed-pressure") for t in notes(SCALES["tiny"]))
+
+
+def test_a_scale_with_a_bad_fixed_pressure_step_is_refused():
+    with pytest.raises(ValueError, match="pressure_dgamma"):
+        replace(SCALES["tiny"], pressure_dgamma=-1e-5)
+    with pytest.raises(ValueError, match="strain step"):
+        replace(SCALES["tiny"], pressures=(1e-3,), pressure_n=(16,), pressure_samples=2,
+                pressure_gamma_max=1e-3, pressure_dgamma=1e-3)
+    assert replace(SCALES["tiny"], pressure_dgamma=0.0).pressure_step == SCALES["tiny"].dgamma
+
+
 def test_a_scale_with_pressures_needs_their_sizes():
     with pytest.raises(ValueError, match="fixed-pressure"):
         replace(SCALES["tiny"], pressures=(1e-3,))
@@ -344,10 +376,11 @@ def test_converged_window_refuses_bad_arguments():
 
 
 def test_pressure_moduli_from_a_small_run(tmp_path):
-    """The fixed-pressure moduli part on a real run (N = 16, p = 1e-3, 3 packings): ``⟨μ_1²⟩``
-    at the two smallest lags, the local slope and the lag-1 increment correlation against a
-    plain recount of the sample files (h5py, the intensive stress from each row's own φ), and
-    the report's row and data."""
+    """The fixed-pressure moduli part on a real run (N = 16, p = 1e-3, 3 packings, the scale's
+    fixed-pressure step 5e-4 where its constant-volume one is 1e-3): ``⟨μ_1²⟩`` at the two
+    smallest lags, the local slope and the lag-1 increment correlation against a plain recount
+    of the sample files (h5py, the intensive stress from each row's own φ, the step from the
+    rows' strain), and the report's row and data."""
     import math
 
     from jamlab.reproduce.moduli_table import pressure_moduli_data, pressure_moduli_rows
@@ -355,8 +388,9 @@ def test_pressure_moduli_from_a_small_run(tmp_path):
 
     scale: Scale = replace(
         SCALES["tiny"], pressures=(1e-3,), pressure_n=(16,), pressure_samples=3,
-        pressure_gamma_max=0.05,
+        pressure_gamma_max=0.025, pressure_dgamma=5e-4,
     )
+    assert scale.dgamma == 1e-3 and scale.pressure_step == 5e-4
     name = pressure_run_name(1e-3)
     run_study(studies(scale)[name], tmp_path / name, Execution(workers=0))
     e = pressure_moduli(RunSet(tmp_path), scale)[1e-3]
@@ -367,8 +401,11 @@ def test_pressure_moduli_from_a_small_run(tmp_path):
             sigma = h5["trace/shear_stress"][()] * h5["trace/phi"][()] / (
                 h5.attrs["box_length"] ** 3 * h5.attrs["phi_actual"])
             jm = h5["trace/jammed"][()].astype(bool)
+            gamma = h5["trace/gamma"][()]
+        assert gamma.size == 51
+        step = (gamma[-1] - gamma[0]) / (gamma.size - 1)
         for lag in per_lag:
-            vals = [((sigma[k + lag] - sigma[k]) / (lag * 1e-3)) ** 2
+            vals = [((sigma[k + lag] - sigma[k]) / (lag * step)) ** 2
                     for k in range(sigma.size - lag) if jm[k:k + lag + 1].all()]
             per_lag[lag].append(sum(vals) / len(vals))
         d = [sigma[k] - sigma[k - 1] for k in range(1, sigma.size)]
@@ -384,7 +421,8 @@ def test_pressure_moduli_from_a_small_run(tmp_path):
     assert e.local_slope == pytest.approx(math.log2(mu1[1] / mu1[0]), rel=1e-9)
     assert e.correlation == pytest.approx(num / math.sqrt(sa * sb), rel=1e-9)
     assert sum(e.correlation_parts.values()) == pytest.approx(e.correlation, abs=1e-12)
-    assert e.slope is not None and e.fit_max == pytest.approx(1e-2)
+    assert step == pytest.approx(5e-4, rel=1e-9)
+    assert e.slope is not None and e.fit_max == pytest.approx(10 * 5e-4)
     (row,) = pressure_moduli_rows({1e-3: e})
     assert row.quantity == "slope of log⟨μ_1²⟩ vs log δγ at fixed pressure p = 0.001"
     assert row.value == e.slope.slope and f"ρ = {e.correlation:+.3f}" in row.value_text
@@ -394,5 +432,5 @@ def test_pressure_moduli_from_a_small_run(tmp_path):
     data = pressure_moduli_data({1e-3: e})["0.001"]
     assert data["n"] == 16 and data["slope"]["slope"] == e.slope.slope
     assert data["correlation_parts"] == e.correlation_parts
-    # a scale without pressures has no such rows (the quick report is unchanged)
-    assert pressure_moduli(RunSet(tmp_path), SCALES["quick"]) == {}
+    # a scale without pressures has no such rows
+    assert pressure_moduli(RunSet(tmp_path), SCALES["tiny"]) == {}

@@ -58,7 +58,8 @@ def pressure_moduli(runs: Any, scale: Scale) -> dict[float, PressureModuli]:
             n = max(sizes)
             out[p] = moduli_at_pressure(
                 intensive_stress(ds, "jamming", n), jammed_flags(ds, "jamming", n), n,
-                scale.dgamma, scale.moduli_lags, scale.pressure_moduli_fit_max_lag * scale.dgamma,
+                scale.pressure_step, scale.moduli_lags,
+                scale.pressure_moduli_fit_max_lag * scale.pressure_step,
                 plastic=plastic_flags(ds, "jamming", n))
     return out
 

@@ -8,6 +8,7 @@ laptop, ``paper`` for a cluster) and :func:`studies` turns a scale into the thre
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -65,6 +66,10 @@ class Scale:
     pressure_n: tuple[int, ...] = ()
     pressure_samples: int = 0
     pressure_gamma_max: float = 0.0
+    # their strain step (0: dgamma). A scale whose constant-volume ensembles take coarse steps
+    # (quick: 1e-4) shears at fixed p with the paper's 1e-5, below the linear-response strain
+    # at p = 1e-5 (docs/aqs.md, "Linear-response strain against p")
+    pressure_dgamma: float = 0.0
     # the largest lag of the fixed-pressure moduli slopes (jamlab.reproduce.pressure_moduli):
     # δγ ≤ 10 δγ_0, where the lag-1 correlation, not the bounded stress, decides the slope
     pressure_moduli_fit_max_lag: int = 10
@@ -83,11 +88,26 @@ class Scale:
             raise ValueError(f"moduli_lags {self.moduli_lags} must lie below the number of steps")
         if self.cascade_check_dgamma not in self.cascade_dgammas:
             raise ValueError("cascade_check_dgamma must be one of cascade_dgammas")
+        if not (self.pressure_dgamma >= 0 and math.isfinite(self.pressure_dgamma)):
+            raise ValueError(f"pressure_dgamma must be finite and >= 0 (0: dgamma), got "
+                             f"{self.pressure_dgamma!r}")
         if self.pressures and not (self.pressure_n and self.pressure_samples > 0
-                                   and self.pressure_gamma_max > self.dgamma):
+                                   and self.pressure_gamma_max > self.pressure_step):
             raise ValueError("fixed-pressure ensembles need pressure_n, pressure_samples and "
-                             "pressure_gamma_max > dgamma")
+                             "pressure_gamma_max > their strain step")
 
+    @property
+    def pressure_step(self) -> float:
+        """The fixed-pressure ensembles' strain step: ``pressure_dgamma``, else ``dgamma``."""
+        return self.pressure_dgamma if self.pressure_dgamma > 0 else self.dgamma
+
+
+QUICK_PRESSURE = 1e-5
+QUICK_P_SAMPLES = 40
+"""The ``quick`` scale's fixed-pressure ensemble: 40 packings of N = 125 sheared at p = 1e-5 in
+the paper's steps (1000 of 1e-5), a decade nearer jamming than the pressures its
+constant-volume avalanches are fitted at, and held there (docs/reproduce.md, "The quick
+report")."""
 
 MEDIUM_CV_SAMPLES = 3
 MEDIUM_P_SAMPLES = 20
@@ -157,6 +177,11 @@ SCALES: dict[str, Scale] = {
         cascade_samples=40_000,
         cascade_dgammas=(0.05, 0.1, 0.3, 0.5),
         cascade_check_dgamma=0.3,
+        pressures=(QUICK_PRESSURE,),
+        pressure_n=(125,),
+        pressure_samples=QUICK_P_SAMPLES,
+        pressure_gamma_max=0.01,
+        pressure_dgamma=1e-5,
         expected=("≈ 3–10 minutes on 2 idle cores (measured: 3.5 min on an Intel Xeon of "
                   "2026-12-07, 3.1 on an AMD EPYC Zen 5, ≈ 9 on slower machines; budget 30 "
                   "minutes)"),
@@ -245,7 +270,8 @@ def studies(scale: Scale) -> dict[str, Any]:
                                checkpoint_every=scale.checkpoint_every),
     } | {
         pressure_run_name(p): Study(phi=("jamming",), n=scale.pressure_n,
-                                    samples=scale.pressure_samples, dgamma=scale.dgamma,
+                                    samples=scale.pressure_samples,
+                                    dgamma=scale.pressure_step,
                                     gamma_max=scale.pressure_gamma_max, seed=scale.seed,
                                     sizes=scale.sizes, alpha=scale.alpha, pressure=p,
                                     checkpoint_every=scale.checkpoint_every)

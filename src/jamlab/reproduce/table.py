@@ -484,10 +484,16 @@ def parameters(scale: Scale, runs: Path) -> dict[str, str]:
             f"p = {', '.join(f'{p:g}' for p in scale.pressures)}: N = "
             f"{', '.join(map(str, scale.pressure_n))}, {scale.pressure_samples} samples each, "
             f"γ_max = {scale.pressure_gamma_max:g} "
-            f"({round(scale.pressure_gamma_max / scale.dgamma)} steps), δγ = {scale.dgamma:g}; "
+            f"({round(scale.pressure_gamma_max / scale.pressure_step)} steps), "
+            f"δγ = {scale.pressure_step:g}; "
             "the jamming protocol's packings brought to p (jam_at_pressure route), "
             "enthalpy minimised at every step")} if scale.pressures else {}),
     }
+
+
+FINITE_SIZE_PN2 = 10.0
+"""The upper end of the ``p N²`` crossover out of the finite-size regime of jammed packings
+(Goodrich, Liu & Nagel, PRL 109, 095704 (2012): ``p N² ≈ 1–10``; docs/packings.md)."""
 
 
 def notes(scale: Scale) -> list[str]:
@@ -510,6 +516,20 @@ def notes(scale: Scale) -> list[str]:
             "Such steps are excluded from every statistic; the projection changes only where "
             "the system goes next (measured against FIRE on 40 samples at N = 250 and 12 at "
             "N = 500: two-sample KS on the sizes p = 1.000, τ within 0.2σ)."
+        )
+    if scale.pressures:
+        pn2 = "; ".join(f"p N² = {p * n * n:.3g} at p = {p:g}, N = {n}"
+                        for p in scale.pressures for n in scale.pressure_n)
+        small = any(p * n * n < FINITE_SIZE_PN2 for p in scale.pressures for n in scale.pressure_n)
+        out.append(
+            "The fixed-pressure ensembles shear the jamming protocol's packings brought to p and "
+            "minimise the enthalpy H = E + pV at every step (docs/aqs.md): the pressure is held "
+            "at every minimum, so their avalanches (S = −ΔH) are at a known distance from "
+            "jamming, and none is excluded as unjammed unless its row says so. Jammed packings "
+            f"leave their finite-size regime at p N² ≈ 1–{FINITE_SIZE_PN2:g} (Goodrich, Liu & "
+            f"Nagel 2012): here {pn2}"
+            + (". Where p N² is below that, τ is the small box's; τ(p) at N = 125–2000: "
+               "docs/reproduce.md, \"τ(p) at a glance\"." if small else ".")
         )
     if scale.dgamma != 1e-5 or scale.gamma_max != 0.01 or scale.jamming_gamma_max != 0.01:
         out.append(
