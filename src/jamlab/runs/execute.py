@@ -81,9 +81,7 @@ class Execution:
         if self.scheduler is not None and self.cluster is not None:
             raise ValueError("give either --scheduler or --cluster, not both")
         if self.scheduler is not None and "://" not in self.scheduler:
-            raise ValueError(
-                f"scheduler must be an address like tcp://HOST:8786, got {self.scheduler!r}"
-            )
+            raise _bad_address(self.scheduler)
         if self.cluster is not None and self.cluster != "slurm":
             raise ValueError(f"unknown cluster {self.cluster!r}: valid clusters are slurm")
         unknown = sorted(set(self.slurm) - _SLURM_KEYS)
@@ -244,6 +242,16 @@ def _dask_outcomes(
         client.cancel(list(futures))
 
 
+def _bad_address(address: str) -> ValueError:
+    """The one-line error for a scheduler address that is not ``tcp://HOST:PORT``-like."""
+    return ValueError(f"scheduler must be an address like tcp://HOST:8786, got {address!r}")
+
+
+def _unreachable(address: str, exc: Exception) -> ValueError:
+    """The one-line error for a scheduler nothing answers at."""
+    return ValueError(f"cannot reach dask scheduler {address}: {exc}")
+
+
 def _check_reachable(address: str, timeout: float = 20.0) -> None:
     """``ValueError`` (one line) if nothing accepts a TCP connection at a ``tcp://HOST:PORT``
     scheduler address within ``timeout`` s, so that a run that cannot start writes nothing (its
@@ -260,12 +268,12 @@ def _check_reachable(address: str, timeout: float = 20.0) -> None:
     except ValueError:
         port = None
     if parts.hostname is None or port is None:
-        raise ValueError(f"scheduler must be an address like tcp://HOST:8786, got {address!r}")
+        raise _bad_address(address)
     try:
         with socket.create_connection((parts.hostname, port), timeout=timeout):
             pass
     except OSError as exc:
-        raise ValueError(f"cannot reach dask scheduler {address}: {exc}") from None
+        raise _unreachable(address, exc) from None
 
 
 @contextlib.contextmanager
@@ -276,7 +284,7 @@ def _dask_client(execution: Execution) -> Iterator[Any]:
         try:
             client = Client(execution.scheduler, timeout="20s")
         except OSError as exc:
-            raise ValueError(f"cannot reach dask scheduler {execution.scheduler}: {exc}") from None
+            raise _unreachable(execution.scheduler, exc) from None
         with client:
             yield client
         return
