@@ -188,6 +188,15 @@ def test_pressure_tau_counts_from_a_small_run(tmp_path):
         path = tau_pressure({1e-3: est}, tmp_path)
         assert path is not None and path.stat().st_size > 0
         assert tau_pressure({}, tmp_path) is None
+        # Fig. 5 at fixed pressure: drawn with fixed-pressure rows only; its caption names the
+        # flag's threshold at the scale's fixed-pressure step
+        from jamlab.reproduce.figures import captions, fig5_pressure
+
+        fig = fig5_pressure({1e-3: est}, scale, tmp_path)
+        assert fig is not None and fig.name == "fig5_pressure.png" and fig.stat().st_size > 0
+        assert fig5_pressure({}, scale, tmp_path) is None
+        assert (f"0.1 δγ² = {0.1 * scale.pressure_step ** 2:.2g} ε"
+                in captions(scale)["fig5_pressure"])
         # each N alone: one N has no per-N fits, and two sources of one N (here the same run
         # twice, as two realisations of N = 16 would be) are one N: their sizes pooled in the
         # fits and in the N's histogram (sizes and steps doubled), no per-N panel. The per-N

@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import textwrap
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import matplotlib
 
@@ -59,6 +60,16 @@ def _power_line(ax, x0: float, x1: float, y0: float, tau: float, style: str, lab
     ax.loglog(xs, y0 * (xs / x0) ** (-tau), style, lw=1.5, label=label)
 
 
+def _cutoff_line(ax, fit: Any, x1: float, y0: float) -> None:
+    """``y0 (S/x_min)^−τ e^(−(S − x_min)/S_c)`` from the fit's ``x_min`` to ``x1``."""
+    x0 = fit.x_min
+    if not (np.isfinite(x0) and np.isfinite(x1) and np.isfinite(y0) and x1 > x0 and y0 > 0):
+        return
+    xs = np.geomspace(x0, x1, 40)
+    ax.loglog(xs, y0 * (xs / x0) ** (-fit.tau) * np.exp(-(xs - x0) / fit.x_c), "g-.", lw=1.5,
+              label=f"exponential cut-off: τ = {fit.tau:.3f}, S_c = {fit.x_c:.2g}")
+
+
 def plot_avalanche_histograms(
     per_n: Mapping[str, Mapping[int, LogHistogram]],
     pooled: Mapping[str, LogHistogram],
@@ -66,13 +77,24 @@ def plot_avalanche_histograms(
     predicted: Mapping[str, float],
     out: str | os.PathLike,
     title: str = "",
+    titles: Mapping[str, str] | None = None,
+    cutoffs: Mapping[str, Any] | None = None,
+    ensemble: str = "φ",
+    size_label: str = _SIZE_LABEL,
 ) -> None:
     """Paper Fig. 5: one panel per φ label (histograms of ``S`` for each ``N``, density per AQS
     step), the pooled-N fit (solid, over ``[x_min, x_max]``) and the predicted exponent (dashed),
     both drawn through the pooled histogram at the fit's ``x_min``; last panel: all φ together,
     ``S`` divided by each φ's typical size (the geometric mean of its binned sizes) so that the
     shapes can be compared (as the paper shifts them), with guide lines of the predicted slopes.
-    ``pooled[label]`` is ``None`` where there are no avalanches (left out of the last panel)."""
+    ``pooled[label]`` is ``None`` where there are no avalanches (left out of the last panel).
+    ``titles[label]``: a panel's title (default :data:`PHI_TITLES`, else ``φ = label``);
+    ``cutoffs[label]``: a fit with an exponential cut-off (``tau``, ``x_min``, ``x_c``,
+    ``at_bound``: :class:`jamlab.analysis.CutoffPowerLawFit`), drawn dash-dotted through the
+    pooled histogram at its own ``x_min`` where a cut-off was resolved; ``ensemble``: what the
+    labels are, for the last panel's axes (``φ``, or ``p`` for fixed-pressure ensembles);
+    ``size_label``: the size axis's label."""
+    titles = {lab: PHI_TITLES.get(lab, "φ = " + lab) for lab in per_n} | dict(titles or {})
     labels = list(per_n)
     n_panels = len(labels) + 1
     ncols = 2
@@ -97,11 +119,14 @@ def plot_avalanche_histograms(
                 _power_line(ax, fit.x_min, x_hi, y0, predicted[lab], "r--",
                             f"predicted τ = {predicted[lab]:.4g}")
             ax.axvline(fit.x_min, color="0.6", ls=":", lw=1)
+        cut = (cutoffs or {}).get(lab)
+        if cut is not None and not cut.at_bound and h is not None:
+            _cutoff_line(ax, cut, float(h.edges[-1]), _anchor(h, cut.x_min))
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel(_SIZE_LABEL)
+        ax.set_xlabel(size_label)
         ax.set_ylabel(_DENSITY_LABEL)
-        ax.set_title(f"({letters[i]}) {PHI_TITLES.get(lab, 'φ = ' + lab)}")
+        ax.set_title(f"({letters[i]}) {titles[lab]}")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
         else:
@@ -116,12 +141,12 @@ def plot_avalanche_histograms(
         # collapse
         med = float(np.exp(np.average(np.log(h.centres[ok]), weights=h.counts[ok])))
         ax.loglog(h.centres[ok] / med, h.density[ok] * med, "o-", ms=3, color=f"C{j}",
-                  label=PHI_TITLES.get(lab, lab))
+                  label=titles[lab])
     for k, tau in enumerate(sorted(set(predicted.values()))):
         xs = np.geomspace(1e-2, 1e2, 10)
         ax.loglog(xs, 0.3 * (10.0**-k) * xs ** (-tau), ("r--", "b--", "g--")[k % 3], lw=1,
                   label=f"predicted slope −{tau:.4g}")
-    ax.set_xlabel("S / (typical S of that φ)  (dimensionless)")
+    ax.set_xlabel(f"S / (typical S of that {ensemble})  (dimensionless)")
     ax.set_ylabel("P(S) × typical S per step (dimensionless)")
     ax.set_title(f"({letters[len(labels)]}) all together (rescaled)")
     ax.legend(fontsize=7)

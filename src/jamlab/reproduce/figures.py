@@ -45,6 +45,7 @@ __all__ = [
     "criticality",
     "finite_size",
     "criticality_captions",
+    "fig5_pressure",
     "tau_pressure",
     "tau_pressure_references",
     "tau_pressure_series",
@@ -63,6 +64,7 @@ TITLES = {
     "theory_vs_cascade": "Theory vs cascade — probability of no jump",
     "criticality": "Criticality — contact forces and gaps of the jamming ensemble's packings",
     "finite_size": "Finite-size scaling — ⟨S⟩, S_c against N and the collapse P(S) S^τ",
+    "fig5_pressure": "Fig. 5 at fixed pressure — avalanche size distributions at each p",
     "tau_pressure": "τ(p) — the avalanche exponent at fixed pressure as p → 0",
 }
 """Figure titles, in report order."""
@@ -144,6 +146,30 @@ def fig5(estimates: dict[str, TauEstimate], scale: Scale, figdir: Path, ext: str
                               {k: e.fit for k, e in estimates.items()},
                               {k: predicted_tau(k) for k in estimates}, path,
                               title=f"δγ = {scale.dgamma:g}, γ_max = {scale.gamma_max:g}")
+    return path
+
+
+def fig5_pressure(estimates: dict[float, TauEstimate] | None, scale: Scale, figdir: Path,
+                  ext: str = ".png") -> Path | None:
+    """Fig. 5 for the fixed-pressure ensembles: one panel per p (histograms per N, the power
+    law, the exponential cut-off and τ_J through the pooled histogram), then all p rescaled;
+    None without fixed-pressure studies."""
+    from jamlab.plots.report import plot_avalanche_histograms
+
+    if not estimates:
+        return None
+    es = {f"{p:g}": e for p, e in sorted(estimates.items(), reverse=True)}
+    path = figdir / f"fig5_pressure{ext}"
+    plot_avalanche_histograms({k: e.per_n for k, e in es.items()},
+                              {k: e.pooled for k, e in es.items()},
+                              {k: e.fit for k, e in es.items()},
+                              {k: predicted_tau("jamming") for k in es}, path,
+                              title=(f"fixed-pressure AQS (S = −ΔH), δγ = "
+                                     f"{scale.pressure_step:g}, γ_max = "
+                                     f"{scale.pressure_gamma_max:g}"),
+                              titles={k: f"p = {k}" for k in es},
+                              cutoffs={k: e.cutoff for k, e in es.items()}, ensemble="p",
+                              size_label="avalanche size S = −ΔH (total enthalpy, units of ε)")
     return path
 
 
@@ -372,6 +398,15 @@ def captions(
                  "within-sample variance of μ_1 (each sample's own mean removed), the part of "
                  "⟨μ_1²⟩ the jumps make; ⟨μ_1²⟩ adds ⟨μ_1⟩² and the spread of the modulus "
                  "between samples, flat in δγ."),
+        "fig5_pressure": (
+            "Sizes S = −ΔH of the fixed-pressure avalanches (density per AQS step, log bins, "
+            "± Poisson), one panel per pressure with each N; solid: the power law fitted to all "
+            "N pooled above its KS x_min (the τ row); dash-dotted: the power law with an "
+            "exponential cut-off (its own KS x_min); dashed: the mean-field τ_J, the p → 0 "
+            "limit. Every line is drawn through the pooled histogram at its x_min (guides, not "
+            "normalised densities). Below x_min the histogram turns over at the plastic flag's "
+            f"threshold, at least 0.1 δγ² = {0.1 * scale.pressure_step ** 2:.2g} ε (docs/aqs.md, "
+            "\"Fixed-pressure AQS\"). Last panel: every p, S divided by its typical size."),
         "tau_pressure": (
             "τ of the avalanches S = −ΔH of fixed-pressure AQS (all N pooled) against the "
             "pressure: the power law with an exponential cut-off in its KS window (± the "

@@ -165,7 +165,8 @@ FIGURE_PART = {"fig1": "coordination", "fig2": "theory", "fig3": "theory",
                "fig3_exact": "exact_law", "fig4": "trace",
                "fig5": "avalanches", "fig6": "stress_strain", "fig7": "moduli",
                "theory_vs_cascade": "theory", "criticality": "criticality",
-               "finite_size": "finite_size", "tau_pressure": "pressure_tau"}
+               "finite_size": "finite_size", "fig5_pressure": "pressure_tau",
+               "tau_pressure": "pressure_tau"}
 """Which part makes which figure."""
 COMPUTED_PARTS = frozenset({"coordination", "theory", "exact_law"})
 """The parts whose figures read no run directory: computed from the scale alone."""
@@ -182,6 +183,8 @@ _DRAW: dict[str, Callable[[_Analysis], Path | None]] = {
     "theory_vs_cascade": lambda c: figures.theory_vs_cascade(c.result("theory"), c.figdir, c.ext),
     "criticality": lambda c: figures.criticality(c.result("criticality")[0], c.figdir, c.ext),
     "finite_size": lambda c: figures.finite_size(c.result("finite_size"), c.figdir, c.ext),
+    "fig5_pressure": lambda c: figures.fig5_pressure(c.result("pressure_tau"), c.scale,
+                                                     c.figdir, c.ext),
     "tau_pressure": lambda c: figures.tau_pressure(c.result("pressure_tau"), c.figdir, c.ext),
 }
 
