@@ -134,7 +134,8 @@ def main(argv: list[str] | None = None) -> int:
                     "run`), with the medium scale's fit rules")
     ap.add_argument("--figure-dir", type=Path, default=None,
                     help="draw the report's τ(p) figure (tau_pressure.png) of the fixed-pressure "
-                    "studies reported into this directory")
+                    "studies reported into this directory, and their size distributions "
+                    "(fig5_pressure.png) when they share one δγ and γ_max")
     ap.add_argument("--pool", action="store_true",
                     help="with --dirs: pool the directories of one study (the same fixed "
                     "pressure or constant volume, δγ, γ_max and φ) into one estimate, as the "
@@ -154,19 +155,29 @@ def main(argv: list[str] | None = None) -> int:
 
     def draw(by_pressure: dict[float, Any]) -> int:
         if args.figure_dir is not None:
-            from jamlab.reproduce.figures import tau_pressure
+            from jamlab.reproduce.figures import fig5_pressure, tau_pressure
 
             args.figure_dir.mkdir(parents=True, exist_ok=True)
             path = tau_pressure(by_pressure, args.figure_dir)
             print(f"\nfigure: {path}" if path is not None
                   else "\nno fixed-pressure study: no figure")
+            if len(steps) == 1:  # the histograms' title gives the one δγ and γ_max
+                (step, gamma_max), = steps
+                fig5 = fig5_pressure(by_pressure, replace(scale, pressure_dgamma=step,
+                                                          pressure_gamma_max=gamma_max),
+                                     args.figure_dir)
+                if fig5 is not None:
+                    print(f"figure: {fig5}")
         return 0
 
     by_pressure: dict[float, Any] = {}
 
+    steps: set[tuple[float, float]] = set()
+
     def keep(study: Study, est: Any) -> None:
         if study.pressure is not None:
             by_pressure[study.pressure] = est
+            steps.add((study.dgamma, study.gamma_max))
 
     if args.dirs:
         groups: dict[tuple, list[tuple[Any, Study, Path]]] = {}

@@ -122,3 +122,4 @@ def test_two_realisations_of_one_size_are_pooled(mf, two_runs, tmp_path):
     assert mf.main(["--dirs", *map(str, three), "--pool", "--n-boot", "0", "--figure-dir",
                     str(tmp_path / "fig")]) == 0
     assert (tmp_path / "fig" / "tau_pressure.png").stat().st_size > 0
+    assert (tmp_path / "fig" / "fig5_pressure.png").stat().st_size > 0
