@@ -44,6 +44,15 @@ def test_figure_command_errors_are_one_line(tmp_path):
     line = one_line_error(jamlab("figure", "fig5", "--runs", tmp_path, "--out", tmp_path / "x.png"))
     assert "is not a run directory" in line
     assert not (tmp_path / "x.png").exists()
+    # the fixed-pressure figures: a scale without such ensembles, or runs without them
+    for name in ("fig5_pressure", "tau_pressure"):
+        line = one_line_error(jamlab("figure", name, "--runs", tmp_path, "--scale", "tiny",
+                                     "--out", tmp_path / "x.png"))
+        assert "the scale 'tiny' has none (quick and medium have)" in line
+        line = one_line_error(jamlab("figure", name, "--runs", tmp_path, "--scale", "quick",
+                                     "--out", tmp_path / "x.png"))
+        assert f"{tmp_path / 'pressure-1e-05'} is not a run directory" in line
+    assert not (tmp_path / "x.png").exists()
 
 
 @pytest.mark.parametrize("name", ["index.html", "report.md", "results.json", "report.json",

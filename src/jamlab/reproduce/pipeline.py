@@ -38,7 +38,7 @@ from jamlab.reproduce.measurements import (
     tau_estimates,
 )
 from jamlab.reproduce.pressure_moduli import pressure_moduli
-from jamlab.reproduce.scales import Scale, get_scale, studies
+from jamlab.reproduce.scales import Scale, get_scale, pressure_run_name, studies
 from jamlab.reproduce.theory_checks import exact_law_checks, theory_checks
 
 __all__ = ["COMPUTED_PARTS", "FIGURE_PART", "MARKER", "PARTS", "Part", "REPORT_FILES",
@@ -438,6 +438,11 @@ def make_figure(
     needs = {"avalanches": ("jamming", "unsat"), "moduli": ("jamming", "unsat"),
              "criticality": ("jamming", "unsat"), "finite_size": ("jamming", "unsat"),
              "trace": ("jamming",), "stress_strain": ("stress-strain",)}.get(part, ())
+    if part == "pressure_tau":  # the fixed-pressure figures: the scale's pressure-<p> runs
+        if not scale.pressures:
+            raise ValueError(f"{name} draws fixed-pressure ensembles, and the scale "
+                             f"{scale.name!r} has none (quick and medium have)")
+        needs = tuple(pressure_run_name(p) for p in scale.pressures)
     wanted = studies(scale)
     for run in needs:
         if not (runs / run / "manifest.json").is_file():
