@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from bench_pressure import parse_sample_arguments, sample_start  # noqa: E402
@@ -39,10 +41,26 @@ def contact_keys(packing) -> set[tuple[int, int]]:
     return set(zip(np.minimum(ci, cj).tolist(), np.maximum(ci, cj).tolist(), strict=True))
 
 
-def main(argv: list[str] | None = None) -> int:
-    a = parse_sample_arguments(__doc__, argv, lambda ap: ap.add_argument(
-        "--list", action="store_true", help="print every fallback"))
-    packing = sample_start(a)
+@dataclass(frozen=True)
+class Fallback:
+    """One FIRE fallback after a failed Newton run: ``start`` of that run, FIRE's ``minimum``,
+    why Newton stopped, FIRE's CPU seconds, and the columns of the module docstring."""
+
+    start: Any
+    minimum: Any
+    reason: str
+    cpu: float
+    lost: int
+    gained: int
+    max_dx: float
+    rms_dx: float
+    moved: int
+
+
+def fallbacks(packing, dgamma: float, pressure: float, n_steps: int) -> tuple[Any, list, int]:
+    """``(run, fallbacks after a failed Newton run, FIRE fallbacks in all)`` of
+    ``shear_at_pressure(packing, dgamma, pressure=pressure, n_steps=n_steps)``, with the
+    relaxer's ``damped_newton`` and ``_fire`` wrapped for the run (restored after)."""
     last: dict = {"start": None, "ok": True, "reason": ""}
     records: list = []
     damped_newton, fire = nr.damped_newton, nr.NewtonRelaxer._fire
@@ -61,11 +79,10 @@ def main(argv: list[str] | None = None) -> int:
 
     nr.damped_newton, nr.NewtonRelaxer._fire = wrapped_newton, wrapped_fire
     try:
-        run = ps.shear_at_pressure(packing, a.dgamma, pressure=a.pressure, n_steps=a.steps)
+        run = ps.shear_at_pressure(packing, dgamma, pressure=pressure, n_steps=n_steps)
     finally:
         nr.damped_newton, nr.NewtonRelaxer._fire = damped_newton, fire
-    plastic = int(np.asarray(run.columns["plastic"], dtype=bool).sum())
-    rows = []
+    out = []
     for failed, res, cpu in records:
         if failed is None or not res.converged:
             continue
@@ -73,31 +90,42 @@ def main(argv: list[str] | None = None) -> int:
         before, after = contact_keys(start), contact_keys(res.packing)
         d = np.linalg.norm(res.packing.box.minimum_image(res.packing.positions - start.positions),
                            axis=1)
-        rows.append((len(before - after), len(after - before), d.max(), np.sqrt(np.mean(d**2)),
-                     int(np.count_nonzero(d > 1e-3 * d.max())), cpu, reason))
+        out.append(Fallback(start, res.packing, reason, cpu, len(before - after),
+                            len(after - before), float(d.max()), float(np.sqrt(np.mean(d**2))),
+                            int(np.count_nonzero(d > 1e-3 * d.max()))))
+    return run, out, len(records)
+
+
+def main(argv: list[str] | None = None) -> int:
+    a = parse_sample_arguments(__doc__, argv, lambda ap: ap.add_argument(
+        "--list", action="store_true", help="print every fallback"))
+    t = time.process_time()
+    run, rows, n_fire = fallbacks(sample_start(a), a.dgamma, a.pressure, a.steps)
+    plastic = int(np.asarray(run.columns["plastic"], dtype=bool).sum())
     print(f"N = {a.n}, seed {a.seed}, p = {a.pressure:g}, δγ = {a.dgamma:g}, {a.steps} steps, "
-          f"{plastic} plastic; {len(records)} FIRE fallbacks "
-          f"({sum(r[2] for r in records):.1f} CPU s), {len(rows)} after a failed Newton run "
-          f"({sum(r[5] for r in rows):.1f} CPU s)")
+          f"{plastic} plastic ({time.process_time() - t:.1f} CPU s with the comparisons); "
+          f"{n_fire} FIRE fallbacks, {len(rows)} after a failed Newton run "
+          f"({sum(r.cpu for r in rows):.1f} CPU s)")
     if not rows:
         return 0
-    cols = np.array([r[:6] for r in rows], dtype=np.float64)
     names = ("contacts lost", "contacts gained", "max |dx| (σ)", "rms |dx| (σ)",
              "particles moved > 1e-3 max", "CPU s")
+    cols = np.array([(r.lost, r.gained, r.max_dx, r.rms_dx, r.moved, r.cpu) for r in rows])
     print("\n| quantity | min | 10 % | median | 90 % | max |\n|---|---|---|---|---|---|")
     for name, col in zip(names, cols.T, strict=True):
         q = np.percentile(col, [0, 10, 50, 90, 100])
         print(f"| {name} | " + " | ".join(f"{v:.3g}" for v in q) + " |")
-    single = np.count_nonzero((cols[:, 0] <= 1) & (cols[:, 1] <= 1))
+    single = sum(1 for r in rows if r.lost <= 1 and r.gained <= 1)
     print(f"\none contact lost and at most one gained: {single} of {len(rows)}")
     reasons: dict[str, int] = {}
     for r in rows:
-        reasons[r[6]] = reasons.get(r[6], 0) + 1
+        reasons[r.reason] = reasons.get(r.reason, 0) + 1
     print("why Newton stopped: " + "; ".join(f"{k}: {v}" for k, v in sorted(
         reasons.items(), key=lambda kv: -kv[1])))
     if a.list:
         for r in rows:
-            print(f"{r[0]:4d} {r[1]:4d} {r[2]:.2e} {r[3]:.2e} {r[4]:5d} {r[5]:.3f} {r[6]}")
+            print(f"{r.lost:4d} {r.gained:4d} {r.max_dx:.2e} {r.rms_dx:.2e} {r.moved:5d} "
+                  f"{r.cpu:.3f} {r.reason}")
     return 0
 
 
