@@ -217,3 +217,42 @@ def test_high_dimension_few_spheres_matches_minimum_image(dim):
         e, f = sp.energy_and_forces(p, nl)
         assert e == pytest.approx(e_ref, rel=1e-13)
         np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-13 * np.abs(f_ref).max())
+
+
+def test_one_skin_free_list_per_packing_and_the_same_bits(monkeypatch):
+    """Evaluations of one packing object without a list share one skin-free build
+    (``neighbors.list_positions``), with the bits of a fresh list every time; another packing
+    gets a new build (a moved one checked against the brute force)."""
+    import jamlab.spheres.neighbors as nb
+
+    pos, pk, _ = make(3, 0.8, 0.3, seed=11)
+    builds = []
+    init = nb.NeighborList.__init__
+
+    def counted(self, packing, skin=nb.DEFAULT_SKIN):
+        builds.append(skin)
+        init(self, packing, skin)
+
+    monkeypatch.setattr(nb.NeighborList, "__init__", counted)
+    from jamlab.spheres.potential import virial
+
+    ev, vir, con = sp.evaluate(pk), virial(pk), sp.contacts(pk)
+    assert builds == [0.0]  # one build for the three
+    fresh = sp.NeighborList(pk, skin=0.0)
+    ev2 = sp.evaluate(pk, fresh)
+    assert ev.energy == ev2.energy and np.array_equal(ev.forces, ev2.forces)
+    assert np.array_equal(vir, virial(pk, fresh))
+    assert all(np.array_equal(a, b) for a, b in zip(con, sp.contacts(pk, fresh), strict=True))
+    builds.clear()
+    other = sp.Packing(pk.positions.copy(), pk.box)  # equal, but another object
+    assert sp.evaluate(other).energy == ev.energy and builds == [0.0]
+    # a packing's positions cannot change under it (read-only): a moved configuration is
+    # another packing, and gets its own build
+    assert not other.positions.flags.writeable
+    builds.clear()
+    step = np.zeros_like(pos)
+    step[0, 0] = 0.05
+    moved = sp.evaluate(other.with_positions(other.positions + step))
+    assert builds == [0.0] and moved.energy != ev.energy
+    ref = brute_force(pos + step, other.box.length, other.box.strain)
+    assert abs(moved.energy - ref["energy"]) <= RTOL * ref["energy_scale"]

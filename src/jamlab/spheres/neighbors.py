@@ -9,6 +9,7 @@ diameter) in a half list in CSR form, and the pair law of its packing (diameters
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -172,15 +173,35 @@ class NeighborList:
         self.n_builds += 1
 
 
+_LAST_SKIN_FREE = threading.local()
+"""This thread's last skin-free list of :func:`list_positions`, with the packing it was built for
+(``.packing``, ``.list``)."""
+
+
 def list_positions(
     packing: Packing, neighbors: NeighborList | None
 ) -> tuple[np.ndarray, NeighborList]:
     """Positions in list order and an up-to-date list (a skin-free one if ``neighbors`` is None).
 
+    The skin-free list of the last packing asked for without a list is kept (one per thread)
+    and given again for the same packing object while its positions and strain are the ones
+    it was built from: :func:`~jamlab.spheres.potential.evaluate`, ``virial`` and
+    :func:`~jamlab.spheres.contacts.contacts` of one minimum then share one build. That list is
+    the one a fresh build would make (the build depends on the positions, the box and the pair
+    law alone), so the results are the same bits. Such a list never leaves these functions'
+    callers in ``jamlab.spheres``; do not update it.
+
     ``ValueError`` if ``neighbors`` belongs to another box, particle number or pair law.
     """
     if neighbors is None:
+        last = getattr(_LAST_SKIN_FREE, "packing", None)
+        if last is packing:
+            nl = _LAST_SKIN_FREE.list
+            pos = nl.sorted(packing.positions)
+            if nl.strain == nl.ref_strain == packing.strain and np.array_equal(pos, nl.ref):
+                return pos, nl
         nl = NeighborList(packing, skin=0.0)
+        _LAST_SKIN_FREE.packing, _LAST_SKIN_FREE.list = packing, nl
         return nl.sorted(packing.positions), nl
     if not neighbors.matches(packing):
         raise ValueError("neighbour list belongs to a different box, particle number or pair law")
