@@ -67,7 +67,7 @@ def _cutoff_line(ax, fit: Any, x1: float, y0: float) -> None:
         return
     xs = np.geomspace(x0, x1, 40)
     ax.loglog(xs, y0 * (xs / x0) ** (-fit.tau) * np.exp(-(xs - x0) / fit.x_c), "g-.", lw=1.5,
-              label=f"exponential cut-off: τ = {fit.tau:.3f}, S_c = {fit.x_c:.2g}")
+              label=f"exponential cut-off: τ = {fit.tau:.3f}, S_c = {fit.x_c:.2g} ε")
 
 
 def plot_avalanche_histograms(

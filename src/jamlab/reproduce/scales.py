@@ -2,8 +2,8 @@
 
 A :class:`Scale` fixes everything that sets the size of ``jamlab reproduce`` (all seeds derive
 from ``Scale.seed``); :data:`SCALES` holds the named ones (``tiny`` for tests, ``quick`` for a
-laptop, ``paper`` for a cluster) and :func:`studies` turns a scale into the three
-:class:`jamlab.runs.Study` it runs.
+laptop, ``medium`` for a night, ``paper`` for a cluster) and :func:`studies` turns a scale into
+the :class:`jamlab.runs.Study` it runs (three at constant volume, one per fixed pressure).
 """
 
 from __future__ import annotations
@@ -252,7 +252,8 @@ SCALES: dict[str, Scale] = {
 
 
 def studies(scale: Scale) -> dict[str, Any]:
-    """The three :class:`jamlab.runs.Study` of a scale, by run-directory name."""
+    """The :class:`jamlab.runs.Study` of a scale, by run-directory name: three at constant volume
+    and one per fixed pressure."""
     from jamlab.runs import Study
 
     return {
